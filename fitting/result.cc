@@ -1,0 +1,204 @@
+#include "fitting/result.h"
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <stdexcept>
+
+namespace owlcal::fitting {
+namespace {
+
+using nlohmann::json;
+
+json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+double NumOr(const json& j, const char* key, double dflt = std::numeric_limits<double>::quiet_NaN()) {
+  if (!j.contains(key) || j.at(key).is_null()) return dflt;
+  return j.at(key).get<double>();
+}
+
+json PoseJson(const models::Rigid3d& p) {
+  double a[7];
+  p.ToArray(a);
+  return json::array({a[0], a[1], a[2], a[3], a[4], a[5], a[6]});
+}
+models::Rigid3d PoseFromJson(const json& j) {
+  double a[7];
+  for (int i = 0; i < 7; ++i) a[i] = j.at(i).get<double>();
+  return models::Rigid3d::Map(a);
+}
+
+json CameraJson(const models::CameraIntrinsics& c) {
+  return {{"model", c.model == models::DistortionModel::kOpenCv5 ? "opencv5" : "opencv8"},
+          {"width", c.width},
+          {"height", c.height},
+          {"params", c.params}};
+}
+models::CameraIntrinsics CameraFromJson(const json& j) {
+  models::CameraIntrinsics c;
+  const std::string m = j.at("model").get<std::string>();
+  if (m != "opencv5" && m != "opencv8") throw std::runtime_error("camera model '" + m + "' unknown");
+  c.model = m == "opencv5" ? models::DistortionModel::kOpenCv5 : models::DistortionModel::kOpenCv8;
+  c.width = j.at("width").get<int>();
+  c.height = j.at("height").get<int>();
+  c.params = j.at("params").get<std::vector<double>>();
+  if (int(c.params.size()) != 4 + c.NumDistortion()) throw std::runtime_error("camera params has wrong length");
+  return c;
+}
+
+json HeadJson(const models::HeadModel& h) {
+  json servos = json::array();
+  for (int i = 0; i < models::kNumServos; ++i) {
+    servos.push_back({{"name", models::kServoNames[i]},
+                      {"direction", h.directions[i]},
+                      {"params", std::vector<double>(h.servo_params[i].begin(), h.servo_params[i].end())}});
+  }
+  json j = {{"servos", servos}};
+  for (int e = 0; e < 2; ++e) {
+    j[models::kEyeNames[e]] = {
+        {"centre_in_head_m",
+         {h.geometry.centre_in_head[e].x(), h.geometry.centre_in_head[e].y(), h.geometry.centre_in_head[e].z()}},
+        {"cam_from_eye", PoseJson(h.geometry.cam_from_eye[e])},
+        {"camera", CameraJson(h.intrinsics[e])}};
+  }
+  return j;
+}
+models::HeadModel HeadFromJson(const json& j) {
+  models::HeadModel h;
+  const json& servos = j.at("servos");
+  if (servos.size() != models::kNumServos) throw std::runtime_error("head.servos must have 5 entries");
+  for (int i = 0; i < models::kNumServos; ++i) {
+    h.directions[i] = servos[i].at("direction").get<int>();
+    const auto p = servos[i].at("params").get<std::vector<double>>();
+    if (p.size() != models::ServoMap::kNumParams) throw std::runtime_error("head.servos[].params must have 5 values");
+    std::copy(p.begin(), p.end(), h.servo_params[i].begin());
+  }
+  for (int e = 0; e < 2; ++e) {
+    const json& je = j.at(models::kEyeNames[e]);
+    const auto c = je.at("centre_in_head_m").get<std::vector<double>>();
+    h.geometry.centre_in_head[e] = Eigen::Vector3d(c.at(0), c.at(1), c.at(2));
+    h.geometry.cam_from_eye[e] = PoseFromJson(je.at("cam_from_eye"));
+    h.intrinsics[e] = CameraFromJson(je.at("camera"));
+  }
+  return h;
+}
+
+}  // namespace
+
+const Parameter* CalibrationResult::Find(const std::string& name) const {
+  for (const Parameter& p : parameters)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+Parameter& CalibrationResult::Set(const Parameter& p) {
+  for (Parameter& q : parameters)
+    if (q.name == p.name) return q = p;
+  parameters.push_back(p);
+  return parameters.back();
+}
+
+json ToJson(const CalibrationResult& r) {
+  json j;
+  j["software"] = {{"name", "owlcal"}, {"version", r.software_version}};
+  j["parameters"] = json::array();
+  for (const Parameter& p : r.parameters) {
+    json jp = {{"name", p.name}, {"value", Num(p.value)}, {"sigma", Num(p.sigma)}, {"unit", p.unit},
+               {"determined", p.determined}};
+    if (p.truth) jp["truth"] = Num(*p.truth);
+    if (!p.note.empty()) jp["note"] = p.note;
+    j["parameters"].push_back(jp);
+  }
+  j["solver"] = json::array();
+  for (const SolveSummary& s : r.summaries) {
+    j["solver"].push_back({{"problem", s.problem}, {"termination", s.termination}, {"message", s.message},
+                           {"initial_cost", Num(s.initial_cost)}, {"final_cost", Num(s.final_cost)},
+                           {"iterations", s.iterations}, {"time_s", Num(s.time_s)}, {"rms_px", Num(s.rms_px)},
+                           {"num_residuals", s.num_residuals}, {"num_outliers", s.num_outliers},
+                           {"usable", s.usable}});
+  }
+  j["warnings"] = r.warnings;
+  for (int e = 0; e < 2; ++e)
+    if (r.cameras[e]) j["cameras"][models::kEyeNames[e]] = CameraJson(*r.cameras[e]);
+  if (r.stereo) {
+    std::vector<double> cov(r.stereo->covariance.data(), r.stereo->covariance.data() + 36);
+    j["stereo"] = {{"right_from_left", PoseJson(r.stereo->right_from_left)}, {"covariance", cov}};
+  }
+  if (r.head) j["head"] = HeadJson(*r.head);
+  j["inputs"] = r.inputs;
+  j["diagnostics"] = r.diagnostics;
+  return j;
+}
+
+CalibrationResult ResultFromJson(const json& j) {
+  CalibrationResult r;
+  if (j.contains("software")) r.software_version = j.at("software").value("version", "");
+  for (const json& jp : j.at("parameters")) {
+    Parameter p;
+    p.name = jp.at("name").get<std::string>();
+    p.value = NumOr(jp, "value");
+    p.sigma = NumOr(jp, "sigma");
+    p.unit = jp.value("unit", "");
+    p.determined = jp.value("determined", true);
+    p.note = jp.value("note", "");
+    if (jp.contains("truth") && !jp.at("truth").is_null()) p.truth = jp.at("truth").get<double>();
+    r.parameters.push_back(p);
+  }
+  if (j.contains("solver")) {
+    for (const json& js : j.at("solver")) {
+      SolveSummary s;
+      s.problem = js.value("problem", "");
+      s.termination = js.value("termination", "");
+      s.message = js.value("message", "");
+      s.initial_cost = NumOr(js, "initial_cost");
+      s.final_cost = NumOr(js, "final_cost");
+      s.iterations = js.value("iterations", 0);
+      s.time_s = NumOr(js, "time_s");
+      s.rms_px = NumOr(js, "rms_px");
+      s.num_residuals = js.value("num_residuals", 0);
+      s.num_outliers = js.value("num_outliers", 0);
+      s.usable = js.value("usable", false);
+      r.summaries.push_back(s);
+    }
+  }
+  if (j.contains("warnings")) r.warnings = j.at("warnings").get<std::vector<std::string>>();
+  if (j.contains("cameras"))
+    for (int e = 0; e < 2; ++e)
+      if (j.at("cameras").contains(models::kEyeNames[e]))
+        r.cameras[e] = CameraFromJson(j.at("cameras").at(models::kEyeNames[e]));
+  if (j.contains("stereo")) {
+    StereoEstimate s;
+    s.right_from_left = PoseFromJson(j.at("stereo").at("right_from_left"));
+    const auto cov = j.at("stereo").at("covariance").get<std::vector<double>>();
+    if (cov.size() == 36) s.covariance = Eigen::Map<const Eigen::Matrix<double, 6, 6>>(cov.data());
+    r.stereo = s;
+  }
+  if (j.contains("head")) r.head = HeadFromJson(j.at("head"));
+  if (j.contains("inputs")) r.inputs = j.at("inputs");
+  if (j.contains("diagnostics")) r.diagnostics = j.at("diagnostics");
+  return r;
+}
+
+void WriteResultJson(const CalibrationResult& r, const std::string& path) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp);
+    if (!f) throw std::runtime_error("cannot write result file " + path);
+    f << ToJson(r).dump(2) << "\n";
+    if (!f) throw std::runtime_error("error writing result file " + path);
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + tmp + " to " + path);
+}
+
+CalibrationResult ReadResultJson(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw std::runtime_error("cannot open result file " + path);
+  json j;
+  try {
+    j = json::parse(f);
+    return ResultFromJson(j);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("result file " + path + ": " + e.what());
+  }
+}
+
+}  // namespace owlcal::fitting
