@@ -1,0 +1,487 @@
+#include "fitting/vergence_log_fit.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include <ceres/ceres.h>
+
+#include "models/vergence.h"
+
+namespace owlcal::fitting {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr double kDegToRad = M_PI / 180.0;
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cell;
+  std::stringstream ss(line);
+  while (std::getline(ss, cell, ',')) {
+    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
+    while (!cell.empty() && cell.front() == ' ') cell.erase(cell.begin());
+    out.push_back(cell);
+  }
+  return out;
+}
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// Residual of one row: predicted minus logged PWM for both eyes, whitened.
+struct VergenceRowResidual {
+  double distance_m, rx_us, lx_us, sigma_us;
+  template <typename T>
+  bool operator()(const T* rx, const T* lx, const T* ipd, const T* datum, const T* bearing, T* r) const {
+    const T rho = T(distance_m) + datum[0];
+    if (rho <= T(0)) return false;
+    const T x = rho * ceres::sin(bearing[0]);
+    const T z = rho * ceres::cos(bearing[0]);
+    const T half = ipd[0] / T(2);
+    const T theta_l = ceres::atan2(x + half, z);
+    const T theta_r = ceres::atan2(half - x, z);
+    const T lx_pred = lx[0] + lx[1] * theta_l * T(kRadToDeg);
+    const T rx_pred = rx[0] - rx[1] * theta_r * T(kRadToDeg);
+    r[0] = (rx_pred - T(rx_us)) / T(sigma_us);
+    r[1] = (lx_pred - T(lx_us)) / T(sigma_us);
+    return true;
+  }
+};
+
+struct SolveOutput {
+  VergenceMaps maps;
+  std::vector<int> runs;
+  ceres::Solver::Summary summary;
+  bool covariance_ok = false;
+  // sigma (unscaled, i.e. in units of the prior) per named parameter
+  std::map<std::string, double> sigma;
+  double chi2 = 0;
+  int dof = 0;
+};
+
+SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
+                  const VergenceFitOptions& o,
+                  bool ipd_free,
+                  bool datum_free,
+                  bool want_covariance) {
+  SolveOutput out;
+  for (const auto& r : rows) {
+    if (std::find(out.runs.begin(), out.runs.end(), r.run) == out.runs.end()) out.runs.push_back(r.run);
+  }
+  double rx[2] = {o.initial.rx_centre_us, o.initial.rx_us_per_deg};
+  double lx[2] = {o.initial.lx_centre_us, o.initial.lx_us_per_deg};
+  double ipd = o.ipd_m;
+  double datum = o.datum_offset_m;
+  std::vector<double> bearing(out.runs.size(), 0.0);
+
+  ceres::Problem problem;
+  for (const auto& row : rows) {
+    const int k = static_cast<int>(std::find(out.runs.begin(), out.runs.end(), row.run) - out.runs.begin());
+    auto* cost = new ceres::AutoDiffCostFunction<VergenceRowResidual, 2, 2, 2, 1, 1, 1>(
+        new VergenceRowResidual{row.true_distance_m, row.rx_us, row.lx_us, o.pwm_sigma_us});
+    problem.AddResidualBlock(cost, nullptr, rx, lx, &ipd, &datum, &bearing[k]);
+  }
+  if (!ipd_free) problem.SetParameterBlockConstant(&ipd);
+  if (!datum_free) {
+    problem.SetParameterBlockConstant(&datum);
+  } else {
+    problem.SetParameterLowerBound(&datum, 0, -0.2);
+    problem.SetParameterUpperBound(&datum, 0, 0.5);
+  }
+  for (size_t k = 0; k < bearing.size(); ++k) {
+    if (k == 0 || !o.per_run_bearing) problem.SetParameterBlockConstant(&bearing[k]);
+  }
+  if (ipd_free) {
+    problem.SetParameterLowerBound(&ipd, 0, 0.02);
+    problem.SetParameterUpperBound(&ipd, 0, 0.2);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 200;
+  so.function_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-12;
+  ceres::Solve(so, &problem, &out.summary);
+
+  out.maps.rx_centre_us = rx[0];
+  out.maps.rx_us_per_deg = rx[1];
+  out.maps.lx_centre_us = lx[0];
+  out.maps.lx_us_per_deg = lx[1];
+  out.maps.ipd_m = ipd;
+  out.maps.datum_offset_m = datum;
+  out.maps.run_bearing_rad = bearing;
+  out.chi2 = 2 * out.summary.final_cost;
+  out.dof = problem.NumResiduals() - problem.NumParameters();
+  for (size_t k = 0; k < bearing.size(); ++k)
+    if (problem.IsParameterBlockConstant(&bearing[k])) ++out.dof;
+  if (!ipd_free) ++out.dof;
+  if (!datum_free) ++out.dof;
+
+  if (!want_covariance) return out;
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = -1;  // report failure instead of a pseudo-inverse
+  co.min_reciprocal_condition_number = 1e-12;
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> blocks = {{rx, rx}, {lx, lx}};
+  if (ipd_free) blocks.push_back({&ipd, &ipd});
+  if (datum_free) blocks.push_back({&datum, &datum});
+  for (size_t k = 0; k < bearing.size(); ++k)
+    if (!problem.IsParameterBlockConstant(&bearing[k])) blocks.push_back({&bearing[k], &bearing[k]});
+  out.covariance_ok = cov.Compute(blocks, &problem);
+  if (!out.covariance_ok) return out;
+  double c2[4], c1;
+  cov.GetCovarianceBlock(rx, rx, c2);
+  out.sigma["rx.centre"] = std::sqrt(c2[0]);
+  out.sigma["rx.scale"] = std::sqrt(c2[3]);
+  cov.GetCovarianceBlock(lx, lx, c2);
+  out.sigma["lx.centre"] = std::sqrt(c2[0]);
+  out.sigma["lx.scale"] = std::sqrt(c2[3]);
+  if (ipd_free) {
+    cov.GetCovarianceBlock(&ipd, &ipd, &c1);
+    out.sigma["ipd"] = std::sqrt(c1);
+  }
+  if (datum_free) {
+    cov.GetCovarianceBlock(&datum, &datum, &c1);
+    out.sigma["datum"] = std::sqrt(c1);
+  }
+  for (size_t k = 0; k < bearing.size(); ++k) {
+    if (problem.IsParameterBlockConstant(&bearing[k])) continue;
+    cov.GetCovarianceBlock(&bearing[k], &bearing[k], &c1);
+    out.sigma["bearing" + std::to_string(k)] = std::sqrt(c1);
+  }
+  return out;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string Fmt(double v, int prec) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(prec) << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open vergence log");
+  std::string line;
+  if (!std::getline(in, line)) throw std::runtime_error(path + ": empty file");
+  // Strip a UTF-8 BOM.
+  if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line.erase(0, 3);
+  const auto header = SplitCsv(line);
+  int c_run = -1, c_dist = -1, c_rx = -1, c_lx = -1;
+  double dist_scale = 1;
+  for (int i = 0; i < static_cast<int>(header.size()); ++i) {
+    const std::string h = Lower(header[i]);
+    if (h == "run") c_run = i;
+    if (h == "rx" || h == "rx_us") c_rx = i;
+    if (h == "lx" || h == "lx_us") c_lx = i;
+    if (c_dist < 0 && h.find("distance") != std::string::npos) {
+      c_dist = i;
+      if (h.ends_with("_cm")) dist_scale = 0.01;
+      else if (h.ends_with("_mm")) dist_scale = 0.001;
+      else if (h.ends_with("_m")) dist_scale = 1;
+      else throw std::runtime_error(path + ": distance column '" + header[i] + "' has no unit suffix (_m, _cm, _mm)");
+    }
+  }
+  if (c_dist < 0 || c_rx < 0 || c_lx < 0)
+    throw std::runtime_error(path + ": header needs a distance column (e.g. distance_cm), Rx and Lx; got '" + line + "'");
+  std::vector<VergenceLogRow> rows;
+  int line_no = 1;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.find_first_not_of(" \r\t,") == std::string::npos) continue;
+    const auto cells = SplitCsv(line);
+    auto get = [&](int c, const char* what) {
+      if (c >= static_cast<int>(cells.size()))
+        throw std::runtime_error(path + ":" + std::to_string(line_no) + ": missing field " + what);
+      try {
+        size_t used = 0;
+        const double v = std::stod(cells[c], &used);
+        if (used != cells[c].size()) throw std::invalid_argument("trailing");
+        return v;
+      } catch (const std::exception&) {
+        throw std::runtime_error(path + ":" + std::to_string(line_no) + ": field " + what + " = '" + cells[c] +
+                                 "' is not a number");
+      }
+    };
+    VergenceLogRow r;
+    r.run = c_run >= 0 ? static_cast<int>(get(c_run, "run")) : 1;
+    r.true_distance_m = get(c_dist, "distance") * dist_scale;
+    r.rx_us = get(c_rx, "Rx");
+    r.lx_us = get(c_lx, "Lx");
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+std::optional<double> FixedConstantVergence::Distance(double rx_us, double lx_us) const {
+  const double tr = -(rx_us - rx_centre_us) / us_per_deg * kDegToRad;
+  const double tl = (lx_us - lx_centre_us) / us_per_deg * kDegToRad;
+  if (std::sin(tl + tr) <= 1e-12) return std::nullopt;
+  const double ld = models::SineRuleLeftDistance(ipd_m, tl, tr);
+  const double sq = ld * ld + ipd_m * ipd_m / 4 - ld * ipd_m * std::sin(tl);
+  if (sq < 0) return std::nullopt;
+  return std::sqrt(sq) - datum_offset_m;
+}
+
+double VergenceMaps::ThetaLeft(double lx_us) const { return (lx_us - lx_centre_us) / lx_us_per_deg * kDegToRad; }
+double VergenceMaps::ThetaRight(double rx_us) const { return -(rx_us - rx_centre_us) / rx_us_per_deg * kDegToRad; }
+
+std::optional<double> VergenceMaps::Distance(double rx_us, double lx_us) const {
+  const double tl = ThetaLeft(lx_us), tr = ThetaRight(rx_us);
+  if (std::sin(tl + tr) <= 1e-12 || tl + tr >= M_PI) return std::nullopt;
+  return models::SineRuleFix(ipd_m, tl, tr).range - datum_offset_m;
+}
+
+void VergenceMaps::PredictPwm(double distance_m, int run_index, double* rx_us, double* lx_us) const {
+  const double phi = run_index >= 0 && run_index < static_cast<int>(run_bearing_rad.size())
+                         ? run_bearing_rad[run_index] : 0.0;
+  const double rho = distance_m + datum_offset_m;
+  const double x = rho * std::sin(phi), z = rho * std::cos(phi);
+  *lx_us = lx_centre_us + lx_us_per_deg * std::atan2(x + ipd_m / 2, z) * kRadToDeg;
+  *rx_us = rx_centre_us - rx_us_per_deg * std::atan2(ipd_m / 2 - x, z) * kRadToDeg;
+}
+
+bool VergenceFitOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(pwm_sigma_us > 0)) return fail("pwm_sigma_us = " + std::to_string(pwm_sigma_us) + " must be > 0");
+  if (!(ipd_m > 0.02 && ipd_m < 0.2)) return fail("ipd_m = " + std::to_string(ipd_m) + " outside 0.02-0.2 m");
+  if (!(ipd_sigma_threshold_m > 0)) return fail("ipd_sigma_threshold_m must be > 0");
+  if (!(initial.rx_us_per_deg > 0 && initial.lx_us_per_deg > 0)) return fail("initial us_per_deg must be > 0");
+  return true;
+}
+
+VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const VergenceFitOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument("VergenceFitOptions: " + why);
+  if (rows.size() < 4) throw std::invalid_argument("vergence log has " + std::to_string(rows.size()) + " rows; need >= 4");
+  const auto t0 = std::chrono::steady_clock::now();
+  VergenceLogFit fit;
+  bool ipd_free = false;
+  bool datum_free = options.fit_datum;
+  // IPD fixed first: it trades against both scales, and a free start can slide into the
+  // degenerate valley. Then, if asked, freed from that solution and kept only when the
+  // data pin it (not on a bound, sigma below the threshold) or the user forces it.
+  SolveOutput s = Solve(rows, options, false, datum_free, true);
+  if (options.ipd_mode != IpdMode::kFixed) {
+    VergenceFitOptions o2 = options;
+    o2.initial = s.maps;
+    o2.datum_offset_m = s.maps.datum_offset_m;
+    SolveOutput f = Solve(rows, o2, true, datum_free, true);
+    const double scale = std::max(1.0, std::sqrt(f.chi2 / std::max(1, f.dof)));
+    const double sig = f.covariance_ok ? f.sigma["ipd"] * scale : std::numeric_limits<double>::infinity();
+    const bool on_bound = f.maps.ipd_m < 0.021 || f.maps.ipd_m > 0.199;
+    // Freeing IPD must also lower chi2 by more than 9 (3 sigma, in units of the residual
+    // variance): in the valley the local covariance can look tight while chi2 is flat.
+    const double gain = (s.chi2 - f.chi2) / std::max(1.0, f.chi2 / std::max(1, f.dof));
+    if (options.ipd_mode == IpdMode::kFree || (!on_bound && sig < options.ipd_sigma_threshold_m && gain > 9)) {
+      s = f;
+      ipd_free = true;
+    } else {
+      fit.notes.push_back("IPD not determined by this log (free, it went to " + Fmt(f.maps.ipd_m * 1000, 1) +
+                          " mm, lowering chi2 by only " + Fmt(gain, 1) + " residual variances" +
+                          "; it trades against the us/deg scales); fixed at " + Fmt(options.ipd_m * 1000, 1) +
+                          " mm, so the scales are relative to that IPD");
+    }
+  }
+  if (datum_free) {
+    const double sig = s.covariance_ok ? s.sigma["datum"] * std::max(1.0, std::sqrt(s.chi2 / std::max(1, s.dof)))
+                                       : std::numeric_limits<double>::infinity();
+    if (!(sig < options.datum_sigma_threshold_m)) {
+      fit.notes.push_back("distance datum not determined (sigma " + Fmt(sig * 1000, 0) + " mm); fixed at " +
+                          Fmt(options.datum_offset_m * 1000, 0) + " mm in front of the eye centres");
+      datum_free = false;
+      s = Solve(rows, options, ipd_free, datum_free, true);
+    }
+  } else {
+    fit.notes.push_back("distance datum fixed at " + Fmt(options.datum_offset_m * 1000, 0) + " mm by option");
+  }
+  if (s.runs.size() > 1 && options.per_run_bearing)
+    fit.notes.push_back("one target-line bearing per run (run " + std::to_string(s.runs[0]) +
+                        " fixed at 0): centres are parallel gaze along run " + std::to_string(s.runs[0]) + "'s line");
+  fit.maps = s.maps;
+  fit.runs = s.runs;
+  fit.ipd_free = ipd_free;
+  fit.datum_free = datum_free;
+  const double scale = std::max(1.0, std::sqrt(s.chi2 / std::max(1, s.dof)));
+  fit.residual_sigma_us = std::sqrt(s.chi2 / std::max(1, s.dof)) * options.pwm_sigma_us;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto sig = [&](const std::string& k, double unit) {
+    return s.covariance_ok && s.sigma.count(k) ? s.sigma[k] * scale * unit : nan;
+  };
+  auto add = [&](const std::string& name, double v, double sigma, const std::string& unit, bool det,
+                 const std::string& note) {
+    Parameter p;
+    p.name = name;
+    p.value = v;
+    p.sigma = sigma;
+    p.unit = unit;
+    p.determined = det;
+    p.note = note;
+    fit.parameters.push_back(p);
+  };
+  const bool ok = s.covariance_ok;
+  const std::string nocov = ok ? "" : "covariance rank-deficient";
+  add("servo.Rx.centre_us", s.maps.rx_centre_us, sig("rx.centre", 1), "us", ok, nocov);
+  add("servo.Rx.us_per_deg", s.maps.rx_us_per_deg, sig("rx.scale", 1), "us/deg", ok, nocov);
+  add("servo.Lx.centre_us", s.maps.lx_centre_us, sig("lx.centre", 1), "us", ok, nocov);
+  add("servo.Lx.us_per_deg", s.maps.lx_us_per_deg, sig("lx.scale", 1), "us/deg", ok, nocov);
+  add("head.ipd_mm", s.maps.ipd_m * 1000, ipd_free ? sig("ipd", 1000) : nan, "mm", ipd_free,
+      ipd_free ? "" : "fixed: not determined by a vergence log");
+  add("vergence.datum_mm", s.maps.datum_offset_m * 1000, datum_free ? sig("datum", 1000) : nan, "mm", datum_free,
+      datum_free ? "eye-centre baseline to the distance datum" : "fixed");
+  for (size_t k = 1; k < s.runs.size() && options.per_run_bearing; ++k)
+    add("vergence.run" + std::to_string(s.runs[k]) + ".bearing_deg", s.maps.run_bearing_rad[k] * kRadToDeg,
+        sig("bearing" + std::to_string(k), kRadToDeg), "deg", ok, "relative to run " + std::to_string(s.runs[0]));
+
+  fit.summary.problem = "vergence_log";
+  fit.summary.termination = ceres::TerminationTypeToString(s.summary.termination_type);
+  fit.summary.message = s.summary.message;
+  fit.summary.initial_cost = s.summary.initial_cost;
+  fit.summary.final_cost = s.summary.final_cost;
+  fit.summary.iterations = static_cast<int>(s.summary.iterations.size());
+  fit.summary.num_residuals = s.summary.num_residuals;
+  fit.summary.rms_px = fit.residual_sigma_us;  // in us here
+  fit.summary.usable = s.summary.IsSolutionUsable() && ok;
+  fit.summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const auto& row = rows[i];
+    const int k = static_cast<int>(std::find(s.runs.begin(), s.runs.end(), row.run) - s.runs.begin());
+    double rx, lx;
+    s.maps.PredictPwm(row.true_distance_m, k, &rx, &lx);
+    VergenceRowDiagnostic d;
+    d.row = static_cast<int>(i);
+    d.residual_rx = (rx - row.rx_us) / options.pwm_sigma_us;
+    d.residual_lx = (lx - row.lx_us) / options.pwm_sigma_us;
+    d.chi2 = d.residual_rx * d.residual_rx + d.residual_lx * d.residual_lx;
+    const auto a = s.maps.Distance(row.rx_us + 0.5, row.lx_us), b = s.maps.Distance(row.rx_us - 0.5, row.lx_us);
+    const auto c = s.maps.Distance(row.rx_us, row.lx_us + 0.5), e = s.maps.Distance(row.rx_us, row.lx_us - 0.5);
+    d.range_per_us_m = (a && b && c && e) ? std::hypot(*a - *b, *c - *e) : std::numeric_limits<double>::infinity();
+    fit.rows.push_back(d);
+  }
+  return fit;
+}
+
+LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
+                       const VergenceFitOptions& options,
+                       const VergenceLogFit& full,
+                       const FixedConstantVergence& fixed) {
+  LooSummary out;
+  std::vector<double> fe, le;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    std::vector<VergenceLogRow> rest;
+    for (size_t j = 0; j < rows.size(); ++j)
+      if (j != i) rest.push_back(rows[j]);
+    VergenceFitOptions o = options;
+    o.initial = full.maps;
+    o.ipd_m = full.maps.ipd_m;
+    o.datum_offset_m = full.maps.datum_offset_m;
+    SolveOutput s = Solve(rest, o, full.ipd_free, full.datum_free, false);
+    LooRow r;
+    r.row = static_cast<int>(i);
+    r.true_m = rows[i].true_distance_m;
+    r.fixed_m = fixed.Distance(rows[i].rx_us, rows[i].lx_us);
+    r.loo_m = s.maps.Distance(rows[i].rx_us, rows[i].lx_us);
+    auto rel = [&](const std::optional<double>& v, int* fails) {
+      if (!v || *v <= 0) {
+        ++*fails;
+        return 1.0;
+      }
+      return std::min(1.0, std::abs(*v - r.true_m) / r.true_m);
+    };
+    fe.push_back(rel(r.fixed_m, &out.fixed_failures));
+    le.push_back(rel(r.loo_m, &out.loo_failures));
+    out.rows.push_back(r);
+  }
+  auto mean = [](const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x;
+    return v.empty() ? 0.0 : s / v.size();
+  };
+  out.fixed_mean_abs_rel = mean(fe);
+  out.loo_mean_abs_rel = mean(le);
+  out.fixed_median_abs_rel = Median(fe);
+  out.loo_median_abs_rel = Median(le);
+  return out;
+}
+
+std::string VergenceReportMarkdown(const std::vector<VergenceLogRow>& rows,
+                                   const VergenceLogFit& fit,
+                                   const LooSummary& loo) {
+  std::ostringstream md;
+  md << "# Vergence log fit\n\n";
+  md << rows.size() << " rows, " << fit.runs.size() << " run(s); PWM residual sigma " << Fmt(fit.residual_sigma_us, 2)
+     << " us; solver: " << fit.summary.termination << (fit.summary.usable ? "" : " (NOT usable)") << "\n\n";
+  md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
+  for (const auto& p : fit.parameters)
+    md << "| " << p.name << " | " << Fmt(p.value, 3) << " | " << (p.determined ? Fmt(p.sigma, 3) : "not determined")
+       << " | " << p.unit << " | " << p.note << " |\n";
+  if (!fit.notes.empty()) {
+    md << "\nNotes:\n";
+    for (const auto& n : fit.notes) md << "- " << n << "\n";
+  }
+  // Rows that dominate the fit: the largest whitened residuals.
+  std::vector<VergenceRowDiagnostic> d = fit.rows;
+  std::sort(d.begin(), d.end(), [](auto& a, auto& b) { return a.chi2 > b.chi2; });
+  double total = 0;
+  for (const auto& x : d) total += x.chi2;
+  md << "\n## Rows that dominate chi2 (whitened PWM residuals)\n\n"
+     << "| row | run | true (cm) | Rx res | Lx res | share of chi2 | range change per 1 us (cm) |\n"
+     << "|---|---|---|---|---|---|---|\n";
+  for (size_t i = 0; i < std::min<size_t>(5, d.size()); ++i) {
+    const auto& r = rows[d[i].row];
+    md << "| " << d[i].row << " | " << r.run << " | " << Fmt(r.true_distance_m * 100, 0) << " | "
+       << Fmt(d[i].residual_rx, 2) << " | " << Fmt(d[i].residual_lx, 2) << " | " << Fmt(100 * d[i].chi2 / total, 1)
+       << " % | " << Fmt(d[i].range_per_us_m * 100, 2) << " |\n";
+  }
+  md << "\n## Leave-one-out range error vs the course's fixed-constant method\n\n"
+     << "| | mean abs error | median abs error | no fix |\n|---|---|---|---|\n"
+     << "| fixed constants | " << Fmt(100 * loo.fixed_mean_abs_rel, 1) << " % | "
+     << Fmt(100 * loo.fixed_median_abs_rel, 1) << " % | " << loo.fixed_failures << " |\n"
+     << "| fitted maps (leave-one-out) | " << Fmt(100 * loo.loo_mean_abs_rel, 1) << " % | "
+     << Fmt(100 * loo.loo_median_abs_rel, 1) << " % | " << loo.loo_failures << " |\n\n"
+     << "(a row without a fix, or off by more than 100 %, counts as 100 %)\n";
+  return md.str();
+}
+
+std::string VergenceRowsCsv(const std::vector<VergenceLogRow>& rows,
+                            const VergenceLogFit& fit,
+                            const LooSummary& loo) {
+  std::ostringstream c;
+  c << "row,run,true_cm,Rx_us,Lx_us,fixed_cm,loo_cm,fit_cm,res_rx,res_lx,chi2,cm_per_us\n";
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const auto& r = rows[i];
+    auto cm = [](const std::optional<double>& v) { return v ? Fmt(*v * 100, 2) : std::string(""); };
+    const auto fitted = fit.maps.Distance(r.rx_us, r.lx_us);
+    const LooRow* l = i < loo.rows.size() ? &loo.rows[i] : nullptr;
+    const VergenceRowDiagnostic& d = fit.rows[i];
+    c << i << "," << r.run << "," << Fmt(r.true_distance_m * 100, 2) << "," << r.rx_us << "," << r.lx_us << ","
+      << (l ? cm(l->fixed_m) : "") << "," << (l ? cm(l->loo_m) : "") << "," << cm(fitted) << ","
+      << Fmt(d.residual_rx, 3) << "," << Fmt(d.residual_lx, 3) << "," << Fmt(d.chi2, 3) << ","
+      << Fmt(d.range_per_us_m * 100, 3) << "\n";
+  }
+  return c.str();
+}
+
+}  // namespace owlcal::fitting

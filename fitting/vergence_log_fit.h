@@ -1,0 +1,141 @@
+#pragma once
+// Eye-pan maps from a vergence log: rows of (true distance, Rx, Lx) recorded while both eyes
+// fixate one target (issue 7, item 4; shared/data/owl-real/noble2020-vergence-range).
+//
+// Model (head frame of models/vergence.h: eye rotation centres IPD apart on x, midpoint at
+// the origin, z forward). Run r's target moves along a line from the midpoint at bearing
+// phi_r (positive to the robot's right); the logged distance D is measured from a datum
+// plane d0 in front of the eye centres, so the target sits at range rho = D + d0:
+//   x = rho sin(phi_r),  z = rho cos(phi_r)
+//   theta_L = atan2(x + IPD/2, z),  theta_R = atan2(IPD/2 - x, z)   (inward, rad)
+//   Lx = lx_centre + lx_us_per_deg * deg(theta_L)
+//   Rx = rx_centre - rx_us_per_deg * deg(theta_R)
+// (Converging means Rx down and Lx up, FACTS.md.) Residuals are in PWM space, whitened by
+// `pwm_sigma_us`; the reported sigmas are scaled by the fit's own residual spread
+// (sqrt(chi2/dof)) when that is larger than 1, i.e. the data's scatter, not the prior.
+//
+// What the data determine: a vergence log fixes each eye's centre and (IPD x scale), and
+// the datum through the 1/(D + d0) curvature. IPD and the scales separate only through the
+// atan non-linearity at the nearest rows; IpdMode::kAuto frees IPD only when its sigma is
+// below `ipd_sigma_threshold_m`, else fixes it and says so. phi of the first run is fixed at
+// 0 (a common bearing is indistinguishable from both centres moving), so centres are
+// "parallel gaze along run 1's target line".
+//
+// Prediction inverts the model with the sine rule (models/vergence.h) and needs no bearing:
+// distance from the datum = |fix point - midpoint| - d0.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fitting/result.h"
+
+namespace owlcal::fitting {
+
+struct VergenceLogRow {
+  int run = 1;
+  double true_distance_m = 0;  // as logged, from the (unknown) datum
+  double rx_us = 0;            // right eye pan PWM
+  double lx_us = 0;            // left eye pan PWM
+};
+
+// Reads a CSV with a header naming the columns: "run" (optional), a distance column whose
+// suffix gives the unit (actual_distance_cm, distance_cm, distance_mm, distance_m), and
+// Rx / Rx_us, Lx / Lx_us. Extra columns are ignored. Throws naming the path, line and field.
+std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path);
+
+// The course's fixed-constant method (noble2020 README): theta_R = -(Rx - RxC)/k deg,
+// theta_L = (Lx - LxC)/k deg, lDist = IPD cos(theta_R)/sin(theta_L + theta_R),
+// range = sqrt(lDist^2 + (IPD/2)^2 - lDist IPD sin(theta_L)) - offset.
+struct FixedConstantVergence {
+  double rx_centre_us = 1445;
+  double lx_centre_us = 1430;
+  double us_per_deg = 10.73;
+  double ipd_m = 0.065;
+  double datum_offset_m = 0.030;
+  // Distance from the datum [m]; nullopt when the rays do not converge.
+  std::optional<double> Distance(double rx_us, double lx_us) const;
+};
+
+struct VergenceMaps {
+  double rx_centre_us = 1445, rx_us_per_deg = 10.73;
+  double lx_centre_us = 1430, lx_us_per_deg = 10.73;
+  double ipd_m = 0.065;
+  double datum_offset_m = 0.030;   // d0: eye-centre baseline to the distance datum [m]
+  std::vector<double> run_bearing_rad;  // phi per run, in the order of VergenceLogFit::runs
+  // Inward eye angles for a PWM pair [rad].
+  double ThetaLeft(double lx_us) const;
+  double ThetaRight(double rx_us) const;
+  // Distance from the datum [m] by the sine rule; nullopt when the rays do not converge.
+  std::optional<double> Distance(double rx_us, double lx_us) const;
+  // Predicted PWM for a target at logged distance D on run index `run_index`'s line.
+  void PredictPwm(double distance_m, int run_index, double* rx_us, double* lx_us) const;
+};
+
+enum class IpdMode { kFixed, kFree, kAuto };
+
+struct VergenceFitOptions {
+  double pwm_sigma_us = 1.0;   // prior per-reading sigma (quantisation 1 us + fixation)
+  IpdMode ipd_mode = IpdMode::kAuto;
+  double ipd_m = 0.065;        // value when fixed, start when free
+  double ipd_sigma_threshold_m = 0.003;
+  bool fit_datum = true;       // else datum fixed at datum_offset_m
+  double datum_offset_m = 0.030;
+  double datum_sigma_threshold_m = 0.05;  // above this the datum is fixed with a note
+  bool per_run_bearing = true; // one bearing per run after the first
+  VergenceMaps initial;        // starting centres and scales
+  bool Check(std::string* why) const;
+};
+
+struct VergenceRowDiagnostic {
+  int row = 0;                  // index into the input rows
+  double residual_rx = 0, residual_lx = 0;  // whitened (pred - obs) / pwm_sigma_us
+  double chi2 = 0;              // residual_rx^2 + residual_lx^2
+  double range_per_us_m = 0;    // |d distance / d PWM| for 1 us on either eye (RSS) [m/us]
+};
+
+struct VergenceLogFit {
+  VergenceMaps maps;
+  std::vector<int> runs;                 // run ids, order of maps.run_bearing_rad
+  std::vector<Parameter> parameters;     // rx.centre_us, rx.us_per_deg, lx.*, ipd_mm, datum_mm, bearing
+  SolveSummary summary;
+  double residual_sigma_us = 0;          // sqrt(chi2/dof) * pwm_sigma_us
+  std::vector<VergenceRowDiagnostic> rows;
+  std::vector<std::string> notes;        // what was fixed and why
+  bool ipd_free = false;
+  bool datum_free = false;
+};
+
+// Fits the maps; throws std::invalid_argument when options fail Check or rows are too few.
+VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const VergenceFitOptions& options);
+
+// Leave-one-out comparison on the same rows.
+struct LooRow {
+  int row = 0;
+  double true_m = 0;
+  std::optional<double> fixed_m;  // course fixed-constant estimate
+  std::optional<double> loo_m;    // fitted on the other rows
+};
+struct LooSummary {
+  std::vector<LooRow> rows;
+  // Mean / median absolute relative error; rows without a fix count as 100 %.
+  double fixed_mean_abs_rel = 0, fixed_median_abs_rel = 0;
+  double loo_mean_abs_rel = 0, loo_median_abs_rel = 0;
+  int fixed_failures = 0, loo_failures = 0;
+};
+// Each row is predicted by a fit on all other rows, using the IPD / datum modes the full fit
+// chose (`full`), so each fold solves the same problem.
+LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
+                       const VergenceFitOptions& options,
+                       const VergenceLogFit& full,
+                       const FixedConstantVergence& fixed);
+
+// Markdown tables: parameters, dominant rows, leave-one-out.
+std::string VergenceReportMarkdown(const std::vector<VergenceLogRow>& rows,
+                                   const VergenceLogFit& fit,
+                                   const LooSummary& loo);
+// CSV: row,run,true_cm,Rx_us,Lx_us,fixed_cm,loo_cm,fit_cm,res_rx,res_lx,chi2,cm_per_us
+std::string VergenceRowsCsv(const std::vector<VergenceLogRow>& rows,
+                            const VergenceLogFit& fit,
+                            const LooSummary& loo);
+
+}  // namespace owlcal::fitting
