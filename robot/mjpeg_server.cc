@@ -1,0 +1,308 @@
+#include "robot/mjpeg_server.h"
+
+#include <sys/socket.h>
+
+#include <algorithm>
+#include <cctype>
+#include <stdexcept>
+
+namespace owlcal::robot {
+namespace {
+
+constexpr std::chrono::milliseconds kPollStep{50};
+constexpr size_t kMaxHeaderBytes = 64 * 1024;
+constexpr size_t kMaxBodyBytes = 16 * 1024 * 1024;
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+std::string Trim(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t");
+  if (a == std::string::npos) return "";
+  const size_t b = s.find_last_not_of(" \t\r");
+  return s.substr(a, b - a + 1);
+}
+
+const char* StatusText(int status) {
+  switch (status) {
+    case 200: return "OK";
+    case 201: return "Created";
+    case 204: return "No Content";
+    case 400: return "Bad Request";
+    case 404: return "Not Found";
+    case 405: return "Method Not Allowed";
+    case 409: return "Conflict";
+    case 500: return "Internal Server Error";
+    default: return "Status";
+  }
+}
+
+// Reads one request (headers + Content-Length body). nullopt on EOF, timeout or garbage.
+std::optional<HttpRequest> ReadRequest(int fd, const std::atomic<bool>& stop) {
+  std::string data;
+  char buf[4096];
+  size_t header_end = std::string::npos;
+  int idle_steps = 0;
+  while (header_end == std::string::npos) {
+    if (stop || data.size() > kMaxHeaderBytes || idle_steps > 100) return std::nullopt;  // 5 s idle
+    const int64_t got = RecvSome(fd, buf, sizeof(buf), kPollStep);
+    if (got == -1) {
+      ++idle_steps;
+      continue;
+    }
+    if (got <= 0) return std::nullopt;
+    idle_steps = 0;
+    data.append(buf, static_cast<size_t>(got));
+    header_end = data.find("\r\n\r\n");
+  }
+  HttpRequest req;
+  const std::string head = data.substr(0, header_end);
+  std::string body = data.substr(header_end + 4);
+  size_t line_end = head.find("\r\n");
+  const std::string request_line = head.substr(0, line_end);
+  const size_t sp1 = request_line.find(' ');
+  const size_t sp2 = request_line.find(' ', sp1 + 1);
+  if (sp1 == std::string::npos) return std::nullopt;
+  req.method = request_line.substr(0, sp1);
+  std::string target = request_line.substr(sp1 + 1, sp2 == std::string::npos ? std::string::npos : sp2 - sp1 - 1);
+  const size_t q = target.find('?');
+  req.path = target.substr(0, q);
+  if (q != std::string::npos) req.query = target.substr(q + 1);
+  while (line_end != std::string::npos) {
+    const size_t start = line_end + 2;
+    line_end = head.find("\r\n", start);
+    const std::string line = head.substr(start, line_end == std::string::npos ? std::string::npos : line_end - start);
+    const size_t colon = line.find(':');
+    if (colon != std::string::npos) req.headers[Lower(Trim(line.substr(0, colon)))] = Trim(line.substr(colon + 1));
+  }
+  size_t length = 0;
+  if (auto it = req.headers.find("content-length"); it != req.headers.end()) {
+    try {
+      length = std::stoul(it->second);
+    } catch (...) {
+      return std::nullopt;
+    }
+  }
+  if (length > kMaxBodyBytes) return std::nullopt;
+  idle_steps = 0;
+  while (body.size() < length) {
+    if (stop || idle_steps > 100) return std::nullopt;
+    const int64_t got = RecvSome(fd, buf, static_cast<int64_t>(std::min(sizeof(buf), length - body.size())), kPollStep);
+    if (got == -1) {
+      ++idle_steps;
+      continue;
+    }
+    if (got <= 0) return std::nullopt;
+    body.append(buf, static_cast<size_t>(got));
+  }
+  body.resize(length);
+  req.body = std::move(body);
+  return req;
+}
+
+void SendResponse(int fd, const HttpResponse& r) {
+  std::string out = "HTTP/1.0 " + std::to_string(r.status) + " " + StatusText(r.status) + "\r\n";
+  out += "Content-Type: " + r.content_type + "\r\n";
+  out += "Content-Length: " + std::to_string(r.body.size()) + "\r\n";
+  out += "Connection: close\r\n";
+  for (const auto& [k, v] : r.headers) out += k + ": " + v + "\r\n";
+  out += "\r\n";
+  out += r.body;
+  SendAll(fd, out);
+}
+
+int64_t SteadyUs() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+bool MjpegServerOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = "mjpeg server: " + m;
+    return false;
+  };
+  if (port < 0 || port > 65535) return fail("port = " + std::to_string(port) + " is not 0..65535");
+  if (!(fps > 0 && fps <= 1000)) return fail("fps = " + std::to_string(fps) + " is not in (0, 1000]");
+  if (boundary.empty() || boundary.size() > 70) return fail("boundary must be 1..70 characters");
+  if (stream_path.empty() || stream_path[0] != '/') return fail("stream_path '" + stream_path + "' must start with /");
+  return true;
+}
+
+MjpegServer::MjpegServer(MjpegServerOptions options, FrameSource source, RouteHandler routes)
+    : options_(std::move(options)), source_(std::move(source)), routes_(std::move(routes)) {}
+
+MjpegServer::~MjpegServer() { Stop(); }
+
+void MjpegServer::Start() {
+  if (started_) return;
+  std::string why;
+  if (!options_.Check(&why)) throw std::invalid_argument(why);
+  listener_ = Listen(options_.bind_address, options_.port, &port_, 16);
+  stop_ = false;
+  started_ = true;
+  accept_thread_ = std::thread([this] { AcceptLoop(); });
+  if (source_) source_thread_ = std::thread([this] { SourceLoop(); });
+}
+
+void MjpegServer::Stop() {
+  if (!started_) return;
+  stop_ = true;
+  frame_cv_.notify_all();
+  if (accept_thread_.joinable()) accept_thread_.join();
+  if (source_thread_.joinable()) source_thread_.join();
+  std::vector<std::unique_ptr<Client>> clients;
+  {
+    std::lock_guard<std::mutex> lock(clients_mutex_);
+    clients.swap(clients_);
+  }
+  for (auto& c : clients) c->socket.Shutdown();
+  frame_cv_.notify_all();
+  for (auto& c : clients) {
+    if (c->thread.joinable()) c->thread.join();
+  }
+  listener_.Close();
+  started_ = false;
+}
+
+void MjpegServer::Publish(std::vector<uint8_t> jpeg) {
+  {
+    std::lock_guard<std::mutex> lock(frame_mutex_);
+    frame_ = std::make_shared<const std::vector<uint8_t>>(std::move(jpeg));
+    ++frame_seq_;
+    frame_stamp_us_ = SteadyUs();
+  }
+  frame_cv_.notify_all();
+}
+
+int64_t MjpegServer::NumFramesPublished() const {
+  std::lock_guard<std::mutex> lock(frame_mutex_);
+  return frame_seq_;
+}
+
+bool MjpegServer::WaitForStreamClients(int n, std::chrono::milliseconds timeout) const {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    if (num_stream_clients_.load() >= n) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return num_stream_clients_.load() >= n;
+}
+
+void MjpegServer::SourceLoop() {
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(1.0 / options_.fps));
+  auto next = std::chrono::steady_clock::now();
+  while (!stop_) {
+    if (std::optional<std::vector<uint8_t>> jpeg = source_()) Publish(std::move(*jpeg));
+    next += period;
+    const auto now = std::chrono::steady_clock::now();
+    if (next < now) next = now;  // fell behind: do not burst
+    // Sleep in short steps so Stop() is prompt.
+    while (!stop_ && std::chrono::steady_clock::now() < next) {
+      std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(next - std::chrono::steady_clock::now(),
+                                                                                 kPollStep));
+    }
+  }
+}
+
+void MjpegServer::AcceptLoop() {
+  while (!stop_) {
+    if (!WaitReadable(listener_.fd(), kPollStep)) continue;
+    const int fd = ::accept4(listener_.fd(), nullptr, nullptr, SOCK_CLOEXEC);
+    if (fd < 0) continue;
+    std::lock_guard<std::mutex> lock(clients_mutex_);
+    // Reap finished clients.
+    for (auto it = clients_.begin(); it != clients_.end();) {
+      if ((*it)->done) {
+        if ((*it)->thread.joinable()) (*it)->thread.join();
+        it = clients_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    auto client = std::make_unique<Client>();
+    client->socket = Socket(fd);
+    Client* raw = client.get();
+    client->thread = std::thread([this, raw] { ServeClient(raw); });
+    clients_.push_back(std::move(client));
+  }
+}
+
+void MjpegServer::ServeClient(Client* client) {
+  const int fd = client->socket.fd();
+  std::optional<HttpRequest> req = ReadRequest(fd, stop_);
+  if (req) {
+    if (req->method == "GET" && req->path == options_.stream_path) {
+      Stream(fd);
+    } else {
+      std::optional<HttpResponse> resp;
+      if (routes_) {
+        try {
+          resp = routes_(*req);
+        } catch (const std::exception& e) {
+          resp = HttpResponse{500, "text/plain", std::string(e.what()) + "\n", {}};
+        }
+      }
+      if (!resp) resp = HttpResponse{404, "text/plain", "not found: " + req->path + "\n", {}};
+      SendResponse(fd, *resp);
+    }
+  }
+  client->socket.Shutdown();
+  client->done = true;
+}
+
+void MjpegServer::Stream(int fd) {
+  const std::string header =
+      "HTTP/1.0 200 OK\r\n"
+      "Connection: close\r\n"
+      "Server: owlcal-mjpeg\r\n"
+      "Cache-Control: no-store, no-cache, must-revalidate, pre-check=0, post-check=0, max-age=0\r\n"
+      "Pragma: no-cache\r\n"
+      "Content-Type: multipart/x-mixed-replace;boundary=" +
+      options_.boundary + "\r\n\r\n";
+  if (!SendAll(fd, header)) return;
+  num_stream_clients_.fetch_add(1);
+  if (options_.log) options_.log("mjpeg server: stream client connected");
+  int64_t last_seq;
+  {
+    std::lock_guard<std::mutex> lock(frame_mutex_);
+    last_seq = frame_seq_;  // start with the next frame
+  }
+  while (!stop_) {
+    std::shared_ptr<const std::vector<uint8_t>> frame;
+    int64_t stamp_us;
+    {
+      std::unique_lock<std::mutex> lock(frame_mutex_);
+      frame_cv_.wait_for(lock, kPollStep, [&] { return stop_ || frame_seq_ > last_seq; });
+      if (stop_) break;
+      if (frame_seq_ <= last_seq) {
+        // Idle: detect a client that went away (readable with EOF).
+        lock.unlock();
+        char c;
+        if (WaitReadable(fd, std::chrono::milliseconds(0)) && ::recv(fd, &c, 1, MSG_DONTWAIT) == 0) break;
+        continue;
+      }
+      frame = frame_;
+      last_seq = frame_seq_;
+      stamp_us = frame_stamp_us_;
+    }
+    std::string part = "--" + options_.boundary + "\r\nContent-Type: image/jpeg\r\n";
+    if (options_.send_content_length) part += "Content-Length: " + std::to_string(frame->size()) + "\r\n";
+    char ts[64];
+    std::snprintf(ts, sizeof(ts), "X-Timestamp: %lld.%06lld\r\n\r\n", static_cast<long long>(stamp_us / 1000000),
+                  static_cast<long long>(stamp_us % 1000000));
+    part += ts;
+    part.append(reinterpret_cast<const char*>(frame->data()), frame->size());
+    part += "\r\n";
+    if (!SendAll(fd, part)) break;
+    num_frames_sent_.fetch_add(1);
+  }
+  num_stream_clients_.fetch_sub(1);
+  if (options_.log) options_.log("mjpeg server: stream client left");
+}
+
+}  // namespace owlcal::robot
