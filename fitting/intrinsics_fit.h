@@ -95,4 +95,15 @@ std::string IntrinsicParamUnit(const std::string& name);
 // and per-view diagnostics to a result. eye_name: "left" or "right".
 void AppendIntrinsicsToResult(const IntrinsicsFit& fit, const std::string& eye_name, CalibrationResult* result);
 
+namespace internal {
+// Indices into camera.params held fixed by the options (fy when the aspect ratio is tied).
+std::vector<int> FixedIntrinsicIndices(const IntrinsicsFitOptions& options);
+// Why a parameter with this sigma means nothing (empty when it is fine).
+std::string SigmaTooLarge(const std::string& name, double sigma, const IntrinsicsFitOptions& options);
+// Why a fixed parameter is fixed ("fixed by option fix_k3 (value 0)").
+std::string FixedReason(const std::string& name, const IntrinsicsFitOptions& options);
+// Ceres summary -> SolveSummary (termination, message, costs, iterations, time).
+SolveSummary ToSolveSummary(const std::string& problem, const void* ceres_summary);
+}  // namespace internal
+
 }  // namespace owlcal::fitting
