@@ -1,0 +1,375 @@
+#include "fitting/ranging_eval.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <stdexcept>
+
+#include "models/head_kinematics.h"
+#include "models/vergence.h"
+
+namespace owlcal::fitting {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kDeg = M_PI / 180.0;
+
+std::array<double, models::kNumServos> ToDouble(const models::PwmVector& p) {
+  std::array<double, models::kNumServos> d;
+  for (int i = 0; i < models::kNumServos; ++i) d[i] = p[i];
+  return d;
+}
+
+std::array<int, models::kNumServos> Approach(const Fixation& f) {
+  std::array<int, models::kNumServos> a;
+  for (int i = 0; i < models::kNumServos; ++i) a[i] = f.approach[i];
+  return a;
+}
+
+models::Rigid3d CamFromBase(const models::HeadModel& head, int eye, const models::JointAngles& a) {
+  return head.geometry.cam_from_eye[eye] *
+         models::HeadFromEye(head.geometry.centre_in_head[eye].data(), a.pan_rad[eye], a.tilt_rad[eye]).Inverse() *
+         models::HeadFromBase(a.neck_rad);
+}
+
+// Range from continuous PWM values (for the quantisation Jacobian) and explicit pixels.
+RangeFix RangeFromAngles(const models::HeadModel& head,
+                         const models::JointAngles& a,
+                         const std::optional<Eigen::Vector2d> px[2]) {
+  RangeFix fix;
+  Eigen::Vector3d origin[2], dir[2];
+  for (int e = 0; e < 2; ++e) {
+    const models::Rigid3d base_from_cam = CamFromBase(head, e, a).Inverse();
+    Eigen::Vector3d ray(0, 0, 1);
+    if (px[e]) {
+      if (!head.intrinsics[e].Unproject(px[e]->data(), ray.data())) return fix;
+    }
+    origin[e] = base_from_cam.translation;
+    dir[e] = base_from_cam.rotation * ray;
+  }
+  const auto r = models::ClosestPointOfRays(origin[0], dir[0], origin[1], dir[1]);
+  if (!r || r->s1 <= 0 || r->s2 <= 0) return fix;
+  const models::Rigid3d base_from_head = models::HeadFromBase(a.neck_rad).Inverse();
+  const Eigen::Vector3d mid =
+      base_from_head * (0.5 * (head.geometry.centre_in_head[0] + head.geometry.centre_in_head[1]));
+  fix.ok = true;
+  fix.point_in_base = r->point;
+  fix.range_m = (r->point - mid).norm();
+  fix.gap_m = r->gap;
+  return fix;
+}
+
+struct ParamSlot {
+  int servo = -1;  // servo param index when >= 0
+  int index = 0;
+  int eye = -1;    // intrinsics when >= 0
+  bool ipd = false;
+};
+
+std::optional<ParamSlot> Slot(const std::string& name) {
+  static const std::map<std::string, int> kServoFields = {
+      {"centre_us", 0}, {"deg_per_us", 1}, {"quad_deg", 2}, {"cubic_deg", 3}, {"hysteresis_us", 4}};
+  static const std::map<std::string, int> kCamFields = {{"fx", 0}, {"fy", 1}, {"cx", 2}, {"cy", 3}};
+  if (name == "head.ipd_mm") return ParamSlot{-1, 0, -1, true};
+  const auto dot1 = name.find('.');
+  if (dot1 == std::string::npos) return std::nullopt;
+  const std::string head = name.substr(0, dot1);
+  if (head == "servo") {
+    const auto dot2 = name.find('.', dot1 + 1);
+    if (dot2 == std::string::npos) return std::nullopt;
+    const std::string servo = name.substr(dot1 + 1, dot2 - dot1 - 1);
+    const std::string field = name.substr(dot2 + 1);
+    for (int i = 0; i < models::kNumServos; ++i) {
+      if (servo == models::kServoNames[i] && kServoFields.count(field)) return ParamSlot{i, kServoFields.at(field), -1, false};
+    }
+    return std::nullopt;
+  }
+  for (int e = 0; e < 2; ++e) {
+    if (head == models::kEyeNames[e]) {
+      const std::string field = name.substr(dot1 + 1);
+      if (kCamFields.count(field)) return ParamSlot{-1, kCamFields.at(field), e, false};
+    }
+  }
+  return std::nullopt;
+}
+
+double StepFor(const std::string& name) {
+  if (name.find("deg_per_us") != std::string::npos) return 1e-4;
+  if (name.find("_deg") != std::string::npos) return 1e-2;
+  return 0.1;  // us, mm, px
+}
+
+}  // namespace
+
+bool RangingOptions::Check(std::string* why) const {
+  if (!(pixel_sigma_px >= 0) || !(pwm_sigma_us >= 0)) {
+    if (why) *why = "RangingOptions: pixel_sigma_px = " + std::to_string(pixel_sigma_px) +
+                    " and pwm_sigma_us = " + std::to_string(pwm_sigma_us) + " must be >= 0";
+    return false;
+  }
+  return true;
+}
+
+std::vector<std::string> RangingParameterNames() {
+  std::vector<std::string> n;
+  for (const char* s : {"Lx", "Rx", "Ly", "Ry", "Neck"})
+    for (const char* f : {"centre_us", "deg_per_us", "quad_deg", "cubic_deg", "hysteresis_us"})
+      n.push_back(std::string("servo.") + s + "." + f);
+  n.push_back("head.ipd_mm");
+  for (const char* e : {"left", "right"})
+    for (const char* f : {"fx", "fy", "cx", "cy"}) n.push_back(std::string(e) + "." + f);
+  return n;
+}
+
+NamedCovariance CovarianceFromResult(const CalibrationResult& result, const std::vector<std::string>& wanted) {
+  NamedCovariance c;
+  for (const std::string& n : wanted) {
+    const Parameter* p = result.Find(n);
+    if (p && p->determined && std::isfinite(p->sigma) && p->sigma > 0) c.names.push_back(n);
+  }
+  const int n = int(c.names.size());
+  c.matrix = Eigen::MatrixXd::Zero(n, n);
+  std::vector<int> full_index(n, -1);
+  const nlohmann::json& d = result.diagnostics;
+  bool have_full = false;
+  if (d.is_object() && d.contains("covariance") && d["covariance"].contains("names") &&
+      d["covariance"].contains("matrix")) {
+    const auto names = d["covariance"]["names"].get<std::vector<std::string>>();
+    const auto& m = d["covariance"]["matrix"];
+    for (int i = 0; i < n; ++i)
+      for (size_t k = 0; k < names.size(); ++k)
+        if (names[k] == c.names[i]) full_index[i] = int(k);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        if (full_index[i] >= 0 && full_index[j] >= 0) {
+          const auto& v = m.at(full_index[i]).at(full_index[j]);
+          if (v.is_number()) c.matrix(i, j) = v.get<double>();
+          have_full = true;
+        }
+      }
+    }
+  }
+  for (int i = 0; i < n; ++i)
+    if (!have_full || full_index[i] < 0) c.matrix(i, i) = std::pow(result.Find(c.names[i])->sigma, 2);
+  return c;
+}
+
+bool PerturbHead(const std::string& name, double delta, models::HeadModel* head) {
+  const auto s = Slot(name);
+  if (!s) return false;
+  if (s->ipd) {
+    Eigen::Vector3d& l = head->geometry.centre_in_head[models::kLeftEye];
+    Eigen::Vector3d& r = head->geometry.centre_in_head[models::kRightEye];
+    const Eigen::Vector3d u = (r - l).normalized();
+    l -= u * (delta * 5e-4);
+    r += u * (delta * 5e-4);
+  } else if (s->servo >= 0) {
+    head->servo_params[s->servo][s->index] += delta;
+  } else {
+    head->intrinsics[s->eye].params[s->index] += delta;
+  }
+  return true;
+}
+
+RangeFix RangeFromFixation(const models::HeadModel& head,
+                           const Fixation& f,
+                           const RangingOptions& options,
+                           const Eigen::Vector2d* pixels) {
+  const models::JointAngles a = head.Angles(ToDouble(f.pwm_us), Approach(f));
+  std::optional<Eigen::Vector2d> px[2];
+  if (options.use_image_offset) {
+    for (int e = 0; e < 2; ++e) {
+      if (pixels) px[e] = pixels[e];
+      else px[e] = f.target_px[e];
+    }
+  }
+  return RangeFromAngles(head, a, px);
+}
+
+std::optional<double> NominalRange(const models::RobotConfig& config, const models::PwmVector& pwm_us) {
+  const double k = models::ServoMap::kNominalDegPerUs * kDeg;
+  const double tl = (pwm_us[models::kLx] - config.servos[models::kLx].centre_us) * k;
+  const double tr = -(pwm_us[models::kRx] - config.servos[models::kRx].centre_us) * k;
+  if (std::sin(tl + tr) <= 1e-9) return std::nullopt;
+  const models::PlanarFix fix = models::SineRuleFix(0.065, tl, tr);
+  if (!(fix.depth > 0)) return std::nullopt;
+  return fix.range;
+}
+
+std::optional<Fixation> SyntheticFixation(const models::HeadModel& head,
+                                          const Eigen::Vector3d& target_in_base,
+                                          double neck_us) {
+  Fixation f;
+  std::array<double, models::kNumServos> pwm{};
+  for (int i = 0; i < models::kNumServos; ++i) pwm[i] = head.servo_params[i][0];
+  pwm[models::kNeck] = neck_us;
+  models::JointAngles a = head.Angles(pwm);
+  for (int e = 0; e < 2; ++e) {
+    const double cx = head.intrinsics[e].params[2], cy = head.intrinsics[e].params[3];
+    // Newton on (pan, tilt) so that the target projects to the principal point.
+    for (int it = 0; it < 30; ++it) {
+      Eigen::Vector2d p0;
+      if (!head.Project(models::Eye(e), a, target_in_base, &p0)) return std::nullopt;
+      const Eigen::Vector2d r = p0 - Eigen::Vector2d(cx, cy);
+      if (r.norm() < 1e-9) break;
+      Eigen::Matrix2d J;
+      for (int k = 0; k < 2; ++k) {
+        models::JointAngles b = a;
+        (k == 0 ? b.pan_rad[e] : b.tilt_rad[e]) += 1e-6;
+        Eigen::Vector2d p1;
+        if (!head.Project(models::Eye(e), b, target_in_base, &p1)) return std::nullopt;
+        J.col(k) = (p1 - p0) / 1e-6;
+      }
+      const Eigen::Vector2d step = J.colPivHouseholderQr().solve(r);
+      a.pan_rad[e] -= step[0];
+      a.tilt_rad[e] -= step[1];
+    }
+    const double u_pan = head.ServoPulse(models::kPanServo[e], a.pan_rad[e]);
+    const double u_tilt = head.ServoPulse(models::kTiltServo[e], a.tilt_rad[e]);
+    if (!std::isfinite(u_pan) || !std::isfinite(u_tilt)) return std::nullopt;
+    f.pwm_us[models::kPanServo[e]] = int(std::lround(u_pan));
+    f.pwm_us[models::kTiltServo[e]] = int(std::lround(u_tilt));
+  }
+  f.pwm_us[models::kNeck] = int(std::lround(neck_us));
+  const models::JointAngles q = head.Angles(ToDouble(f.pwm_us));
+  for (int e = 0; e < 2; ++e) {
+    Eigen::Vector2d px;
+    if (!head.Project(models::Eye(e), q, target_in_base, &px)) return std::nullopt;
+    f.target_px[e] = px;
+  }
+  const models::Rigid3d base_from_head = models::HeadFromBase(q.neck_rad).Inverse();
+  const Eigen::Vector3d mid =
+      base_from_head * (0.5 * (head.geometry.centre_in_head[0] + head.geometry.centre_in_head[1]));
+  f.true_distance_m = (target_in_base - mid).norm();
+  return f;
+}
+
+namespace {
+
+// Predicted variance of the range of one fixation.
+double RangeVariance(const models::HeadModel& head,
+                     const NamedCovariance& cov,
+                     const Fixation& f,
+                     const RangingOptions& options) {
+  double var = 0;
+  const int n = int(cov.names.size());
+  if (n > 0) {
+    Eigen::RowVectorXd J = Eigen::RowVectorXd::Zero(n);
+    for (int i = 0; i < n; ++i) {
+      const double h = StepFor(cov.names[i]);
+      models::HeadModel hp = head, hm = head;
+      if (!PerturbHead(cov.names[i], h, &hp) || !PerturbHead(cov.names[i], -h, &hm)) continue;
+      const RangeFix a = RangeFromFixation(hp, f, options), b = RangeFromFixation(hm, f, options);
+      if (a.ok && b.ok) J[i] = (a.range_m - b.range_m) / (2 * h);
+    }
+    var += (J * cov.matrix * J.transpose())(0, 0);
+  }
+  const bool pixels = options.use_image_offset && f.target_px[0] && f.target_px[1];
+  if (pixels) {
+    const double h = 0.05;
+    for (int e = 0; e < 2; ++e) {
+      for (int k = 0; k < 2; ++k) {
+        Eigen::Vector2d pp[2] = {*f.target_px[0], *f.target_px[1]}, pm[2] = {*f.target_px[0], *f.target_px[1]};
+        pp[e][k] += h;
+        pm[e][k] -= h;
+        const RangeFix a = RangeFromFixation(head, f, options, pp), b = RangeFromFixation(head, f, options, pm);
+        if (a.ok && b.ok) var += std::pow((a.range_m - b.range_m) / (2 * h) * options.pixel_sigma_px, 2);
+      }
+    }
+  } else {
+    // The gaze is the optical axis at the commanded PWM: the command's quantisation counts.
+    const std::array<double, models::kNumServos> base = ToDouble(f.pwm_us);
+    const std::optional<Eigen::Vector2d> none[2];
+    for (int servo : {int(models::kLx), int(models::kRx)}) {
+      auto up = base, dn = base;
+      up[servo] += 0.5;
+      dn[servo] -= 0.5;
+      const RangeFix a = RangeFromAngles(head, head.Angles(up, Approach(f)), none);
+      const RangeFix b = RangeFromAngles(head, head.Angles(dn, Approach(f)), none);
+      if (a.ok && b.ok) var += std::pow((a.range_m - b.range_m) * options.pwm_sigma_us, 2);
+    }
+  }
+  return var;
+}
+
+}  // namespace
+
+RangingEvaluation EvaluateRanging(const models::HeadModel& head,
+                                  const NamedCovariance& cov,
+                                  const models::RobotConfig& config,
+                                  const std::vector<Fixation>& fixations,
+                                  const RangingOptions& options,
+                                  const std::vector<double>& theory_distances_m) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument(why);
+  if (cov.matrix.rows() != int(cov.names.size()) || cov.matrix.cols() != int(cov.names.size()))
+    throw std::invalid_argument("EvaluateRanging: covariance is " + std::to_string(cov.matrix.rows()) + "x" +
+                                std::to_string(cov.matrix.cols()) + " for " + std::to_string(cov.names.size()) +
+                                " names");
+  RangingEvaluation ev;
+  ev.propagated = cov.names;
+  if (cov.names.empty()) ev.notes.push_back("no parameter covariance: sigma holds only the pixel/PWM noise");
+  double sum2 = 0, sum_abs = 0, nom2 = 0;
+  int within = 0, num_nom = 0;
+  for (const Fixation& f : fixations) {
+    RangingRow row;
+    row.index = f.index;
+    row.true_m = f.true_distance_m;
+    const RangeFix fix = RangeFromFixation(head, f, options);
+    row.ok = fix.ok;
+    row.nominal_m = NominalRange(config, f.pwm_us);
+    row.nominal_rel_error = row.nominal_m ? (*row.nominal_m - row.true_m) / row.true_m : kNaN;
+    if (row.nominal_m) {
+      nom2 += row.nominal_rel_error * row.nominal_rel_error;
+      ++num_nom;
+    }
+    if (fix.ok) {
+      row.range_m = fix.range_m;
+      row.gap_m = fix.gap_m;
+      row.error_m = fix.range_m - row.true_m;
+      row.rel_error = row.error_m / row.true_m;
+      row.sigma_m = std::sqrt(RangeVariance(head, cov, f, options));
+      ++ev.num_ok;
+      sum2 += row.rel_error * row.rel_error;
+      sum_abs += std::abs(row.rel_error);
+      ev.max_abs_rel_error = std::max(ev.max_abs_rel_error, std::abs(row.rel_error));
+      if (std::abs(row.error_m) <= 2 * row.sigma_m) ++within;
+    } else {
+      row.range_m = row.error_m = row.rel_error = row.sigma_m = kNaN;
+      ev.notes.push_back("fixation " + std::to_string(f.index) + ": gaze rays do not converge in front");
+    }
+    ev.rows.push_back(row);
+  }
+  if (ev.num_ok > 0) {
+    ev.rms_rel_error = std::sqrt(sum2 / ev.num_ok);
+    ev.mean_abs_rel_error = sum_abs / ev.num_ok;
+    ev.fraction_within_2sigma = double(within) / ev.num_ok;
+  }
+  ev.nominal_rms_rel_error = num_nom > 0 ? std::sqrt(nom2 / num_nom) : kNaN;
+
+  // Theory: symmetric straight-ahead fixation at each distance.
+  const double ipd = 0.065, k = models::ServoMap::kNominalDegPerUs * kDeg;
+  const double f_px = 0.5 * (head.intrinsics[0].params[0] + head.intrinsics[1].params[0]);
+  for (double D : theory_distances_m) {
+    RangingTheoryRow t;
+    t.distance_m = D;
+    const double theta = std::atan(0.5 * ipd / D);
+    // The larger of +1 us and -1 us on one eye (the error is asymmetric at long range).
+    const double z_in = models::TangentDepth(ipd, theta + k, theta);
+    const double z_out = models::TangentDepth(ipd, theta - k, theta);
+    t.nominal_1us_rel = std::max(std::abs(z_in - D), std::abs(z_out - D)) / D;
+    const double dth = 0.5 / f_px;
+    const double z2_in = models::TangentDepth(ipd, theta + dth, theta + dth);
+    const double z2_out = models::TangentDepth(ipd, theta - dth, theta - dth);
+    t.nominal_half_px_rel = std::max(std::abs(z2_in - D), std::abs(z2_out - D)) / D;
+    const double neck_us = head.servo_params[models::kNeck][0];
+    const auto fx = SyntheticFixation(head, Eigen::Vector3d(0, 0, D + 0.5 * (head.geometry.centre_in_head[0].z() +
+                                                                              head.geometry.centre_in_head[1].z())),
+                                      neck_us);
+    t.calibrated_sigma_rel = fx ? std::sqrt(RangeVariance(head, cov, *fx, options)) / fx->true_distance_m : kNaN;
+    ev.theory.push_back(t);
+  }
+  return ev;
+}
+
+}  // namespace owlcal::fitting

@@ -1,0 +1,133 @@
+#pragma once
+// Vergence ranging evaluation: the range to each fixated target from the calibrated head
+// (servo maps, rotation centres, IPD, cameras), versus the true distance, with the 1-sigma
+// predicted by propagating the calibration covariance; and the course's nominal method
+// (0.113 deg/us, 65 mm, configured centres, sine rule) beside it.
+//
+// Geometry (models/head_kinematics.h, models/vergence.h): each eye's gaze ray starts at its
+// camera centre (in the base frame, for the settled PWM and the fitted maps) and passes
+// through the target's detected pixel in that eye after settling -- the residual image
+// offset refines the ray beyond the 1 us quantisation of the command. Without a pixel the
+// ray is the optical axis. The fix is models::ClosestPointOfRays; range = |fix - midpoint of
+// the two eye rotation centres| [m].
+//
+// The course's method (NominalRange): theta_L = (Lx - LxC) * 0.113 deg, theta_R = -(Rx -
+// RxC) * 0.113 deg (inward positive), models::SineRuleFix with IPD 65 mm; range from the
+// midpoint of the eyes. Centres are the robot file's configured centres.
+//
+// Uncertainty: sigma_range^2 = J C J^T + J_px S_px J_px^T, where J = d range / d params by
+// central differences over the named result parameters (servo.<S>.centre_us, deg_per_us,
+// quad_deg, cubic_deg, hysteresis_us; head.ipd_mm; <eye>.fx/fy/cx/cy), C their covariance
+// (diagnostics["covariance"] {names, matrix} when the fit wrote one, else diagonal from the
+// parameters' sigmas), and S_px the detection noise of the target pixel (pixel_sigma_px per
+// axis, per eye), or the PWM quantisation when no pixel is used.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "fitting/result.h"
+#include "models/head_model.h"
+#include "models/robot_config.h"
+
+namespace owlcal::fitting {
+
+struct Fixation {
+  int index = 0;
+  models::PwmVector pwm_us{};                        // settled command, wire order
+  std::array<int8_t, models::kNumServos> approach{};  // sign of the last move per servo
+  std::optional<Eigen::Vector2d> target_px[2];       // detected target pixel per eye, after settling
+  double true_distance_m = 0;                        // from the midpoint of the eye rotation centres
+};
+
+struct RangingOptions {
+  bool use_image_offset = true;   // refine the gaze with the target's pixel (else optical axis)
+  double pixel_sigma_px = 0.15;   // detection noise of the target pixel, per axis
+  double pwm_sigma_us = 0.2887;   // command quantisation, 1/sqrt(12) us, when no pixel is used
+  bool Check(std::string* why) const;
+};
+
+// A parameter covariance over named result parameters, in the result's units.
+struct NamedCovariance {
+  std::vector<std::string> names;
+  Eigen::MatrixXd matrix;
+};
+
+// The covariance of the parameters in `wanted` that the result has (determined, finite
+// sigma): the block of diagnostics["covariance"] = {"names": [...], "matrix": [[...]]} when
+// present, else diagonal from Parameter::sigma.
+NamedCovariance CovarianceFromResult(const CalibrationResult& result, const std::vector<std::string>& wanted);
+
+// The parameters a head-model range depends on (see the header comment).
+std::vector<std::string> RangingParameterNames();
+
+// Applies a change `delta` (in the parameter's result unit) of a named parameter to a head.
+// Returns false for a name that does not map onto the head model.
+bool PerturbHead(const std::string& name, double delta, models::HeadModel* head);
+
+struct RangeFix {
+  bool ok = false;
+  Eigen::Vector3d point_in_base = Eigen::Vector3d::Zero();
+  double range_m = 0;   // from the midpoint of the eye rotation centres
+  double gap_m = 0;     // closest distance between the two gaze rays
+};
+
+// The fix of one fixation with a head model. `pixels` overrides the fixation's pixels (for
+// the Jacobian); pass nullptr to use them.
+RangeFix RangeFromFixation(const models::HeadModel& head,
+                           const Fixation& fixation,
+                           const RangingOptions& options,
+                           const Eigen::Vector2d* pixels = nullptr);
+
+// The course's nominal method; nullopt when the rays do not converge in front.
+std::optional<double> NominalRange(const models::RobotConfig& config, const models::PwmVector& pwm_us);
+
+struct RangingRow {
+  int index = 0;
+  double true_m = 0;
+  bool ok = false;
+  double range_m = 0, error_m = 0, rel_error = 0;  // error = range - true
+  double sigma_m = 0;                              // predicted 1-sigma
+  double gap_m = 0;
+  std::optional<double> nominal_m;                 // course method
+  double nominal_rel_error = 0;                    // NaN when no nominal fix
+};
+
+struct RangingTheoryRow {
+  double distance_m = 0;
+  double nominal_1us_rel = 0;        // larger relative range change of +-1 us on one eye, nominal formula
+  double nominal_half_px_rel = 0;    // larger of +-0.5 px fixation error on both eyes (f from the head)
+  double calibrated_sigma_rel = 0;   // predicted relative 1-sigma of the calibrated head
+};
+
+struct RangingEvaluation {
+  std::vector<RangingRow> rows;
+  std::vector<RangingTheoryRow> theory;
+  int num_ok = 0;
+  double rms_rel_error = 0, mean_abs_rel_error = 0, max_abs_rel_error = 0;
+  double fraction_within_2sigma = 0;
+  double nominal_rms_rel_error = 0;   // over rows with a nominal fix
+  std::vector<std::string> propagated;  // parameter names whose covariance went into sigma
+  std::vector<std::string> notes;
+};
+
+// Evaluates every fixation. theory_distances_m: the distances of the theory curve (symmetric
+// straight-ahead fixation), e.g. 0.2 .. 2.0 m.
+RangingEvaluation EvaluateRanging(const models::HeadModel& head,
+                                  const NamedCovariance& covariance,
+                                  const models::RobotConfig& config,
+                                  const std::vector<Fixation>& fixations,
+                                  const RangingOptions& options,
+                                  const std::vector<double>& theory_distances_m);
+
+// A synthetic fixation of the base-frame point `target` by `head`: the pan/tilt PWM that
+// centre the target (rounded to whole us, as the wire carries them), neck at its centre, and
+// the target's pixels at that command. nullopt when the target cannot be fixated.
+std::optional<Fixation> SyntheticFixation(const models::HeadModel& head,
+                                          const Eigen::Vector3d& target_in_base,
+                                          double neck_us);
+
+}  // namespace owlcal::fitting
