@@ -1,0 +1,51 @@
+#pragma once
+// Every fitted number against the truth of a virtual Owl, in units and in sigma (DESIGN.md
+// "Measurement rules"). The truth comes in as named values in the result's names and units
+// (servo.*, head.* from fitting/head_fit.h HeadParameters in the fit's gauge; left.* / right.*
+// intrinsics; stereo.* from StereoTruthValues) and fills Parameter::truth.
+//
+// z = (value - truth) / sigma. A parameter is "within" when |z| <= 2 (or, with sigma 0 or
+// undetermined, never counted in the z statistics but listed).
+#include <map>
+#include <string>
+#include <vector>
+
+#include "fitting/result.h"
+#include "models/head_model.h"
+
+namespace owlcal::fitting {
+
+// Sets p.truth for every parameter whose name is in `truth` (replacing an existing truth
+// only when overwrite). Returns how many were set.
+int FillTruth(const std::map<std::string, double>& truth, CalibrationResult* result, bool overwrite = false);
+
+// The intrinsics truth of a head: left.fx ... left.k3 (or up to k6), right.*.
+std::map<std::string, double> IntrinsicsTruthValues(const models::HeadModel& truth);
+
+// The stereo truth at a command: right_from_left of the two camera frames (x_right = R x_left
+// + T) at `pwm_us`, as stereo.baseline_mm, stereo.tx/ty/tz (mm), stereo.rx_deg/ry_deg/rz_deg
+// (rotation vector, deg), the names of fitting/stereo_fit.h.
+std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth, const models::PwmVector& pwm_us);
+
+struct TruthRow {
+  std::string name, unit;
+  double value = 0, sigma = 0, truth = 0;
+  double error = 0;     // value - truth
+  double z = 0;         // error / sigma; NaN when sigma is not positive and finite
+  bool determined = true;
+  bool within_2sigma = false;
+};
+
+struct TruthComparison {
+  std::vector<TruthRow> rows;         // parameters with a truth, in result order
+  int num_with_sigma = 0;             // rows with a finite z
+  double fraction_within_2sigma = 0;  // of those
+  double rms_z = 0;                   // of those (about 1 when sigmas are honest)
+  std::string worst;                  // name of the largest |z|
+  double worst_z = 0;
+  std::vector<std::string> missing_truth;  // determined parameters without a truth
+};
+
+TruthComparison CompareWithTruth(const CalibrationResult& result);
+
+}  // namespace owlcal::fitting
