@@ -1,0 +1,90 @@
+#pragma once
+// Renders what one eye of the virtual Owl sees: the scene's targets and background wall,
+// the eye-socket rim, lens shading. Geometry uses exactly models::HeadModel's projection:
+// each pixel's undistorted ray is precomputed once with CameraIntrinsics::Unproject (the
+// inverse of Project), so a scene point lands on the pixel HeadModel::Project gives.
+//
+// Per frame, each target plane maps rays to texture coordinates by one homography
+// (q = M * (x, y, 1), u = q0/q2, v = q1/q2, the ray depth is 1/q2); the nearest hit is
+// sampled from a mip-mapped, area-averaged texture (trilinear), so edges are antialiased
+// and chessboard corners (which sit on texel boundaries at every used level) stay exact.
+//
+// Pixel values: 0..255 grey, black ink ~25, white paper ~215, before noise.
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "models/head_model.h"
+#include "models/rigid3.h"
+#include "sim/robot_truth.h"
+#include "sim/scene.h"
+
+namespace owlcal::sim {
+
+// A mip-mapped grey texture. Texel (i, j) of level 0 covers [i, i+1) x [j, j+1) in texel
+// units; level L halves the resolution by 2x2 area averages.
+class MipTexture {
+ public:
+  MipTexture() = default;
+  // level0: CV_32F, values 0..1. wrap: repeat (sizes must be powers of two), else clamp.
+  MipTexture(const cv::Mat& level0, bool wrap);
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int num_levels() const { return int(levels_.size()); }
+  // Bilinear sample at level `level` of level-0 texel coordinates (u, v).
+  float Sample(float u, float v, int level) const;
+  // Trilinear sample for level of detail `lod` (log2 of level-0 texels per pixel).
+  float SampleLod(float u, float v, float lod) const;
+
+ private:
+  struct Level {
+    int w, h;
+    std::vector<float> texels;
+  };
+  std::vector<Level> levels_;
+  int width_ = 0, height_ = 0;
+  bool wrap_ = false;
+};
+
+// A target's printed pattern as a texture: texels_per_m and the target-frame position of
+// texel (0, 0)'s outer corner.
+struct TargetTexture {
+  MipTexture texture;
+  double texels_per_m = 0;
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
+};
+// Builds the texture of a chessboard (plus a one-square white margin), AprilGrid
+// (tag36h11 bitmaps from libapriltag, plus a white margin) or fixation disc.
+TargetTexture MakeTargetTexture(const calib::TargetDefinition& def);
+// The background wall's periodic random texture.
+TargetTexture MakeBackgroundTexture(const Background& background);
+
+class EyeRenderer {
+ public:
+  // blur_px: width of the optical blur (texture filter footprint) in pixels, >= 1.
+  EyeRenderer(const models::CameraIntrinsics& intrinsics, double lens_shading, double blur_px);
+  // Renders one 8-bit grey image (no noise). cam_from_base: this eye's camera pose.
+  // rim_axis_in_cam: the head's forward axis (socket axis) in the camera frame.
+  void Render(const models::Rigid3d& cam_from_base,
+              const Eigen::Vector3d& rim_axis_in_cam,
+              const SocketTruth& socket,
+              const SceneDescription& scene,
+              const std::vector<const TargetTexture*>& textures,  // per scene target
+              const TargetTexture& background,
+              cv::Mat* grey) const;
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  int width_, height_;
+  double fx_, fy_;
+  double blur_px_;
+  std::vector<float> ray_x_, ray_y_, inv_norm_, gain_;
+};
+
+// Adds zero-mean, approximately Gaussian noise of sigma grey levels (sum of four uniform
+// bytes from a counter-based hash of (seed, stream)), deterministic for its arguments.
+void AddSensorNoise(cv::Mat* grey, double sigma, uint64_t seed, uint64_t stream);
+
+}  // namespace owlcal::sim

@@ -1,0 +1,403 @@
+#include "sim/robot_truth.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <yaml-cpp/yaml.h>
+
+namespace owlcal::sim {
+namespace {
+
+using models::kLeftEye;
+using models::kRightEye;
+using models::kNumServos;
+using models::kServoNames;
+
+constexpr double kDeg = M_PI / 180.0;
+
+// cam_from_eye from the camera's optical centre in the eye frame and a small rotation
+// (rotation vector, degrees) of the camera axes relative to the eye axes.
+models::Rigid3d CamFromEye(const Eigen::Vector3d& cam_in_eye_m, const Eigen::Vector3d& rotvec_deg) {
+  const Eigen::Vector3d w = rotvec_deg * kDeg;
+  const Eigen::Quaterniond eye_from_cam_q =
+      w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized())) : Eigen::Quaterniond::Identity();
+  const models::Rigid3d eye_from_cam(eye_from_cam_q, cam_in_eye_m);
+  return eye_from_cam.Inverse();
+}
+
+template <typename T>
+void Read(const YAML::Node& n, const char* key, T* out, const std::string& where) {
+  if (!n || !n[key]) return;
+  try {
+    *out = n[key].as<T>();
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(where + "." + key + ": cannot read '" + YAML::Dump(n[key]) + "' (" + e.what() + ")");
+  }
+}
+
+std::vector<double> ReadVector(const YAML::Node& n, const char* key, size_t size, const std::string& where) {
+  std::vector<double> v;
+  Read(n, key, &v, where);
+  if (!v.empty() && size != 0 && v.size() != size) {
+    throw std::runtime_error(where + "." + key + ": expected " + std::to_string(size) + " values, got " +
+                             std::to_string(v.size()));
+  }
+  return v;
+}
+
+}  // namespace
+
+double ServoTruth::StopLoRad() const {
+  const auto p = MapParams();
+  const double a = models::ServoMap::JointAngle(p.data(), direction, endstop_lo_us, 0);
+  const double b = models::ServoMap::JointAngle(p.data(), direction, endstop_hi_us, 0);
+  return std::min(a, b);
+}
+double ServoTruth::StopHiRad() const {
+  const auto p = MapParams();
+  const double a = models::ServoMap::JointAngle(p.data(), direction, endstop_lo_us, 0);
+  const double b = models::ServoMap::JointAngle(p.data(), direction, endstop_hi_us, 0);
+  return std::max(a, b);
+}
+
+models::HeadModel RobotTruth::HeadModel() const {
+  models::HeadModel h;
+  for (int i = 0; i < kNumServos; ++i) {
+    h.servo_params[i] = servos[i].MapParams();
+    h.directions[i] = servos[i].direction;
+  }
+  h.geometry = geometry;
+  h.intrinsics[0] = intrinsics[0];
+  h.intrinsics[1] = intrinsics[1];
+  return h;
+}
+
+void RobotTruth::Validate(const std::string& origin) const {
+  auto fail = [&](const std::string& field, double value, const std::string& why) {
+    std::ostringstream s;
+    s << origin << ": " << field << " = " << value << ": " << why;
+    throw std::invalid_argument(s.str());
+  };
+  for (int i = 0; i < kNumServos; ++i) {
+    const ServoTruth& s = servos[i];
+    const std::string f = std::string("servos.") + kServoNames[i];
+    if (s.direction != 1 && s.direction != -1) fail(f + ".direction", s.direction, "must be +1 or -1");
+    if (!(s.deg_per_us > 0.01 && s.deg_per_us < 1)) fail(f + ".deg_per_us", s.deg_per_us, "must be in (0.01, 1)");
+    if (s.hysteresis_us < 0) fail(f + ".hysteresis_us", s.hysteresis_us, "must be >= 0");
+    if (s.dead_band_us < 0) fail(f + ".dead_band_us", s.dead_band_us, "must be >= 0");
+    if (s.quantum_us < 1) fail(f + ".quantum_us", s.quantum_us, "must be >= 1");
+    if (!(s.slew_deg_per_s > 0)) fail(f + ".slew_deg_per_s", s.slew_deg_per_s, "must be > 0");
+    if (s.lag_s < 0) fail(f + ".lag_s", s.lag_s, "must be >= 0");
+    if (!(s.endstop_lo_us < s.endstop_hi_us)) fail(f + ".endstop_lo_us", s.endstop_lo_us, "must be < endstop_hi_us");
+    const auto p = s.MapParams();
+    if (!models::ServoMap::IsMonotone(p.data(), s.direction, s.endstop_lo_us - 50, s.endstop_hi_us + 50)) {
+      fail(f + ".cubic_deg", s.cubic_deg, "the map is not monotone over the end-stop range");
+    }
+    const models::ServoConfig& c = robot.servos[i];
+    if (!(c.min_us <= c.centre_us && c.centre_us <= c.max_us)) {
+      fail("robot.servos." + std::string(kServoNames[i]) + ".centre_us", c.centre_us, "outside min_us..max_us");
+    }
+  }
+  for (int e = 0; e < 2; ++e) {
+    const models::CameraIntrinsics& k = intrinsics[e];
+    const std::string f = std::string("cameras.") + models::kEyeNames[e];
+    if (int(k.params.size()) != 4 + k.NumDistortion()) fail(f + ".params size", k.params.size(), "wrong for the model");
+    if (!(k.params[0] > 0 && k.params[1] > 0)) fail(f + ".params[0] (fx)", k.params[0], "must be > 0");
+    if (k.width != robot.image_width || k.height != robot.image_height) {
+      fail(f + ".width", k.width, "must equal robot.image_width x image_height");
+    }
+  }
+  if (!(stream.fps > 0 && stream.fps <= 240)) fail("stream.fps", stream.fps, "must be in (0, 240]");
+  if (stream.latency_ms < 0) fail("stream.latency_ms", stream.latency_ms, "must be >= 0");
+  if (stream.jpeg_quality < 1 || stream.jpeg_quality > 100) fail("stream.jpeg_quality", stream.jpeg_quality, "must be 1..100");
+  if (stream.noise_sigma < 0) fail("stream.noise_sigma", stream.noise_sigma, "must be >= 0");
+  if (stream.drop_probability < 0 || stream.drop_probability >= 1) {
+    fail("stream.drop_probability", stream.drop_probability, "must be in [0, 1)");
+  }
+  if (std::abs(stream.eye_offset_ms) * 1e-3 * stream.fps >= 1) fail("stream.eye_offset_ms", stream.eye_offset_ms, "must be below one frame period");
+  if (!(stream.blur_px >= 1 && stream.blur_px <= 8)) fail("stream.blur_px", stream.blur_px, "must be in [1, 8]");
+  if (!(socket.rim_half_angle_deg > 0 && socket.rim_half_angle_deg < 90)) {
+    fail("socket.rim_half_angle_deg", socket.rim_half_angle_deg, "must be in (0, 90)");
+  }
+}
+
+RobotTruth DefaultRobotTruth() {
+  RobotTruth t;
+  t.name = "owl-default";
+  t.robot = models::DefaultRobotConfig();
+  t.robot.name = "guide-owl";
+  // Per-servo truth: centres within +-60 us of the configured ones, scales 8.3-9.4 us/deg,
+  // a smooth nonlinearity, backlash; end-stops slightly beyond or inside the configured
+  // limits (Ry top and Ly top are inside: commands there press against the stop).
+  //                dir centre   deg/us  quad  cubic  hyst dead q slew  lag   stop_lo stop_hi
+  t.servos[models::kRx] = {+1, 1562, 0.108, 0.6, -1.2, 2.0, 1, 1, 380, 0.025, 1185, 1905};
+  t.servos[models::kRy] = {+1, 1498, 0.118, -0.5, 0.8, 1.5, 1, 1, 360, 0.030, 1110, 1985};
+  t.servos[models::kLx] = {+1, 1521, 0.111, 0.4, 1.0, 2.5, 1, 1, 400, 0.025, 1170, 1860};
+  t.servos[models::kLy] = {-1, 1617, 0.121, -0.7, -0.6, 1.8, 1, 1, 340, 0.030, 1190, 2010};
+  t.servos[models::kNeck] = {-1, 1554, 0.106, 1.0, -1.5, 4.0, 3, 1, 300, 0.050, 1090, 1960};
+  // Eye rotation centres: IPD 64.2 mm, ~30 mm ahead of the neck axis, slightly uneven.
+  t.geometry.centre_in_head[kLeftEye] = Eigen::Vector3d(-0.0321, 0.0004, 0.0300);
+  t.geometry.centre_in_head[kRightEye] = Eigen::Vector3d(0.0321, -0.0003, 0.0306);
+  // Camera optical centres ~1.5 cm ahead of the rotation centres, rotated 0.5-1 deg.
+  t.geometry.cam_from_eye[kLeftEye] = CamFromEye({0.0011, -0.0006, 0.0148}, {0.45, -0.60, 0.80});
+  t.geometry.cam_from_eye[kRightEye] = CamFromEye({-0.0008, 0.0009, 0.0162}, {-0.55, 0.35, -0.65});
+  // Intrinsics near the measured real Owls (578-591 px), moderate barrel distortion.
+  t.intrinsics[kLeftEye].params = {583.2, 582.4, 322.8, 236.1, -0.118, 0.092, 0.0008, -0.0005, -0.021};
+  t.intrinsics[kRightEye].params = {587.9, 587.1, 317.4, 243.6, -0.104, 0.071, -0.0006, 0.0004, -0.016};
+  return t;
+}
+
+RobotTruth LoadRobotTruth(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": cannot read robot-truth file: " + e.what());
+  }
+  RobotTruth t = DefaultRobotTruth();
+  const std::string w = path;
+  Read(root, "name", &t.name, w);
+  if (const YAML::Node r = root["robot"]) {
+    const std::string wr = w + ": robot";
+    Read(r, "name", &t.robot.name, wr);
+    Read(r, "ipd_m", &t.robot.ipd_m, wr);
+    Read(r, "image_width", &t.robot.image_width, wr);
+    Read(r, "image_height", &t.robot.image_height, wr);
+    Read(r, "swap_eyes", &t.robot.swap_eyes, wr);
+    Read(r, "mirror_stream", &t.robot.mirror_stream, wr);
+    for (int i = 0; i < kNumServos; ++i) {
+      const YAML::Node s = r["servos"] ? r["servos"][kServoNames[i]] : YAML::Node();
+      if (!s) continue;
+      models::ServoConfig& c = t.robot.servos[i];
+      const std::string ws = wr + ".servos." + kServoNames[i];
+      Read(s, "min_us", &c.min_us, ws);
+      Read(s, "max_us", &c.max_us, ws);
+      Read(s, "centre_us", &c.centre_us, ws);
+      Read(s, "direction", &c.direction, ws);
+      Read(s, "nominal_deg_per_us", &c.nominal_deg_per_us, ws);
+    }
+  }
+  for (int i = 0; i < kNumServos; ++i) {
+    const YAML::Node s = root["servos"] ? root["servos"][kServoNames[i]] : YAML::Node();
+    if (!s) continue;
+    ServoTruth& v = t.servos[i];
+    const std::string ws = w + ": servos." + kServoNames[i];
+    Read(s, "direction", &v.direction, ws);
+    Read(s, "centre_us", &v.centre_us, ws);
+    Read(s, "deg_per_us", &v.deg_per_us, ws);
+    Read(s, "quad_deg", &v.quad_deg, ws);
+    Read(s, "cubic_deg", &v.cubic_deg, ws);
+    Read(s, "hysteresis_us", &v.hysteresis_us, ws);
+    Read(s, "dead_band_us", &v.dead_band_us, ws);
+    Read(s, "quantum_us", &v.quantum_us, ws);
+    Read(s, "slew_deg_per_s", &v.slew_deg_per_s, ws);
+    Read(s, "lag_s", &v.lag_s, ws);
+    Read(s, "endstop_lo_us", &v.endstop_lo_us, ws);
+    Read(s, "endstop_hi_us", &v.endstop_hi_us, ws);
+  }
+  for (int e = 0; e < 2; ++e) {
+    const char* eye = models::kEyeNames[e];
+    if (const YAML::Node g = root["geometry"] ? root["geometry"][eye] : YAML::Node()) {
+      const std::string wg = w + ": geometry." + eye;
+      const auto c = ReadVector(g, "centre_in_head_m", 3, wg);
+      if (!c.empty()) t.geometry.centre_in_head[e] = Eigen::Vector3d(c[0], c[1], c[2]);
+      if (const YAML::Node p = g["cam_from_eye"]) {
+        const auto q = ReadVector(p, "q_xyzw", 4, wg + ".cam_from_eye");
+        const auto tr = ReadVector(p, "t_m", 3, wg + ".cam_from_eye");
+        if (!q.empty()) {
+          t.geometry.cam_from_eye[e].rotation = Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized();
+        }
+        if (!tr.empty()) t.geometry.cam_from_eye[e].translation = Eigen::Vector3d(tr[0], tr[1], tr[2]);
+      }
+    }
+    if (const YAML::Node k = root["cameras"] ? root["cameras"][eye] : YAML::Node()) {
+      const std::string wk = w + ": cameras." + eye;
+      std::string model;
+      Read(k, "model", &model, wk);
+      if (model == "opencv5") t.intrinsics[e].model = models::DistortionModel::kOpenCv5;
+      else if (model == "opencv8") t.intrinsics[e].model = models::DistortionModel::kOpenCv8;
+      else if (!model.empty()) throw std::runtime_error(wk + ".model: '" + model + "' is not opencv5 or opencv8");
+      Read(k, "width", &t.intrinsics[e].width, wk);
+      Read(k, "height", &t.intrinsics[e].height, wk);
+      const auto p = ReadVector(k, "params", 4 + t.intrinsics[e].NumDistortion(), wk);
+      if (!p.empty()) t.intrinsics[e].params = p;
+      if (int(t.intrinsics[e].params.size()) != 4 + t.intrinsics[e].NumDistortion()) {
+        throw std::runtime_error(wk + ".params: " + std::to_string(t.intrinsics[e].params.size()) +
+                                 " values do not fit model " + (model.empty() ? "opencv5" : model));
+      }
+    }
+  }
+  if (const YAML::Node s = root["socket"]) {
+    const std::string ws = w + ": socket";
+    Read(s, "rim_half_angle_deg", &t.socket.rim_half_angle_deg, ws);
+    Read(s, "rim_softness_deg", &t.socket.rim_softness_deg, ws);
+    Read(s, "rim_floor", &t.socket.rim_floor, ws);
+  }
+  if (const YAML::Node s = root["stream"]) {
+    const std::string ws = w + ": stream";
+    Read(s, "fps", &t.stream.fps, ws);
+    Read(s, "latency_ms", &t.stream.latency_ms, ws);
+    Read(s, "eye_offset_ms", &t.stream.eye_offset_ms, ws);
+    Read(s, "jpeg_quality", &t.stream.jpeg_quality, ws);
+    Read(s, "noise_sigma", &t.stream.noise_sigma, ws);
+    Read(s, "drop_probability", &t.stream.drop_probability, ws);
+    Read(s, "servo_reply_ms", &t.stream.servo_reply_ms, ws);
+    Read(s, "lens_shading", &t.stream.lens_shading, ws);
+    Read(s, "blur_px", &t.stream.blur_px, ws);
+  }
+  t.Validate(path);
+  return t;
+}
+
+std::string RobotTruthYaml(const RobotTruth& t) {
+  YAML::Emitter y;
+  y.SetDoublePrecision(12);
+  y << YAML::Comment("owlcal virtual Owl robot truth (format: sim/robot_truth.h)");
+  y << YAML::BeginMap;
+  y << YAML::Key << "name" << YAML::Value << t.name;
+  y << YAML::Key << "robot" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "name" << YAML::Value << t.robot.name;
+  y << YAML::Key << "ipd_m" << YAML::Value << t.robot.ipd_m;
+  y << YAML::Key << "image_width" << YAML::Value << t.robot.image_width;
+  y << YAML::Key << "image_height" << YAML::Value << t.robot.image_height;
+  y << YAML::Key << "swap_eyes" << YAML::Value << t.robot.swap_eyes;
+  y << YAML::Key << "mirror_stream" << YAML::Value << t.robot.mirror_stream;
+  y << YAML::Key << "servos" << YAML::Value << YAML::BeginMap;
+  for (int i = 0; i < kNumServos; ++i) {
+    const models::ServoConfig& c = t.robot.servos[i];
+    y << YAML::Key << kServoNames[i] << YAML::Value << YAML::Flow << YAML::BeginMap;
+    y << YAML::Key << "min_us" << YAML::Value << c.min_us << YAML::Key << "max_us" << YAML::Value << c.max_us;
+    y << YAML::Key << "centre_us" << YAML::Value << c.centre_us << YAML::Key << "direction" << YAML::Value << c.direction;
+    y << YAML::Key << "nominal_deg_per_us" << YAML::Value << c.nominal_deg_per_us << YAML::EndMap;
+  }
+  y << YAML::EndMap << YAML::EndMap;
+  y << YAML::Key << "servos" << YAML::Value << YAML::BeginMap;
+  for (int i = 0; i < kNumServos; ++i) {
+    const ServoTruth& s = t.servos[i];
+    y << YAML::Key << kServoNames[i] << YAML::Value << YAML::Flow << YAML::BeginMap;
+    y << YAML::Key << "direction" << YAML::Value << s.direction;
+    y << YAML::Key << "centre_us" << YAML::Value << s.centre_us;
+    y << YAML::Key << "deg_per_us" << YAML::Value << s.deg_per_us;
+    y << YAML::Key << "quad_deg" << YAML::Value << s.quad_deg;
+    y << YAML::Key << "cubic_deg" << YAML::Value << s.cubic_deg;
+    y << YAML::Key << "hysteresis_us" << YAML::Value << s.hysteresis_us;
+    y << YAML::Key << "dead_band_us" << YAML::Value << s.dead_band_us;
+    y << YAML::Key << "quantum_us" << YAML::Value << s.quantum_us;
+    y << YAML::Key << "slew_deg_per_s" << YAML::Value << s.slew_deg_per_s;
+    y << YAML::Key << "lag_s" << YAML::Value << s.lag_s;
+    y << YAML::Key << "endstop_lo_us" << YAML::Value << s.endstop_lo_us;
+    y << YAML::Key << "endstop_hi_us" << YAML::Value << s.endstop_hi_us;
+    y << YAML::EndMap;
+  }
+  y << YAML::EndMap;
+  y << YAML::Key << "geometry" << YAML::Value << YAML::BeginMap;
+  for (int e = 0; e < 2; ++e) {
+    const Eigen::Vector3d& c = t.geometry.centre_in_head[e];
+    const models::Rigid3d& p = t.geometry.cam_from_eye[e];
+    y << YAML::Key << models::kEyeNames[e] << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "centre_in_head_m" << YAML::Value << YAML::Flow << std::vector<double>{c.x(), c.y(), c.z()};
+    y << YAML::Key << "cam_from_eye" << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "q_xyzw" << YAML::Value << YAML::Flow
+      << std::vector<double>{p.rotation.x(), p.rotation.y(), p.rotation.z(), p.rotation.w()};
+    y << YAML::Key << "t_m" << YAML::Value << YAML::Flow
+      << std::vector<double>{p.translation.x(), p.translation.y(), p.translation.z()};
+    y << YAML::EndMap << YAML::EndMap;
+  }
+  y << YAML::EndMap;
+  y << YAML::Key << "cameras" << YAML::Value << YAML::BeginMap;
+  for (int e = 0; e < 2; ++e) {
+    const models::CameraIntrinsics& k = t.intrinsics[e];
+    y << YAML::Key << models::kEyeNames[e] << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "model" << YAML::Value << (k.model == models::DistortionModel::kOpenCv5 ? "opencv5" : "opencv8");
+    y << YAML::Key << "width" << YAML::Value << k.width << YAML::Key << "height" << YAML::Value << k.height;
+    y << YAML::Key << "params" << YAML::Value << YAML::Flow << k.params;
+    y << YAML::EndMap;
+  }
+  y << YAML::EndMap;
+  y << YAML::Key << "socket" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  y << YAML::Key << "rim_half_angle_deg" << YAML::Value << t.socket.rim_half_angle_deg;
+  y << YAML::Key << "rim_softness_deg" << YAML::Value << t.socket.rim_softness_deg;
+  y << YAML::Key << "rim_floor" << YAML::Value << t.socket.rim_floor << YAML::EndMap;
+  y << YAML::Key << "stream" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "fps" << YAML::Value << t.stream.fps;
+  y << YAML::Key << "latency_ms" << YAML::Value << t.stream.latency_ms;
+  y << YAML::Key << "eye_offset_ms" << YAML::Value << t.stream.eye_offset_ms;
+  y << YAML::Key << "jpeg_quality" << YAML::Value << t.stream.jpeg_quality;
+  y << YAML::Key << "noise_sigma" << YAML::Value << t.stream.noise_sigma;
+  y << YAML::Key << "drop_probability" << YAML::Value << t.stream.drop_probability;
+  y << YAML::Key << "servo_reply_ms" << YAML::Value << t.stream.servo_reply_ms;
+  y << YAML::Key << "lens_shading" << YAML::Value << t.stream.lens_shading;
+  y << YAML::Key << "blur_px" << YAML::Value << t.stream.blur_px;
+  y << YAML::EndMap;
+  y << YAML::EndMap;
+  return std::string(y.c_str()) + "\n";
+}
+
+nlohmann::json RobotTruthJson(const RobotTruth& t) {
+  using nlohmann::json;
+  json j;
+  j["name"] = t.name;
+  json r;
+  r["name"] = t.robot.name;
+  r["ipd_m"] = t.robot.ipd_m;
+  r["image_width"] = t.robot.image_width;
+  r["image_height"] = t.robot.image_height;
+  r["swap_eyes"] = t.robot.swap_eyes;
+  r["mirror_stream"] = t.robot.mirror_stream;
+  for (int i = 0; i < kNumServos; ++i) {
+    const models::ServoConfig& c = t.robot.servos[i];
+    r["servos"][kServoNames[i]] = {{"min_us", c.min_us}, {"max_us", c.max_us}, {"centre_us", c.centre_us},
+                                   {"direction", c.direction}, {"nominal_deg_per_us", c.nominal_deg_per_us}};
+  }
+  j["robot"] = r;
+  for (int i = 0; i < kNumServos; ++i) {
+    const ServoTruth& s = t.servos[i];
+    j["servos"][kServoNames[i]] = {
+        {"direction", s.direction},       {"centre_us", s.centre_us},         {"deg_per_us", s.deg_per_us},
+        {"quad_deg", s.quad_deg},         {"cubic_deg", s.cubic_deg},         {"hysteresis_us", s.hysteresis_us},
+        {"dead_band_us", s.dead_band_us}, {"quantum_us", s.quantum_us},       {"slew_deg_per_s", s.slew_deg_per_s},
+        {"lag_s", s.lag_s},               {"endstop_lo_us", s.endstop_lo_us}, {"endstop_hi_us", s.endstop_hi_us},
+        {"stop_lo_deg", s.StopLoRad() / kDeg}, {"stop_hi_deg", s.StopHiRad() / kDeg}};
+  }
+  for (int e = 0; e < 2; ++e) {
+    const Eigen::Vector3d& c = t.geometry.centre_in_head[e];
+    const models::Rigid3d& p = t.geometry.cam_from_eye[e];
+    j["geometry"][models::kEyeNames[e]] = {
+        {"centre_in_head_m", {c.x(), c.y(), c.z()}},
+        {"cam_from_eye",
+         {{"q_xyzw", {p.rotation.x(), p.rotation.y(), p.rotation.z(), p.rotation.w()}},
+          {"t_m", {p.translation.x(), p.translation.y(), p.translation.z()}}}}};
+    const models::CameraIntrinsics& k = t.intrinsics[e];
+    j["cameras"][models::kEyeNames[e]] = {
+        {"model", k.model == models::DistortionModel::kOpenCv5 ? "opencv5" : "opencv8"},
+        {"width", k.width},
+        {"height", k.height},
+        {"params", k.params}};
+  }
+  j["geometry"]["ipd_m"] = t.geometry.Ipd();
+  j["socket"] = {{"rim_half_angle_deg", t.socket.rim_half_angle_deg},
+                 {"rim_softness_deg", t.socket.rim_softness_deg},
+                 {"rim_floor", t.socket.rim_floor}};
+  j["stream"] = {{"fps", t.stream.fps},
+                 {"latency_ms", t.stream.latency_ms},
+                 {"eye_offset_ms", t.stream.eye_offset_ms},
+                 {"jpeg_quality", t.stream.jpeg_quality},
+                 {"noise_sigma", t.stream.noise_sigma},
+                 {"drop_probability", t.stream.drop_probability},
+                 {"servo_reply_ms", t.stream.servo_reply_ms},
+                 {"lens_shading", t.stream.lens_shading},
+                 {"blur_px", t.stream.blur_px}};
+  return j;
+}
+
+void SaveRobotTruth(const RobotTruth& truth, const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot open for writing the robot truth");
+  const bool json = path.size() >= 5 && path.substr(path.size() - 5) == ".json";
+  out << (json ? RobotTruthJson(truth).dump(2) + "\n" : RobotTruthYaml(truth));
+  if (!out) throw std::runtime_error(path + ": write failed");
+}
+
+}  // namespace owlcal::sim

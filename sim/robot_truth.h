@@ -1,0 +1,113 @@
+#pragma once
+// The ground truth of one virtual Owl: what the robot-truth file (data/sim/*_truth.yaml)
+// holds. Everything a calibration should recover is here, in the conventions of models/:
+//   - servo maps as models::ServoMap params (centre_us, deg_per_us, quad_deg, cubic_deg,
+//     hysteresis_us) + direction, so fitted numbers compare 1:1;
+//   - head geometry (models/head_kinematics.h frames: base/head/eye/cam, cam_from_eye);
+//   - intrinsics (models::CameraIntrinsics, OpenCV 5- or 8-coefficient distortion);
+// plus what only a simulator needs: servo dynamics (dead band, PWM quantum, slew, lag,
+// physical end-stops), the eye-socket rim, and the stream (fps, latency, JPEG, noise, drops).
+//
+// File format (YAML; every key optional, missing keys keep the built-in default robot):
+//   name: owl-default
+//   robot:            # the robot file the course server was configured with (clamp limits)
+//     name, ipd_m, image_width, image_height, swap_eyes, mirror_stream
+//     servos: { Rx: {min_us, max_us, centre_us, direction, nominal_deg_per_us}, Ry: ..., ... }
+//   servos:           # the physical truth per servo
+//     Rx: {direction, centre_us, deg_per_us, quad_deg, cubic_deg, hysteresis_us,
+//          dead_band_us, quantum_us, slew_deg_per_s, lag_s, endstop_lo_us, endstop_hi_us}
+//   geometry:
+//     left:  {centre_in_head_m: [x, y, z], cam_from_eye: {q_xyzw: [..4], t_m: [..3]}}
+//     right: {...}
+//   cameras:
+//     left:  {model: opencv5|opencv8, width, height, params: [fx, fy, cx, cy, k1, k2, p1, p2, k3(, k4, k5, k6)]}
+//     right: {...}
+//   socket: {rim_half_angle_deg, rim_softness_deg, rim_floor}
+//   stream: {fps, latency_ms, eye_offset_ms, jpeg_quality, noise_sigma, drop_probability,
+//            servo_reply_ms, lens_shading, blur_px}
+// Units as the suffixes say; angles in files are degrees, inside radians.
+//
+// Servo end-stops are given as the pulse width (approach 0) at which the joint meets its
+// physical stop; the stop is an angle, so a larger command does not move the joint further.
+// Dead band: a new pulse differing from the last accepted one by less than dead_band_us is
+// ignored. Quantum: pulse widths are rounded to a multiple of quantum_us (1; pigpio's
+// default sampling gives 5). Dynamics: a reference slews at slew_deg_per_s towards the
+// commanded angle and the joint follows it with a first-order lag of time constant lag_s.
+#include <array>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "models/camera_model.h"
+#include "models/head_model.h"
+#include "models/robot_config.h"
+#include "models/servo_map.h"
+
+namespace owlcal::sim {
+
+struct ServoTruth {
+  int direction = 1;
+  double centre_us = 1500;
+  double deg_per_us = 0.113;
+  double quad_deg = 0;
+  double cubic_deg = 0;
+  double hysteresis_us = 0;
+  double dead_band_us = 1;
+  int quantum_us = 1;
+  double slew_deg_per_s = 400;
+  double lag_s = 0.025;
+  double endstop_lo_us = 1000;  // pulse width where the physical stop is met (approach 0)
+  double endstop_hi_us = 2000;
+
+  // models::ServoMap parameter block: centre_us, deg_per_us, quad_deg, cubic_deg, hysteresis_us.
+  std::array<double, models::ServoMap::kNumParams> MapParams() const {
+    return {centre_us, deg_per_us, quad_deg, cubic_deg, hysteresis_us};
+  }
+  // Joint angle of the stops [rad], lo <= hi.
+  double StopLoRad() const;
+  double StopHiRad() const;
+};
+
+struct SocketTruth {
+  double rim_half_angle_deg = 60;  // cone about the head's forward axis at each eye centre
+  double rim_softness_deg = 4;     // the darkening ramps in over this angle
+  double rim_floor = 0.08;         // brightness factor fully inside the rim
+};
+
+struct StreamTruth {
+  double fps = 30;
+  double latency_ms = 100;         // exposure -> frame received by the host
+  double eye_offset_ms = 4;        // right eye exposes this much after the left
+  int jpeg_quality = 85;
+  double noise_sigma = 1.5;        // Gaussian sensor noise [grey levels of 255]
+  double drop_probability = 0;
+  double servo_reply_ms = 1;       // round trip of one servo packet ("ok")
+  double lens_shading = 0.2;       // relative brightness loss at the image corner
+  double blur_px = 1.8;            // optical blur: footprint of the texture filter [px], >= 1
+};
+
+struct RobotTruth {
+  std::string name = "owl-default";
+  models::RobotConfig robot;                        // configured limits/centres (server clamp)
+  std::array<ServoTruth, models::kNumServos> servos;
+  models::HeadGeometry geometry;
+  models::CameraIntrinsics intrinsics[2];           // [kLeftEye], [kRightEye]
+  SocketTruth socket;
+  StreamTruth stream;
+
+  // The static truth as a models::HeadModel (servo maps, geometry, intrinsics).
+  models::HeadModel HeadModel() const;
+  // Throws std::invalid_argument naming the field and value when something is unphysical.
+  void Validate(const std::string& origin) const;
+};
+
+// The built-in default robot (same as data/sim/owl_default_truth.yaml).
+RobotTruth DefaultRobotTruth();
+// Reads a truth file over the defaults. Throws std::runtime_error naming the path and field.
+RobotTruth LoadRobotTruth(const std::string& path);
+// YAML text of the whole truth (loadable by LoadRobotTruth) and its JSON form.
+std::string RobotTruthYaml(const RobotTruth& truth);
+nlohmann::json RobotTruthJson(const RobotTruth& truth);
+void SaveRobotTruth(const RobotTruth& truth, const std::string& path);
+
+}  // namespace owlcal::sim

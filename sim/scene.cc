@@ -1,0 +1,233 @@
+#include "sim/scene.h"
+
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+#include <yaml-cpp/yaml.h>
+
+namespace owlcal::sim {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+Eigen::Matrix3d Rpy(double roll_deg, double pitch_deg, double yaw_deg) {
+  return (Eigen::AngleAxisd(yaw_deg * kDeg, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(pitch_deg * kDeg, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+const char* KindName(calib::TargetKind k) {
+  switch (k) {
+    case calib::TargetKind::kChessboard: return "chessboard";
+    case calib::TargetKind::kAprilGrid: return "aprilgrid";
+    case calib::TargetKind::kFixation: return "fixation";
+  }
+  return "?";
+}
+
+}  // namespace
+
+SceneTarget* SceneDescription::Find(const std::string& name) {
+  for (SceneTarget& t : targets)
+    if (t.name() == name) return &t;
+  return nullptr;
+}
+const SceneTarget* SceneDescription::Find(const std::string& name) const {
+  for (const SceneTarget& t : targets)
+    if (t.name() == name) return &t;
+  return nullptr;
+}
+
+Eigen::Isometry3d FacingPose(const calib::TargetDefinition& def,
+                             const Eigen::Vector3d& centre_in_base,
+                             double yaw_deg,
+                             double pitch_deg,
+                             double roll_deg) {
+  const Eigen::Vector4d e = def.Extent();
+  Eigen::Vector3d centre_in_target(0, 0, 0);
+  if (def.kind == calib::TargetKind::kChessboard) {
+    centre_in_target = Eigen::Vector3d((def.cols - 1) * def.square_m / 2, (def.rows - 1) * def.square_m / 2, 0);
+  } else if (def.kind == calib::TargetKind::kAprilGrid) {
+    centre_in_target = Eigen::Vector3d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0);
+  }
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Rpy(roll_deg, pitch_deg, yaw_deg);
+  pose.translation() = centre_in_base - pose.linear() * centre_in_target;
+  return pose;
+}
+
+SceneDescription DefaultScene() {
+  SceneDescription s;
+  SceneTarget chess;
+  chess.definition.id = "chessboard";
+  chess.definition.kind = calib::TargetKind::kChessboard;
+  chess.definition.cols = 9;
+  chess.definition.rows = 6;
+  chess.definition.square_m = 0.026;
+  chess.base_from_target = FacingPose(chess.definition, {0.0, 0.0, 0.63});
+  s.targets.push_back(chess);
+
+  SceneTarget grid;
+  grid.definition.id = "aprilgrid";
+  grid.definition.kind = calib::TargetKind::kAprilGrid;
+  grid.definition.tag_cols = 6;
+  grid.definition.tag_rows = 6;
+  grid.definition.tag_size_m = 0.024;
+  grid.definition.tag_spacing = 0.3;
+  grid.base_from_target = FacingPose(grid.definition, {0.42, 0.0, 0.55}, 35.0);
+  s.targets.push_back(grid);
+
+  SceneTarget fix;
+  fix.definition.id = "fixation";
+  fix.definition.kind = calib::TargetKind::kFixation;
+  fix.definition.fixation_radius_m = 0.012;
+  fix.base_from_target = FacingPose(fix.definition, {-0.40, 0.0, 0.9}, -24.0);
+  s.targets.push_back(fix);
+  return s;
+}
+
+nlohmann::json PoseJson(const Eigen::Isometry3d& pose) {
+  const Eigen::Quaterniond q(pose.linear());
+  const Eigen::Vector3d t = pose.translation();
+  return {{"t_m", {t.x(), t.y(), t.z()}}, {"q_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
+}
+
+Eigen::Isometry3d PoseFromJson(const nlohmann::json& j) {
+  if (!j.is_object()) throw std::invalid_argument("pose: expected an object with t_m and q_xyzw or rpy_deg, got " + j.dump());
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  auto vec = [&](const char* key, size_t n) {
+    const nlohmann::json& v = j.at(key);
+    if (!v.is_array() || v.size() != n) {
+      throw std::invalid_argument(std::string("pose.") + key + ": expected " + std::to_string(n) + " numbers, got " + v.dump());
+    }
+    std::vector<double> out;
+    for (const auto& x : v) {
+      if (!x.is_number()) throw std::invalid_argument(std::string("pose.") + key + ": '" + x.dump() + "' is not a number");
+      out.push_back(x.get<double>());
+    }
+    return out;
+  };
+  if (!j.contains("t_m")) throw std::invalid_argument("pose.t_m: missing in " + j.dump());
+  const auto t = vec("t_m", 3);
+  pose.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+  if (j.contains("q_xyzw")) {
+    const auto q = vec("q_xyzw", 4);
+    const Eigen::Quaterniond qq(q[3], q[0], q[1], q[2]);
+    if (qq.norm() < 1e-9) throw std::invalid_argument("pose.q_xyzw: zero quaternion");
+    pose.linear() = qq.normalized().toRotationMatrix();
+  } else if (j.contains("rpy_deg")) {
+    const auto r = vec("rpy_deg", 3);
+    pose.linear() = Rpy(r[0], r[1], r[2]);
+  }
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(pose.translation()[i])) throw std::invalid_argument("pose.t_m: not finite");
+  return pose;
+}
+
+nlohmann::json SceneJson(const SceneDescription& scene) {
+  nlohmann::json j;
+  const Background& b = scene.background;
+  j["background"] = {{"distance_m", b.distance_m}, {"texel_m", b.texel_m}, {"contrast", b.contrast},
+                     {"grey", b.grey}, {"seed", b.seed}};
+  j["targets"] = nlohmann::json::array();
+  for (const SceneTarget& t : scene.targets) {
+    const calib::TargetDefinition& d = t.definition;
+    nlohmann::json o = {{"name", d.id}, {"kind", KindName(d.kind)}, {"visible", t.visible},
+                        {"pose", PoseJson(t.base_from_target)}};
+    if (d.kind == calib::TargetKind::kChessboard) {
+      o["cols"] = d.cols;
+      o["rows"] = d.rows;
+      o["square_m"] = d.square_m;
+    } else if (d.kind == calib::TargetKind::kAprilGrid) {
+      o["tag_cols"] = d.tag_cols;
+      o["tag_rows"] = d.tag_rows;
+      o["tag_size_m"] = d.tag_size_m;
+      o["tag_spacing"] = d.tag_spacing;
+      o["first_id"] = d.first_id;
+      o["family"] = d.family;
+    } else {
+      o["fixation_radius_m"] = d.fixation_radius_m;
+    }
+    j["targets"].push_back(o);
+  }
+  return j;
+}
+
+SceneDescription LoadScene(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": cannot read scene file: " + e.what());
+  }
+  SceneDescription s;
+  auto get = [&](const YAML::Node& n, const char* key, auto* out, const std::string& where) {
+    if (!n[key]) return;
+    try {
+      *out = n[key].as<std::decay_t<decltype(*out)>>();
+    } catch (const YAML::Exception& e) {
+      throw std::runtime_error(path + ": " + where + "." + key + ": cannot read '" + YAML::Dump(n[key]) + "'");
+    }
+  };
+  if (const YAML::Node b = root["background"]) {
+    get(b, "distance_m", &s.background.distance_m, "background");
+    get(b, "texel_m", &s.background.texel_m, "background");
+    get(b, "contrast", &s.background.contrast, "background");
+    get(b, "grey", &s.background.grey, "background");
+    get(b, "seed", &s.background.seed, "background");
+  }
+  if (!(s.background.distance_m > 0.2)) {
+    throw std::runtime_error(path + ": background.distance_m = " + std::to_string(s.background.distance_m) + " must be > 0.2");
+  }
+  if (!(s.background.texel_m > 0)) throw std::runtime_error(path + ": background.texel_m must be > 0");
+  std::set<std::string> names;
+  int index = 0;
+  for (const YAML::Node& n : root["targets"]) {
+    const std::string where = "targets[" + std::to_string(index++) + "]";
+    SceneTarget t;
+    calib::TargetDefinition& d = t.definition;
+    get(n, "name", &d.id, where);
+    if (d.id.empty() || !names.insert(d.id).second) {
+      throw std::runtime_error(path + ": " + where + ".name: '" + d.id + "' is empty or not unique");
+    }
+    std::string kind = "chessboard";
+    get(n, "kind", &kind, where);
+    if (kind == "chessboard") d.kind = calib::TargetKind::kChessboard;
+    else if (kind == "aprilgrid") d.kind = calib::TargetKind::kAprilGrid;
+    else if (kind == "fixation") d.kind = calib::TargetKind::kFixation;
+    else throw std::runtime_error(path + ": " + where + ".kind: '" + kind + "' is not chessboard, aprilgrid or fixation");
+    get(n, "cols", &d.cols, where);
+    get(n, "rows", &d.rows, where);
+    get(n, "square_m", &d.square_m, where);
+    get(n, "tag_cols", &d.tag_cols, where);
+    get(n, "tag_rows", &d.tag_rows, where);
+    get(n, "tag_size_m", &d.tag_size_m, where);
+    get(n, "tag_spacing", &d.tag_spacing, where);
+    get(n, "first_id", &d.first_id, where);
+    get(n, "family", &d.family, where);
+    get(n, "fixation_radius_m", &d.fixation_radius_m, where);
+    get(n, "visible", &t.visible, where);
+    if (d.family != "tag36h11") throw std::runtime_error(path + ": " + where + ".family: '" + d.family + "' (only tag36h11)");
+    if (d.cols < 2 || d.rows < 2 || d.square_m <= 0 || d.tag_cols < 1 || d.tag_rows < 1 || d.tag_size_m <= 0 ||
+        d.tag_spacing < 0.125 || d.fixation_radius_m <= 0) {
+      throw std::runtime_error(path + ": " + where + ": a size is out of range (cols/rows >= 2, sizes > 0, tag_spacing >= 0.125)");
+    }
+    if (const YAML::Node p = n["pose"]) {
+      nlohmann::json j;
+      for (const char* key : {"t_m", "q_xyzw", "rpy_deg"}) {
+        if (p[key]) j[key] = p[key].as<std::vector<double>>();
+      }
+      try {
+        t.base_from_target = PoseFromJson(j);
+      } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": " + where + "." + e.what());
+      }
+    }
+    s.targets.push_back(t);
+  }
+  return s;
+}
+
+}  // namespace owlcal::sim

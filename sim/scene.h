@@ -1,0 +1,71 @@
+#pragma once
+// The virtual Owl's world: calibration targets at poses in the base frame
+// (models/head_kinematics.h: origin on the neck axis at eye height, x right, y down,
+// z forward) in front of a textured background wall.
+//
+// Scene file (YAML, data/sim/scene_*.yaml):
+//   background: {distance_m: 3.0, texel_m: 0.004, contrast: 0.35, seed: 7, grey: 0.55}
+//   targets:
+//     - name: chessboard            # unique; SceneControl moves targets by name
+//       kind: chessboard            # chessboard | aprilgrid | fixation
+//       cols: 9, rows: 6, square_m: 0.026                       # chessboard
+//       tag_cols: 6, tag_rows: 6, tag_size_m: 0.024, tag_spacing: 0.3, first_id: 0  # aprilgrid
+//       fixation_radius_m: 0.01                                  # fixation (black disc)
+//       pose: {t_m: [x, y, z], rpy_deg: [roll, pitch, yaw]}  # or q_xyzw: [..4]
+//       visible: true
+// The pose is base_from_target (calib/target.h target frame: origin at the first corner, x
+// along the columns, y down the rows, z into the board). rpy_deg: R = Rz(yaw) Ry(pitch) Rx(roll)
+// about the base axes; all zero = the board upright, facing the robot.
+// Corner ids and positions of a rendered target are exactly TargetDefinition::Corners().
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include "calib/target.h"
+
+namespace owlcal::sim {
+
+struct SceneTarget {
+  calib::TargetDefinition definition;      // definition.id is the target's name
+  Eigen::Isometry3d base_from_target = Eigen::Isometry3d::Identity();
+  bool visible = true;
+  const std::string& name() const { return definition.id; }
+};
+
+struct Background {
+  double distance_m = 3.0;   // a wall facing the robot at z = distance_m in the base frame
+  double texel_m = 0.004;    // texel size of its random texture
+  double contrast = 0.35;
+  double grey = 0.55;        // mean brightness (0 black .. 1 white)
+  uint64_t seed = 7;
+};
+
+struct SceneDescription {
+  Background background;
+  std::vector<SceneTarget> targets;
+
+  SceneTarget* Find(const std::string& name);
+  const SceneTarget* Find(const std::string& name) const;
+};
+
+// The built-in scene: a 9x6 chessboard (26 mm) 0.6 m ahead, a 6x6 AprilGrid to the right,
+// a fixation disc to the left, in front of a textured wall at 3 m.
+SceneDescription DefaultScene();
+SceneDescription LoadScene(const std::string& path);
+nlohmann::json SceneJson(const SceneDescription& scene);
+// A pose as JSON: {"t_m": [..3], "q_xyzw": [..4]}; PoseFromJson also accepts "rpy_deg".
+nlohmann::json PoseJson(const Eigen::Isometry3d& pose);
+// Throws std::invalid_argument naming the field when the JSON is not a pose.
+Eigen::Isometry3d PoseFromJson(const nlohmann::json& j);
+// base_from_target for a board whose CENTRE sits at centre_in_base, facing the robot
+// (its z axis pointing away from the robot), turned by yaw/pitch/roll [deg].
+Eigen::Isometry3d FacingPose(const calib::TargetDefinition& def,
+                             const Eigen::Vector3d& centre_in_base,
+                             double yaw_deg = 0,
+                             double pitch_deg = 0,
+                             double roll_deg = 0);
+
+}  // namespace owlcal::sim
