@@ -3,7 +3,9 @@
 #include <sys/socket.h>
 
 #include <stdexcept>
+#include <string_view>
 
+#include "robot/packet_assembler.h"
 #include "robot/packet_codec.h"
 
 namespace owlcal::robot {
@@ -73,37 +75,23 @@ void ServoServer::Loop() {
 }
 
 void ServoServer::Serve(Socket client) {
-  std::string packet;
-  char buf[kPacketBytes];
-  auto partial_since = std::chrono::steady_clock::now();
-  while (!stop_) {
-    const int64_t want = kPacketBytes - static_cast<int64_t>(packet.size());
-    const int64_t got = RecvSome(client.fd(), buf, want, kPollStep);
-    if (got == -1) {  // timeout: keep waiting, unless a partial packet went stale
-      if (!packet.empty() && std::chrono::steady_clock::now() - partial_since > options_.partial_timeout) {
-        break;
-      }
-      continue;
-    }
-    if (got <= 0) break;  // EOF (the host closed: the "NULL packet") or error
-    if (packet.empty()) partial_since = std::chrono::steady_clock::now();
-    packet.append(buf, static_cast<size_t>(got));
-    if (packet.size() < kPacketBytes) continue;
-
+  const int fd = client.fd();
+  PacketAssembler assembler;
+  auto handle = [&](std::string_view packet_view) {
+    const std::string packet(packet_view);
     if (on_raw_) on_raw_(packet);
     if (options_.reply_style == ServoServerOptions::ReplyStyle::kOk) {
-      SendAll(client.fd(), "ok");  // before parsing, like the course server
+      SendAll(fd, "ok");  // before parsing, like the course server
     }
     const DecodeResult decoded = DecodePacket(packet);
-    packet.clear();
     if (!decoded.pwm_us) {
       {
         std::lock_guard<std::mutex> lock(mutex_);
         ++stats_.num_malformed;
       }
       if (options_.log) options_.log("servo server: malformed packet ignored: " + decoded.error);
-      if (options_.reply_style == ServoServerOptions::ReplyStyle::kRxValue) SendAll(client.fd(), "0");
-      continue;
+      if (options_.reply_style == ServoServerOptions::ReplyStyle::kRxValue) SendAll(fd, "0");
+      return;
     }
     const ClampResult clamped = guard_.Clamp(*decoded.pwm_us);
     {
@@ -112,16 +100,38 @@ void ServoServer::Serve(Socket client) {
       if (clamped.any_clamped) ++stats_.num_clamped;
     }
     if (options_.reply_style == ServoServerOptions::ReplyStyle::kRxValue) {
-      SendAll(client.fd(), std::to_string(clamped.pwm_us[models::kRx]));
+      SendAll(fd, std::to_string(clamped.pwm_us[models::kRx]));
     }
     if (on_packet_) on_packet_(clamped.pwm_us);
+  };
+  char buf[4096];
+  auto partial_since = std::chrono::steady_clock::now();
+  while (!stop_) {
+    const int64_t got = RecvSome(fd, buf, sizeof(buf), kPollStep);
+    if (got == -1) {  // no data yet: keep waiting, unless a partial packet went stale
+      if (assembler.Pending() > 0 &&
+          std::chrono::steady_clock::now() - partial_since > options_.partial_timeout) {
+        break;
+      }
+      continue;
+    }
+    if (got <= 0) break;  // EOF (the host closed: the "NULL packet") or error
+    const size_t pending_before = assembler.Pending();
+    int num_completed = 0;
+    assembler.Feed(std::string_view(buf, static_cast<size_t>(got)), [&](std::string_view p) {
+      ++num_completed;
+      handle(p);
+    });
+    if (assembler.Pending() > 0 && (pending_before == 0 || num_completed > 0)) {
+      partial_since = std::chrono::steady_clock::now();  // a new partial packet started in this read
+    }
   }
-  if (!packet.empty()) {
+  if (assembler.Pending() > 0) {
     std::lock_guard<std::mutex> lock(mutex_);
     ++stats_.num_short;
   }
   // The course server also answers the short packet before quitting; the peer may be gone.
-  if (options_.reply_style == ServoServerOptions::ReplyStyle::kOk) SendAll(client.fd(), "ok");
+  if (options_.reply_style == ServoServerOptions::ReplyStyle::kOk) SendAll(fd, "ok");
 }
 
 }  // namespace owlcal::robot

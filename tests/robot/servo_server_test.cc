@@ -137,6 +137,24 @@ TEST(ServoServer, RxValueReplyLikeTheCServer) {
   EXPECT_FALSE(server.Running());
 }
 
+TEST(ServoServer, StalledPartialPacketEndsTheSession) {
+  ServoServerOptions opts;
+  opts.partial_timeout = 200ms;
+  ServoServer server(opts, nullptr);
+  server.Start();
+  Socket s = ConnectTcp("127.0.0.1", server.Port(), 1000ms);
+  ASSERT_TRUE(SendAll(s.fd(), "1545 1530 1545 1580 1530"));  // one whole packet
+  EXPECT_EQ(ReadReply(s.fd(), 2), "ok");
+  ASSERT_TRUE(SendAll(s.fd(), "1545 15"));  // then half of one, and silence
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(ReadReply(s.fd(), 2), "ok");  // the short packet is answered, then the session ends
+  char c;
+  EXPECT_EQ(RecvSome(s.fd(), &c, 1, 3000ms), 0);
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, 150ms);
+  EXPECT_EQ(server.Stats().num_short, 1);
+  EXPECT_EQ(server.Stats().num_packets, 1);
+}
+
 TEST(ServoServer, StopIsPromptWithAClientConnected) {
   ServoServer server({}, nullptr);
   server.Start();
