@@ -1,0 +1,389 @@
+#include "fitting/range_images_ranging.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "models/vergence.h"
+
+namespace owlcal::fitting {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Fmt(double v, int prec) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(prec) << v;
+  return s.str();
+}
+
+cv::Mat CameraMatrix(const models::CameraIntrinsics& c) {
+  return (cv::Mat_<double>(3, 3) << c.params[0], 0, c.params[2], 0, c.params[1], c.params[3], 0, 0, 1);
+}
+cv::Mat DistCoeffs(const models::CameraIntrinsics& c) {
+  const auto d = c.Distortion();
+  return cv::Mat(d, true).reshape(1, 1);
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cell;
+  std::stringstream ss(line);
+  while (std::getline(ss, cell, ',')) {
+    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
+    while (!cell.empty() && cell.front() == ' ') cell.erase(cell.begin());
+    out.push_back(cell);
+  }
+  return out;
+}
+
+}  // namespace
+
+int StereoRig::NumParams() const {
+  return static_cast<int>(cameras[0].params.size() + cameras[1].params.size()) + 6;
+}
+
+std::vector<double> RigParameters(const StereoRig& rig) {
+  std::vector<double> p = rig.cameras[0].params;
+  p.insert(p.end(), rig.cameras[1].params.begin(), rig.cameras[1].params.end());
+  const Eigen::AngleAxisd aa(rig.right_from_left.rotation);
+  const Eigen::Vector3d rv = aa.angle() * aa.axis();
+  for (int i = 0; i < 3; ++i) p.push_back(rv[i]);
+  for (int i = 0; i < 3; ++i) p.push_back(rig.right_from_left.translation[i]);
+  return p;
+}
+
+StereoRig RigFromStereoFit(const StereoFit& fit, double length_unit_m) {
+  StereoRig rig;
+  rig.cameras[0] = fit.cameras[0];
+  rig.cameras[1] = fit.cameras[1];
+  rig.right_from_left = fit.right_from_left;
+  rig.right_from_left.translation *= length_unit_m;
+  rig.covariance = fit.covariance;
+  const int n = rig.NumParams();
+  if (rig.covariance.rows() == n && rig.covariance.cols() == n) {
+    // Scale the T rows/columns to metres.
+    rig.covariance.middleRows(n - 3, 3) *= length_unit_m;
+    rig.covariance.middleCols(n - 3, 3) *= length_unit_m;
+  } else {
+    rig.covariance.resize(0, 0);
+  }
+  rig.source = "stereo fit";
+  return rig;
+}
+
+StereoRig RigFromResult(const CalibrationResult& r) {
+  if (!r.cameras[0] || !r.cameras[1] || !r.stereo)
+    throw std::runtime_error("result has no stereo calibration (cameras and stereo pose needed)");
+  StereoRig rig;
+  rig.cameras[0] = *r.cameras[0];
+  rig.cameras[1] = *r.cameras[1];
+  rig.right_from_left = r.stereo->right_from_left;
+  const int n = rig.NumParams();
+  rig.covariance = Eigen::MatrixXd::Zero(n, n);
+  int k = 0;
+  for (int e = 0; e < 2; ++e) {
+    const auto names = IntrinsicParamNames(rig.cameras[e].model);
+    for (const auto& name : names) {
+      const Parameter* p = r.Find(std::string(e == 0 ? "left." : "right.") + name);
+      if (p && p->determined && std::isfinite(p->sigma)) rig.covariance(k, k) = p->sigma * p->sigma;
+      ++k;
+    }
+  }
+  rig.covariance.block(n - 6, n - 6, 6, 6) = r.stereo->covariance;
+  rig.source = "results.json";
+  return rig;
+}
+
+StereoRig RigFromOpenCv(const OpenCvStereoCalibration& c, int width, int height) {
+  if (!c.HasIntrinsics() || !c.HasExtrinsics())
+    throw std::runtime_error("OpenCV calibration lacks M1 D1 M2 D2 R T");
+  StereoRig rig;
+  const int w = c.image_width > 0 ? c.image_width : width, h = c.image_height > 0 ? c.image_height : height;
+  std::string why;
+  auto l = CameraFromOpenCv(c.M1, c.D1, w, h, &why);
+  if (!l) throw std::runtime_error("M1/D1: " + why);
+  auto rr = CameraFromOpenCv(c.M2, c.D2, w, h, &why);
+  if (!rr) throw std::runtime_error("M2/D2: " + why);
+  rig.cameras[0] = *l;
+  rig.cameras[1] = *rr;
+  cv::Mat R, T;
+  c.R.convertTo(R, CV_64F);
+  c.T.convertTo(T, CV_64F);
+  if (R.rows == 1 || R.cols == 1) cv::Rodrigues(R.clone(), R);
+  Eigen::Matrix3d Re;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) Re(i, j) = R.at<double>(i, j);
+  Eigen::Vector3d t(T.at<double>(0), T.at<double>(1), T.at<double>(2));
+  if (t.norm() > 1) t *= 1e-3;  // the course writes mm (26.0 mm squares)
+  rig.right_from_left = models::Rigid3d(Eigen::Quaterniond(Re).normalized(), t);
+  rig.source = "OpenCV file";
+  return rig;
+}
+
+StereoRig LoadStereoRig(const std::string& path) {
+  fs::path p(path);
+  if (fs::is_directory(p)) {
+    if (fs::exists(p / "results.json")) return LoadStereoRig((p / "results.json").string());
+    if (fs::exists(p / "intrinsics.xml")) return LoadStereoRig((p / "intrinsics.xml").string());
+    throw std::runtime_error(path + ": folder holds neither results.json nor intrinsics.xml");
+  }
+  if (!fs::exists(p)) throw std::runtime_error(path + ": no such calibration file");
+  StereoRig rig;
+  if (p.extension() == ".json") {
+    rig = RigFromResult(ReadResultJson(path));
+  } else if (p.filename() == "intrinsics.xml" && fs::exists(p.parent_path() / "extrinsics.xml")) {
+    rig = RigFromOpenCv(ReadOpenCvSplitFiles(path, (p.parent_path() / "extrinsics.xml").string()));
+  } else {
+    rig = RigFromOpenCv(ReadOpenCvCalibration(path));
+  }
+  rig.source = path;
+  return rig;
+}
+
+Rectification RectifyRig(const StereoRig& rig, double alpha) {
+  Rectification r;
+  r.size = cv::Size(rig.cameras[0].width, rig.cameras[0].height);
+  const cv::Mat K1 = CameraMatrix(rig.cameras[0]), K2 = CameraMatrix(rig.cameras[1]);
+  const cv::Mat D1 = DistCoeffs(rig.cameras[0]), D2 = DistCoeffs(rig.cameras[1]);
+  const Eigen::Matrix3d Re = rig.right_from_left.rotation.toRotationMatrix();
+  cv::Mat R(3, 3, CV_64F), T(3, 1, CV_64F);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) R.at<double>(i, j) = Re(i, j);
+    T.at<double>(i) = rig.right_from_left.translation[i];
+  }
+  cv::Mat R1, R2, P1, P2, Q;
+  cv::stereoRectify(K1, D1, K2, D2, r.size, R, T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, alpha, r.size);
+  r.R1 = cv::Matx33d(R1);
+  r.R2 = cv::Matx33d(R2);
+  r.P1 = cv::Matx34d(P1);
+  r.P2 = cv::Matx34d(P2);
+  r.focal_px = r.P1(0, 0);
+  r.baseline_m = rig.right_from_left.translation.norm();
+  cv::initUndistortRectifyMap(K1, D1, R1, P1, r.size, CV_32FC1, r.map_x[0], r.map_y[0]);
+  cv::initUndistortRectifyMap(K2, D2, R2, P2, r.size, CV_32FC1, r.map_x[1], r.map_y[1]);
+  return r;
+}
+
+void RemapPair(const Rectification& r, const cv::Mat& left, const cv::Mat& right, cv::Mat* lr, cv::Mat* rr) {
+  cv::remap(left, *lr, r.map_x[0], r.map_y[0], cv::INTER_LINEAR);
+  cv::remap(right, *rr, r.map_x[1], r.map_y[1], cv::INTER_LINEAR);
+}
+
+bool RangeOptions::Check(std::string* why) const { return match.Check(why); }
+
+std::optional<double> TriangulateDepth(const StereoRig& rig,
+                                       const std::vector<double>& p,
+                                       const Eigen::Vector2d& left_px,
+                                       const Eigen::Vector2d& right_px,
+                                       const Eigen::Vector3d& axis,
+                                       double* gap_m) {
+  models::CameraIntrinsics cl = rig.cameras[0], cr = rig.cameras[1];
+  const size_t nl = cl.params.size(), nr = cr.params.size();
+  if (p.size() != nl + nr + 6) return std::nullopt;
+  std::copy(p.begin(), p.begin() + nl, cl.params.begin());
+  std::copy(p.begin() + nl, p.begin() + nl + nr, cr.params.begin());
+  const Eigen::Vector3d rv(p[nl + nr], p[nl + nr + 1], p[nl + nr + 2]);
+  const Eigen::Vector3d t(p[nl + nr + 3], p[nl + nr + 4], p[nl + nr + 5]);
+  const double angle = rv.norm();
+  const Eigen::Matrix3d R =
+      angle > 0 ? Eigen::AngleAxisd(angle, rv / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  Eigen::Vector3d ray_l, ray_r;
+  if (!cl.Unproject(left_px.data(), ray_l.data()) || !cr.Unproject(right_px.data(), ray_r.data()))
+    return std::nullopt;
+  // Right camera in the left frame: x_left = R^T (x_right - T).
+  const Eigen::Vector3d o_r = -R.transpose() * t;
+  const Eigen::Vector3d d_r = R.transpose() * ray_r;
+  const auto fix = models::ClosestPointOfRays(Eigen::Vector3d::Zero(), ray_l, o_r, d_r);
+  if (!fix || fix->s1 <= 0) return std::nullopt;
+  if (gap_m) *gap_m = fix->gap;
+  return fix->point.dot(axis);
+}
+
+RangeMeasurement RangePair(const cv::Mat& left_raw,
+                           const cv::Mat& right_raw,
+                           const StereoRig& rig,
+                           const Rectification& rect,
+                           const RangeOptions& options) {
+  RangeMeasurement m;
+  cv::Mat lr, rr;
+  RemapPair(rect, left_raw, right_raw, &lr, &rr);
+  m.match = calib::MatchAlongRow(lr, rr, options.match);
+  if (!m.match.found) {
+    m.message = "no match: " + m.match.message;
+    return m;
+  }
+  // Rectified pixel -> raw pixel of each eye: ray in the rectified frame, rotated back by
+  // R^T, projected through the calibrated camera.
+  auto to_raw = [&](const cv::Point2d& u, const cv::Matx34d& P, const cv::Matx33d& Rr, int eye,
+                    Eigen::Vector2d* raw) {
+    const cv::Vec3d ray_rect((u.x - P(0, 2)) / P(0, 0), (u.y - P(1, 2)) / P(1, 1), 1.0);
+    const cv::Vec3d ray = Rr.t() * ray_rect;
+    double pt[3] = {ray[0], ray[1], ray[2]};
+    return rig.cameras[eye].Project(pt, raw->data());
+  };
+  if (!to_raw(m.match.left_px, rect.P1, rect.R1, 0, &m.raw_px[0]) ||
+      !to_raw(m.match.right_px, rect.P2, rect.R2, 1, &m.raw_px[1])) {
+    m.message = "match maps outside the cameras' field";
+    return m;
+  }
+  const cv::Vec3d ax = rect.R1.t() * cv::Vec3d(0, 0, 1);
+  const Eigen::Vector3d axis(ax[0], ax[1], ax[2]);
+  const std::vector<double> p0 = RigParameters(rig);
+  const auto z0 = TriangulateDepth(rig, p0, m.raw_px[0], m.raw_px[1], axis, &m.ray_gap_m);
+  if (!z0) {
+    m.message = "rays do not meet in front of the cameras";
+    return m;
+  }
+  m.range_m = *z0 + options.datum_offset_m;
+  m.sigma_match_m = m.match.disparity_px > 0 ? *z0 / m.match.disparity_px * m.match.sigma_disparity_px
+                                             : std::numeric_limits<double>::infinity();
+  const int n = rig.NumParams();
+  if (rig.covariance.rows() == n && rig.covariance.cols() == n) {
+    Eigen::VectorXd J = Eigen::VectorXd::Zero(n);
+    for (int i = 0; i < n; ++i) {
+      const double var = rig.covariance(i, i);
+      if (!(var > 0)) continue;
+      const double h = 0.01 * std::sqrt(var);
+      std::vector<double> pp = p0, pm = p0;
+      pp[i] += h;
+      pm[i] -= h;
+      const auto zp = TriangulateDepth(rig, pp, m.raw_px[0], m.raw_px[1], axis);
+      const auto zm = TriangulateDepth(rig, pm, m.raw_px[0], m.raw_px[1], axis);
+      if (zp && zm) J[i] = (*zp - *zm) / (2 * h);
+    }
+    m.sigma_calib_m = std::sqrt(std::max(0.0, J.dot(rig.covariance * J)));
+    m.sigma_m = std::hypot(m.sigma_calib_m, m.sigma_match_m);
+  } else {
+    m.sigma_calib_m = std::numeric_limits<double>::quiet_NaN();
+    m.sigma_m = m.sigma_match_m;
+  }
+  m.ok = true;
+  return m;
+}
+
+std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open truth CSV");
+  std::string line;
+  if (!std::getline(in, line)) throw std::runtime_error(path + ": empty file");
+  if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line.erase(0, 3);
+  const auto header = SplitCsv(line);
+  int cl = -1, cr = -1, cd = -1, rx = -1, ry = -1, rw = -1, rh = -1;
+  double scale = 1;
+  for (int i = 0; i < static_cast<int>(header.size()); ++i) {
+    const std::string& h = header[i];
+    if (h == "left") cl = i;
+    if (h == "right") cr = i;
+    if (h == "roi_x") rx = i;
+    if (h == "roi_y") ry = i;
+    if (h == "roi_w") rw = i;
+    if (h == "roi_h") rh = i;
+    if (h == "distance_cm") cd = i, scale = 0.01;
+    if (h == "distance_mm") cd = i, scale = 0.001;
+    if (h == "distance_m") cd = i, scale = 1;
+  }
+  if (cl < 0 || cr < 0 || cd < 0)
+    throw std::runtime_error(path + ": header needs left, right and distance_cm|distance_mm|distance_m; got '" + line +
+                             "'");
+  std::vector<RangeTruthRow> rows;
+  int ln = 1;
+  while (std::getline(in, line)) {
+    ++ln;
+    if (line.find_first_not_of(" \r\t,") == std::string::npos) continue;
+    const auto c = SplitCsv(line);
+    auto num = [&](int col, const std::string& field) {
+      if (col >= static_cast<int>(c.size()))
+        throw std::runtime_error(path + ":" + std::to_string(ln) + ": missing field " + field);
+      try {
+        size_t used = 0;
+        const double v = std::stod(c[col], &used);
+        if (used != c[col].size()) throw std::invalid_argument("trailing");
+        return v;
+      } catch (const std::exception&) {
+        throw std::runtime_error(path + ":" + std::to_string(ln) + ": field " + field + " = '" + c[col] +
+                                 "' is not a number");
+      }
+    };
+    RangeTruthRow r;
+    if (std::max(cl, cr) >= static_cast<int>(c.size()))
+      throw std::runtime_error(path + ":" + std::to_string(ln) + ": missing field left/right");
+    r.left = c[cl];
+    r.right = c[cr];
+    r.distance_m = num(cd, header[cd]) * scale;
+    if (rx >= 0 && ry >= 0 && rw >= 0 && rh >= 0 && rx < static_cast<int>(c.size()) && !c[rx].empty())
+      r.roi = cv::Rect(static_cast<int>(num(rx, "roi_x")), static_cast<int>(num(ry, "roi_y")),
+                       static_cast<int>(num(rw, "roi_w")), static_cast<int>(num(rh, "roi_h")));
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_true_m, double max_true_m) {
+  RangeSummary s;
+  double sum = 0;
+  for (const auto& r : m) {
+    if (!(r.true_m >= min_true_m - 1e-9 && r.true_m <= max_true_m + 1e-9)) continue;
+    ++s.num_rows;
+    if (!r.ok) continue;
+    ++s.num_ranged;
+    const double rel = std::abs(r.error_m()) / r.true_m;
+    sum += rel;
+    s.max_abs_rel = std::max(s.max_abs_rel, rel);
+    const double z = std::abs(r.error_m()) / r.sigma_m;
+    s.max_abs_z = std::max(s.max_abs_z, z);
+    if (z > 3) ++s.num_outside_3sigma;
+  }
+  s.mean_abs_rel = s.num_ranged ? sum / s.num_ranged : std::numeric_limits<double>::quiet_NaN();
+  return s;
+}
+
+std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
+  std::ostringstream c;
+  c << "name,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,z,disparity_px,"
+       "sigma_disparity_px,dy_px,ncc,second_ncc,ray_gap_mm,ok,message\n";
+  for (const auto& r : m) {
+    c << r.name << "," << Fmt(r.true_m * 100, 2) << "," << (r.ok ? Fmt(r.range_m * 100, 3) : "") << ","
+      << (r.ok ? Fmt(r.error_m() * 100, 3) : "") << "," << (r.ok ? Fmt(100 * r.error_m() / r.true_m, 3) : "") << ","
+      << (r.ok ? Fmt(r.sigma_m * 100, 3) : "") << "," << (r.ok ? Fmt(r.sigma_calib_m * 100, 3) : "") << ","
+      << (r.ok ? Fmt(r.sigma_match_m * 100, 3) : "") << "," << (r.ok ? Fmt(r.error_m() / r.sigma_m, 2) : "") << ","
+      << Fmt(r.match.disparity_px, 3) << "," << Fmt(r.match.sigma_disparity_px, 3) << ","
+      << Fmt(r.match.dy_px, 2) << "," << Fmt(r.match.ncc, 3) << "," << Fmt(r.match.second_ncc, 3) << ","
+      << Fmt(r.ray_gap_m * 1000, 2) << "," << (r.ok ? 1 : 0) << ",\"" << r.message << "\"\n";
+  }
+  return c.str();
+}
+
+std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const RangeSummary& s, const std::string& title) {
+  std::ostringstream md;
+  md << "# " << title << "\n\n"
+     << "| pair | true (cm) | range (cm) | error (%) | sigma (cm) | sigma calib / match (cm) | error/sigma | "
+        "disparity (px) | NCC |\n|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& r : m) {
+    if (!r.ok) {
+      md << "| " << r.name << " | " << Fmt(r.true_m * 100, 1) << " | not ranged: " << r.message
+         << " | | | | | | |\n";
+      continue;
+    }
+    md << "| " << r.name << " | " << Fmt(r.true_m * 100, 1) << " | " << Fmt(r.range_m * 100, 2) << " | "
+       << Fmt(100 * r.error_m() / r.true_m, 2) << " | " << Fmt(r.sigma_m * 100, 2) << " | "
+       << Fmt(r.sigma_calib_m * 100, 2) << " / " << Fmt(r.sigma_match_m * 100, 2) << " | "
+       << Fmt(r.error_m() / r.sigma_m, 2) << " | " << Fmt(r.match.disparity_px, 2) << " | " << Fmt(r.match.ncc, 3)
+       << " |\n";
+  }
+  md << "\nRanged " << s.num_ranged << "/" << s.num_rows << "; mean |error| " << Fmt(100 * s.mean_abs_rel, 2)
+     << " %, max " << Fmt(100 * s.max_abs_rel, 2) << " %; max |error|/sigma " << Fmt(s.max_abs_z, 2) << "; "
+     << s.num_outside_3sigma << " outside +-3 sigma.\n";
+  return md.str();
+}
+
+}  // namespace owlcal::fitting

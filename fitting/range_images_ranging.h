@@ -1,0 +1,136 @@
+#pragma once
+// Ranging a target in real stereo pairs (issue 7, item 3): rectify with a stereo
+// calibration, match a template along the rectified row (calib/stereo_match.h), triangulate,
+// and predict the range sigma from the calibration covariance and the matching sigma.
+//
+// Range: depth of the triangulated point along the rectified z axis (perpendicular to the
+// baseline), measured from the cameras' optical centres, plus `datum_offset_m` (default 0:
+// the logged distance is assumed to start at the optical centres; the true datum of the
+// course's distance set is unknown, a ruler under the box).
+//
+// Triangulation: the rectified match is mapped back to raw (distorted) pixels in each eye;
+// the two raw pixels are unprojected through the calibrated cameras and the rays' closest
+// point is taken (models/vergence.h). With rows aligned this equals f B / d.
+//
+// Predicted sigma = sqrt(sigma_calib^2 + sigma_match^2):
+//   sigma_match = Z / d * sigma_d                (matching sigma of the disparity)
+//   sigma_calib^2 = J C J^T, J = dZ/dp by central differences over every calibration
+//     parameter p = [left fx fy cx cy dist.., right .., rotation vector (rad), T (m)]
+//     (StereoFit's covariance layout), the raw pixels held fixed. This carries the focal
+//     length, baseline, principal points and the toe-in angle (a disparity offset) with all
+//     their correlations. A rig without covariance (an OpenCV file) gives sigma_calib = NaN
+//     and the report says so.
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "calib/stereo_match.h"
+#include "fitting/opencv_calib_file.h"
+#include "fitting/result.h"
+#include "fitting/stereo_fit.h"
+#include "models/camera_model.h"
+#include "models/rigid3.h"
+
+namespace owlcal::fitting {
+
+struct StereoRig {
+  models::CameraIntrinsics cameras[2];   // [kLeftEye], [kRightEye]
+  models::Rigid3d right_from_left;       // metres
+  // Layout as StereoFit::covariance with T in metres; empty = unknown.
+  Eigen::MatrixXd covariance;
+  std::string source;                    // where it came from (file or "stereo fit")
+  int NumParams() const;                 // size of the covariance layout
+};
+
+// From a stereo fit; `length_unit_m` converts the fit's length unit to metres (1 for "m").
+StereoRig RigFromStereoFit(const StereoFit& fit, double length_unit_m = 1.0);
+// From owlcal's results.json: cameras, stereo pose; covariance = per-parameter sigmas of
+// left.* / right.* (diagonal) and result.stereo->covariance for [rotation, T].
+StereoRig RigFromResult(const CalibrationResult& result);
+// From an OpenCV calibration file: T in millimetres when |T| > 1 (the course's 26.0 mm
+// squares), else metres. No covariance.
+StereoRig RigFromOpenCv(const OpenCvStereoCalibration& c, int width = 640, int height = 480);
+// Reads a rig: results.json, an OpenCV .xml/.yml/.yaml with M1..T, or intrinsics.xml whose
+// folder also holds extrinsics.xml (the course's split files). Throws naming the path.
+StereoRig LoadStereoRig(const std::string& path);
+
+struct Rectification {
+  cv::Size size;
+  cv::Mat map_x[2], map_y[2];            // cv::initUndistortRectifyMap, CV_32FC1
+  cv::Matx33d R1, R2;
+  cv::Matx34d P1, P2;
+  double focal_px = 0;                   // rectified focal length
+  double baseline_m = 0;                 // |T|
+};
+// cv::stereoRectify with CALIB_ZERO_DISPARITY and `alpha` (-1 = OpenCV's default).
+Rectification RectifyRig(const StereoRig& rig, double alpha = -1);
+void RemapPair(const Rectification& r, const cv::Mat& left, const cv::Mat& right, cv::Mat* left_rect, cv::Mat* right_rect);
+
+struct RangeOptions {
+  calib::StereoMatchOptions match;
+  double datum_offset_m = 0;   // added to the depth to compare with the logged distance
+  double rectify_alpha = -1;
+  bool Check(std::string* why) const;
+};
+
+struct RangeMeasurement {
+  std::string name;                   // pair name (left file)
+  double true_m = std::numeric_limits<double>::quiet_NaN();
+  calib::StereoMatch match;
+  bool ok = false;
+  std::string message;
+  Eigen::Vector2d raw_px[2];          // matched template centre in each raw image
+  double range_m = 0;                 // depth + datum offset
+  double ray_gap_m = 0;               // closest distance between the two rays
+  double sigma_m = 0;                 // total predicted sigma
+  double sigma_calib_m = 0;           // from the calibration covariance (NaN if unknown)
+  double sigma_match_m = 0;           // from the matching sigma
+  double error_m() const { return range_m - true_m; }
+};
+
+// Ranges one raw pair. Never throws for "target not found" (ok = false, message).
+RangeMeasurement RangePair(const cv::Mat& left_raw,
+                           const cv::Mat& right_raw,
+                           const StereoRig& rig,
+                           const Rectification& rect,
+                           const RangeOptions& options);
+
+// Depth of the closest point of the rays through two raw pixels, along `axis` (unit, left
+// camera frame) for the rig's parameters p (covariance layout). nullopt if a pixel cannot be
+// unprojected or the rays are parallel.
+std::optional<double> TriangulateDepth(const StereoRig& rig,
+                                       const std::vector<double>& p,
+                                       const Eigen::Vector2d& left_px,
+                                       const Eigen::Vector2d& right_px,
+                                       const Eigen::Vector3d& axis,
+                                       double* gap_m = nullptr);
+// The parameter vector of a rig in the covariance layout.
+std::vector<double> RigParameters(const StereoRig& rig);
+
+// Truth file: CSV with header; columns left, right (file names relative to the CSV's folder
+// or the image folder) and distance_cm | distance_mm | distance_m; optional roi_x, roi_y,
+// roi_w, roi_h (template in the left rectified image). Throws naming file, line, field.
+struct RangeTruthRow {
+  std::string left, right;
+  double distance_m = 0;
+  cv::Rect roi;  // empty = options' default
+};
+std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path);
+
+struct RangeSummary {
+  int num_rows = 0, num_ranged = 0;
+  double mean_abs_rel = 0;       // over ranged rows with truth
+  double max_abs_rel = 0;
+  double max_abs_z = 0;          // max |error| / sigma
+  int num_outside_3sigma = 0;
+};
+RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_true_m = 0, double max_true_m = 1e9);
+// CSV: name,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,z,disparity_px,dy_px,ncc,...
+std::string RangeTableCsv(const std::vector<RangeMeasurement>& m);
+std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const RangeSummary& s, const std::string& title);
+
+}  // namespace owlcal::fitting
