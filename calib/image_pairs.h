@@ -1,0 +1,50 @@
+#pragma once
+// Stereo image pairs from a folder a student already has (issue 7, item 1).
+//
+// Layouts (ImagePairOptions::side_by_side):
+//   separate files (default): left<KEY>.<ext> and right<KEY>.<ext> (case-insensitive prefix,
+//     e.g. left0.jpg / right0.jpg, left30cm.jpg / right30cm.jpg); a file without its partner is
+//     listed in `unpaired`. `left*` is the robot's left eye.
+//   side_by_side: every image file is one 1280x480 stream frame; split by
+//     calib::SplitStereoFrame: left eye = columns 0-639 (after the optional mirror flip).
+// mirror:
+//   separate files: each image is flipped horizontally on loading (the 2017-2019 capture
+//     helpers saved mirrored halves, e.g. darvill2019-chessboard; calibrating them unflipped
+//     gives T_x > 0);
+//   side_by_side: the whole frame is flipped before splitting (the 2020-2024 owl.h
+//     convention for raw Pi-camera frames, whose halves are mirrored and whose columns 0-639
+//     are the RIGHT eye).
+// swap: exchange the eyes after everything else.
+// Pairs are sorted by the number in their key (natural order), then by key.
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace owlcal::calib {
+
+struct ImagePairOptions {
+  bool side_by_side = false;
+  bool mirror = false;
+  bool swap = false;
+};
+
+struct ImagePair {
+  std::string key;          // "0", "30cm", or the frame's file stem
+  std::string left_path;    // side_by_side: both paths are the frame
+  std::string right_path;
+};
+
+struct ImagePairList {
+  std::vector<ImagePair> pairs;
+  std::vector<std::string> unpaired;  // files with no partner
+};
+
+// Lists the pairs in `dir`. Throws naming the folder if it cannot be read or holds no pair.
+ImagePairList ListImagePairs(const std::string& dir, const ImagePairOptions& options);
+
+// Loads one pair as BGR images of one eye each, applying mirror / swap. Throws naming the
+// file when it cannot be decoded, or when a side-by-side frame's width is odd.
+void LoadImagePair(const ImagePair& pair, const ImagePairOptions& options, cv::Mat* left, cv::Mat* right);
+
+}  // namespace owlcal::calib
