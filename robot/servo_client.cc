@@ -1,0 +1,98 @@
+#include "robot/servo_client.h"
+
+#include <sys/socket.h>
+
+#include <stdexcept>
+#include <thread>
+
+#include "robot/packet_codec.h"
+
+namespace owlcal::robot {
+
+bool ServoClientOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = "servo client: " + m;
+    return false;
+  };
+  if (host.empty()) return fail("no robot host given (a robot address is never assumed)");
+  if (port < 1 || port > 65535) return fail("port = " + std::to_string(port) + " is not 1..65535");
+  if (max_attempts < 1) return fail("max_attempts = " + std::to_string(max_attempts) + " is below 1");
+  if (reply_timeout.count() <= 0 || connect_timeout.count() <= 0) return fail("timeouts must be positive");
+  return true;
+}
+
+ServoClient::ServoClient(ServoClientOptions options) : options_(std::move(options)) {
+  std::string why;
+  if (!options_.Check(&why)) throw std::invalid_argument(why);
+}
+
+ServoClient::~ServoClient() { Close(); }
+
+void ServoClient::Connect() {
+  socket_ = ConnectTcp(options_.host, options_.port, options_.connect_timeout);
+  ++num_connects_;
+}
+
+void ServoClient::Close() {
+  if (!socket_.valid()) return;
+  // The course server's recv(24) returns 0 bytes once we half-close: its "NULL packet".
+  ::shutdown(socket_.fd(), SHUT_WR);
+  // Give it a moment to answer and close its side, so its session ends cleanly.
+  char buf[64];
+  for (int i = 0; i < 4; ++i) {
+    if (RecvSome(socket_.fd(), buf, sizeof(buf), std::chrono::milliseconds(50)) <= 0) break;
+  }
+  socket_.Close();
+}
+
+ServoClientReply ServoClient::Send(const models::PwmVector& pwm_us) { return SendBytes(EncodePacket(pwm_us)); }
+
+ServoClientReply ServoClient::SendBytes(std::string_view bytes) {
+  ServoClientReply reply;
+  for (int attempt = 1; attempt <= options_.max_attempts; ++attempt) {
+    reply.attempts = attempt;
+    if (attempt > 1) std::this_thread::sleep_for(options_.reconnect_delay);
+    if (!socket_.valid()) {
+      try {
+        Connect();
+      } catch (const std::exception& e) {
+        reply.error = e.what();
+        continue;
+      }
+    }
+    const std::string where = options_.host + ":" + std::to_string(options_.port);
+    // Drop stale bytes (a late reply to an earlier packet); EOF here means the server left.
+    char buf[256];
+    bool closed = false;
+    while (WaitReadable(socket_.fd(), std::chrono::milliseconds(0))) {
+      if (RecvSome(socket_.fd(), buf, sizeof(buf), std::chrono::milliseconds(0)) <= 0) {
+        closed = true;
+        break;
+      }
+    }
+    if (closed || !SendAll(socket_.fd(), bytes)) {
+      reply.error = where + ": connection lost";
+      socket_.Close();
+      continue;
+    }
+    const int64_t got = RecvSome(socket_.fd(), buf, sizeof(buf), options_.reply_timeout);
+    if (got > 0) {
+      reply.text.assign(buf, static_cast<size_t>(got));
+      // Collect the rest of a reply split over segments, without waiting for more.
+      int64_t more;
+      while (reply.text.size() < 64 &&
+             (more = RecvSome(socket_.fd(), buf, sizeof(buf), std::chrono::milliseconds(2))) > 0) {
+        reply.text.append(buf, static_cast<size_t>(more));
+      }
+      reply.ok = true;
+      reply.error.clear();
+      return reply;
+    }
+    reply.error = where + (got == -1 ? ": no reply within " + std::to_string(options_.reply_timeout.count()) + " ms"
+                                     : ": connection closed by the server");
+    socket_.Close();
+  }
+  return reply;
+}
+
+}  // namespace owlcal::robot
