@@ -1,0 +1,547 @@
+#include "protocols/dataset.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cinttypes>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace owlcal::protocols {
+namespace fs = std::filesystem;
+
+const char* const kFramesCsvHeader =
+    "frame_index,seq,stamp_ns,Rx_us,Ry_us,Lx_us,Ly_us,Neck_us,approach_Rx,approach_Ry,approach_Lx,"
+    "approach_Ly,approach_Neck,step_index,step_name,placement_index,jpeg_bytes,jpeg_crc32";
+const char* const kPlacementsCsvHeader =
+    "placement_index,step_index,target,distance_m,tx_m,ty_m,tz_m,qx,qy,qz,qw,source,answer,stamp_ns";
+const char* const kStepsCsvHeader = "step_index,step_name,kind,status,start_ns,end_ns,num_frames";
+
+namespace {
+
+constexpr int kFramesCsvFields = 18;
+constexpr int kPlacementsCsvFields = 14;
+constexpr int kStepsCsvFields = 7;
+
+std::string UtcNow() {
+  const std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+std::string ReadWholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void WriteFileAtomic(const std::string& path, const std::string& data) {
+  const std::string tmp = path + ".tmp";
+  FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw std::runtime_error(tmp + ": cannot create: " + std::strerror(errno));
+  const bool ok = std::fwrite(data.data(), 1, data.size(), f) == data.size();
+  if (std::fclose(f) != 0 || !ok) throw std::runtime_error(tmp + ": write failed");
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw std::runtime_error(path + ": rename failed: " + std::strerror(errno));
+}
+
+// Complete lines of a file (those ending in '\n'); *partial_tail is set when the file ends
+// with bytes after the last newline, *complete_bytes to the length of the complete part.
+std::vector<std::string> ReadLines(const std::string& path, bool* partial_tail, size_t* complete_bytes) {
+  *partial_tail = false;
+  *complete_bytes = 0;
+  std::vector<std::string> lines;
+  if (!fs::exists(path)) return lines;
+  const std::string data = ReadWholeFile(path);
+  size_t start = 0;
+  while (start < data.size()) {
+    const size_t nl = data.find('\n', start);
+    if (nl == std::string::npos) {
+      *partial_tail = true;
+      break;
+    }
+    lines.push_back(data.substr(start, nl - start));
+    start = nl + 1;
+  }
+  *complete_bytes = start;
+  return lines;
+}
+
+int64_t ParseInt(const std::string& s, const std::string& where) {
+  if (s.empty()) throw std::runtime_error(where + ": empty");
+  size_t used = 0;
+  int64_t v = 0;
+  try {
+    v = std::stoll(s, &used, 10);
+  } catch (const std::exception&) {
+    throw std::runtime_error(where + ": '" + s + "' is not an integer");
+  }
+  if (used != s.size()) throw std::runtime_error(where + ": '" + s + "' is not an integer");
+  return v;
+}
+
+double ParseDouble(const std::string& s, const std::string& where) {
+  size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(s, &used);
+  } catch (const std::exception&) {
+    throw std::runtime_error(where + ": '" + s + "' is not a number");
+  }
+  if (used != s.size()) throw std::runtime_error(where + ": '" + s + "' is not a number");
+  return v;
+}
+
+std::string Fmt(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  return buf;
+}
+
+FrameRecord ParseFrameLine(const std::string& line, const std::string& where) {
+  const std::vector<std::string> f = SplitCsv(line);
+  if (static_cast<int>(f.size()) != kFramesCsvFields)
+    throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
+                             std::to_string(kFramesCsvFields));
+  static const char* names[kFramesCsvFields] = {
+      "frame_index", "seq", "stamp_ns", "Rx_us", "Ry_us", "Lx_us", "Ly_us", "Neck_us", "approach_Rx",
+      "approach_Ry", "approach_Lx", "approach_Ly", "approach_Neck", "step_index", "step_name",
+      "placement_index", "jpeg_bytes", "jpeg_crc32"};
+  auto w = [&](int i) { return where + " field " + names[i]; };
+  FrameRecord r;
+  r.frame_index = ParseInt(f[0], w(0));
+  r.seq = ParseInt(f[1], w(1));
+  r.stamp_ns = ParseInt(f[2], w(2));
+  for (int i = 0; i < models::kNumServos; ++i) r.pwm_us[i] = static_cast<int>(ParseInt(f[3 + i], w(3 + i)));
+  for (int i = 0; i < models::kNumServos; ++i) {
+    const int64_t a = ParseInt(f[8 + i], w(8 + i));
+    if (a < -1 || a > 1) throw std::runtime_error(w(8 + i) + ": '" + f[8 + i] + "' is not -1, 0 or 1");
+    r.approach[i] = static_cast<int8_t>(a);
+  }
+  r.step_index = static_cast<int>(ParseInt(f[13], w(13)));
+  r.step_name = f[14];
+  r.placement_index = static_cast<int>(ParseInt(f[15], w(15)));
+  r.jpeg_bytes = ParseInt(f[16], w(16));
+  try {
+    size_t used = 0;
+    r.jpeg_crc32 = static_cast<uint32_t>(std::stoul(f[17], &used, 16));
+    if (used != f[17].size()) throw std::invalid_argument("x");
+  } catch (const std::exception&) {
+    throw std::runtime_error(w(17) + ": '" + f[17] + "' is not a hex CRC");
+  }
+  return r;
+}
+
+std::string FrameLine(const FrameRecord& r) {
+  std::ostringstream s;
+  s << r.frame_index << ',' << r.seq << ',' << r.stamp_ns;
+  for (int v : r.pwm_us) s << ',' << v;
+  for (int8_t a : r.approach) s << ',' << int(a);
+  char crc[16];
+  std::snprintf(crc, sizeof(crc), "%08x", r.jpeg_crc32);
+  s << ',' << r.step_index << ',' << CsvSafe(r.step_name) << ',' << r.placement_index << ',' << r.jpeg_bytes
+    << ',' << crc << '\n';
+  return s.str();
+}
+
+std::string PlacementLine(const PlacementRecord& p) {
+  const Eigen::Quaterniond q(p.base_from_target.rotation());
+  const Eigen::Vector3d t = p.base_from_target.translation();
+  std::ostringstream s;
+  s << p.placement_index << ',' << p.step_index << ',' << CsvSafe(p.target) << ',' << Fmt(p.distance_m) << ','
+    << Fmt(t.x()) << ',' << Fmt(t.y()) << ',' << Fmt(t.z()) << ',' << Fmt(q.x()) << ',' << Fmt(q.y()) << ','
+    << Fmt(q.z()) << ',' << Fmt(q.w()) << ',' << CsvSafe(p.source) << ',' << CsvSafe(p.answer) << ','
+    << p.stamp_ns << '\n';
+  return s.str();
+}
+
+PlacementRecord ParsePlacementLine(const std::string& line, const std::string& where) {
+  const std::vector<std::string> f = SplitCsv(line);
+  if (static_cast<int>(f.size()) != kPlacementsCsvFields)
+    throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
+                             std::to_string(kPlacementsCsvFields));
+  PlacementRecord p;
+  p.placement_index = static_cast<int>(ParseInt(f[0], where + " field placement_index"));
+  p.step_index = static_cast<int>(ParseInt(f[1], where + " field step_index"));
+  p.target = f[2];
+  p.distance_m = ParseDouble(f[3], where + " field distance_m");
+  Eigen::Vector3d t(ParseDouble(f[4], where + " field tx_m"), ParseDouble(f[5], where + " field ty_m"),
+                    ParseDouble(f[6], where + " field tz_m"));
+  Eigen::Quaterniond q(ParseDouble(f[10], where + " field qw"), ParseDouble(f[7], where + " field qx"),
+                       ParseDouble(f[8], where + " field qy"), ParseDouble(f[9], where + " field qz"));
+  p.base_from_target = Eigen::Isometry3d::Identity();
+  p.base_from_target.linear() = q.normalized().toRotationMatrix();
+  p.base_from_target.translation() = t;
+  p.source = f[11];
+  p.answer = f[12];
+  p.stamp_ns = ParseInt(f[13], where + " field stamp_ns");
+  return p;
+}
+
+std::string StepLine(const StepRecord& s) {
+  std::ostringstream o;
+  o << s.step_index << ',' << CsvSafe(s.step_name) << ',' << CsvSafe(s.kind) << ',' << CsvSafe(s.status) << ','
+    << s.start_ns << ',' << s.end_ns << ',' << s.num_frames << '\n';
+  return o.str();
+}
+
+StepRecord ParseStepLine(const std::string& line, const std::string& where) {
+  const std::vector<std::string> f = SplitCsv(line);
+  if (static_cast<int>(f.size()) != kStepsCsvFields)
+    throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
+                             std::to_string(kStepsCsvFields));
+  StepRecord s;
+  s.step_index = static_cast<int>(ParseInt(f[0], where + " field step_index"));
+  s.step_name = f[1];
+  s.kind = f[2];
+  s.status = f[3];
+  s.start_ns = ParseInt(f[4], where + " field start_ns");
+  s.end_ns = ParseInt(f[5], where + " field end_ns");
+  s.num_frames = ParseInt(f[6], where + " field num_frames");
+  return s;
+}
+
+// Generic reader: header check + complete lines parsed by `parse`; a partial tail is ignored.
+template <typename R, typename Parse>
+std::vector<R> ReadTable(const std::string& path, const char* header, Parse parse) {
+  std::vector<R> out;
+  bool partial = false;
+  size_t bytes = 0;
+  const std::vector<std::string> lines = ReadLines(path, &partial, &bytes);
+  if (lines.empty()) return out;
+  if (lines[0] != header) throw std::runtime_error(path + ":1: header is '" + lines[0] + "', expected '" + header + "'");
+  for (size_t i = 1; i < lines.size(); ++i) out.push_back(parse(lines[i], path + ":" + std::to_string(i + 1)));
+  return out;
+}
+
+}  // namespace
+
+uint32_t Crc32(const uint8_t* data, size_t size) {
+  static const auto table = [] {
+    std::array<uint32_t, 256> t{};
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < size; ++i) c = table[(c ^ data[i]) & 0xFF] ^ (c >> 8);
+  return c ^ 0xFFFFFFFFu;
+}
+
+std::string FramePath(const std::string& dir, int64_t frame_index) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06" PRId64 ".jpg", frame_index);
+  return (fs::path(dir) / "frames" / name).string();
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else if (c != '\r') {
+      cur.push_back(c);
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+std::string CsvSafe(std::string text) {
+  for (char& c : text)
+    if (c == ',' || c == '\n' || c == '\r') c = ';';
+  return text;
+}
+
+// ---------------------------------------------------------------- writer
+
+std::unique_ptr<DatasetWriter> DatasetWriter::Create(const std::string& dir, nlohmann::json manifest) {
+  std::error_code ec;
+  fs::create_directories(fs::path(dir) / "frames", ec);
+  if (ec) throw std::runtime_error(dir + ": cannot create dataset folder: " + ec.message());
+  if (fs::exists(fs::path(dir) / "manifest.json"))
+    throw std::runtime_error(dir + ": already holds a dataset (manifest.json); use --resume or another --out");
+  std::unique_ptr<DatasetWriter> w(new DatasetWriter);
+  w->dir_ = dir;
+  manifest["format"] = kDatasetFormat;
+  manifest["format_version"] = kDatasetFormatVersion;
+  manifest["created_utc"] = UtcNow();
+  manifest["status"] = "running";
+  w->manifest_ = std::move(manifest);
+  w->WriteManifest();
+  w->Open("frames.csv", kFramesCsvHeader);
+  w->Open("placements.csv", kPlacementsCsvHeader);
+  w->Open("steps.csv", kStepsCsvHeader);
+  return w;
+}
+
+std::unique_ptr<DatasetWriter> DatasetWriter::Resume(const std::string& dir) {
+  RepairDataset(dir);
+  std::unique_ptr<DatasetWriter> w(new DatasetWriter);
+  w->dir_ = dir;
+  w->manifest_ = ReadManifest(dir);
+  w->next_frame_index_ = static_cast<int64_t>(ReadFramesCsv(dir).size());
+  w->placements_ = ReadPlacementsCsv(dir);
+  w->next_placement_index_ = static_cast<int>(w->placements_.size());
+  w->steps_ = ReadStepsCsv(dir);
+  w->manifest_["status"] = "running";
+  w->manifest_["resumed_utc"].push_back(UtcNow());
+  w->WriteManifest();
+  return w;
+}
+
+DatasetWriter::~DatasetWriter() {
+  for (auto& [name, f] : files_) std::fclose(f);
+}
+
+void DatasetWriter::WriteManifest() {
+  WriteFileAtomic((fs::path(dir_) / "manifest.json").string(), manifest_.dump(2) + "\n");
+}
+
+void DatasetWriter::Finish(const std::string& status, const std::string& message) {
+  manifest_["status"] = status;
+  manifest_["message"] = message;
+  manifest_["finished_utc"] = UtcNow();
+  manifest_["num_frames"] = next_frame_index_;
+  WriteManifest();
+}
+
+FILE* DatasetWriter::Open(const std::string& name, const std::string& header) {
+  auto it = files_.find(name);
+  if (it != files_.end()) return it->second;
+  const std::string path = (fs::path(dir_) / name).string();
+  const bool fresh = !fs::exists(path) || fs::file_size(path) == 0;
+  FILE* f = std::fopen(path.c_str(), "ab");
+  if (!f) throw std::runtime_error(path + ": cannot open for appending: " + std::strerror(errno));
+  files_[name] = f;
+  if (fresh && !header.empty()) AppendLine(f, name, header + "\n");
+  return f;
+}
+
+void DatasetWriter::AppendLine(FILE* f, const std::string& name, const std::string& line) {
+  if (std::fwrite(line.data(), 1, line.size(), f) != line.size() || std::fflush(f) != 0)
+    throw std::runtime_error((fs::path(dir_) / name).string() + ": write failed: " + std::strerror(errno));
+}
+
+int64_t DatasetWriter::AppendFrame(const std::vector<uint8_t>& jpeg, FrameRecord record) {
+  record.frame_index = next_frame_index_;
+  record.jpeg_bytes = static_cast<int64_t>(jpeg.size());
+  record.jpeg_crc32 = Crc32(jpeg.data(), jpeg.size());
+  const std::string path = FramePath(dir_, record.frame_index);
+  const std::string tmp = path + ".tmp";
+  FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw std::runtime_error(tmp + ": cannot create: " + std::strerror(errno));
+  const bool ok = std::fwrite(jpeg.data(), 1, jpeg.size(), f) == jpeg.size();
+  if (std::fclose(f) != 0 || !ok) throw std::runtime_error(tmp + ": write failed");
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error(path + ": rename failed");
+  AppendLine(Open("frames.csv", kFramesCsvHeader), "frames.csv", FrameLine(record));
+  return next_frame_index_++;
+}
+
+int DatasetWriter::AppendPlacement(PlacementRecord placement) {
+  placement.placement_index = next_placement_index_;
+  AppendLine(Open("placements.csv", kPlacementsCsvHeader), "placements.csv", PlacementLine(placement));
+  placements_.push_back(placement);
+  return next_placement_index_++;
+}
+
+void DatasetWriter::AppendStep(const StepRecord& step) {
+  AppendLine(Open("steps.csv", kStepsCsvHeader), "steps.csv", StepLine(step));
+  steps_.push_back(step);
+}
+
+void DatasetWriter::Event(int64_t stamp_ns, const std::string& kind, const std::string& message) {
+  std::string m = message;
+  for (char& c : m)
+    if (c == '\n' || c == '\t') c = ' ';
+  AppendLine(Open("events.log", ""), "events.log", std::to_string(stamp_ns) + "\t" + kind + "\t" + m + "\n");
+}
+
+void DatasetWriter::AppendRow(const std::string& name, const std::string& header, const std::vector<std::string>& row) {
+  std::string line;
+  for (size_t i = 0; i < row.size(); ++i) line += (i ? "," : "") + CsvSafe(row[i]);
+  AppendLine(Open(name, header), name, line + "\n");
+}
+
+// ---------------------------------------------------------------- reading and checking
+
+nlohmann::json ReadManifest(const std::string& dir) {
+  const std::string path = (fs::path(dir) / "manifest.json").string();
+  if (!fs::exists(path)) throw std::runtime_error(path + ": missing (not a dataset folder)");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(ReadWholeFile(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+  }
+  if (!j.is_object() || j.value("format", "") != kDatasetFormat)
+    throw std::runtime_error(path + ": field 'format' is not '" + std::string(kDatasetFormat) + "'");
+  return j;
+}
+
+std::vector<FrameRecord> ReadFramesCsv(const std::string& dir) {
+  return ReadTable<FrameRecord>((fs::path(dir) / "frames.csv").string(), kFramesCsvHeader, ParseFrameLine);
+}
+std::vector<PlacementRecord> ReadPlacementsCsv(const std::string& dir) {
+  return ReadTable<PlacementRecord>((fs::path(dir) / "placements.csv").string(), kPlacementsCsvHeader,
+                                    ParsePlacementLine);
+}
+std::vector<StepRecord> ReadStepsCsv(const std::string& dir) {
+  return ReadTable<StepRecord>((fs::path(dir) / "steps.csv").string(), kStepsCsvHeader, ParseStepLine);
+}
+
+std::vector<uint8_t> ReadFrameJpeg(const std::string& dir, int64_t frame_index) {
+  const std::string data = ReadWholeFile(FramePath(dir, frame_index));
+  return std::vector<uint8_t>(data.begin(), data.end());
+}
+
+DatasetCheck CheckDataset(const std::string& dir, bool verify_crc) {
+  DatasetCheck c;
+  auto error = [&](const std::string& e) { c.errors.push_back(e); };
+  nlohmann::json manifest;
+  try {
+    manifest = ReadManifest(dir);
+    c.status = manifest.value("status", "");
+    if (c.status == "running") c.warnings.push_back("manifest.json: status 'running': the run was interrupted");
+  } catch (const std::exception& e) {
+    error(e.what());
+    return c;
+  }
+  // frames.csv
+  const std::string frames_csv = (fs::path(dir) / "frames.csv").string();
+  bool partial = false;
+  size_t bytes = 0;
+  std::vector<std::string> lines;
+  try {
+    lines = ReadLines(frames_csv, &partial, &bytes);
+  } catch (const std::exception& e) {
+    error(e.what());
+  }
+  if (!fs::exists(frames_csv)) error(frames_csv + ": missing");
+  if (partial) c.warnings.push_back(frames_csv + ": partial last line dropped (the run was cut while writing it)");
+  if (!lines.empty() && lines[0] != kFramesCsvHeader) error(frames_csv + ":1: header is not the frames header");
+  int64_t expected = 0;
+  for (size_t i = 1; i < lines.size() && c.errors.empty(); ++i) {
+    const std::string where = frames_csv + ":" + std::to_string(i + 1);
+    FrameRecord r;
+    try {
+      r = ParseFrameLine(lines[i], where);
+    } catch (const std::exception& e) {
+      error(e.what());
+      break;
+    }
+    if (r.frame_index != expected) {
+      error(where + " field frame_index: " + std::to_string(r.frame_index) + ", expected " + std::to_string(expected));
+      break;
+    }
+    const std::string path = FramePath(dir, r.frame_index);
+    std::error_code ec;
+    const auto size = fs::file_size(path, ec);
+    if (ec) {
+      error(where + ": frame file " + path + " is missing");
+      break;
+    }
+    if (static_cast<int64_t>(size) != r.jpeg_bytes) {
+      error(where + " field jpeg_bytes: " + std::to_string(r.jpeg_bytes) + " but " + path + " has " +
+            std::to_string(size) + " bytes");
+      break;
+    }
+    if (verify_crc) {
+      const std::vector<uint8_t> jpeg = ReadFrameJpeg(dir, r.frame_index);
+      if (Crc32(jpeg.data(), jpeg.size()) != r.jpeg_crc32) {
+        error(where + " field jpeg_crc32: " + path + " does not match its CRC");
+        break;
+      }
+    }
+    ++expected;
+  }
+  c.num_frames = expected;
+  // Orphans: frame files beyond the last line (the frame being recorded when the run stopped).
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(fs::path(dir) / "frames", ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.size() > 4 && name.substr(name.size() - 4) == ".tmp") {
+      c.warnings.push_back(e.path().string() + ": unfinished frame file dropped");
+      continue;
+    }
+    int64_t index = -1;
+    try {
+      index = std::stoll(name);
+    } catch (const std::exception&) {
+      c.warnings.push_back(e.path().string() + ": not a frame file");
+      continue;
+    }
+    if (index >= expected) c.warnings.push_back(e.path().string() + ": frame without a frames.csv line dropped");
+  }
+  // Other tables: parse; tolerate a partial tail.
+  auto check_table = [&](const std::string& name, const char* header, auto parse) {
+    const std::string path = (fs::path(dir) / name).string();
+    bool p = false;
+    size_t b = 0;
+    const std::vector<std::string> l = ReadLines(path, &p, &b);
+    if (p) c.warnings.push_back(path + ": partial last line dropped");
+    if (!l.empty() && l[0] != header) error(path + ":1: header is not the " + name + " header");
+    for (size_t i = 1; i < l.size(); ++i) {
+      try {
+        parse(l[i], path + ":" + std::to_string(i + 1));
+      } catch (const std::exception& e) {
+        error(e.what());
+        break;
+      }
+    }
+  };
+  check_table("placements.csv", kPlacementsCsvHeader, ParsePlacementLine);
+  check_table("steps.csv", kStepsCsvHeader, ParseStepLine);
+  c.ok = c.errors.empty();
+  return c;
+}
+
+DatasetCheck RepairDataset(const std::string& dir) {
+  DatasetCheck c = CheckDataset(dir, true);
+  if (!c.ok) {
+    std::string msg = dir + ": dataset cannot be repaired:";
+    for (const std::string& e : c.errors) msg += "\n  " + e;
+    throw std::runtime_error(msg);
+  }
+  // Truncate the partial tails of every CSV and text log.
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const std::string ext = e.path().extension().string();
+    if (ext != ".csv" && ext != ".log") continue;
+    bool partial = false;
+    size_t bytes = 0;
+    ReadLines(e.path().string(), &partial, &bytes);
+    if (partial) fs::resize_file(e.path(), bytes);
+  }
+  for (const auto& e : fs::directory_iterator(fs::path(dir) / "frames")) {
+    const std::string name = e.path().filename().string();
+    bool remove = name.size() > 4 && name.substr(name.size() - 4) == ".tmp";
+    if (!remove) {
+      try {
+        remove = std::stoll(name) >= c.num_frames;
+      } catch (const std::exception&) {
+      }
+    }
+    if (remove) fs::remove(e.path());
+  }
+  const std::string tmp_manifest = (fs::path(dir) / "manifest.json.tmp").string();
+  if (fs::exists(tmp_manifest)) fs::remove(tmp_manifest);
+  return c;
+}
+
+}  // namespace owlcal::protocols

@@ -1,0 +1,280 @@
+#include "protocols/fixation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "models/head_model.h"
+
+namespace owlcal::protocols {
+namespace {
+
+
+class FixationLocator : public TargetLocator {
+ public:
+  explicit FixationLocator(const calib::FixationDetectorOptions& o) : options_(o) {}
+  std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int) override {
+    const calib::FixationDetection d = calib::DetectFixationTarget(image, options_);
+    if (!d.found) return std::nullopt;
+    return d.centre;
+  }
+  std::string Name() const override { return "fixation"; }
+
+ private:
+  calib::FixationDetectorOptions options_;
+};
+
+class TemplateLocator : public TargetLocator {
+ public:
+  TemplateLocator(int half, double min_score) : half_(half), min_score_(min_score) {}
+  bool Prepare(const robot::StereoFrame& frame, std::string* why) override {
+    const cv::Mat& img = frame.right;
+    if (img.empty()) {
+      if (why) *why = "template locator: the first frame has no right image";
+      return false;
+    }
+    templ_ = calib::CutTemplate(img, Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0), half_);
+    cv::Scalar mean, sd;
+    cv::meanStdDev(templ_, mean, sd);
+    if (sd[0] < 5) {
+      if (why) *why = "template locator: the right eye's centre has no texture (grey sd " + std::to_string(sd[0]) + ")";
+      return false;
+    }
+    return true;
+  }
+  std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int) override {
+    if (templ_.empty()) return std::nullopt;
+    const calib::TemplateMatch m = calib::MatchTemplateNcc(image, templ_, min_score_);
+    if (!m.found) return std::nullopt;
+    return m.centre;
+  }
+  std::string Name() const override { return "template"; }
+
+ private:
+  int half_;
+  double min_score_;
+  cv::Mat templ_;
+};
+
+class FunctionLocator : public TargetLocator {
+ public:
+  FunctionLocator(std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn)
+      : name_(std::move(name)), fn_(std::move(fn)) {}
+  std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int eye) override { return fn_(image, eye); }
+  std::string Name() const override { return name_; }
+
+ private:
+  std::string name_;
+  std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn_;
+};
+
+// Half-cycle peak tracker of one error signal.
+struct PeakTracker {
+  int sign = 0;
+  double peak = 0;
+  std::vector<double> peaks;
+  void Add(double e, double dead) {
+    const int s = e > dead ? 1 : (e < -dead ? -1 : 0);
+    if (s == 0) return;
+    if (sign != 0 && s != sign) {
+      peaks.push_back(peak);
+      peak = 0;
+    }
+    sign = s;
+    peak = std::max(peak, std::abs(e));
+  }
+  // Two consecutive completed half-cycles whose peaks did not decay.
+  bool Growing(double floor) const {
+    const size_t n = peaks.size();
+    if (n < 3) return false;
+    return peaks[n - 1] > floor && peaks[n - 1] >= 0.95 * peaks[n - 2] && peaks[n - 2] >= 0.95 * peaks[n - 3];
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<TargetLocator> MakeFixationLocator(const calib::FixationDetectorOptions& options) {
+  return std::make_unique<FixationLocator>(options);
+}
+std::unique_ptr<TargetLocator> MakeTemplateLocator(int half_size, double min_score) {
+  return std::make_unique<TemplateLocator>(half_size, min_score);
+}
+std::unique_ptr<TargetLocator> MakeFunctionLocator(
+    std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn) {
+  return std::make_unique<FunctionLocator>(std::move(name), std::move(fn));
+}
+
+const char* OutcomeName(FixationResult::Outcome o) {
+  switch (o) {
+    case FixationResult::Outcome::kConverged: return "converged";
+    case FixationResult::Outcome::kMaxIterations: return "max-iterations";
+    case FixationResult::Outcome::kDiverged: return "diverged";
+    case FixationResult::Outcome::kLimit: return "heading-for-limit";
+    case FixationResult::Outcome::kLost: return "target-lost";
+    case FixationResult::Outcome::kNotStarted: return "not-started";
+  }
+  return "?";
+}
+
+bool FixationOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = "fixation options: " + m;
+    return false;
+  };
+  if (!eyes[0] && !eyes[1]) return fail("no eye selected");
+  if (!pan && !tilt) return fail("no axis selected");
+  if (!(gain > 0 && gain < 5)) return fail("gain " + std::to_string(gain) + " must be in (0, 5)");
+  if (max_iterations < 1) return fail("max_iterations " + std::to_string(max_iterations) + " must be >= 1");
+  if (!(tolerance_px > 0)) return fail("tolerance_px must be > 0");
+  if (latency_frames < 0) return fail("latency_frames must be >= 0");
+  if (max_step_us < 1) return fail("max_step_us must be >= 1");
+  if (!(focal_px > 0)) return fail("focal_px must be > 0");
+  return true;
+}
+
+Eigen::Vector2d OffsetToPulseError(const Eigen::Vector2d& offset_px, int eye, const models::RobotConfig& robot,
+                                   double focal_px) {
+  const models::ServoConfig& pan = robot.servos[models::kPanServo[eye]];
+  const models::ServoConfig& tilt = robot.servos[models::kTiltServo[eye]];
+  const double pan_deg = std::atan(offset_px.x() / focal_px) * 180.0 / M_PI;
+  const double tilt_deg = std::atan(-offset_px.y() / focal_px) * 180.0 / M_PI;
+  return Eigen::Vector2d(pan.direction * pan_deg / pan.nominal_deg_per_us,
+                         tilt.direction * tilt_deg / tilt.nominal_deg_per_us);
+}
+
+FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& robot, TargetLocator& locator,
+                           const FixationIo& io) {
+  FixationResult r;
+  std::string why;
+  if (!o.Check(&why)) {
+    r.message = why;
+    return r;
+  }
+  const models::PwmVector start = io.command();
+  std::array<double, models::kNumServos> state;
+  for (int i = 0; i < models::kNumServos; ++i) state[i] = start[i];
+  models::PwmVector sent = start;
+  PeakTracker peaks[2][2];
+  double initial_err[2] = {-1, -1};
+  int lost = 0, still = 0, wait = 0;
+  for (int k = 0; k < o.max_iterations; ++k) {
+    const robot::StereoFrame frame = io.grab();
+    if (k == 0 && !locator.Prepare(frame, &why)) {
+      r.outcome = FixationResult::Outcome::kNotStarted;
+      r.message = why;
+      r.final_pwm_us = sent;
+      return r;
+    }
+    FixationSample s;
+    s.k = k;
+    s.stamp_ns = frame.stamp_ns;
+    s.pwm_us = sent;
+    bool all_found = true;
+    double max_err = 0;
+    for (int e = 0; e < 2; ++e) {
+      if (!o.eyes[e]) continue;
+      const cv::Mat img = e == models::kLeftEye ? frame.left : frame.right;
+      const auto p = locator.Locate(img, e);
+      if (!p) {
+        all_found = false;
+        continue;
+      }
+      s.found[e] = true;
+      s.offset_px[e] = *p - Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
+      r.found[e] = true;
+      r.residual_px[e] = s.offset_px[e];
+      const double err = std::max(o.pan ? std::abs(s.offset_px[e].x()) : 0.0, o.tilt ? std::abs(s.offset_px[e].y()) : 0.0);
+      max_err = std::max(max_err, err);
+      if (initial_err[e] < 0) initial_err[e] = err;
+      peaks[e][0].Add(s.offset_px[e].x(), o.tolerance_px);
+      peaks[e][1].Add(s.offset_px[e].y(), o.tolerance_px);
+    }
+    r.trace.push_back(s);
+    r.iterations = k + 1;
+    if (!all_found) {
+      if (++lost >= o.lost_frames) {
+        r.outcome = FixationResult::Outcome::kLost;
+        r.message = "target not found in " + std::to_string(lost) + " consecutive frames";
+        r.final_pwm_us = sent;
+        return r;
+      }
+      continue;
+    }
+    lost = 0;
+    // Divergence: growing oscillation or error far beyond its start.
+    for (int e = 0; e < 2; ++e) {
+      if (!o.eyes[e]) continue;
+      for (int a = 0; a < 2; ++a) {
+        if ((a == 0 && !o.pan) || (a == 1 && !o.tilt)) continue;
+        if (peaks[e][a].Growing(3 * o.tolerance_px)) {
+          r.outcome = FixationResult::Outcome::kDiverged;
+          r.message = std::string(models::kEyeNames[e]) + (a == 0 ? " pan" : " tilt") +
+                      ": oscillation does not decay (half-cycle peaks " +
+                      std::to_string(peaks[e][a].peaks[peaks[e][a].peaks.size() - 2]) + " -> " +
+                      std::to_string(peaks[e][a].peaks.back()) + " px) at gain " + std::to_string(o.gain);
+          r.final_pwm_us = sent;
+          return r;
+        }
+      }
+      if (initial_err[e] >= 0 && max_err > 2 * std::max(initial_err[e], 10.0)) {
+        r.outcome = FixationResult::Outcome::kDiverged;
+        r.message = "error grew to " + std::to_string(max_err) + " px from " + std::to_string(initial_err[e]) +
+                    " px at gain " + std::to_string(o.gain);
+        r.final_pwm_us = sent;
+        return r;
+      }
+    }
+    if (wait > 0) {
+      --wait;
+      continue;
+    }
+    // Proportional update.
+    models::PwmVector next = sent;
+    for (int e = 0; e < 2; ++e) {
+      if (!o.eyes[e]) continue;
+      const Eigen::Vector2d err_us = OffsetToPulseError(s.offset_px[e], e, robot, o.focal_px);
+      const int servos[2] = {models::kPanServo[e], models::kTiltServo[e]};
+      for (int a = 0; a < 2; ++a) {
+        if ((a == 0 && !o.pan) || (a == 1 && !o.tilt)) continue;
+        const double step = std::clamp(o.gain * err_us[a], -double(o.max_step_us), double(o.max_step_us));
+        state[servos[a]] += step;
+        next[servos[a]] = static_cast<int>(std::lround(state[servos[a]]));
+      }
+    }
+    // Heading for a limit: stop before sending.
+    for (int i = 0; i < models::kNumServos; ++i) {
+      if (next[i] == sent[i]) continue;
+      const models::ServoConfig& c = robot.servos[i];
+      if (next[i] < c.min_us + o.limit_margin_us || next[i] > c.max_us - o.limit_margin_us) {
+        r.outcome = FixationResult::Outcome::kLimit;
+        r.message = std::string(models::kServoNames[i]) + " would go to " + std::to_string(next[i]) +
+                    " us, within " + std::to_string(o.limit_margin_us) + " us of its limit [" +
+                    std::to_string(c.min_us) + ", " + std::to_string(c.max_us) + "]: stopped before sending";
+        r.final_pwm_us = sent;
+        return r;
+      }
+    }
+    const bool unchanged = next == sent;
+    if (unchanged && max_err <= o.tolerance_px) {
+      if (++still >= o.still_frames && o.stop_when_converged) {
+        r.outcome = FixationResult::Outcome::kConverged;
+        r.message = "converged in " + std::to_string(k + 1) + " frames";
+        r.final_pwm_us = sent;
+        return r;
+      }
+    } else {
+      still = 0;
+    }
+    if (!unchanged) {
+      io.send(next);
+      sent = io.command();
+      wait = o.latency_frames;
+    }
+  }
+  r.final_pwm_us = sent;
+  r.outcome = still >= o.still_frames ? FixationResult::Outcome::kConverged : FixationResult::Outcome::kMaxIterations;
+  r.message = r.outcome == FixationResult::Outcome::kConverged ? "converged (ran all frames)"
+                                                                 : "not converged in " + std::to_string(o.max_iterations) + " frames";
+  return r;
+}
+
+}  // namespace owlcal::protocols

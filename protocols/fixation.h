@@ -1,0 +1,117 @@
+#pragma once
+// Closed-loop fixation: proportional control from the target's image offset to a PWM change,
+// as in the course (guide, "Proportional Control"; Owl-1 demo), with the gain, latency
+// awareness and a divergence stop.
+//
+// Each update, for every controlled eye, the target's offset from the image centre
+// e = (u - cx, v - cy) [px] (cx = (width - 1) / 2) is converted to a pulse-width error with
+// the nominal camera and servo scales:
+//   pan_err_us  = direction_pan  * deg(atan(e_x / focal_px)) / deg_per_us
+//   tilt_err_us = direction_tilt * deg(atan(-e_y / focal_px)) / deg_per_us
+// and the command moves by gain * error (the course's incremental loop theta += K * error,
+// FACTS.md "Control with latency": with d frames of delay K_crit = 2 sin(pi / (2 (2d + 1))),
+// 0.445 for d = 3; K = 0.1 settles without overshoot). The command is kept as a real number
+// and rounded to whole microseconds when sent.
+//
+// Latency awareness: latency_frames = n > 0 waits n frames after every update (those frames
+// still show the old pose), which makes large gains stable at the cost of a slower loop.
+//
+// Divergence stop: the loop stops (and reports why) BEFORE sending a command that would come
+// within limit_margin_us of a servo's limit, when the error's half-cycle peaks stop decaying
+// (an oscillation that does not die out), when the error grows beyond twice its initial
+// value, or when the target is lost for lost_frames frames.
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "calib/fixation_detector.h"
+#include "models/robot_config.h"
+#include "protocols/protocol.h"
+#include "robot/robot_interface.h"
+
+namespace owlcal::protocols {
+
+// Where is the target in one eye image (pixels, OpenCV convention)?
+class TargetLocator {
+ public:
+  virtual ~TargetLocator() = default;
+  // Called with the first frame of a loop (e.g. to cut a template); false = cannot start.
+  virtual bool Prepare(const robot::StereoFrame& frame, std::string* why) {
+    (void)frame;
+    (void)why;
+    return true;
+  }
+  virtual std::optional<Eigen::Vector2d> Locate(const cv::Mat& eye_image, int eye) = 0;
+  virtual std::string Name() const = 0;
+};
+
+// Fixation disc/blob (calib/fixation_detector.h).
+std::unique_ptr<TargetLocator> MakeFixationLocator(const calib::FixationDetectorOptions& options = {});
+// Template cut from the centre of the right eye's image at Prepare (the course's Owl-1 demo:
+// the right eye looks at the target, the template is found in both eyes by NCC).
+std::unique_ptr<TargetLocator> MakeTemplateLocator(int half_size = 20, double min_score = 0.6);
+// Any callable.
+std::unique_ptr<TargetLocator> MakeFunctionLocator(
+    std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn);
+
+struct FixationOptions {
+  bool eyes[2] = {true, true};    // [kLeftEye], [kRightEye]
+  bool pan = true, tilt = true;   // axes controlled
+  double gain = 0.1;
+  int max_iterations = 90;        // frames (updates + waits)
+  bool stop_when_converged = true;
+  double tolerance_px = 1.0;      // converged: |e| <= tolerance with the command unchanged
+  int still_frames = 4;           //   for this many consecutive frames
+  int latency_frames = 0;
+  int max_step_us = 60;           // per update and servo
+  int limit_margin_us = 20;
+  int lost_frames = 5;
+  double focal_px = 585;          // nominal focal length (models::NominalHeadModel)
+
+  bool Check(std::string* why) const;
+};
+
+struct FixationSample {
+  int k = 0;                      // frame number in the loop
+  int64_t stamp_ns = 0;
+  bool found[2] = {false, false};
+  Eigen::Vector2d offset_px[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};  // target - centre
+  models::PwmVector pwm_us{};     // command in force when the frame arrived
+};
+
+struct FixationResult {
+  enum class Outcome { kConverged, kMaxIterations, kDiverged, kLimit, kLost, kNotStarted };
+  Outcome outcome = Outcome::kNotStarted;
+  std::string message;
+  int iterations = 0;
+  models::PwmVector final_pwm_us{};
+  bool found[2] = {false, false};
+  Eigen::Vector2d residual_px[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};  // last offsets
+  std::vector<FixationSample> trace;
+};
+const char* OutcomeName(FixationResult::Outcome outcome);
+
+// What the loop needs from the runner: the command in force, sending through the limits
+// guard, and the next frame (throws on timeout or abort).
+struct FixationIo {
+  std::function<models::PwmVector()> command;
+  std::function<void(const models::PwmVector&)> send;
+  std::function<robot::StereoFrame()> grab;
+};
+
+FixationResult RunFixation(const FixationOptions& options,
+                           const models::RobotConfig& robot,
+                           TargetLocator& locator,
+                           const FixationIo& io);
+
+// The pulse-width change that would centre an image offset for one eye (the loop's error
+// term before the gain): [pan_us, tilt_us] on servos kPanServo[eye], kTiltServo[eye].
+Eigen::Vector2d OffsetToPulseError(const Eigen::Vector2d& offset_px, int eye, const models::RobotConfig& robot,
+                                   double focal_px);
+
+}  // namespace owlcal::protocols

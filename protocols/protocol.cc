@@ -1,0 +1,491 @@
+#include "protocols/protocol.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "owlcal_version.h"
+
+namespace owlcal::protocols {
+namespace fs = std::filesystem;
+
+int PwmExpr::Resolve(const models::ServoConfig& servo) const {
+  switch (base) {
+    case Base::kAbsolute:
+      return offset_us;
+    case Base::kCentre:
+      return servo.centre_us + offset_us;
+    case Base::kMin:
+      return servo.min_us + offset_us;
+    case Base::kMax:
+      return servo.max_us + offset_us;
+  }
+  return servo.centre_us;
+}
+
+std::string PwmExpr::ToString() const {
+  if (base == Base::kAbsolute) return std::to_string(offset_us);
+  const char* b = base == Base::kCentre ? "centre" : base == Base::kMin ? "min" : "max";
+  if (offset_us == 0) return b;
+  std::string out = b;
+  if (offset_us > 0) out.push_back('+');
+  out.append(std::to_string(offset_us));
+  return out;
+}
+
+std::optional<PwmExpr> ParsePwmExpr(const std::string& text_in) {
+  std::string text;
+  for (char c : text_in)
+    if (!std::isspace(static_cast<unsigned char>(c))) text.push_back(static_cast<char>(std::tolower(c)));
+  if (text.empty()) return std::nullopt;
+  auto parse_int = [](const std::string& s) -> std::optional<int> {
+    if (s.empty() || s.size() > 6) return std::nullopt;
+    size_t i = (s[0] == '+' || s[0] == '-') ? 1 : 0;
+    if (i == s.size()) return std::nullopt;
+    for (size_t k = i; k < s.size(); ++k)
+      if (!std::isdigit(static_cast<unsigned char>(s[k]))) return std::nullopt;
+    return std::stoi(s);
+  };
+  PwmExpr e;
+  static const std::pair<const char*, PwmExpr::Base> kBases[] = {{"centre", PwmExpr::Base::kCentre},
+                                                                  {"center", PwmExpr::Base::kCentre},
+                                                                  {"min", PwmExpr::Base::kMin},
+                                                                  {"max", PwmExpr::Base::kMax}};
+  for (const auto& [name, base] : kBases) {
+    const std::string n = name;
+    if (text.rfind(n, 0) == 0) {
+      e.base = base;
+      const std::string rest = text.substr(n.size());
+      if (rest.empty()) return e;
+      if (rest[0] != '+' && rest[0] != '-') return std::nullopt;
+      const auto v = parse_int(rest);
+      if (!v) return std::nullopt;
+      e.offset_us = *v;
+      return e;
+    }
+  }
+  const auto v = parse_int(text);
+  if (!v || *v < 0) return std::nullopt;
+  e.base = PwmExpr::Base::kAbsolute;
+  e.offset_us = *v;
+  return e;
+}
+
+models::PwmVector PoseSpec::Resolve(const models::RobotConfig& robot) const {
+  models::PwmVector p{};
+  for (int i = 0; i < models::kNumServos; ++i) p[i] = servo[i].Resolve(robot.servos[i]);
+  return p;
+}
+
+const char* StepKindName(StepKind kind) {
+  switch (kind) {
+    case StepKind::kMoveTo: return "move-to";
+    case StepKind::kSweep: return "sweep";
+    case StepKind::kGrid: return "grid";
+    case StepKind::kPlaceTarget: return "place-target";
+    case StepKind::kCapture: return "capture";
+    case StepKind::kFixate: return "fixate";
+    case StepKind::kStepResponse: return "step-response";
+    case StepKind::kLimits: return "limits";
+    case StepKind::kAlignment: return "alignment";
+    case StepKind::kLatency: return "latency";
+    case StepKind::kWait: return "wait";
+  }
+  return "?";
+}
+
+const char* LocatorName(Locator locator) {
+  switch (locator) {
+    case Locator::kFixation: return "fixation";
+    case Locator::kTemplate: return "template";
+    case Locator::kAprilTag: return "apriltag";
+  }
+  return "?";
+}
+
+int ServoIndexFromName(const std::string& name) {
+  for (int i = 0; i < models::kNumServos; ++i) {
+    std::string a = name, b = models::kServoNames[i];
+    std::transform(a.begin(), a.end(), a.begin(), ::tolower);
+    std::transform(b.begin(), b.end(), b.begin(), ::tolower);
+    if (a == b) return i;
+  }
+  return -1;
+}
+
+namespace {
+
+// Reads fields of one YAML map, naming the context in every error and rejecting unknown keys.
+class Fields {
+ public:
+  Fields(const YAML::Node& node, std::string context) : node_(node), context_(std::move(context)) {
+    if (!node_.IsMap()) throw ProtocolError(context_ + ": expected a map of fields");
+  }
+  [[noreturn]] void Fail(const std::string& key, const std::string& what) const {
+    throw ProtocolError(context_ + ": field '" + key + "': " + what);
+  }
+  bool Has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+  YAML::Node Get(const std::string& key) {
+    used_.insert(key);
+    return node_[key];
+  }
+  std::string Scalar(const std::string& key) {
+    YAML::Node n = Get(key);
+    if (!n.IsScalar()) Fail(key, "expected a single value");
+    return n.Scalar();
+  }
+  template <typename T>
+  T Value(const std::string& key, T def) {
+    if (!Has(key)) {
+      used_.insert(key);
+      return def;
+    }
+    YAML::Node n = Get(key);
+    try {
+      return n.as<T>();
+    } catch (const YAML::Exception&) {
+      Fail(key, "'" + (n.IsScalar() ? n.Scalar() : std::string("<not a scalar>")) + "' has the wrong type");
+    }
+  }
+  int PositiveInt(const std::string& key, int def, int min_value = 1) {
+    const int v = Value<int>(key, def);
+    if (v < min_value) Fail(key, std::to_string(v) + " must be >= " + std::to_string(min_value));
+    return v;
+  }
+  double PositiveDouble(const std::string& key, double def, bool allow_zero = false) {
+    const double v = Value<double>(key, def);
+    if (!(allow_zero ? v >= 0 : v > 0)) Fail(key, std::to_string(v) + (allow_zero ? " must be >= 0" : " must be > 0"));
+    return v;
+  }
+  template <typename T>
+  std::vector<T> List(const std::string& key, std::vector<T> def) {
+    if (!Has(key)) {
+      used_.insert(key);
+      return def;
+    }
+    YAML::Node n = Get(key);
+    if (!n.IsSequence() || n.size() == 0) Fail(key, "expected a non-empty list");
+    std::vector<T> out;
+    for (size_t i = 0; i < n.size(); ++i) {
+      try {
+        out.push_back(n[i].as<T>());
+      } catch (const YAML::Exception&) {
+        Fail(key, "entry " + std::to_string(i) + " '" + (n[i].IsScalar() ? n[i].Scalar() : "?") + "' has the wrong type");
+      }
+    }
+    return out;
+  }
+  PwmExpr Pwm(const std::string& key, PwmExpr def) {
+    if (!Has(key)) {
+      used_.insert(key);
+      return def;
+    }
+    const std::string s = Scalar(key);
+    auto e = ParsePwmExpr(s);
+    if (!e) Fail(key, "'" + s + "' is not a pulse width (e.g. 1545, centre, centre+40, min+10, max-10)");
+    return *e;
+  }
+  int Servo(const std::string& key) {
+    const std::string s = Scalar(key);
+    const int i = ServoIndexFromName(s);
+    if (i < 0) Fail(key, "'" + s + "' is not a servo (Rx, Ry, Lx, Ly, Neck)");
+    return i;
+  }
+  std::string OneOf(const std::string& key, const std::string& def, std::initializer_list<const char*> allowed) {
+    const std::string v = Value<std::string>(key, def);
+    std::string list;
+    for (const char* a : allowed) {
+      if (v == a) return v;
+      list += std::string(list.empty() ? "" : ", ") + a;
+    }
+    Fail(key, "'" + v + "' is not one of " + list);
+  }
+  void RejectUnknown() const {
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.as<std::string>();
+      if (!used_.count(k)) throw ProtocolError(context_ + ": unknown field '" + k + "'");
+    }
+  }
+  const std::string& Context() const { return context_; }
+
+ private:
+  YAML::Node node_;
+  std::string context_;
+  std::set<std::string> used_;
+};
+
+PoseSpec ParsePose(const YAML::Node& node, const std::string& context) {
+  PoseSpec pose;
+  if (!node) return pose;
+  Fields f(node, context);
+  for (int i = 0; i < models::kNumServos; ++i) {
+    const std::string name = models::kServoNames[i];
+    if (f.Has(name)) pose.servo[i] = f.Pwm(name, {});
+  }
+  f.RejectUnknown();
+  return pose;
+}
+
+SettleRule ParseSettle(const YAML::Node& node, const std::string& context, SettleRule def) {
+  if (!node) return def;
+  Fields f(node, context);
+  SettleRule s = def;
+  s.mode = f.OneOf("mode", def.mode == SettleRule::Mode::kImage ? "image" : "time", {"image", "time"}) == "image"
+               ? SettleRule::Mode::kImage
+               : SettleRule::Mode::kTime;
+  s.time_ms = f.PositiveInt("time_ms", def.time_ms, 0);
+  s.min_ms = f.PositiveInt("min_ms", def.min_ms, 0);
+  s.max_ms = f.PositiveInt("max_ms", def.max_ms, 1);
+  s.still_px = f.PositiveDouble("still_px", def.still_px);
+  s.still_frames = f.PositiveInt("still_frames", def.still_frames);
+  if (s.max_ms < s.min_ms) f.Fail("max_ms", std::to_string(s.max_ms) + " is below min_ms " + std::to_string(s.min_ms));
+  f.RejectUnknown();
+  return s;
+}
+
+calib::TargetDefinition ParseTarget(const YAML::Node& node, const std::string& name, const std::string& context) {
+  Fields f(node, context);
+  calib::TargetDefinition t;
+  t.id = name;
+  const std::string type = f.OneOf("target_type", "chessboard", {"chessboard", "aprilgrid", "fixation"});
+  if (type == "chessboard") {
+    t.kind = calib::TargetKind::kChessboard;
+    t.cols = f.PositiveInt("cols", t.cols, 2);
+    t.rows = f.PositiveInt("rows", t.rows, 2);
+    t.square_m = f.PositiveDouble("square_size_m", t.square_m);
+  } else if (type == "aprilgrid") {
+    t.kind = calib::TargetKind::kAprilGrid;
+    t.tag_cols = f.PositiveInt("tagCols", t.tag_cols);
+    t.tag_rows = f.PositiveInt("tagRows", t.tag_rows);
+    t.tag_size_m = f.PositiveDouble("tagSize", t.tag_size_m);
+    t.tag_spacing = f.PositiveDouble("tagSpacing", t.tag_spacing, true);
+    t.first_id = f.PositiveInt("first_id", t.first_id, 0);
+    t.family = f.Value<std::string>("family", t.family);
+  } else {
+    t.kind = calib::TargetKind::kFixation;
+    t.fixation_radius_m = f.PositiveDouble("fixation_radius_m", t.fixation_radius_m);
+  }
+  f.RejectUnknown();
+  return t;
+}
+
+void ParseSteps(const YAML::Node& list, const std::string& source, const std::string& prefix, Protocol* p, int depth);
+
+Step ParseStep(const std::string& kind, const YAML::Node& body, const std::string& context) {
+  Step s;
+  Fields f(body.IsNull() ? YAML::Node(YAML::NodeType::Map) : body, context);
+  s.name = f.Value<std::string>("name", "");
+  if (kind == "move-to") {
+    s.kind = StepKind::kMoveTo;
+    s.pose = ParsePose(f.Get("pose"), context + " pose");
+    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+    s.frames = f.PositiveInt("frames", 0, 0);
+  } else if (kind == "sweep") {
+    s.kind = StepKind::kSweep;
+    s.servo = f.Servo("servo");
+    s.from = f.Pwm("from", {PwmExpr::Base::kMin, 0});
+    s.to = f.Pwm("to", {PwmExpr::Base::kMax, 0});
+    s.step_us = f.PositiveInt("step_us", 20);
+    s.both_directions = f.Value<bool>("both_directions", true);
+    s.pre_approach = f.Value<bool>("pre_approach", true);
+    s.frames = f.PositiveInt("frames", 1);
+    s.pose = ParsePose(f.Get("hold"), context + " hold");
+    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+  } else if (kind == "grid") {
+    s.kind = StepKind::kGrid;
+    s.eyes = f.OneOf("eyes", "both", {"both", "left", "right"});
+    s.pan_us = f.List<int>("pan_us", {0});
+    s.tilt_us = f.List<int>("tilt_us", {0});
+    s.neck_us = f.List<int>("neck_us", {0});
+    s.frames = f.PositiveInt("frames", 1);
+    s.pose = ParsePose(f.Get("hold"), context + " hold");
+    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+    s.detect = f.Value<bool>("detect", false);
+  } else if (kind == "place-target") {
+    s.kind = StepKind::kPlaceTarget;
+    s.target = f.Scalar("target");
+    s.distance_m = f.PositiveDouble("distance_m", 0.6);
+    const auto off = f.List<double>("offset_m", {0, 0});
+    if (off.size() != 2) f.Fail("offset_m", "expected [x, y]");
+    s.offset_m = Eigen::Vector2d(off[0], off[1]);
+    const auto rpy = f.List<double>("rpy_deg", {0, 0, 0});
+    if (rpy.size() != 3) f.Fail("rpy_deg", "expected [roll, pitch, yaw]");
+    s.rpy_deg = Eigen::Vector3d(rpy[0], rpy[1], rpy[2]);
+    s.hide_others = f.Value<bool>("hide_others", true);
+    s.prompt = f.Value<std::string>("prompt", "");
+  } else if (kind == "capture") {
+    s.kind = StepKind::kCapture;
+    s.frames = f.PositiveInt("frames", 1);
+    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+    s.detect = f.Value<bool>("detect", false);
+  } else if (kind == "fixate" || kind == "step-response") {
+    s.kind = kind == "fixate" ? StepKind::kFixate : StepKind::kStepResponse;
+    const std::string loc = f.OneOf("locator", "fixation", {"fixation", "template", "apriltag"});
+    s.locator = loc == "fixation" ? Locator::kFixation : loc == "template" ? Locator::kTemplate : Locator::kAprilTag;
+    s.max_iterations = f.PositiveInt("max_iterations", s.max_iterations);
+    s.tolerance_px = f.PositiveDouble("tolerance_px", s.tolerance_px);
+    s.still_frames = f.PositiveInt("still_frames", s.still_frames);
+    s.latency_frames = f.PositiveInt("latency_frames", 0, 0);
+    s.max_step_us = f.PositiveInt("max_step_us", s.max_step_us);
+    s.limit_margin_us = f.PositiveInt("limit_margin_us", s.limit_margin_us, 0);
+    s.record_frames = f.Value<bool>("record_frames", false);
+    if (kind == "fixate") {
+      s.eyes = f.OneOf("eyes", "both", {"both", "left", "right"});
+      s.gain = f.PositiveDouble("gain", 0.1);
+      s.from_centre = f.OneOf("from", "current", {"current", "centre"}) == "centre";
+    } else {
+      s.eye = f.OneOf("eye", "right", {"left", "right"});
+      s.axis = f.OneOf("axis", "pan", {"pan", "tilt"});
+      s.amplitudes_deg = f.List<double>("amplitudes_deg", s.amplitudes_deg);
+      s.gains = f.List<double>("gains", s.gains);
+      for (double g : s.gains)
+        if (!(g > 0)) f.Fail("gains", std::to_string(g) + " must be > 0");
+      for (double a : s.amplitudes_deg)
+        if (!(a > 0 && a <= 45)) f.Fail("amplitudes_deg", std::to_string(a) + " must be in (0, 45]");
+      s.frames = f.PositiveInt("frames", 45, 2);
+      s.trials = f.PositiveInt("trials", 1);
+      s.max_iterations = s.frames;
+    }
+  } else if (kind == "limits") {
+    s.kind = StepKind::kLimits;
+    if (f.Has("servos")) {
+      s.servos.clear();
+      for (const std::string& n : f.List<std::string>("servos", {})) {
+        const int i = ServoIndexFromName(n);
+        if (i < 0) f.Fail("servos", "'" + n + "' is not a servo (Rx, Ry, Lx, Ly, Neck)");
+        s.servos.push_back(i);
+      }
+    }
+    s.coarse_us = f.PositiveInt("coarse_us", s.coarse_us);
+    s.fine_us = f.PositiveInt("fine_us", s.fine_us);
+    if (s.fine_us > s.coarse_us) f.Fail("fine_us", std::to_string(s.fine_us) + " is larger than coarse_us");
+    s.frames = f.PositiveInt("frames", 1);
+    s.moved_fraction = f.PositiveDouble("moved_fraction", s.moved_fraction);
+    s.rim_fraction = f.PositiveDouble("rim_fraction", s.rim_fraction);
+    s.record_frames = f.Value<bool>("record_frames", true);
+    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+  } else if (kind == "alignment") {
+    s.kind = StepKind::kAlignment;
+    s.frames = f.PositiveInt("frames", 3);
+    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+  } else if (kind == "latency") {
+    s.kind = StepKind::kLatency;
+    s.servo = f.Servo("servo");
+    s.amplitude_us = f.PositiveInt("amplitude_us", s.amplitude_us);
+    s.trials = f.PositiveInt("trials", 5);
+    s.max_frames = f.PositiveInt("max_frames", s.max_frames);
+    s.record_frames = f.Value<bool>("record_frames", false);
+    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+  } else if (kind == "wait") {
+    s.kind = StepKind::kWait;
+    s.wait_ms = f.PositiveInt("ms", 0, 0);
+  } else {
+    throw ProtocolError(context + ": unknown step kind '" + kind +
+                        "' (move-to, sweep, grid, place-target, capture, fixate, step-response, limits, "
+                        "alignment, latency, wait, repeat)");
+  }
+  f.RejectUnknown();
+  return s;
+}
+
+void ParseSteps(const YAML::Node& list, const std::string& source, const std::string& prefix, Protocol* p, int depth) {
+  if (!list || !list.IsSequence()) throw ProtocolError(source + ": field 'steps': expected a list of steps");
+  if (depth > 4) throw ProtocolError(source + ": repeat nested too deeply");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string where = source + ": step " + prefix + std::to_string(i);
+    const YAML::Node item = list[i];
+    if (!item.IsMap() || item.size() != 1)
+      throw ProtocolError(where + ": expected one key naming the step kind, e.g. '- sweep: {...}'");
+    const std::string kind = item.begin()->first.as<std::string>();
+    const YAML::Node body = item.begin()->second;
+    const std::string context = where + " (" + kind + ")";
+    if (kind == "repeat") {
+      Fields f(body, context);
+      const int times = f.PositiveInt("times", 1);
+      const YAML::Node inner = f.Get("steps");
+      f.Value<std::string>("name", "");
+      f.RejectUnknown();
+      for (int k = 0; k < times; ++k) {
+        const size_t before = p->steps.size();
+        ParseSteps(inner, source, prefix + std::to_string(i) + ".", p, depth + 1);
+        const std::string suffix = std::to_string(k + 1);
+        for (size_t j = before; j < p->steps.size(); ++j) {
+          p->steps[j].name.push_back('#');
+          p->steps[j].name.append(suffix);
+        }
+      }
+      continue;
+    }
+    Step s = ParseStep(kind, body, context);
+    s.file = source;
+    s.file_index = static_cast<int>(i);
+    if (s.name.empty()) s.name = kind + std::to_string(p->steps.size());
+    p->steps.push_back(std::move(s));
+  }
+}
+
+}  // namespace
+
+Protocol ParseProtocolYaml(const std::string& yaml_text, const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ProtocolError(source + ": not valid YAML: " + e.what());
+  }
+  if (!root.IsMap()) throw ProtocolError(source + ": expected a map with name, target and steps");
+  Fields f(root, source);
+  Protocol p;
+  p.text = yaml_text;
+  p.name = f.Scalar("name");
+  if (p.name.empty()) f.Fail("name", "must not be empty");
+  p.description = f.Value<std::string>("description", "");
+  p.target = f.Value<std::string>("target", "");
+  p.target_description = f.Value<std::string>("target_description", "");
+  if (f.Has("targets")) {
+    YAML::Node t = f.Get("targets");
+    if (!t.IsMap()) f.Fail("targets", "expected a map name -> target definition");
+    for (const auto& kv : t) {
+      const std::string name = kv.first.as<std::string>();
+      p.targets[name] = ParseTarget(kv.second, name, source + ": targets." + name);
+    }
+  }
+  ParseSteps(f.Get("steps"), source, "", &p, 0);
+  f.RejectUnknown();
+  return p;
+}
+
+Protocol LoadProtocolFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ProtocolError(path + ": cannot open protocol file");
+  std::ostringstream s;
+  s << in.rdbuf();
+  Protocol p = ParseProtocolYaml(s.str(), path);
+  p.file = path;
+  return p;
+}
+
+std::string StandardProtocolDir() {
+  if (const char* env = std::getenv("OWLCAL_PROTOCOL_DIR")) return env;
+  return std::string(OWLCAL_SOURCE_DIR) + "/protocols/standard";
+}
+
+std::vector<std::string> StandardProtocolNames() {
+  return {"limits", "alignment", "intrinsics", "stereo", "servo_sweep", "vergence", "step_response", "latency"};
+}
+
+std::string ResolveProtocolPath(const std::string& name_or_path) {
+  if (fs::exists(name_or_path)) return name_or_path;
+  std::string stem = name_or_path;
+  if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".yaml") stem = stem.substr(0, stem.size() - 5);
+  const std::string p = StandardProtocolDir() + "/" + stem + ".yaml";
+  if (fs::exists(p)) return p;
+  throw ProtocolError(name_or_path + ": no such protocol file, and not a standard protocol in " + StandardProtocolDir());
+}
+
+}  // namespace owlcal::protocols

@@ -1,0 +1,206 @@
+#pragma once
+// Experiment protocols: YAML files a user can copy and edit (protocols/standard/*.yaml are the
+// standard suite; each file documents itself). A protocol is a name, the target it expects
+// and a list of steps; `repeat` blocks are expanded when the file is loaded, so a loaded
+// protocol is a flat list of steps.
+//
+// File format (every key below; unknown keys are errors):
+//
+//   name: servo_sweep                  # required
+//   description: "..."                 # optional free text
+//   target: board                      # the scene target the protocol expects (a name); the
+//                                      # prompt on a real robot says which physical target
+//   target_description: "9x6 chessboard, 26 mm squares"   # optional, used in prompts
+//   targets:                           # optional geometry of named targets (calib/target_file.h
+//     board: {target_type: chessboard, cols: 9, rows: 6, square_size_m: 0.026}   # keys)
+//   steps:
+//     - move-to: {pose: {Rx: centre, Lx: centre+50, Neck: 1530}, settle: {...}}
+//     - sweep: {servo: Rx, from: centre-150, to: centre+150, step_us: 25,
+//               both_directions: true, frames: 1, settle: {...}, hold: {pose...}}
+//     - grid: {eyes: both, pan_us: [-100, 0, 100], tilt_us: [-60, 0, 60], neck_us: [0],
+//              frames: 1, settle: {...}}
+//     - place-target: {target: board, distance_m: 0.6, offset_m: [0, 0], rpy_deg: [0, 20, 0],
+//                      hide_others: true, prompt: "..."}
+//     - capture: {frames: 5, settle: {...}, detect: true}
+//     - fixate: {eyes: both, locator: fixation|template|apriltag, gain: 0.1, max_iterations: 90,
+//                tolerance_px: 0.5, still_frames: 4, latency_frames: 0, max_step_us: 60,
+//                limit_margin_us: 20, record_frames: false, from: current|centre}
+//     - step-response: {eye: right, axis: pan, amplitudes_deg: [5, 10, 20], gains: [0.05, 0.1],
+//                       frames: 45, locator: fixation, trials: 1, record_frames: false}
+//     - limits: {servos: [Rx, Ry, Lx, Ly, Neck], coarse_us: 20, fine_us: 2, frames: 1,
+//                moved_fraction: 0.3, rim_fraction: 0.02, settle: {...}}
+//     - alignment: {frames: 3}
+//     - latency: {servo: Rx, amplitude_us: 40, trials: 5, max_frames: 20}
+//     - wait: {ms: 500}
+//     - repeat: {times: 2, steps: [ ...steps... ]}
+//   Every step may also carry `name: text` (default "<kind><index>").
+//
+// Pulse-width values (pose entries, sweep from/to) are an integer [us] or an expression on
+// the robot file's values of that servo: centre, min, max, centre+N, centre-N, min+N, max-N.
+// Unlisted servos of a pose stay at the robot's centre. Grid offsets are "toward the robot's
+// right / up" in us: the runner multiplies them by each servo's direction (so a tilt of +60
+// raises both eyes although Ly is mirrored).
+//
+// settle: {mode: image|time, time_ms: 300, min_ms: 150, max_ms: 2000, still_px: 0.5,
+//          still_frames: 2}. image = wait at least min_ms, then until the image moved less
+// than still_px between still_frames consecutive frame pairs (or max_ms passed, reported).
+//
+// Parse errors throw ProtocolError naming the file, the step index and the field, e.g.
+// "servo_sweep.yaml: step 3 (sweep): field 'step_us': -5 must be > 0".
+#include <array>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "calib/target.h"
+#include "models/robot_config.h"
+
+namespace owlcal::protocols {
+
+struct ProtocolError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// One pulse width relative to the robot file: base + offset_us.
+struct PwmExpr {
+  enum class Base { kAbsolute, kCentre, kMin, kMax };
+  Base base = Base::kCentre;
+  int offset_us = 0;  // the absolute value for kAbsolute
+
+  int Resolve(const models::ServoConfig& servo) const;
+  std::string ToString() const;
+};
+// Parses "1545", "centre", "center", "min", "max", "centre+40", "max-10"; nullopt if malformed.
+std::optional<PwmExpr> ParsePwmExpr(const std::string& text);
+
+// A full pose: one expression per servo (default centre).
+struct PoseSpec {
+  std::array<PwmExpr, models::kNumServos> servo{};
+  models::PwmVector Resolve(const models::RobotConfig& robot) const;
+};
+
+struct SettleRule {
+  enum class Mode { kImage, kTime };
+  Mode mode = Mode::kImage;
+  int time_ms = 300;     // kTime: fixed wait
+  int min_ms = 150;      // kImage: never less (covers the stream latency)
+  int max_ms = 2000;     // kImage: give up (reported in events.log)
+  double still_px = 0.5; // kImage: image shift counted as "not moving" [px]
+  int still_frames = 2;  // kImage: consecutive still frame pairs needed
+};
+
+enum class StepKind {
+  kMoveTo,
+  kSweep,
+  kGrid,
+  kPlaceTarget,
+  kCapture,
+  kFixate,
+  kStepResponse,
+  kLimits,
+  kAlignment,
+  kLatency,
+  kWait,
+};
+const char* StepKindName(StepKind kind);  // "move-to", "sweep", ...
+
+enum class Locator { kFixation, kTemplate, kAprilTag };
+const char* LocatorName(Locator locator);
+
+struct Step {
+  StepKind kind = StepKind::kWait;
+  std::string name;
+  std::string file;      // the protocol file it came from
+  int file_index = 0;    // index in that file's (expanded) steps, for messages
+  SettleRule settle;
+  int frames = 1;        // frames recorded per pose (capture, sweep, grid, limits)
+  bool record_frames = true;
+
+  // move-to; sweep/grid: the pose of the servos not moved (hold)
+  PoseSpec pose;
+
+  // sweep
+  int servo = 0;
+  PwmExpr from, to;
+  int step_us = 20;
+  bool both_directions = true;
+  bool pre_approach = true;  // start one step before `from` so every point has a known approach
+
+  // grid (offsets in us toward right / up, relative to the hold pose)
+  std::string eyes = "both";  // both | left | right
+  std::vector<int> pan_us{0}, tilt_us{0}, neck_us{0};
+
+  // place-target
+  std::string target;
+  double distance_m = 0.6;
+  Eigen::Vector2d offset_m = Eigen::Vector2d::Zero();  // x right, y down, of the target centre
+  Eigen::Vector3d rpy_deg = Eigen::Vector3d::Zero();   // roll (about z), pitch (about x), yaw (about y)
+  bool hide_others = true;
+  std::string prompt;  // custom prompt text; default built from target and distance
+
+  // capture
+  bool detect = false;
+
+  // fixate / step-response
+  Locator locator = Locator::kFixation;
+  double gain = 0.1;
+  int max_iterations = 90;
+  double tolerance_px = 0.5;
+  int still_frames = 4;
+  int latency_frames = 0;   // 0: update every frame (the course's loop); n: wait n frames per update
+  int max_step_us = 60;
+  int limit_margin_us = 20;
+  bool from_centre = false;
+  std::string eye = "right";  // step-response / latency
+  std::string axis = "pan";   // pan | tilt
+  std::vector<double> amplitudes_deg{5, 10, 20};
+  std::vector<double> gains{0.1};
+  int trials = 1;
+
+  // limits
+  std::vector<int> servos{0, 1, 2, 3, 4};
+  int coarse_us = 20;
+  int fine_us = 2;
+  double moved_fraction = 0.3;
+  double rim_fraction = 0.02;
+
+  // latency
+  int amplitude_us = 40;
+  int max_frames = 20;
+
+  // wait
+  int wait_ms = 0;
+};
+
+struct Protocol {
+  std::string name;
+  std::string description;
+  std::string file;  // path it was loaded from ("" for text)
+  std::string text;  // the file's text (recorded in the manifest)
+  std::string target;
+  std::string target_description;
+  std::map<std::string, calib::TargetDefinition> targets;
+  std::vector<Step> steps;
+};
+
+// Loads a protocol file; throws ProtocolError (naming file, step index and field).
+Protocol LoadProtocolFile(const std::string& path);
+// Parses protocol YAML text; `source` names it in errors.
+Protocol ParseProtocolYaml(const std::string& yaml_text, const std::string& source);
+
+// Resolves a protocol argument: an existing path, or the name of a standard protocol
+// ("servo_sweep" -> <source dir>/protocols/standard/servo_sweep.yaml).
+std::string ResolveProtocolPath(const std::string& name_or_path);
+// The folder of the standard suite.
+std::string StandardProtocolDir();
+// Names of the standard protocols in the order of a full calibration run.
+std::vector<std::string> StandardProtocolNames();
+
+// Servo name ("Rx", case-insensitive) -> index; -1 if unknown.
+int ServoIndexFromName(const std::string& name);
+
+}  // namespace owlcal::protocols

@@ -1,0 +1,94 @@
+#pragma once
+// The protocol runner: executes loaded protocols against a robot (real or virtual, through
+// robot::RobotInterface) and records a dataset (protocols/dataset.h).
+//
+// Safety:
+//  - every command passes through robot::LimitsGuard built from the robot's configuration:
+//    a value outside the limits is clamped, reported (events.log + progress output, counted
+//    in RunSummary::num_clamped) and never sent out of limits;
+//  - an RAII guard parks the head at its centre pose and closes the dataset (status
+//    "aborted" or "failed") on an exception or a stop request (Ctrl-C: the caller sets
+//    *RunOptions::stop_flag, e.g. from a SIGINT handler; see InstallSigintStop()).
+//  - dry-run resolves and prints every planned command and checks it against the limits
+//    before anything moves (no robot needed: PlanRun()).
+//
+// Resume: a dataset whose run was interrupted is repaired (CheckDataset/RepairDataset) and
+// continued from the first step without a "done" line in steps.csv; the frames of a partly
+// run step stay in the dataset (they are valid frames with their commands) and the step is
+// run again from its start. The protocols must be the same files (compared by text).
+//
+// Measurement tables written by the closed-loop steps (columns):
+//   fixations.csv      step_index,step_name,placement_index,target,distance_m,eyes,gain,outcome,iterations,
+//                      Rx_us,Ry_us,Lx_us,Ly_us,Neck_us,left_found,left_dx_px,left_dy_px,right_found,
+//                      right_dx_px,right_dy_px,stamp_ns
+//   step_response.csv  step_index,gain,amplitude_deg,trial,k,t_s,offset_px,offset_y_px,pwm_us,found,frame_index
+//                      (offset_px along the stepped axis: x for pan, y for tilt; t_s from the step)
+//   step_trials.csv    step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,
+//                      frames,final_offset_px,message
+//   limits.csv         step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_fraction
+//                      (reason: end-stop | rim | configured)
+//   alignment.csv      step_index,frame_index,method,roll_deg,vertical_offset_px,horizontal_offset_px,corners
+//   latency.csv        step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px
+#include <atomic>
+#include <functional>
+#include <iosfwd>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "protocols/dataset.h"
+#include "protocols/protocol.h"
+#include "robot/robot_interface.h"
+
+namespace owlcal::protocols {
+
+struct RunOptions {
+  std::string out_dir;                 // the dataset folder (required unless dry_run)
+  bool dry_run = false;
+  bool resume = false;
+  bool interactive = false;            // real robot: prompt a person for placements on `input`
+  std::istream* input = nullptr;       // answers to prompts (default std::cin)
+  std::ostream* progress = nullptr;    // progress lines (nullptr: silent)
+  double progress_every_s = 2.0;       // wall-clock seconds between progress lines within a step
+  std::atomic<bool>* stop_flag = nullptr;  // set to stop: park, close the dataset as "aborted"
+  int64_t frame_timeout_ns = 3'000'000'000;
+  // Recorded in the manifest.
+  std::string robot_spec;              // "sim" or HOST[:PORT]
+  std::string robot_file;              // path of the robot file ("" = built-in default)
+  std::string robot_file_text;
+  nlohmann::json sim;                  // {"seed", "truth_file"} for the virtual Owl, else null
+  // Called after each recorded frame (tests, progress).
+  std::function<void(int64_t frame_index)> on_frame;
+
+  bool Check(std::string* why) const;
+};
+
+struct RunSummary {
+  int num_steps = 0;
+  int steps_done = 0;
+  int64_t num_frames = 0;            // frames in the dataset at the end
+  int64_t num_clamped = 0;           // commands the limits guard changed
+  std::vector<std::string> clamp_messages;
+  std::string status;                // complete | aborted | failed | dry-run
+  std::string message;
+  std::vector<std::string> plan;     // dry-run: one line per planned command / step
+  double elapsed_s = 0;              // robot clock
+};
+
+// Executes the protocols (steps concatenated in order) on `robot`. Throws only for bad
+// options; failures during the run are reported in the summary (status failed) after the
+// head is parked and the dataset closed.
+RunSummary RunProtocols(const std::vector<Protocol>& protocols, robot::RobotInterface& robot, const RunOptions& options);
+
+// The dry-run plan: every command each step would send (closed-loop steps: the range their
+// commands are confined to), each line flagged "CLAMPED" when the limits guard would change
+// it. *num_clamped counts those lines.
+std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols, const models::RobotConfig& robot,
+                                 int64_t* num_clamped);
+
+// Installs a SIGINT handler that sets the returned flag (a second Ctrl-C terminates).
+std::atomic<bool>* InstallSigintStop();
+
+}  // namespace owlcal::protocols
