@@ -1,0 +1,183 @@
+// Dataset crash safety: recordings killed (SIGKILL) at random moments always leave a dataset
+// CheckDataset accepts, with every acknowledged frame intact.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "protocols/dataset.h"
+#include "protocols/protocol.h"
+#include "protocols/runner.h"
+#include "tests/protocols/fake_robot.h"
+
+namespace owlcal::protocols {
+namespace {
+namespace fs = std::filesystem;
+
+std::string TempDir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("owlcal_dataset_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p.string();
+}
+
+TEST(Crc32, MatchesTheStandardCheckValue) {
+  const std::string s = "123456789";
+  EXPECT_EQ(Crc32(reinterpret_cast<const uint8_t*>(s.data()), s.size()), 0xCBF43926u);
+}
+
+TEST(Dataset, WritesReadsAndChecksFrames) {
+  const std::string dir = TempDir("rw");
+  {
+    auto w = DatasetWriter::Create(dir, {{"note", "test"}});
+    for (int i = 0; i < 5; ++i) {
+      FrameRecord r;
+      r.seq = 10 + i;
+      r.stamp_ns = 1000 * i;
+      r.pwm_us = {1500 + i, 1500, 1500, 1500, 1500};
+      r.approach = {1, -1, 0, 0, 0};
+      r.step_index = 2;
+      r.step_name = "a,b";  // commas are made safe
+      w->AppendFrame(std::vector<uint8_t>(100 + i, uint8_t(i)), r);
+    }
+    PlacementRecord p;
+    p.target = "board";
+    p.distance_m = 0.6;
+    p.base_from_target.translation() = Eigen::Vector3d(0.1, 0.2, 0.6);
+    EXPECT_EQ(w->AppendPlacement(p), 0);
+    w->Finish("complete", "");
+  }
+  const DatasetCheck c = CheckDataset(dir);
+  EXPECT_TRUE(c.ok);
+  EXPECT_EQ(c.num_frames, 5);
+  EXPECT_EQ(c.status, "complete");
+  const auto frames = ReadFramesCsv(dir);
+  ASSERT_EQ(frames.size(), 5u);
+  EXPECT_EQ(frames[3].pwm_us[0], 1503);
+  EXPECT_EQ(frames[3].approach[1], -1);
+  EXPECT_EQ(frames[3].step_name, "a;b");
+  EXPECT_EQ(ReadFrameJpeg(dir, 4).size(), 104u);
+  const auto placements = ReadPlacementsCsv(dir);
+  ASSERT_EQ(placements.size(), 1u);
+  EXPECT_NEAR(placements[0].base_from_target.translation().y(), 0.2, 1e-12);
+  EXPECT_THROW(DatasetWriter::Create(dir, {}), std::runtime_error);  // never overwrites
+}
+
+TEST(Dataset, DetectsCorruptionAndMissingFrames) {
+  const std::string dir = TempDir("corrupt");
+  {
+    auto w = DatasetWriter::Create(dir, {});
+    for (int i = 0; i < 3; ++i) w->AppendFrame(std::vector<uint8_t>(50, uint8_t(i)), {});
+  }
+  {
+    std::fstream f(FramePath(dir, 1), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(10);
+    f.put(char(99));
+  }
+  DatasetCheck c = CheckDataset(dir);
+  EXPECT_FALSE(c.ok);
+  ASSERT_FALSE(c.errors.empty());
+  EXPECT_NE(c.errors[0].find("frames.csv:3"), std::string::npos) << c.errors[0];
+  EXPECT_NE(c.errors[0].find("jpeg_crc32"), std::string::npos) << c.errors[0];
+  fs::remove(FramePath(dir, 1));
+  c = CheckDataset(dir);
+  EXPECT_FALSE(c.ok);
+  EXPECT_NE(c.errors[0].find("missing"), std::string::npos) << c.errors[0];
+}
+
+TEST(Dataset, PartialLastLineIsDroppedAndRepaired) {
+  const std::string dir = TempDir("partial");
+  {
+    auto w = DatasetWriter::Create(dir, {});
+    for (int i = 0; i < 4; ++i) w->AppendFrame(std::vector<uint8_t>(40, uint8_t(i)), {});
+  }
+  // Cut frames.csv in the middle of its last line.
+  const auto size = fs::file_size(fs::path(dir) / "frames.csv");
+  fs::resize_file(fs::path(dir) / "frames.csv", size - 7);
+  DatasetCheck c = CheckDataset(dir);
+  EXPECT_TRUE(c.ok);
+  EXPECT_EQ(c.num_frames, 3);
+  EXPECT_FALSE(c.warnings.empty());
+  RepairDataset(dir);
+  EXPECT_FALSE(fs::exists(FramePath(dir, 3)));
+  c = CheckDataset(dir);
+  EXPECT_TRUE(c.ok);
+  EXPECT_EQ(c.num_frames, 3);
+  // Resume continues the numbering.
+  auto w = DatasetWriter::Resume(dir);
+  EXPECT_EQ(w->AppendFrame(std::vector<uint8_t>(10, 1), {}), 3);
+}
+
+// Forks a recording, SIGKILLs it at a random moment, checks the dataset. The child writes one
+// byte per frame to a pipe AFTER the frame's line is flushed: every acknowledged frame must
+// survive.
+TEST(Dataset, KilledRecordingsAlwaysLeaveACheckableDataset) {
+  const Protocol p = ParseProtocolYaml(R"(
+name: kill
+steps:
+  - move-to: {pose: {Rx: centre+10}, settle: {mode: time, time_ms: 10}}
+  - capture: {frames: 400, settle: {mode: time, time_ms: 1}}
+)",
+                                       "kill.yaml");
+  std::mt19937 rng(20261122);
+  int killed_with_frames = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    const std::string dir = TempDir("kill" + std::to_string(trial));
+    int fds[2];
+    ASSERT_EQ(::pipe(fds), 0);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::close(fds[0]);
+      testing::FakeRobot robot;
+      RunOptions o;
+      o.out_dir = dir;
+      o.on_frame = [&](int64_t) {
+        const char b = 1;
+        if (::write(fds[1], &b, 1) != 1) ::_exit(3);
+      };
+      RunProtocols({p}, robot, o);
+      ::_exit(0);
+    }
+    ::close(fds[1]);
+    // Wait for a random number of acknowledged frames, then a random extra delay, then kill.
+    const int wait_frames = std::uniform_int_distribution<int>(0, 60)(rng);
+    int acked = 0;
+    char buf[256];
+    while (acked < wait_frames) {
+      const ssize_t n = ::read(fds[0], buf, sizeof(buf));
+      if (n <= 0) break;
+      acked += int(n);
+    }
+    ::usleep(std::uniform_int_distribution<int>(0, 4000)(rng));
+    ::kill(pid, SIGKILL);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    // Drain acknowledgements written before the kill.
+    ssize_t n;
+    while ((n = ::read(fds[0], buf, sizeof(buf))) > 0) acked += int(n);
+    ::close(fds[0]);
+    if (!fs::exists(fs::path(dir) / "manifest.json")) {
+      EXPECT_EQ(acked, 0) << "trial " << trial;
+      continue;
+    }
+    const DatasetCheck c = CheckDataset(dir);
+    EXPECT_TRUE(c.ok) << "trial " << trial << ": " << (c.errors.empty() ? "" : c.errors[0]);
+    EXPECT_GE(c.num_frames, acked) << "trial " << trial << ": an acknowledged frame was lost";
+    EXPECT_LE(c.num_frames, acked + 1) << "trial " << trial;
+    if (c.num_frames > 0) ++killed_with_frames;
+    // A killed dataset can always be repaired and resumed.
+    EXPECT_NO_THROW(RepairDataset(dir)) << "trial " << trial;
+    EXPECT_TRUE(CheckDataset(dir).warnings.size() <= 1) << "trial " << trial;  // only "interrupted"
+    fs::remove_all(dir);
+  }
+  EXPECT_GE(killed_with_frames, 20);
+}
+
+}  // namespace
+}  // namespace owlcal::protocols

@@ -1,0 +1,133 @@
+// Protocol files: parsing, error messages naming file/step/field, pose expressions, plans.
+#include <gtest/gtest.h>
+
+#include "protocols/protocol.h"
+#include "protocols/step_plan.h"
+
+namespace owlcal::protocols {
+namespace {
+
+std::string ErrorOf(const std::string& yaml) {
+  try {
+    ParseProtocolYaml(yaml, "p.yaml");
+  } catch (const ProtocolError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(PwmExpr, ParsesNumbersAndRobotRelativeValues) {
+  const models::ServoConfig rx = models::DefaultRobotConfig().servos[models::kRx];
+  EXPECT_EQ(ParsePwmExpr("1600")->Resolve(rx), 1600);
+  EXPECT_EQ(ParsePwmExpr("centre")->Resolve(rx), 1545);
+  EXPECT_EQ(ParsePwmExpr("center-45")->Resolve(rx), 1500);
+  EXPECT_EQ(ParsePwmExpr("max-10")->Resolve(rx), 1880);
+  EXPECT_EQ(ParsePwmExpr(" min + 5 ")->Resolve(rx), 1205);
+  EXPECT_FALSE(ParsePwmExpr("centre*2"));
+  EXPECT_FALSE(ParsePwmExpr("abc"));
+  EXPECT_FALSE(ParsePwmExpr("-5"));
+  EXPECT_FALSE(ParsePwmExpr(""));
+}
+
+TEST(Protocol, ParsesEveryStepKindAndExpandsRepeat) {
+  const Protocol p = ParseProtocolYaml(R"(
+name: all
+target: chessboard
+targets:
+  chessboard: {target_type: chessboard, cols: 9, rows: 6, square_size_m: 0.026}
+steps:
+  - move-to: {pose: {Rx: centre+10, Neck: 1500}}
+  - sweep: {servo: Lx, from: centre-40, to: centre+40, step_us: 20}
+  - grid: {eyes: left, pan_us: [-10, 10], tilt_us: [5]}
+  - place-target: {target: chessboard, distance_m: 0.7, rpy_deg: [0, 10, 0]}
+  - capture: {frames: 2, settle: {mode: time, time_ms: 50}}
+  - fixate: {eyes: right, gain: 0.2}
+  - step-response: {amplitudes_deg: [5], gains: [0.1, 0.3]}
+  - limits: {servos: [Rx, neck], coarse_us: 10, fine_us: 1}
+  - alignment: {frames: 1}
+  - latency: {servo: Ry}
+  - repeat: {times: 2, steps: [{wait: {ms: 5}}, {capture: {frames: 1}}]}
+)",
+                                       "all.yaml");
+  EXPECT_EQ(p.name, "all");
+  ASSERT_EQ(p.steps.size(), 14u);
+  EXPECT_EQ(p.steps[0].kind, StepKind::kMoveTo);
+  EXPECT_EQ(p.steps[0].pose.Resolve(models::DefaultRobotConfig())[models::kRx], 1555);
+  EXPECT_EQ(p.steps[0].pose.Resolve(models::DefaultRobotConfig())[models::kLy], 1580);
+  EXPECT_EQ(p.steps[1].servo, models::kLx);
+  EXPECT_EQ(p.steps[4].settle.mode, SettleRule::Mode::kTime);
+  EXPECT_DOUBLE_EQ(p.steps[5].gain, 0.2);
+  EXPECT_EQ(p.steps[7].servos, (std::vector<int>{models::kRx, models::kNeck}));
+  EXPECT_EQ(p.steps[10].kind, StepKind::kWait);
+  EXPECT_EQ(p.steps[13].name, "capture13#2");
+  EXPECT_EQ(p.targets.at("chessboard").cols, 9);
+}
+
+TEST(Protocol, ErrorsNameFileStepAndField) {
+  std::string e = ErrorOf("name: x\nsteps:\n  - capture: {frames: 1}\n  - sweep: {servo: Rx, step_us: -5}\n");
+  EXPECT_NE(e.find("p.yaml: step 1 (sweep): field 'step_us'"), std::string::npos) << e;
+  e = ErrorOf("name: x\nsteps:\n  - sweep: {servo: Qx}\n");
+  EXPECT_NE(e.find("step 0 (sweep): field 'servo': 'Qx'"), std::string::npos) << e;
+  e = ErrorOf("name: x\nsteps:\n  - move-to: {pose: {Rx: centre*3}}\n");
+  EXPECT_NE(e.find("step 0 (move-to) pose: field 'Rx'"), std::string::npos) << e;
+  e = ErrorOf("name: x\nsteps:\n  - capture: {frames: 1, colour: red}\n");
+  EXPECT_NE(e.find("unknown field 'colour'"), std::string::npos) << e;
+  e = ErrorOf("name: x\nsteps:\n  - jump: {}\n");
+  EXPECT_NE(e.find("unknown step kind 'jump'"), std::string::npos) << e;
+  e = ErrorOf("steps: []\n");
+  EXPECT_NE(e.find("field 'name'"), std::string::npos) << e;
+  e = ErrorOf("name: x\nsteps:\n  - step-response: {gains: [0.1, -1]}\n");
+  EXPECT_NE(e.find("field 'gains'"), std::string::npos) << e;
+  e = ErrorOf("name: x\nsteps: [\n");
+  EXPECT_NE(e.find("not valid YAML"), std::string::npos) << e;
+}
+
+TEST(Protocol, EveryStandardProtocolLoads) {
+  for (const std::string& name : StandardProtocolNames()) {
+    const Protocol p = LoadProtocolFile(ResolveProtocolPath(name));
+    EXPECT_EQ(p.name, name);
+    EXPECT_FALSE(p.steps.empty()) << name;
+    EXPECT_FALSE(p.target.empty()) << name;
+  }
+  EXPECT_THROW(ResolveProtocolPath("no_such_protocol"), ProtocolError);
+}
+
+TEST(StepPlan, SweepPreApproachesAndReturns) {
+  const Protocol p = ParseProtocolYaml("name: s\nsteps:\n  - sweep: {servo: Rx, from: 1500, to: 1560, step_us: 30}\n", "s");
+  const auto poses = PlanPoses(p.steps[0], models::DefaultRobotConfig());
+  std::vector<int> rx;
+  std::vector<bool> cap;
+  for (const auto& pp : poses) {
+    rx.push_back(pp.pwm_us[models::kRx]);
+    cap.push_back(pp.capture);
+  }
+  EXPECT_EQ(rx, (std::vector<int>{1470, 1500, 1530, 1560, 1590, 1560, 1530, 1500}));
+  EXPECT_EQ(cap, (std::vector<bool>{false, true, true, true, false, true, true, true}));
+  EXPECT_EQ(poses[0].pwm_us[models::kLy], 1580);  // other servos at centre
+}
+
+TEST(StepPlan, GridOffsetsFollowServoDirections) {
+  const Protocol p = ParseProtocolYaml("name: g\nsteps:\n  - grid: {pan_us: [0], tilt_us: [50]}\n", "g");
+  const auto poses = PlanPoses(p.steps[0], models::DefaultRobotConfig());
+  ASSERT_EQ(poses.size(), 1u);
+  EXPECT_EQ(poses[0].pwm_us[models::kRy], 1580);  // up = +PWM on Ry
+  EXPECT_EQ(poses[0].pwm_us[models::kLy], 1530);  // up = -PWM on the mirrored Ly
+}
+
+TEST(StepPlan, PlacementCentresTheBoard) {
+  const Protocol p = ParseProtocolYaml(
+      "name: g\ntargets:\n  b: {target_type: chessboard, cols: 9, rows: 6, square_size_m: 0.02}\n"
+      "steps:\n  - place-target: {target: b, distance_m: 0.5}\n",
+      "g");
+  const calib::TargetDefinition& def = p.targets.at("b");
+  const Eigen::Isometry3d pose = PlacementPose(p.steps[0], &def);
+  const Eigen::Vector4d e = def.Extent();
+  const Eigen::Vector3d centre = pose * Eigen::Vector3d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0);
+  EXPECT_NEAR(centre.x(), 0, 1e-12);
+  EXPECT_NEAR(centre.y(), 0, 1e-12);
+  EXPECT_NEAR(centre.z(), 0.5, 1e-12);
+  EXPECT_NE(PlacementPrompt(p, p.steps[0]).find("500 mm in front of the neck axis"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace owlcal::protocols
