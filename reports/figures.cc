@@ -1,0 +1,345 @@
+#include "reports/figures.h"
+
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "fitting/ranging_eval.h"
+#include "reports/table.h"
+
+namespace owlcal::reports {
+namespace {
+
+constexpr const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf"};
+const char* Colour(size_t i) { return kColours[i % 8]; }
+std::string Lc(size_t i) { return std::string("lc rgb '") + Colour(i) + "'"; }
+
+double NominalDeg(const models::ServoConfig& c, double u) { return c.direction * c.nominal_deg_per_us * (u - c.centre_us); }
+
+}  // namespace
+
+std::vector<Figure> MakeServoFigures(const ReportData& d) {
+  std::vector<Figure> out;
+  if (!d.result.head) return out;
+  const models::HeadModel& h = *d.result.head;
+  Figure all{"servo_maps", "Servo maps: joint angle vs pulse width", "pulse width [us]", "joint angle [deg]", {}, {}, "top left"};
+  all.caption = "Fitted PWM-to-angle map of every servo over its configured range (solid); dashed: the truth of the virtual Owl.";
+  for (int s = 0; s < models::kNumServos; ++s) {
+    const models::ServoConfig& c = d.config.servos[s];
+    const std::string sname = models::kServoNames[s];
+    // Is this servo determined at all?
+    const fitting::Parameter* pc = d.result.Find("servo." + sname + ".centre_us");
+    const bool determined = pc && pc->determined;
+    if (!determined) continue;
+    Series fit{sname + " fitted", "lines lw 2.5 " + Lc(s), "1:2", {"pwm_us", "angle_deg"}, {}};
+    Series truth{sname + " truth", "lines lw 1.5 dt 2 " + Lc(s), "1:2", {"pwm_us", "angle_deg"}, {}};
+    // Deviation figure with the sigma band.
+    std::vector<std::string> names;
+    for (const char* f : {"centre_us", "deg_per_us", "quad_deg", "cubic_deg"}) names.push_back("servo." + sname + "." + f);
+    const fitting::NamedCovariance cov = fitting::CovarianceFromResult(d.result, names);
+    Figure dev{"servo_" + std::string(sname == "Neck" ? "neck" : sname) + "_deviation",
+               sname + ": fitted map minus the course's nominal map (0.113 deg/us at the configured centre)",
+               "pulse width [us]", "angle difference [deg]", {}, {}, "top left"};
+    for (auto& ch : dev.name) ch = std::tolower(ch);
+    dev.caption = sname + ": the fitted map minus the nominal course map, with its +-2 sigma band from the fit "
+                          "covariance (centre, scale, quadratic and cubic terms). On the virtual Owl the truth is dashed.";
+    Series band{"fit +-2 sigma", "filledcurves fs transparent solid 0.25 noborder " + Lc(s), "1:2:3",
+                {"pwm_us", "lo_deg", "hi_deg"}, {}};
+    Series dfit{"fitted - nominal", "lines lw 2.5 " + Lc(s), "1:2", {"pwm_us", "diff_deg"}, {}};
+    Series dtruth{"truth - nominal", "lines lw 2 dt 2 lc rgb 'black'", "1:2", {"pwm_us", "diff_deg"}, {}};
+    for (int i = 0; i <= 100; ++i) {
+      const double u = c.min_us + (c.max_us - c.min_us) * i / 100.0;
+      const double a = h.ServoAngle(s, u) * 180 / M_PI;
+      fit.rows.push_back({u, a});
+      const double nominal = NominalDeg(c, u);
+      // sigma of the angle: gradient wrt the named params times their covariance.
+      Eigen::RowVectorXd g = Eigen::RowVectorXd::Zero(cov.names.size());
+      for (size_t k = 0; k < cov.names.size(); ++k) {
+        models::HeadModel hp = h;
+        const double step = cov.names[k].find("deg_per_us") != std::string::npos ? 1e-5 : 1e-3;
+        fitting::PerturbHead(cov.names[k], step, &hp);
+        g[k] = (hp.ServoAngle(s, u) - h.ServoAngle(s, u)) * 180 / M_PI / step;
+      }
+      const double sigma = cov.names.empty() ? 0.0 : std::sqrt(std::max(0.0, (g * cov.matrix * g.transpose())(0, 0)));
+      band.rows.push_back({u, a - nominal - 2 * sigma, a - nominal + 2 * sigma});
+      dfit.rows.push_back({u, a - nominal});
+      if (d.truth) {
+        const double at = d.truth->ServoAngle(s, u) * 180 / M_PI;
+        truth.rows.push_back({u, at});
+        dtruth.rows.push_back({u, at - nominal});
+      }
+    }
+    all.series.push_back(fit);
+    if (d.truth) all.series.push_back(truth);
+    dev.series = {band, dfit};
+    if (d.truth) dev.series.push_back(dtruth);
+    out.push_back(dev);
+  }
+  if (!all.series.empty()) out.insert(out.begin(), all);
+  return out;
+}
+
+std::optional<Figure> MakeResidualFigure(const ReportData& d) {
+  if (d.residuals.empty()) return std::nullopt;
+  Figure f{"reprojection_residuals", "Reprojection residuals of the calibration corners", "residual x [px]",
+           "residual y [px]", {}, {"set size ratio -1"}, "top right"};
+  f.caption = "Reprojected minus detected corner position for every corner used in the intrinsics fits; a round, "
+              "centred cloud means no systematic model error.";
+  double m = 0.1;
+  for (int e = 0; e < 2; ++e) {
+    Series s{std::string(models::kEyeNames[e]) + " eye", "points pt 7 ps 0.5 " + Lc(e), "1:2", {"dx_px", "dy_px"}, {}};
+    for (const auto& r : d.residuals)
+      if (r.eye == e) {
+        s.rows.push_back({r.dx, r.dy});
+        m = std::max({m, std::abs(r.dx), std::abs(r.dy)});
+      }
+    if (!s.rows.empty()) f.series.push_back(s);
+  }
+  m = std::min(m * 1.1, 5.0);
+  f.settings.push_back("set xrange [" + Fmt(-m, 3) + ":" + Fmt(m, 3) + "]");
+  f.settings.push_back("set yrange [" + Fmt(-m, 3) + ":" + Fmt(m, 3) + "]");
+  f.width_px = 800;
+  f.height_px = 760;
+  return f;
+}
+
+std::optional<Figure> MakeViewRmsFigure(const ReportData& d) {
+  const nlohmann::json& diag = d.result.diagnostics;
+  if (!diag.contains("intrinsics")) return std::nullopt;
+  Figure f{"view_rms", "RMS reprojection error per view", "view number", "RMS error [px]", {}, {"set yrange [0:*]", "set style fill solid 0.6"}, "top right"};
+  f.caption = "RMS reprojection error of each calibration view, per eye. A view far above the rest is worth inspecting.";
+  for (int e = 0; e < 2; ++e) {
+    const std::string eye = models::kEyeNames[e];
+    if (!diag["intrinsics"].contains(eye) || !diag["intrinsics"][eye].contains("view_rms_px")) continue;
+    const auto v = diag["intrinsics"][eye]["view_rms_px"].get<std::vector<double>>();
+    Series s{eye + " eye", "boxes " + Lc(e), "1:2", {"view", "rms_px"}, {}};
+    for (size_t i = 0; i < v.size(); ++i) s.rows.push_back({double(i) + (e ? 0.2 : -0.2), v[i]});
+    f.series.push_back(s);
+  }
+  if (f.series.empty()) return std::nullopt;
+  f.settings.push_back("set boxwidth 0.4");
+  return f;
+}
+
+std::vector<Figure> MakeDistortionFigures(const ReportData& d) {
+  std::vector<Figure> out;
+  for (int e = 0; e < 2; ++e) {
+    const std::optional<models::CameraIntrinsics>& cam = d.result.cameras[e] ? d.result.cameras[e]
+                                                        : (d.result.head ? std::optional(d.result.head->intrinsics[e]) : std::nullopt);
+    if (!cam) continue;
+    const std::string eye = models::kEyeNames[e];
+    // Displacement of each pixel by the distortion: distorted minus the undistorted (pinhole) position.
+    std::vector<std::vector<double>> rows;
+    double maxd = 0;
+    for (int gy = 0; gy <= 12; ++gy) {
+      for (int gx = 0; gx <= 16; ++gx) {
+        const double u = (cam->width - 1) * gx / 16.0, v = (cam->height - 1) * gy / 12.0;
+        double px[2] = {u, v}, ray[3];
+        if (!cam->Unproject(px, ray)) continue;
+        const double pin_u = cam->params[0] * ray[0] + cam->params[2];
+        const double pin_v = cam->params[1] * ray[1] + cam->params[3];
+        const double dx = u - pin_u, dy = v - pin_v;
+        maxd = std::max(maxd, std::hypot(dx, dy));
+        rows.push_back({pin_u, pin_v, dx, dy, std::hypot(dx, dy)});
+      }
+    }
+    if (rows.empty()) continue;
+    const double scale = maxd > 0 ? 40.0 / maxd : 1.0;  // longest arrow 40 px on the plot
+    for (auto& r : rows) {
+      r.push_back(r[2] * scale);
+      r.push_back(r[3] * scale);
+    }
+    Figure f{"distortion_" + eye,
+             eye + " lens distortion (arrows x" + Fmt(scale, 2) + "; colour = displacement [px])",
+             "x [px]", "y [px]", {}, {}, "off"};
+    f.settings = {"set size ratio -1", "set xrange [-40:" + std::to_string(cam->width + 40) + "]",
+                  "set yrange [" + std::to_string(cam->height + 40) + ":-40]", "set cblabel 'displacement [px]'",
+                  "set palette rgbformulae 33,13,10"};
+    f.series.push_back({"", "vectors head size 6,20 filled lw 2 lc palette", "1:2:6:7:5",
+                        {"x_pinhole_px", "y_pinhole_px", "dx_px", "dy_px", "norm_px", "dx_plot", "dy_plot"}, rows});
+    f.caption = "Where the " + eye + " lens moves each image point (pinhole position to distorted position), from the "
+                "fitted distortion coefficients; the largest displacement is " + Fmt(maxd, 3) + " px.";
+    f.width_px = 900;
+    f.height_px = 700;
+    out.push_back(f);
+  }
+  return out;
+}
+
+std::optional<Figure> MakeRangeErrorFigure(const ReportData& d) {
+  if (!d.ranging) return std::nullopt;
+  const auto& r = *d.ranging;
+  Figure f{"range_error", "Vergence range error vs true distance", "true distance [m]", "range error [% of distance]", {}, {}, "top left"};
+  f.caption = "Range from the calibrated head (gaze rays through the settled target pixels) with +-2 sigma error bars "
+              "from the calibration covariance and pixel noise, the course's nominal method (0.113 deg/us, 65 mm, "
+              "sine rule), and the theory: +-1 us on one eye with the nominal formula, and the calibrated +-2 sigma band.";
+  Series band{"calibrated theory +-2 sigma", "filledcurves fs transparent solid 0.2 noborder " + Lc(0), "1:2:3",
+              {"distance_m", "lo_pct", "hi_pct"}, {}};
+  Series q_hi{"nominal formula, 1 us on one eye", "lines lw 1.5 dt 3 lc rgb '#555555'", "1:2", {"distance_m", "pct"}, {}};
+  Series q_lo{"", "lines lw 1.5 dt 3 lc rgb '#555555'", "1:2", {"distance_m", "pct"}, {}};
+  for (const auto& t : r.theory) {
+    band.rows.push_back({t.distance_m, -200 * t.calibrated_sigma_rel, 200 * t.calibrated_sigma_rel});
+    q_hi.rows.push_back({t.distance_m, 100 * t.nominal_1us_rel});
+    q_lo.rows.push_back({t.distance_m, -100 * t.nominal_1us_rel});
+  }
+  Series cal{"calibrated (+-2 sigma)", "yerrorbars pt 7 ps 1.3 lw 1.5 " + Lc(0), "1:2:3", {"true_m", "err_pct", "two_sigma_pct"}, {}};
+  Series nom{"course nominal method", "points pt 9 ps 1.5 " + Lc(1), "1:2", {"true_m", "err_pct"}, {}};
+  double ymax = 1;
+  for (const auto& x : r.rows) {
+    if (x.ok) {
+      cal.rows.push_back({x.true_m, 100 * x.rel_error, 200 * x.sigma_m / x.true_m});
+      ymax = std::max(ymax, std::abs(100 * x.rel_error) + 200 * x.sigma_m / x.true_m);
+    }
+    if (x.nominal_m) nom.rows.push_back({x.true_m, 100 * x.nominal_rel_error});
+  }
+  if (!band.rows.empty()) f.series.push_back(band);
+  if (!q_hi.rows.empty()) {
+    f.series.push_back(q_hi);
+    f.series.push_back(q_lo);
+  }
+  f.series.push_back(cal);
+  if (!nom.rows.empty()) f.series.push_back(nom);
+  f.settings.push_back("set xzeroaxis lt -1 lw 1");
+  double nmax = 0;
+  for (const auto& x : nom.rows) nmax = std::max(nmax, std::abs(x[1]));
+  const double lim = std::min(std::max(ymax * 1.5, std::min(nmax * 1.1, 60.0)), 60.0);
+  f.settings.push_back("set yrange [" + Fmt(-lim, 3) + ":" + Fmt(lim, 3) + "]");
+  return f;
+}
+
+std::optional<Figure> MakeStepResponseFigure(const ReportData& d) {
+  if (d.steps.empty()) return std::nullopt;
+  Figure f{"step_responses", "Fixation step responses", "time since the step [s]", "fraction of the step done [-]", {}, {}, "bottom right"};
+  f.caption = "Target offset turned into the fraction of the step done (0 at rest, 1 on target) for each gain; dashed: "
+              "the 2 % settling band.";
+  std::map<double, int> gain_colour;
+  for (const auto& s : d.steps) gain_colour.emplace(s.gain, int(gain_colour.size()));
+  std::set<double> titled;
+  double tmax = 0;
+  for (const auto& s : d.steps) {
+    const int c = gain_colour[s.gain];
+    std::string title;
+    if (!titled.count(s.gain)) {
+      title = "K = " + Fmt(s.gain, 3) + (s.simulated ? " (model)" : "");
+      titled.insert(s.gain);
+    }
+    Series ser{title, std::string(s.simulated ? "lines lw 2 dt 2 " : "linespoints pt 7 ps 0.6 lw 2 ") + Lc(c), "1:2", {"t_s", "y"}, {}};
+    for (size_t k = 0; k < s.t_s.size() && k < s.y.size(); ++k) {
+      ser.rows.push_back({s.t_s[k], s.y[k]});
+      tmax = std::max(tmax, s.t_s[k]);
+    }
+    f.series.push_back(ser);
+  }
+  f.series.push_back({"2 % band", "lines lw 1 dt 2 lc rgb 'black'", "1:2", {"t_s", "y"}, {{0, 1.02}, {tmax, 1.02}}});
+  f.series.push_back({"", "lines lw 1 dt 2 lc rgb 'black'", "1:2", {"t_s", "y"}, {{0, 0.98}, {tmax, 0.98}}});
+  return f;
+}
+
+std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
+  if (!d.gains) return std::nullopt;
+  const GainStudy& g = *d.gains;
+  Figure f{"settling_vs_gain", "2 % settling time vs proportional gain", "gain K [-]", "settling time [s]", {}, {}, "top right"};
+  f.caption = "Settling time of the course's incremental P loop with " + std::to_string(g.delay_frames) +
+              " frames of delay at " + Fmt(g.fps, 3) + " fps (model), the measured trials, the stability limit K_crit = " +
+              Fmt(g.critical_gain, 3) + " and the physical lower bound for a 10 deg step (slew + latency + one frame).";
+  Series model{"delayed P-loop model (d = " + std::to_string(g.delay_frames) + ")", "lines lw 2.5 " + Lc(0), "1:2", {"gain", "settling_s"}, {}};
+  double ymax = 0;
+  for (const auto& r : g.simulated)
+    if (r.settled) {
+      model.rows.push_back({r.gain, r.settling_time_s});
+      ymax = std::max(ymax, r.settling_time_s);
+    } else {
+      model.rows.push_back({r.gain, NAN});
+    }
+  f.series.push_back(model);
+  Series meas{"measured", "points pt 7 ps 1.5 " + Lc(1), "1:2", {"gain", "settling_s"}, {}};
+  for (const auto& s : d.steps)
+    if (!s.simulated && s.info.settled) meas.rows.push_back({s.gain, s.info.settling_time});
+  if (!meas.rows.empty()) f.series.push_back(meas);
+  if (g.fastest)
+    f.series.push_back({"fastest: K = " + Fmt(g.fastest->gain, 3) + ", " + Fmt(g.fastest->settling_time_s, 3) + " s",
+                        "points pt 5 ps 2 lc rgb 'black'", "1:2", {"gain", "settling_s"},
+                        {{g.fastest->gain, g.fastest->settling_time_s}}});
+  const double xmax = std::max(0.6, g.critical_gain * 1.1);
+  for (size_t i = 0; i < g.amplitudes_deg.size(); ++i) {
+    if (g.amplitudes_deg[i] != 10.0) continue;
+    f.series.push_back({"physical bound, 10 deg (400 deg/s, 100 ms)", "lines lw 2 dt 4 " + Lc(2), "1:2",
+                        {"gain", "s"}, {{0, g.lower_bound_fast_s[i]}, {xmax, g.lower_bound_fast_s[i]}}});
+    f.series.push_back({"physical bound, 10 deg (300 deg/s, 150 ms)", "lines lw 2 dt 5 " + Lc(3), "1:2",
+                        {"gain", "s"}, {{0, g.lower_bound_slow_s[i]}, {xmax, g.lower_bound_slow_s[i]}}});
+  }
+  f.series.push_back({"K_crit = " + Fmt(g.critical_gain, 3), "lines lw 2 lc rgb '#888888'", "1:2", {"gain", "s"},
+                      {{g.critical_gain, 0}, {g.critical_gain, std::min(ymax, 6.0)}}});
+  f.settings.push_back("set xrange [0:" + Fmt(xmax, 3) + "]");
+  f.settings.push_back("set yrange [0:" + Fmt(std::min(ymax, 6.0), 3) + "]");
+  return f;
+}
+
+std::optional<Figure> MakeLimitsFigure(const ReportData& d) {
+  if (!d.limits) return std::nullopt;
+  Figure f{"limits", "Servo limits: configured vs measured", "pulse width [us]", "", {}, {}, "outside bottom center horizontal"};
+  f.caption = "For each servo: the configured range (robot file, grey), the measured range (colour) and what ended it "
+              "(end-stop, socket rim, or the configured limit).";
+  Series cfg{"configured", "vectors nohead lw 12 lc rgb '#bbbbbb'", "1:2:3:4", {"from_us", "y", "dx_us", "dy"}, {}};
+  Series mea{"measured", "vectors nohead lw 6 " + Lc(0), "1:2:3:4", {"from_us", "y", "dx_us", "dy"}, {}};
+  Series ctr{"configured centre", "points pt 13 ps 2 lc rgb 'black'", "1:2", {"centre_us", "y"}, {}};
+  std::string ytics = "set ytics (";
+  const int n = int(d.limits->servos.size());
+  for (int i = 0; i < n; ++i) {
+    const auto& s = d.limits->servos[i];
+    const double y = n - i;
+    ytics += std::string(i ? ", " : "") + "'" + s.name + "' " + Fmt(y, 3);
+    cfg.rows.push_back({double(s.configured_min_us), y + 0.15, double(s.configured_max_us - s.configured_min_us), 0});
+    ctr.rows.push_back({double(s.configured_centre_us), y + 0.15});
+    const double lo = s.measured_min_us.value_or(s.configured_min_us), hi = s.measured_max_us.value_or(s.configured_max_us);
+    if (s.measured_min_us || s.measured_max_us) mea.rows.push_back({lo, y - 0.15, hi - lo, 0});
+    auto label = [&](double x, fitting::LimitCause c, bool right) {
+      f.settings.push_back("set label '" + std::string(fitting::LimitCauseName(c)) + "' at " + Fmt(x, 6) + "," +
+                           Fmt(y - 0.15, 4) + (right ? " left offset 1,0" : " right offset -1,0") + " font ',12'");
+    };
+    if (s.measured_min_us) label(lo, s.min_cause, false);
+    if (s.measured_max_us) label(hi, s.max_cause, true);
+  }
+  f.settings.push_back(ytics + ")");
+  f.settings.push_back("set yrange [0.3:" + Fmt(n + 0.7, 3) + "]");
+  f.settings.push_back("set xrange [850:2250]");
+  f.series = {cfg, mea, ctr};
+  return f;
+}
+
+std::optional<Figure> MakeCoverageFigure(const ReportData& d) {
+  if (d.coverage.empty()) return std::nullopt;
+  Figure f{"coverage", "Image coverage of the detected calibration corners", "x [px]", "y [px]", {}, {}, "outside bottom center horizontal"};
+  f.caption = "Every detected corner used for the intrinsics, per eye. Distortion is only determined where corners were seen.";
+  f.settings = {"set size ratio -1", "set xrange [0:" + std::to_string(d.config.image_width - 1) + "]",
+                "set yrange [" + std::to_string(d.config.image_height - 1) + ":0]"};
+  for (int e = 0; e < 2; ++e) {
+    Series s{std::string(models::kEyeNames[e]) + " eye", std::string("points pt ") + (e ? "6" : "7") + " ps 0.5 " + Lc(e),
+             "1:2", {"x_px", "y_px"}, {}};
+    for (const auto& c : d.coverage)
+      if (c.eye == e) s.rows.push_back({c.x, c.y});
+    if (!s.rows.empty()) f.series.push_back(s);
+  }
+  f.width_px = 900;
+  f.height_px = 780;
+  return f;
+}
+
+std::vector<Figure> MakeAllFigures(const ReportData& d) {
+  std::vector<Figure> all;
+  auto add = [&](std::optional<Figure> f) {
+    if (f) all.push_back(std::move(*f));
+  };
+  for (auto& f : MakeServoFigures(d)) all.push_back(f);
+  add(MakeResidualFigure(d));
+  add(MakeViewRmsFigure(d));
+  for (auto& f : MakeDistortionFigures(d)) all.push_back(f);
+  add(MakeCoverageFigure(d));
+  add(MakeRangeErrorFigure(d));
+  add(MakeStepResponseFigure(d));
+  add(MakeSettlingFigure(d));
+  add(MakeLimitsFigure(d));
+  return all;
+}
+
+}  // namespace owlcal::reports

@@ -1,0 +1,149 @@
+#include "reports/gnuplot_figure.h"
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "reports/table.h"
+
+namespace owlcal::reports {
+namespace {
+
+std::string Quote(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\';
+    o += c;
+  }
+  return o + "\"";
+}
+
+std::string ShellQuote(const std::string& s) {
+  std::string o = "'";
+  for (char c : s) {
+    if (c == '\'') o += "'\\''";
+    else o += c;
+  }
+  return o + "'";
+}
+
+std::string RunCapture(const std::string& cmd, int* status) {
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) {
+    *status = -1;
+    return out;
+  }
+  std::array<char, 512> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
+  *status = pclose(p);
+  return out;
+}
+
+}  // namespace
+
+bool GnuplotAvailable(std::string* png_terminal, std::string* version) {
+  static int cached = -1;
+  static std::string term, ver;
+  if (cached < 0) {
+    int st = 0;
+    ver = RunCapture("gnuplot --version 2>/dev/null", &st);
+    while (!ver.empty() && (ver.back() == '\n' || ver.back() == '\r')) ver.pop_back();
+    cached = (st == 0 && !ver.empty()) ? 1 : 0;
+    if (cached) {
+      const std::string terms = RunCapture("echo 'set terminal' | gnuplot 2>&1", &st);
+      term = terms.find("pngcairo") != std::string::npos ? "pngcairo" : "png";
+    }
+  }
+  if (png_terminal) *png_terminal = term;
+  if (version) *version = ver;
+  return cached == 1;
+}
+
+std::string FigureCsv(const Figure& f) {
+  std::ostringstream o;
+  o << "# owlcal figure " << f.name << ": " << f.title << "\n";
+  for (size_t i = 0; i < f.series.size(); ++i) {
+    const Series& s = f.series[i];
+    if (i) o << "\n\n";
+    o << "# series " << i << ": " << s.title << "\n# ";
+    for (size_t c = 0; c < s.columns.size(); ++c) o << (c ? "," : "") << s.columns[c];
+    o << "\n";
+    for (const auto& r : s.rows) {
+      for (size_t c = 0; c < r.size(); ++c) {
+        o << (c ? "," : "");
+        if (std::isfinite(r[c])) o << Fmt(r[c], 10);
+        else o << "NaN";
+      }
+      o << "\n";
+    }
+    // gnuplot needs at least one data line in a block it plots.
+    if (s.rows.empty()) o << "NaN,NaN\n";
+  }
+  return o.str();
+}
+
+std::string GnuplotScript(const Figure& f, const std::string& png_terminal) {
+  std::ostringstream o;
+  const std::string font = png_terminal == "pngcairo" ? "font 'Sans,15'" : "font ',13'";
+  o << "# owlcal figure '" << f.name << "'. Run `gnuplot " << f.name << ".gp` in this folder to redraw\n"
+    << "# " << f.name << ".png and " << f.name << ".svg from " << f.name << ".csv.\n"
+    << "reset\nset datafile separator comma\nset datafile missing 'NaN'\n"
+    << "set title " << Quote(f.title) << " noenhanced\n"
+    << "set xlabel " << Quote(f.xlabel) << " noenhanced\nset ylabel " << Quote(f.ylabel) << " noenhanced\n"
+    << "set grid lc rgb '#d0d0d0'\nset border lw 1.5\nset tics nomirror\n";
+  if (f.key == "off") o << "unset key\n";
+  else o << "set key " << f.key << " box opaque noenhanced\n";
+  for (const auto& s : f.settings) o << s << "\n";
+  std::ostringstream plot;
+  plot << "plot ";
+  bool first = true;
+  for (size_t i = 0; i < f.series.size(); ++i) {
+    const Series& s = f.series[i];
+    if (!first) plot << ", \\\n     ";
+    first = false;
+    plot << "'" << f.name << ".csv' index " << i << " using " << s.using_spec << " with " << s.style << " "
+         << (s.title.empty() ? std::string("notitle") : "title " + Quote(s.title));
+  }
+  if (first) plot << "NaN notitle";
+  o << "set terminal " << png_terminal << " size " << f.width_px << "," << f.height_px << " " << font
+    << (png_terminal == "pngcairo" ? " linewidth 1.5" : "") << "\n"
+    << "set output '" << f.name << ".png'\n"
+    << plot.str() << "\n"
+    << "set terminal svg size " << f.width_px << "," << f.height_px << " dynamic font 'Sans,15' linewidth 1.5\n"
+    << "set output '" << f.name << ".svg'\nreplot\nunset output\n";
+  return o.str();
+}
+
+FigureFiles WriteFigure(const Figure& f, const std::string& dir, bool draw) {
+  if (f.name.empty() || f.name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_-") != std::string::npos)
+    throw std::invalid_argument("WriteFigure: figure name '" + f.name + "' must be [a-z0-9_-]");
+  std::filesystem::create_directories(dir);
+  FigureFiles out;
+  out.csv = dir + "/" + f.name + ".csv";
+  out.gp = dir + "/" + f.name + ".gp";
+  std::string term = "pngcairo";
+  const bool have = GnuplotAvailable(&term);
+  WriteTextFile(out.csv, FigureCsv(f));
+  WriteTextFile(out.gp, GnuplotScript(f, have ? term : "pngcairo"));
+  if (!draw) return out;
+  if (!have) {
+    out.message = "gnuplot not found (install gnuplot-nox); wrote " + out.gp + " to draw later";
+    return out;
+  }
+  int st = 0;
+  const std::string msg =
+      RunCapture("cd " + ShellQuote(dir) + " && gnuplot " + ShellQuote(f.name + ".gp") + " 2>&1", &st);
+  out.png = dir + "/" + f.name + ".png";
+  out.svg = dir + "/" + f.name + ".svg";
+  out.drawn = st == 0 && std::filesystem::exists(out.png) && std::filesystem::exists(out.svg);
+  if (!out.drawn) out.message = "gnuplot failed on " + out.gp + ": " + msg;
+  else if (!msg.empty()) out.message = msg;  // warnings
+  return out;
+}
+
+}  // namespace owlcal::reports

@@ -1,0 +1,344 @@
+#include "reports/report_data.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <stdexcept>
+
+#include "reports/table.h"
+
+namespace owlcal::reports {
+namespace {
+
+using nlohmann::json;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+double Get(const json& j, const char* k, double dflt = kNaN) {
+  if (!j.contains(k) || j.at(k).is_null()) return dflt;
+  return j.at(k).get<double>();
+}
+json OptNum(const std::optional<double>& v) { return v ? Num(*v) : json(nullptr); }
+std::optional<double> GetOpt(const json& j, const char* k) {
+  if (!j.contains(k) || j.at(k).is_null()) return std::nullopt;
+  return j.at(k).get<double>();
+}
+std::vector<double> Vec(const json& j, const char* k) {
+  std::vector<double> v;
+  if (!j.contains(k)) return v;
+  for (const json& x : j.at(k)) v.push_back(x.is_null() ? kNaN : x.get<double>());
+  return v;
+}
+json VecJson(const std::vector<double>& v) {
+  json a = json::array();
+  for (double x : v) a.push_back(Num(x));
+  return a;
+}
+
+json StepInfoJson(const fitting::StepInfo& s) {
+  return {{"y_init", Num(s.y_init)},       {"y_final", Num(s.y_final)},         {"rise_time", Num(s.rise_time)},
+          {"settling_time", Num(s.settling_time)}, {"settling_index", s.settling_index}, {"settled", s.settled},
+          {"overshoot_pct", Num(s.overshoot_pct)}, {"undershoot_pct", Num(s.undershoot_pct)},
+          {"peak", Num(s.peak)},           {"peak_time", Num(s.peak_time)},
+          {"steady_state_error", Num(s.steady_state_error)}};
+}
+fitting::StepInfo StepInfoFromJson(const json& j) {
+  fitting::StepInfo s;
+  s.y_init = Get(j, "y_init");
+  s.y_final = Get(j, "y_final");
+  s.rise_time = Get(j, "rise_time");
+  s.settling_time = Get(j, "settling_time");
+  s.settling_index = j.value("settling_index", -1);
+  s.settled = j.value("settled", false);
+  s.overshoot_pct = Get(j, "overshoot_pct");
+  s.undershoot_pct = Get(j, "undershoot_pct");
+  s.peak = Get(j, "peak");
+  s.peak_time = Get(j, "peak_time");
+  s.steady_state_error = Get(j, "steady_state_error");
+  return s;
+}
+
+json GainJson(const fitting::GainSettling& g) {
+  return {{"gain", g.gain}, {"stable", g.stable}, {"settled", g.settled}, {"settling_frames", g.settling_frames},
+          {"overshoot_pct", Num(g.overshoot_pct)}, {"settling_time_s", Num(g.settling_time_s)}};
+}
+fitting::GainSettling GainFromJson(const json& j) {
+  fitting::GainSettling g;
+  g.gain = Get(j, "gain");
+  g.stable = j.value("stable", false);
+  g.settled = j.value("settled", false);
+  g.settling_frames = j.value("settling_frames", -1);
+  g.overshoot_pct = Get(j, "overshoot_pct");
+  g.settling_time_s = Get(j, "settling_time_s");
+  return g;
+}
+
+}  // namespace
+
+GainStudy MakeGainStudy(int delay_frames, double fps) {
+  GainStudy g;
+  g.delay_frames = delay_frames;
+  g.fps = fps;
+  g.simulated = fitting::SettlingVersusGain(fitting::GainGrid(0.005, 0.6, 0.005), delay_frames, fps);
+  g.critical_gain = fitting::CriticalGain(delay_frames);
+  g.monotone_gain = fitting::MonotoneGain(delay_frames);
+  g.fastest = fitting::FastestStableGain(g.simulated);
+  for (double a : {2.0, 5.0, 10.0, 15.0, 20.0}) {
+    g.amplitudes_deg.push_back(a);
+    g.lower_bound_fast_s.push_back(fitting::PhysicalLowerBoundS(a, 400, 0.100, fps));
+    g.lower_bound_slow_s.push_back(fitting::PhysicalLowerBoundS(a, 300, 0.150, fps));
+  }
+  return g;
+}
+
+json RobotConfigToJson(const models::RobotConfig& c) {
+  json s = json::array();
+  for (const auto& v : c.servos)
+    s.push_back({{"name", v.name}, {"min_us", v.min_us}, {"max_us", v.max_us}, {"centre_us", v.centre_us},
+                 {"direction", v.direction}, {"nominal_deg_per_us", v.nominal_deg_per_us}});
+  return {{"name", c.name},           {"servos", s},           {"ipd_m", c.ipd_m},
+          {"image_width", c.image_width}, {"image_height", c.image_height}, {"swap_eyes", c.swap_eyes},
+          {"mirror_stream", c.mirror_stream}};
+}
+
+models::RobotConfig RobotConfigFromJson(const json& j) {
+  models::RobotConfig c;
+  c.name = j.value("name", c.name);
+  if (j.contains("servos")) {
+    if (j.at("servos").size() != models::kNumServos) throw std::runtime_error("robot.servos must have 5 entries");
+    for (int i = 0; i < models::kNumServos; ++i) {
+      const json& s = j.at("servos")[i];
+      c.servos[i].name = s.value("name", std::string(models::kServoNames[i]));
+      c.servos[i].min_us = s.at("min_us").get<int>();
+      c.servos[i].max_us = s.at("max_us").get<int>();
+      c.servos[i].centre_us = s.at("centre_us").get<int>();
+      c.servos[i].direction = s.value("direction", 1);
+      c.servos[i].nominal_deg_per_us = s.value("nominal_deg_per_us", 0.113);
+    }
+  }
+  c.ipd_m = j.value("ipd_m", c.ipd_m);
+  c.image_width = j.value("image_width", c.image_width);
+  c.image_height = j.value("image_height", c.image_height);
+  c.swap_eyes = j.value("swap_eyes", false);
+  c.mirror_stream = j.value("mirror_stream", false);
+  return c;
+}
+
+json EvaluationToJson(const ReportData& d) {
+  json j;
+  j["format"] = "owlcal-evaluation";
+  j["robot"] = RobotConfigToJson(d.config);
+  j["settings"] = d.settings;
+  if (d.truth) {
+    fitting::CalibrationResult tmp;
+    tmp.head = *d.truth;
+    j["truth_head"] = fitting::ToJson(tmp)["head"];
+  }
+  if (d.ranging) {
+    const auto& r = *d.ranging;
+    json rows = json::array();
+    for (const auto& x : r.rows)
+      rows.push_back({{"index", x.index}, {"true_m", x.true_m}, {"ok", x.ok}, {"range_m", Num(x.range_m)},
+                      {"error_m", Num(x.error_m)}, {"rel_error", Num(x.rel_error)}, {"sigma_m", Num(x.sigma_m)},
+                      {"gap_m", Num(x.gap_m)}, {"nominal_m", OptNum(x.nominal_m)},
+                      {"nominal_rel_error", Num(x.nominal_rel_error)}});
+    json theory = json::array();
+    for (const auto& t : r.theory)
+      theory.push_back({{"distance_m", t.distance_m}, {"nominal_1us_rel", Num(t.nominal_1us_rel)},
+                        {"nominal_half_px_rel", Num(t.nominal_half_px_rel)},
+                        {"calibrated_sigma_rel", Num(t.calibrated_sigma_rel)}});
+    j["ranging"] = {{"rows", rows},
+                    {"theory", theory},
+                    {"num_ok", r.num_ok},
+                    {"rms_rel_error", Num(r.rms_rel_error)},
+                    {"mean_abs_rel_error", Num(r.mean_abs_rel_error)},
+                    {"max_abs_rel_error", Num(r.max_abs_rel_error)},
+                    {"fraction_within_2sigma", Num(r.fraction_within_2sigma)},
+                    {"nominal_rms_rel_error", Num(r.nominal_rms_rel_error)},
+                    {"propagated", r.propagated},
+                    {"notes", r.notes}};
+  }
+  if (d.limits) {
+    json servos = json::array();
+    for (const auto& s : d.limits->servos)
+      servos.push_back({{"servo", s.servo},
+                        {"name", s.name},
+                        {"configured_min_us", s.configured_min_us},
+                        {"configured_max_us", s.configured_max_us},
+                        {"configured_centre_us", s.configured_centre_us},
+                        {"measured_min_us", OptNum(s.measured_min_us)},
+                        {"measured_max_us", OptNum(s.measured_max_us)},
+                        {"min_cause", fitting::LimitCauseName(s.min_cause)},
+                        {"max_cause", fitting::LimitCauseName(s.max_cause)},
+                        {"configured_min_deg", Num(s.configured_min_deg)},
+                        {"configured_max_deg", Num(s.configured_max_deg)},
+                        {"measured_min_deg", Num(s.measured_min_deg)},
+                        {"measured_max_deg", Num(s.measured_max_deg)},
+                        {"recommended_min_us", s.recommended_min_us},
+                        {"recommended_max_us", s.recommended_max_us},
+                        {"min_excess_us", Num(s.min_excess_us)},
+                        {"max_excess_us", Num(s.max_excess_us)}});
+    j["limits"] = {{"servos", servos}, {"notes", d.limits->notes}};
+  }
+  json steps = json::array();
+  for (const auto& s : d.steps)
+    steps.push_back({{"gain", s.gain}, {"amplitude_deg", s.amplitude_deg}, {"trial", s.trial},
+                     {"eye_axis", s.eye_axis}, {"t_s", VecJson(s.t_s)}, {"y", VecJson(s.y)},
+                     {"residual_px", Num(s.residual_px)}, {"info", StepInfoJson(s.info)}, {"simulated", s.simulated}});
+  j["steps"] = steps;
+  if (d.gains) {
+    const auto& g = *d.gains;
+    json sim = json::array();
+    for (const auto& r : g.simulated) sim.push_back(GainJson(r));
+    j["gains"] = {{"delay_frames", g.delay_frames},
+                  {"fps", g.fps},
+                  {"simulated", sim},
+                  {"critical_gain", g.critical_gain},
+                  {"monotone_gain", g.monotone_gain},
+                  {"fastest", g.fastest ? GainJson(*g.fastest) : json(nullptr)},
+                  {"amplitudes_deg", g.amplitudes_deg},
+                  {"lower_bound_fast_s", g.lower_bound_fast_s},
+                  {"lower_bound_slow_s", g.lower_bound_slow_s}};
+  }
+  json res = json::array();
+  for (const auto& r : d.residuals) res.push_back({r.eye, r.frame, r.x, r.y, r.dx, r.dy});
+  j["residuals"] = res;  // [eye, frame, x, y, dx, dy]
+  json cov = json::array();
+  for (const auto& c : d.coverage) cov.push_back({c.eye, c.x, c.y});
+  j["coverage"] = cov;  // [eye, x, y]
+  return j;
+}
+
+void EvaluationFromJson(const json& j, ReportData* d) {
+  if (j.contains("robot")) d->config = RobotConfigFromJson(j.at("robot"));
+  if (j.contains("settings")) d->settings = j.at("settings");
+  if (j.contains("truth_head") && !j.at("truth_head").is_null()) {
+    json r = {{"parameters", json::array()}, {"head", j.at("truth_head")}};
+    d->truth = fitting::ResultFromJson(r).head;
+  }
+  if (j.contains("ranging")) {
+    const json& r = j.at("ranging");
+    fitting::RangingEvaluation ev;
+    for (const json& x : r.at("rows")) {
+      fitting::RangingRow row;
+      row.index = x.value("index", 0);
+      row.true_m = Get(x, "true_m");
+      row.ok = x.value("ok", false);
+      row.range_m = Get(x, "range_m");
+      row.error_m = Get(x, "error_m");
+      row.rel_error = Get(x, "rel_error");
+      row.sigma_m = Get(x, "sigma_m");
+      row.gap_m = Get(x, "gap_m");
+      row.nominal_m = GetOpt(x, "nominal_m");
+      row.nominal_rel_error = Get(x, "nominal_rel_error");
+      ev.rows.push_back(row);
+    }
+    for (const json& x : r.at("theory")) {
+      fitting::RangingTheoryRow t;
+      t.distance_m = Get(x, "distance_m");
+      t.nominal_1us_rel = Get(x, "nominal_1us_rel");
+      t.nominal_half_px_rel = Get(x, "nominal_half_px_rel");
+      t.calibrated_sigma_rel = Get(x, "calibrated_sigma_rel");
+      ev.theory.push_back(t);
+    }
+    ev.num_ok = r.value("num_ok", 0);
+    ev.rms_rel_error = Get(r, "rms_rel_error");
+    ev.mean_abs_rel_error = Get(r, "mean_abs_rel_error");
+    ev.max_abs_rel_error = Get(r, "max_abs_rel_error");
+    ev.fraction_within_2sigma = Get(r, "fraction_within_2sigma");
+    ev.nominal_rms_rel_error = Get(r, "nominal_rms_rel_error");
+    ev.propagated = r.value("propagated", std::vector<std::string>{});
+    ev.notes = r.value("notes", std::vector<std::string>{});
+    d->ranging = ev;
+  }
+  if (j.contains("limits")) {
+    fitting::LimitsEvaluation ev;
+    for (const json& s : j.at("limits").at("servos")) {
+      fitting::ServoLimits l;
+      l.servo = s.at("servo").get<int>();
+      l.name = s.value("name", "");
+      l.configured_min_us = s.at("configured_min_us").get<int>();
+      l.configured_max_us = s.at("configured_max_us").get<int>();
+      l.configured_centre_us = s.value("configured_centre_us", 0);
+      l.measured_min_us = GetOpt(s, "measured_min_us");
+      l.measured_max_us = GetOpt(s, "measured_max_us");
+      l.min_cause = fitting::LimitCauseFromName(s.value("min_cause", ""));
+      l.max_cause = fitting::LimitCauseFromName(s.value("max_cause", ""));
+      l.configured_min_deg = Get(s, "configured_min_deg");
+      l.configured_max_deg = Get(s, "configured_max_deg");
+      l.measured_min_deg = Get(s, "measured_min_deg");
+      l.measured_max_deg = Get(s, "measured_max_deg");
+      l.recommended_min_us = s.value("recommended_min_us", l.configured_min_us);
+      l.recommended_max_us = s.value("recommended_max_us", l.configured_max_us);
+      l.min_excess_us = Get(s, "min_excess_us");
+      l.max_excess_us = Get(s, "max_excess_us");
+      ev.servos.push_back(l);
+    }
+    ev.notes = j.at("limits").value("notes", std::vector<std::string>{});
+    d->limits = ev;
+  }
+  d->steps.clear();
+  if (j.contains("steps")) {
+    for (const json& s : j.at("steps")) {
+      StepTrace t;
+      t.gain = Get(s, "gain");
+      t.amplitude_deg = Get(s, "amplitude_deg");
+      t.trial = s.value("trial", 0);
+      t.eye_axis = s.value("eye_axis", "");
+      t.t_s = Vec(s, "t_s");
+      t.y = Vec(s, "y");
+      t.residual_px = Get(s, "residual_px");
+      if (s.contains("info")) t.info = StepInfoFromJson(s.at("info"));
+      t.simulated = s.value("simulated", false);
+      d->steps.push_back(t);
+    }
+  }
+  if (j.contains("gains") && !j.at("gains").is_null()) {
+    const json& g = j.at("gains");
+    GainStudy s;
+    s.delay_frames = g.value("delay_frames", 3);
+    s.fps = Get(g, "fps", 30);
+    for (const json& r : g.at("simulated")) s.simulated.push_back(GainFromJson(r));
+    s.critical_gain = Get(g, "critical_gain");
+    s.monotone_gain = Get(g, "monotone_gain");
+    if (g.contains("fastest") && !g.at("fastest").is_null()) s.fastest = GainFromJson(g.at("fastest"));
+    s.amplitudes_deg = Vec(g, "amplitudes_deg");
+    s.lower_bound_fast_s = Vec(g, "lower_bound_fast_s");
+    s.lower_bound_slow_s = Vec(g, "lower_bound_slow_s");
+    d->gains = s;
+  }
+  d->residuals.clear();
+  if (j.contains("residuals"))
+    for (const json& r : j.at("residuals"))
+      d->residuals.push_back({r.at(0).get<int>(), r.at(1).get<int>(), r.at(2).get<double>(), r.at(3).get<double>(),
+                              r.at(4).get<double>(), r.at(5).get<double>()});
+  d->coverage.clear();
+  if (j.contains("coverage"))
+    for (const json& c : j.at("coverage"))
+      d->coverage.push_back({c.at(0).get<int>(), c.at(1).get<double>(), c.at(2).get<double>()});
+}
+
+ReportData ReadReportData(const std::string& dir) {
+  ReportData d;
+  d.result = fitting::ReadResultJson(dir + "/results.json");
+  const std::string ev = dir + "/evaluation.json";
+  if (std::filesystem::exists(ev)) {
+    std::ifstream f(ev);
+    if (!f) throw std::runtime_error("cannot open " + ev);
+    try {
+      EvaluationFromJson(json::parse(f), &d);
+    } catch (const std::exception& e) {
+      throw std::runtime_error("evaluation file " + ev + ": " + e.what());
+    }
+  }
+  return d;
+}
+
+void WriteReportData(const ReportData& d, const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  fitting::WriteResultJson(d.result, dir + "/results.json");
+  WriteTextFile(dir + "/evaluation.json", EvaluationToJson(d).dump(1) + "\n");
+}
+
+}  // namespace owlcal::reports

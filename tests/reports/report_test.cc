@@ -1,0 +1,219 @@
+#include "reports/report.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "fitting/truth_compare.h"
+#include "reports/figures.h"
+#include "reports/gnuplot_figure.h"
+
+namespace owlcal::reports {
+namespace {
+
+std::string Slurp(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+std::string TempDir(const std::string& name) {
+  const char* keep = std::getenv("OWLCAL_KEEP_REPORT");
+  const std::string dir = keep ? std::string(keep) + "/" + name
+                               : (std::filesystem::temp_directory_path() / ("owlcal_report_test_" + name)).string();
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+fitting::Parameter P(const std::string& n, double v, double s, const std::string& unit) {
+  fitting::Parameter p;
+  p.name = n;
+  p.value = v;
+  p.sigma = s;
+  p.unit = unit;
+  return p;
+}
+
+// A complete synthetic run: head with servo maps and sigmas, truth, ranging, steps, limits,
+// residuals and coverage.
+ReportData DemoData() {
+  ReportData d;
+  d.config = models::DefaultRobotConfig();
+  models::HeadModel truth = models::NominalHeadModel(d.config);
+  truth.servo_params[models::kRx] = {1540, 0.110, 0.6, -0.4, 1.0};
+  truth.servo_params[models::kLx] = {1550, 0.116, -0.3, 0.5, 1.0};
+  for (int e = 0; e < 2; ++e) truth.intrinsics[e].params = {580, 580, 321, 238, -0.12, 0.06, 0.001, -0.0005, 0};
+  models::HeadModel est = truth;
+  est.servo_params[models::kRx][0] += 0.3;
+  est.servo_params[models::kLx][1] += 0.0004;
+  d.truth = truth;
+  d.result.software_version = "test";
+  d.result.head = est;
+  d.result.cameras[0] = est.intrinsics[0];
+  d.result.cameras[1] = est.intrinsics[1];
+  for (int s = 0; s < models::kNumServos; ++s) {
+    const std::string n = std::string("servo.") + models::kServoNames[s];
+    d.result.Set(P(n + ".centre_us", est.servo_params[s][0], 0.4, "us"));
+    d.result.Set(P(n + ".deg_per_us", est.servo_params[s][1], 0.0005, "deg/us"));
+    d.result.Set(P(n + ".quad_deg", est.servo_params[s][2], 0.2, "deg"));
+    d.result.Set(P(n + ".cubic_deg", est.servo_params[s][3], 0.2, "deg"));
+  }
+  fitting::Parameter neck = P("servo.Neck.centre_us", 1530, NAN, "us");
+  neck.determined = false;
+  neck.note = "held at the robot file's centre (gauge)";
+  d.result.Set(neck);
+  d.result.Set(P("head.ipd_mm", 65.2, 0.3, "mm"));
+  d.result.Set(P("left.fx", 580.4, 0.5, "px"));
+  d.result.warnings.push_back("k3 not determined: all views fronto-parallel");
+  d.result.summaries.push_back({"head", "CONVERGENCE", "ok", 100, 10, 12, 1.5, 0.15, 2000, 3, true});
+  d.result.diagnostics["intrinsics"]["left"]["view_rms_px"] = {0.12, 0.15, 0.11, 0.3};
+  d.result.diagnostics["intrinsics"]["right"]["view_rms_px"] = {0.13, 0.14, 0.12, 0.16};
+  fitting::FillTruth(fitting::IntrinsicsTruthValues(truth), &d.result);
+  std::map<std::string, double> servo_truth;
+  for (int s = 0; s < models::kNumServos; ++s)
+    servo_truth[std::string("servo.") + models::kServoNames[s] + ".centre_us"] = truth.servo_params[s][0];
+  servo_truth["head.ipd_mm"] = 65.0;
+  fitting::FillTruth(servo_truth, &d.result);
+
+  std::vector<fitting::Fixation> fixations;
+  int i = 0;
+  for (double dist : {0.25, 0.5, 0.75, 1.0, 1.25, 1.5}) {
+    auto f = fitting::SyntheticFixation(truth, Eigen::Vector3d(0.02, 0, dist + 0.03), 1530);
+    if (!f) continue;
+    f->index = i++;
+    fixations.push_back(*f);
+  }
+  std::vector<double> theory;
+  for (double x = 0.2; x <= 2.0001; x += 0.05) theory.push_back(x);
+  d.ranging = fitting::EvaluateRanging(
+      est, fitting::CovarianceFromResult(d.result, fitting::RangingParameterNames()), d.config, fixations, {}, theory);
+  d.gains = MakeGainStudy(3);
+  for (double k : {0.05, 0.1, 0.2, 0.3}) {
+    StepTrace t;
+    t.gain = k;
+    t.amplitude_deg = 10;
+    t.eye_axis = "right pan";
+    const auto y = fitting::SimulateDelayedPLoop(k, 3, 90);
+    for (size_t n = 0; n < y.size(); ++n) {
+      t.t_s.push_back(n / 30.0);
+      t.y.push_back(y[n] + 0.003 * std::sin(n));
+    }
+    fitting::StepInfoOptions o;
+    o.y_init = 0.0;
+    o.y_final = 1.0;
+    t.info = fitting::ComputeStepInfo(t.t_s, t.y, o);
+    t.residual_px = 0.4;
+    d.steps.push_back(t);
+  }
+  d.limits = fitting::EvaluateLimits(d.config,
+                                     {{models::kRx, false, 1230, fitting::LimitCause::kEndStop},
+                                      {models::kRx, true, 1890, fitting::LimitCause::kConfigured},
+                                      {models::kLx, false, 1180, fitting::LimitCause::kConfigured},
+                                      {models::kLx, true, 1800, fitting::LimitCause::kSocketRim}},
+                                     &est);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n01;
+  std::uniform_real_distribution<double> ux(20, 620), uy(20, 460);
+  for (int k = 0; k < 400; ++k) {
+    const int eye = k % 2;
+    const double x = ux(rng), y = uy(rng);
+    d.residuals.push_back({eye, k / 20, x, y, 0.15 * n01(rng), 0.15 * n01(rng)});
+    d.coverage.push_back({eye, x, y});
+  }
+  d.settings = {{"command", "owlcal calibrate --out test"}, {"seed", 1}};
+  return d;
+}
+
+TEST(Report, EvaluationJsonRoundTrips) {
+  const ReportData d = DemoData();
+  ReportData back;
+  EvaluationFromJson(EvaluationToJson(d), &back);
+  ASSERT_TRUE(back.ranging);
+  EXPECT_EQ(back.ranging->rows.size(), d.ranging->rows.size());
+  EXPECT_DOUBLE_EQ(back.ranging->rows[2].range_m, d.ranging->rows[2].range_m);
+  ASSERT_TRUE(back.limits);
+  EXPECT_EQ(back.limits->servos[models::kRx].min_cause, fitting::LimitCause::kEndStop);
+  EXPECT_EQ(back.steps.size(), 4u);
+  EXPECT_EQ(back.steps[1].info.settling_index, d.steps[1].info.settling_index);
+  ASSERT_TRUE(back.gains && back.gains->fastest);
+  EXPECT_DOUBLE_EQ(back.gains->fastest->gain, d.gains->fastest->gain);
+  ASSERT_TRUE(back.truth);
+  EXPECT_DOUBLE_EQ(back.truth->servo_params[models::kRx][0], 1540);
+  EXPECT_EQ(back.residuals.size(), 400u);
+  EXPECT_EQ(back.config.servos[models::kLy].direction, -1);
+}
+
+TEST(Report, TablesCarryValuesSigmasAndTruth) {
+  const ReportData d = DemoData();
+  const std::vector<Table> tables = MakeTables(d);
+  std::map<std::string, Table> by;
+  for (const auto& t : tables) by[t.name] = t;
+  for (const char* n : {"parameters", "solver", "undetermined", "truth_comparison", "ranging", "ranging_summary",
+                        "step_metrics", "gain_study", "limits"})
+    EXPECT_TRUE(by.count(n)) << n;
+  const std::string md = ToMarkdown(by["parameters"]);
+  EXPECT_NE(md.find("| servo.Rx.centre_us | 1540.30 | 0.4 | us | yes | 1540 | 0.3 | 0.75 |"), std::string::npos) << md;
+  const std::string tex = ToLatex(by["parameters"]);
+  EXPECT_NE(tex.find("servo.Rx.centre\\_us"), std::string::npos);
+  EXPECT_NE(tex.find("\\toprule"), std::string::npos);
+  const std::string und = ToCsv(by["undetermined"]);
+  EXPECT_NE(und.find("servo.Neck.centre_us,held at the robot file's centre (gauge)"), std::string::npos) << und;
+  // The d = 3 control facts appear in the gain table.
+  const std::string gains = ToCsv(by["gain_study"]);
+  EXPECT_NE(gains.find("K_crit = 2 sin(pi / (2 (2d + 1))),0.445"), std::string::npos) << gains;
+  EXPECT_NE(gains.find("fastest stable gain,0.13"), std::string::npos) << gains;
+}
+
+TEST(Report, WritesFiguresTablesAndHtml) {
+  std::string term;
+  const bool have_gnuplot = GnuplotAvailable(&term);
+  const ReportData d = DemoData();
+  const std::string dir = TempDir("full");
+  const ReportOutput out = WriteReport(d, dir);
+  for (const auto& w : out.warnings) ADD_FAILURE() << w;
+  const std::vector<std::string> expected = {"servo_maps", "servo_rx_deviation", "reprojection_residuals", "view_rms",
+                                             "distortion_left", "coverage", "range_error", "step_responses",
+                                             "settling_vs_gain", "limits"};
+  for (const auto& name : expected) {
+    EXPECT_TRUE(std::find(out.figures.begin(), out.figures.end(), name) != out.figures.end()) << name;
+    EXPECT_TRUE(std::filesystem::exists(dir + "/figures/" + name + ".csv")) << name;
+    EXPECT_TRUE(std::filesystem::exists(dir + "/figures/" + name + ".gp")) << name;
+    if (have_gnuplot) {
+      EXPECT_GT(std::filesystem::file_size(dir + "/figures/" + name + ".png"), 5000u) << name;
+      const std::string svg = Slurp(dir + "/figures/" + name + ".svg");
+      EXPECT_NE(svg.find("<svg"), std::string::npos) << name;
+    }
+  }
+  const std::string gp = Slurp(dir + "/figures/range_error.gp");
+  EXPECT_NE(gp.find("set xlabel \"true distance [m]\""), std::string::npos);
+  EXPECT_NE(gp.find("'range_error.csv' index"), std::string::npos);
+  const std::string html = Slurp(out.index_html);
+  for (const auto& name : expected) EXPECT_NE(html.find("../figures/" + name + ".png"), std::string::npos) << name;
+  EXPECT_NE(html.find("Ground-truth comparison"), std::string::npos);
+  EXPECT_NE(html.find("tab-truth_comparison"), std::string::npos);
+  EXPECT_NE(html.find("servo.Neck.centre_us"), std::string::npos);
+  EXPECT_NE(html.find("owlcal calibrate --out test"), std::string::npos);
+  for (const char* ext : {".csv", ".md", ".tex"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/tables/ranging" + std::string(ext)));
+}
+
+TEST(Report, FigureCsvHasOneBlockPerSeries) {
+  Figure f{"demo", "Demo", "x [m]", "y [%]", {}, {}, "top left"};
+  f.series.push_back({"a", "lines", "1:2", {"x", "y"}, {{1, 2}, {3, NAN}}});
+  f.series.push_back({"b", "points", "1:2", {"x", "y"}, {}});
+  const std::string csv = FigureCsv(f);
+  EXPECT_NE(csv.find("# series 0: a\n# x,y\n1,2\n3,NaN\n\n\n# series 1: b"), std::string::npos) << csv;
+  const std::string gp = GnuplotScript(f, "png");
+  EXPECT_NE(gp.find("index 1 using 1:2 with points title \"b\""), std::string::npos) << gp;
+  EXPECT_THROW(WriteFigure(Figure{"Bad Name", "", "", "", {}, {}, ""}, "/tmp", false), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace owlcal::reports
