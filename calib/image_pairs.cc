@@ -101,4 +101,37 @@ void LoadImagePair(const ImagePair& pair, const ImagePairOptions& options, cv::M
   *right = r;
 }
 
+DetectedImageSet DetectImagePairs(const ImagePairList& list,
+                                  const ImagePairOptions& options,
+                                  const TargetDefinition& target,
+                                  const DetectorOptions& detector) {
+  DetectedImageSet out;
+  for (size_t i = 0; i < list.pairs.size(); ++i) {
+    const ImagePair& pair = list.pairs[i];
+    cv::Mat img[2];
+    LoadImagePair(pair, options, &img[0], &img[1]);
+    PairDetection pd;
+    pd.key = pair.key;
+    for (int e = 0; e < 2; ++e) {
+      if (out.width == 0) {
+        out.width = img[e].cols;
+        out.height = img[e].rows;
+      } else if (img[e].cols != out.width || img[e].rows != out.height) {
+        throw std::runtime_error((e == 0 ? pair.left_path : pair.right_path) + ": image size " +
+                                 std::to_string(img[e].cols) + "x" + std::to_string(img[e].rows) + " differs from " +
+                                 std::to_string(out.width) + "x" + std::to_string(out.height));
+      }
+      const TargetDetection d = DetectTarget(img[e], target, detector);
+      pd.found[e] = d.found;
+      pd.message[e] = d.message;
+      if (d.found) {
+        const auto obs = DetectionToObservations(d, target, static_cast<int>(i), e);
+        out.observations.insert(out.observations.end(), obs.begin(), obs.end());
+      }
+    }
+    out.pairs.push_back(pd);
+  }
+  return out;
+}
+
 }  // namespace owlcal::calib

@@ -21,6 +21,10 @@
 
 #include <opencv2/core.hpp>
 
+#include "calib/detector.h"
+#include "calib/observation.h"
+#include "calib/target.h"
+
 namespace owlcal::calib {
 
 struct ImagePairOptions {
@@ -46,5 +50,22 @@ ImagePairList ListImagePairs(const std::string& dir, const ImagePairOptions& opt
 // Loads one pair as BGR images of one eye each, applying mirror / swap. Throws naming the
 // file when it cannot be decoded, or when a side-by-side frame's width is odd.
 void LoadImagePair(const ImagePair& pair, const ImagePairOptions& options, cv::Mat* left, cv::Mat* right);
+
+// Detection of a target in every pair: frame_index = position in `list.pairs`, eye 0 = left.
+struct PairDetection {
+  std::string key;
+  bool found[2] = {false, false};
+  std::string message[2];   // why not found
+};
+struct DetectedImageSet {
+  std::vector<CornerObservation> observations;
+  std::vector<PairDetection> pairs;
+  int width = 0, height = 0;  // image size of one eye (all images must agree)
+};
+// Throws naming the file when an image cannot be read or its size differs from the first.
+DetectedImageSet DetectImagePairs(const ImagePairList& list,
+                                  const ImagePairOptions& options,
+                                  const TargetDefinition& target,
+                                  const DetectorOptions& detector);
 
 }  // namespace owlcal::calib

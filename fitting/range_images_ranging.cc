@@ -104,52 +104,6 @@ StereoRig RigFromResult(const CalibrationResult& r) {
   return rig;
 }
 
-StereoRig RigFromOpenCv(const OpenCvStereoCalibration& c, int width, int height) {
-  if (!c.HasIntrinsics() || !c.HasExtrinsics())
-    throw std::runtime_error("OpenCV calibration lacks M1 D1 M2 D2 R T");
-  StereoRig rig;
-  const int w = c.image_width > 0 ? c.image_width : width, h = c.image_height > 0 ? c.image_height : height;
-  std::string why;
-  auto l = CameraFromOpenCv(c.M1, c.D1, w, h, &why);
-  if (!l) throw std::runtime_error("M1/D1: " + why);
-  auto rr = CameraFromOpenCv(c.M2, c.D2, w, h, &why);
-  if (!rr) throw std::runtime_error("M2/D2: " + why);
-  rig.cameras[0] = *l;
-  rig.cameras[1] = *rr;
-  cv::Mat R, T;
-  c.R.convertTo(R, CV_64F);
-  c.T.convertTo(T, CV_64F);
-  if (R.rows == 1 || R.cols == 1) cv::Rodrigues(R.clone(), R);
-  Eigen::Matrix3d Re;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) Re(i, j) = R.at<double>(i, j);
-  Eigen::Vector3d t(T.at<double>(0), T.at<double>(1), T.at<double>(2));
-  if (t.norm() > 1) t *= 1e-3;  // the course writes mm (26.0 mm squares)
-  rig.right_from_left = models::Rigid3d(Eigen::Quaterniond(Re).normalized(), t);
-  rig.source = "OpenCV file";
-  return rig;
-}
-
-StereoRig LoadStereoRig(const std::string& path) {
-  fs::path p(path);
-  if (fs::is_directory(p)) {
-    if (fs::exists(p / "results.json")) return LoadStereoRig((p / "results.json").string());
-    if (fs::exists(p / "intrinsics.xml")) return LoadStereoRig((p / "intrinsics.xml").string());
-    throw std::runtime_error(path + ": folder holds neither results.json nor intrinsics.xml");
-  }
-  if (!fs::exists(p)) throw std::runtime_error(path + ": no such calibration file");
-  StereoRig rig;
-  if (p.extension() == ".json") {
-    rig = RigFromResult(ReadResultJson(path));
-  } else if (p.filename() == "intrinsics.xml" && fs::exists(p.parent_path() / "extrinsics.xml")) {
-    rig = RigFromOpenCv(ReadOpenCvSplitFiles(path, (p.parent_path() / "extrinsics.xml").string()));
-  } else {
-    rig = RigFromOpenCv(ReadOpenCvCalibration(path));
-  }
-  rig.source = path;
-  return rig;
-}
-
 Rectification RectifyRig(const StereoRig& rig, double alpha) {
   Rectification r;
   r.size = cv::Size(rig.cameras[0].width, rig.cameras[0].height);
@@ -179,7 +133,13 @@ void RemapPair(const Rectification& r, const cv::Mat& left, const cv::Mat& right
   cv::remap(right, *rr, r.map_x[1], r.map_y[1], cv::INTER_LINEAR);
 }
 
-bool RangeOptions::Check(std::string* why) const { return match.Check(why); }
+bool RangeOptions::Check(std::string* why) const {
+  if (!(truth_sigma_m >= 0)) {
+    if (why) *why = "truth_sigma_m = " + std::to_string(truth_sigma_m) + " must be >= 0";
+    return false;
+  }
+  return match.Check(why);
+}
 
 std::optional<double> TriangulateDepth(const StereoRig& rig,
                                        const std::vector<double>& p,
@@ -215,6 +175,7 @@ RangeMeasurement RangePair(const cv::Mat& left_raw,
                            const Rectification& rect,
                            const RangeOptions& options) {
   RangeMeasurement m;
+  m.truth_sigma_m = options.truth_sigma_m;
   cv::Mat lr, rr;
   RemapPair(rect, left_raw, right_raw, &lr, &rr);
   m.match = calib::MatchAlongRow(lr, rr, options.match);
@@ -339,7 +300,7 @@ RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_
     const double rel = std::abs(r.error_m()) / r.true_m;
     sum += rel;
     s.max_abs_rel = std::max(s.max_abs_rel, rel);
-    const double z = std::abs(r.error_m()) / r.sigma_m;
+    const double z = std::abs(r.error_m()) / r.error_sigma_m();
     s.max_abs_z = std::max(s.max_abs_z, z);
     if (z > 3) ++s.num_outside_3sigma;
   }
@@ -355,7 +316,7 @@ std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
     c << r.name << "," << Fmt(r.true_m * 100, 2) << "," << (r.ok ? Fmt(r.range_m * 100, 3) : "") << ","
       << (r.ok ? Fmt(r.error_m() * 100, 3) : "") << "," << (r.ok ? Fmt(100 * r.error_m() / r.true_m, 3) : "") << ","
       << (r.ok ? Fmt(r.sigma_m * 100, 3) : "") << "," << (r.ok ? Fmt(r.sigma_calib_m * 100, 3) : "") << ","
-      << (r.ok ? Fmt(r.sigma_match_m * 100, 3) : "") << "," << (r.ok ? Fmt(r.error_m() / r.sigma_m, 2) : "") << ","
+      << (r.ok ? Fmt(r.sigma_match_m * 100, 3) : "") << "," << (r.ok ? Fmt(r.error_m() / r.error_sigma_m(), 2) : "") << ","
       << Fmt(r.match.disparity_px, 3) << "," << Fmt(r.match.sigma_disparity_px, 3) << ","
       << Fmt(r.match.dy_px, 2) << "," << Fmt(r.match.ncc, 3) << "," << Fmt(r.match.second_ncc, 3) << ","
       << Fmt(r.ray_gap_m * 1000, 2) << "," << (r.ok ? 1 : 0) << ",\"" << r.message << "\"\n";
@@ -377,7 +338,7 @@ std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const Ran
     md << "| " << r.name << " | " << Fmt(r.true_m * 100, 1) << " | " << Fmt(r.range_m * 100, 2) << " | "
        << Fmt(100 * r.error_m() / r.true_m, 2) << " | " << Fmt(r.sigma_m * 100, 2) << " | "
        << Fmt(r.sigma_calib_m * 100, 2) << " / " << Fmt(r.sigma_match_m * 100, 2) << " | "
-       << Fmt(r.error_m() / r.sigma_m, 2) << " | " << Fmt(r.match.disparity_px, 2) << " | " << Fmt(r.match.ncc, 3)
+       << Fmt(r.error_m() / r.error_sigma_m(), 2) << " | " << Fmt(r.match.disparity_px, 2) << " | " << Fmt(r.match.ncc, 3)
        << " |\n";
   }
   md << "\nRanged " << s.num_ranged << "/" << s.num_rows << "; mean |error| " << Fmt(100 * s.mean_abs_rel, 2)

@@ -20,6 +20,7 @@
 //     length, baseline, principal points and the toe-in angle (a disparity offset) with all
 //     their correlations. A rig without covariance (an OpenCV file) gives sigma_calib = NaN
 //     and the report says so.
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <string>
@@ -74,6 +75,9 @@ struct RangeOptions {
   calib::StereoMatchOptions match;
   double datum_offset_m = 0;   // added to the depth to compare with the logged distance
   double rectify_alpha = -1;
+  // Uncertainty of the logged true distance itself (ruler reading, target held by hand,
+  // datum); used only when comparing with the truth: z = error / sqrt(sigma^2 + truth^2).
+  double truth_sigma_m = 0;
   bool Check(std::string* why) const;
 };
 
@@ -89,6 +93,8 @@ struct RangeMeasurement {
   double sigma_m = 0;                 // total predicted sigma
   double sigma_calib_m = 0;           // from the calibration covariance (NaN if unknown)
   double sigma_match_m = 0;           // from the matching sigma
+  double truth_sigma_m = 0;           // RangeOptions::truth_sigma_m
+  double error_sigma_m() const { return std::hypot(sigma_m, truth_sigma_m); }
   double error_m() const { return range_m - true_m; }
 };
 
