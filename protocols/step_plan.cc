@@ -23,10 +23,17 @@ std::vector<PlannedPose> PlanPoses(const Step& s, const models::RobotConfig& rob
       p.capture = capture;
       out.push_back(p);
     };
-    if (s.pre_approach) add(from - dir * s.step_us, false);
+    // Pre-approach points are the planner's own: kept inside the limits (dropped when the
+    // sweep starts at the limit itself).
+    const models::ServoConfig& sc = robot.servos[s.servo];
+    auto pre = [&](int end, int v) {
+      const int c = sc.Clamp(v);
+      if (s.pre_approach && c != end) add(c, false);
+    };
+    pre(from, from - dir * s.step_us);
     for (int v : values) add(v, true);
     if (s.both_directions) {
-      if (s.pre_approach) add(to + dir * s.step_us, false);
+      pre(to, to + dir * s.step_us);
       for (auto it = values.rbegin(); it != values.rend(); ++it) add(*it, true);
     }
   } else if (s.kind == StepKind::kGrid) {

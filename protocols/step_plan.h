@@ -20,7 +20,8 @@ struct PlannedPose {
 
 // Poses of a sweep or grid step, in execution order, BEFORE the limits guard.
 // Sweep: [pre-approach from - step], from .. to (every step_us, `to` included), and when
-// both_directions [pre-approach to + step], to .. from. Grid: for each neck offset, each
+// both_directions [pre-approach to + step], to .. from. Pre-approach points are clamped to
+// the servo's limits (and dropped when that makes them equal to the end). Grid: for each neck offset, each
 // tilt offset, the pan offsets in serpentine order; offsets toward right/up times each
 // servo's direction, added to the hold pose for the eyes selected.
 std::vector<PlannedPose> PlanPoses(const Step& step, const models::RobotConfig& robot);

@@ -1,0 +1,206 @@
+// The runner against a fast fake robot: limits guard (clamped, reported, never sent),
+// dry-run plan, safe abort (parks at centre, dataset closed), resume, placement prompts.
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "protocols/dataset.h"
+#include "protocols/protocol.h"
+#include "protocols/runner.h"
+#include "tests/protocols/fake_robot.h"
+
+namespace owlcal::protocols {
+namespace {
+namespace fs = std::filesystem;
+
+std::string TempDir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("owlcal_runner_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p.string();
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+models::RobotConfig TightRobot() {
+  models::RobotConfig c = models::DefaultRobotConfig();
+  c.servos[models::kRx].min_us = 1400;
+  c.servos[models::kRx].max_us = 1700;
+  c.servos[models::kNeck].min_us = 1450;
+  c.servos[models::kNeck].max_us = 1600;
+  return c;
+}
+
+const char* kWideSweep = R"(
+name: wide
+steps:
+  - sweep: {servo: Rx, from: 1200, to: 1890, step_us: 100, settle: {mode: time, time_ms: 20}}
+  - move-to: {pose: {Neck: 1950, Rx: max}, settle: {mode: time, time_ms: 20}, frames: 1}
+  - grid: {pan_us: [-300, 300], neck_us: [-200, 0], settle: {mode: time, time_ms: 20}}
+)";
+
+TEST(Runner, TighterRobotFileClampsAndReportsAndNeverSendsOutOfLimits) {
+  const models::RobotConfig tight = TightRobot();
+  testing::FakeRobot robot(tight);
+  const Protocol p = ParseProtocolYaml(kWideSweep, "wide.yaml");
+  RunOptions o;
+  o.out_dir = TempDir("clamp");
+  std::ostringstream progress;
+  o.progress = &progress;
+  const RunSummary s = RunProtocols({p}, robot, o);
+  EXPECT_EQ(s.status, "complete") << s.message;
+  EXPECT_GT(s.num_clamped, 5);
+  ASSERT_FALSE(robot.requested.empty());
+  for (const auto& cmd : robot.requested)
+    for (int i = 0; i < models::kNumServos; ++i) {
+      EXPECT_GE(cmd[i], tight.servos[i].min_us) << models::kServoNames[i];
+      EXPECT_LE(cmd[i], tight.servos[i].max_us) << models::kServoNames[i];
+    }
+  // Reported: events log, progress output, summary.
+  EXPECT_NE(ReadText(o.out_dir + "/events.log").find("clamp"), std::string::npos);
+  EXPECT_NE(progress.str().find("CLAMPED"), std::string::npos);
+  ASSERT_FALSE(s.clamp_messages.empty());
+  EXPECT_NE(s.clamp_messages[0].find("Rx"), std::string::npos) << s.clamp_messages[0];
+  // Recorded commands are the ones in force (clamped).
+  for (const FrameRecord& f : ReadFramesCsv(o.out_dir)) {
+    EXPECT_LE(f.pwm_us[models::kRx], 1700);
+    EXPECT_GE(f.pwm_us[models::kRx], 1400);
+  }
+  // The head was parked at its centre at the end.
+  EXPECT_EQ(robot.requested.back(), tight.Centre());
+}
+
+TEST(Runner, DryRunPlansAndFlagsClampsWithoutMoving) {
+  testing::FakeRobot robot(TightRobot());
+  const Protocol p = ParseProtocolYaml(kWideSweep, "wide.yaml");
+  RunOptions o;
+  o.dry_run = true;
+  const RunSummary s = RunProtocols({p}, robot, o);
+  EXPECT_EQ(s.status, "dry-run");
+  EXPECT_TRUE(robot.requested.empty());
+  EXPECT_EQ(robot.frames_grabbed, 0);
+  int clamped_lines = 0;
+  for (const std::string& l : s.plan) clamped_lines += l.find("CLAMPED") != std::string::npos;
+  EXPECT_GT(clamped_lines, 5);
+  EXPECT_EQ(clamped_lines, s.num_clamped);
+  // Same plan with the guide robot: nothing clamped.
+  int64_t n = -1;
+  PlanRun({p}, models::DefaultRobotConfig(), &n);
+  EXPECT_EQ(n, 0);
+}
+
+const char* kCapture = R"(
+name: cap
+steps:
+  - move-to: {pose: {Rx: centre+50}, settle: {mode: time, time_ms: 20}, frames: 2}
+  - capture: {frames: 30, settle: {mode: time, time_ms: 5}}
+  - move-to: {pose: {Lx: centre-50}, settle: {mode: time, time_ms: 20}, frames: 3}
+)";
+
+TEST(Runner, StopRequestParksTheHeadAndClosesTheDataset) {
+  testing::FakeRobot robot;
+  const Protocol p = ParseProtocolYaml(kCapture, "cap.yaml");
+  std::atomic<bool> stop{false};
+  RunOptions o;
+  o.out_dir = TempDir("abort");
+  o.stop_flag = &stop;
+  o.on_frame = [&](int64_t index) {
+    if (index == 9) stop = true;
+  };
+  const RunSummary s = RunProtocols({p}, robot, o);
+  EXPECT_EQ(s.status, "aborted");
+  EXPECT_EQ(s.num_frames, 10);
+  EXPECT_EQ(robot.requested.back(), robot.Config().Centre());
+  const DatasetCheck c = CheckDataset(o.out_dir);
+  EXPECT_TRUE(c.ok);
+  EXPECT_EQ(c.status, "aborted");
+  EXPECT_EQ(c.num_frames, 10);
+}
+
+TEST(Runner, ResumeContinuesAfterTheLastFinishedStep) {
+  const Protocol p = ParseProtocolYaml(kCapture, "cap.yaml");
+  const std::string dir = TempDir("resume");
+  {
+    testing::FakeRobot robot;
+    std::atomic<bool> stop{false};
+    RunOptions o;
+    o.out_dir = dir;
+    o.stop_flag = &stop;
+    o.on_frame = [&](int64_t index) {
+      if (index == 12) stop = true;
+    };
+    EXPECT_EQ(RunProtocols({p}, robot, o).status, "aborted");
+  }
+  {
+    testing::FakeRobot robot;
+    RunOptions o;
+    o.out_dir = dir;
+    o.resume = true;
+    const RunSummary s = RunProtocols({p}, robot, o);
+    EXPECT_EQ(s.status, "complete") << s.message;
+    // 13 frames kept; step 1 (capture 30) re-run, then step 2 (3 frames).
+    EXPECT_EQ(s.num_frames, 13 + 30 + 3);
+  }
+  const DatasetCheck c = CheckDataset(dir);
+  EXPECT_TRUE(c.ok);
+  EXPECT_EQ(c.status, "complete");
+  std::vector<int> done;
+  for (const StepRecord& r : ReadStepsCsv(dir))
+    if (r.status == "done") done.push_back(r.step_index);
+  EXPECT_EQ(done, (std::vector<int>{0, 1, 2}));
+  // Resuming with another protocol is refused.
+  testing::FakeRobot robot;
+  RunOptions o;
+  o.out_dir = dir;
+  o.resume = true;
+  const Protocol other = ParseProtocolYaml("name: other\nsteps:\n  - capture: {frames: 1}\n", "o.yaml");
+  EXPECT_THROW(RunProtocols({other}, robot, o), std::runtime_error);
+}
+
+TEST(Runner, RealRobotPlacementPromptsAndRecordsTheAnswer) {
+  const Protocol p = ParseProtocolYaml(R"(
+name: place
+target: board
+target_description: AprilTag
+steps:
+  - place-target: {target: board, distance_m: 0.6}
+  - capture: {frames: 1, settle: {mode: time, time_ms: 5}}
+  - place-target: {target: board, distance_m: 0.9}
+)",
+                                       "place.yaml");
+  testing::FakeRobot robot;  // no scene control, like a real robot
+  std::istringstream answers("\n612\n");
+  std::ostringstream out;
+  RunOptions o;
+  o.out_dir = TempDir("prompt");
+  o.interactive = true;
+  o.input = &answers;
+  o.progress = &out;
+  EXPECT_EQ(RunProtocols({p}, robot, o).status, "complete");
+  EXPECT_NE(out.str().find("Place the AprilTag target 600 mm in front of the neck axis"), std::string::npos) << out.str();
+  const auto pl = ReadPlacementsCsv(o.out_dir);
+  ASSERT_EQ(pl.size(), 2u);
+  EXPECT_EQ(pl[0].source, "prompt");
+  EXPECT_DOUBLE_EQ(pl[0].distance_m, 0.6);
+  EXPECT_DOUBLE_EQ(pl[1].distance_m, 0.612);  // the measured answer replaces the planned 0.9
+  EXPECT_EQ(ReadFramesCsv(o.out_dir)[0].placement_index, 0);
+  // Non-interactive: the file's values, no prompt read.
+  testing::FakeRobot robot2;
+  RunOptions o2;
+  o2.out_dir = TempDir("noprompt");
+  EXPECT_EQ(RunProtocols({p}, robot2, o2).status, "complete");
+  const auto pl2 = ReadPlacementsCsv(o2.out_dir);
+  ASSERT_EQ(pl2.size(), 2u);
+  EXPECT_EQ(pl2[1].source, "file");
+  EXPECT_DOUBLE_EQ(pl2[1].distance_m, 0.9);
+}
+
+}  // namespace
+}  // namespace owlcal::protocols
