@@ -303,6 +303,7 @@ std::optional<Figure> MakeLimitsFigure(const ReportData& d) {
   f.settings.push_back(ytics + ")");
   f.settings.push_back("set yrange [0.3:" + Fmt(n + 0.7, 3) + "]");
   f.settings.push_back("set xrange [850:2250]");
+  f.settings.push_back("set bmargin 6");
   f.series = {cfg, mea, ctr};
   return f;
 }
@@ -312,7 +313,7 @@ std::optional<Figure> MakeCoverageFigure(const ReportData& d) {
   Figure f{"coverage", "Image coverage of the detected calibration corners", "x [px]", "y [px]", {}, {}, "outside bottom center horizontal"};
   f.caption = "Every detected corner used for the intrinsics, per eye. Distortion is only determined where corners were seen.";
   f.settings = {"set size ratio -1", "set xrange [0:" + std::to_string(d.config.image_width - 1) + "]",
-                "set yrange [" + std::to_string(d.config.image_height - 1) + ":0]"};
+                "set yrange [" + std::to_string(d.config.image_height - 1) + ":0]", "set bmargin 6"};
   for (int e = 0; e < 2; ++e) {
     Series s{std::string(models::kEyeNames[e]) + " eye", std::string("points pt ") + (e ? "6" : "7") + " ps 0.5 " + Lc(e),
              "1:2", {"x_px", "y_px"}, {}};
