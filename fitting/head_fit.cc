@@ -297,6 +297,12 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   const auto t0 = std::chrono::steady_clock::now();
   HeadFit fit;
   CalibrationResult& result = fit.result;
+  nlohmann::json timing = nlohmann::json::object();
+  auto mark = [&, last = t0](const char* stage) mutable {
+    const auto now = std::chrono::steady_clock::now();
+    timing[stage] = std::chrono::duration<double>(now - last).count();
+    last = now;
+  };
   result.summaries.push_back({});
   SolveSummary& summary = result.summaries.back();
   summary.problem = "head";
@@ -417,13 +423,13 @@ HeadFit FitHead(const std::vector<calib::View>& views,
     }
   }
   const bool neck_moved = pwm_seen[kNeck].size() > 1;
-  s.servo[kNeck].Fix(0, "fixed at the robot file's centre " + std::to_string(robot.servos[kNeck].centre_us) +
-                            " us: the neck's zero only turns the base frame, which no board observation sees (gauge)");
   if (!neck_moved) {
     s.servo[kNeck].FixAll("not determined: the neck never moved (" +
                           (pwm_seen[kNeck].empty() ? std::string("no view") : std::to_string(*pwm_seen[kNeck].begin()) + " us") +
                           " in every view)");
   }
+  s.servo[kNeck].Fix(0, "fixed at the robot file's centre " + std::to_string(robot.servos[kNeck].centre_us) +
+                            " us: the neck's zero only turns the base frame, which no board observation sees (gauge)");
   for (int i = 0; i < kNumServos; ++i) {
     Block& b = s.servo[i];
     const std::string name = models::kServoNames[i];
@@ -517,6 +523,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
     iterations += s1.iterations.size();
     initial_cost = s1.initial_cost;
   }
+  mark("solve_robust_s");
   if (options.outlier_threshold_sigma > 0) {
     for (PreparedView& p : prepared) {
       const std::vector<double> err = CornerErrorsPx(s, p);
@@ -533,6 +540,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   fit.num_corners_used = BuildProblem(s, prepared, sigma, 0.0, options, &problem);
   const ceres::Solver::Summary s2 = Solve(&problem, options);
   iterations += s2.iterations.size();
+  mark("solve_final_s");
   // Blocks the problem does not contain are not determined by anything.
   auto mark_unused = [](Block& b, const std::string& what) {
     if (!b.in_problem) b.FixAll("not determined: no usable view involves " + what);
@@ -616,6 +624,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
       }
     }
     h = h.selfadjointView<Eigen::Upper>();
+    mark("information_matrix_s");
     Eigen::VectorXd d(n);
     for (int i = 0; i < n; ++i) d(i) = h(i, i) > 0 ? std::sqrt(h(i, i)) : 1.0;
     const Eigen::MatrixXd hs = d.asDiagonal().inverse() * h * d.asDiagonal().inverse();
@@ -659,6 +668,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
     covariance_source = null_dim ? "pseudo-inverse of J^T J on the determined subspace (rank deficient by " +
                                        std::to_string(null_dim) + ")"
                                  : "pseudo-inverse of J^T J";
+    mark("rank_analysis_s");
     // Full rank: the head blocks' covariance from ceres::Covariance (boards marginalised).
     if (null_dim == 0 && num_head_eval > 0) {
       ceres::Covariance::Options co;
@@ -681,6 +691,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
     }
   }
 
+  mark("covariance_s");
   // ---- Outputs: head model, parameters, covariance.
   models::HeadModel head = initial;
   for (int i = 0; i < kNumServos; ++i) {
@@ -825,7 +836,8 @@ HeadFit FitHead(const std::vector<calib::View>& views,
                                 {"num_corners", n_corners},
                                 {"noise_factor", noise_factor},
                                 {"null_space_dimension", null_dim},
-                                {"covariance_source", covariance_source}};
+                                {"covariance_source", covariance_source},
+                                {"timing", timing}};
   nlohmann::json outliers = nlohmann::json::array();
   for (size_t i = 0; i < fit.outliers.size() && i < 200; ++i) {
     const HeadOutlier& o = fit.outliers[i];
