@@ -11,10 +11,13 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
+// Base frame x right, y down, z forward: yaw turns about y (positive: +z towards +x, the
+// board's face turns to the robot's right), pitch about x (positive: top edge away from the
+// robot), roll about z (in the board's plane). R = Ry(yaw) Rx(pitch) Rz(roll).
 Eigen::Matrix3d Rpy(double roll_deg, double pitch_deg, double yaw_deg) {
-  return (Eigen::AngleAxisd(yaw_deg * kDeg, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(pitch_deg * kDeg, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitX()))
+  return (Eigen::AngleAxisd(yaw_deg * kDeg, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(pitch_deg * kDeg, Eigen::Vector3d::UnitX()) *
+          Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitZ()))
       .toRotationMatrix();
 }
 
@@ -214,7 +217,14 @@ SceneDescription LoadScene(const std::string& path) {
         d.tag_spacing < 0.125 || d.fixation_radius_m <= 0) {
       throw std::runtime_error(path + ": " + where + ": a size is out of range (cols/rows >= 2, sizes > 0, tag_spacing >= 0.125)");
     }
-    if (const YAML::Node p = n["pose"]) {
+    if (const YAML::Node p = n["pose"]; p && p["centre_m"]) {
+      // The board's centre and its turn (FacingPose).
+      std::vector<double> c, r = {0, 0, 0};
+      get(p, "centre_m", &c, where + ".pose");
+      get(p, "rpy_deg", &r, where + ".pose");
+      if (c.size() != 3 || r.size() != 3) throw std::runtime_error(path + ": " + where + ".pose: centre_m and rpy_deg need 3 numbers");
+      t.base_from_target = FacingPose(d, Eigen::Vector3d(c[0], c[1], c[2]), r[2], r[1], r[0]);
+    } else if (const YAML::Node p = n["pose"]) {
       nlohmann::json j;
       for (const char* key : {"t_m", "q_xyzw", "rpy_deg"}) {
         if (p[key]) j[key] = p[key].as<std::vector<double>>();

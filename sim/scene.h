@@ -12,10 +12,14 @@
 //       tag_cols: 6, tag_rows: 6, tag_size_m: 0.024, tag_spacing: 0.3, first_id: 0  # aprilgrid
 //       fixation_radius_m: 0.01                                  # fixation (black disc)
 //       pose: {t_m: [x, y, z], rpy_deg: [roll, pitch, yaw]}  # or q_xyzw: [..4]
+//       pose: {centre_m: [x, y, z], rpy_deg: [...]}   # or: where the pattern's CENTRE is (FacingPose)
 //       visible: true
 // The pose is base_from_target (calib/target.h target frame: origin at the first corner, x
-// along the columns, y down the rows, z into the board). rpy_deg: R = Rz(yaw) Ry(pitch) Rx(roll)
-// about the base axes; all zero = the board upright, facing the robot.
+// along the columns, y down the rows, z into the board). rpy_deg = [roll, pitch, yaw]:
+// R = Ry(yaw) Rx(pitch) Rz(roll) with the base axes (y down, x right, z forward): yaw turns the
+// board about the vertical (positive: its face turns towards +x, so a board to the robot's
+// right at yaw = atan2(x, z) faces the robot), pitch tilts it about x, roll spins it in its
+// plane. All zero = the board upright, facing the robot.
 // Corner ids and positions of a rendered target are exactly TargetDefinition::Corners().
 #include <optional>
 #include <string>

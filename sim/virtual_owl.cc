@@ -44,7 +44,10 @@ bool VirtualOwlOptions::Check(std::string* why) const {
 }
 
 VirtualOwl::VirtualOwl(const VirtualOwlOptions& options)
-    : seed_(options.seed), encode_jpeg_(options.encode_jpeg), real_time_(options.real_time) {
+    : seed_(options.seed),
+      encode_jpeg_(options.encode_jpeg),
+      decode_frames_(options.decode_frames),
+      real_time_(options.real_time) {
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument("VirtualOwlOptions: " + why);
   truth_ = options.truth ? *options.truth
@@ -240,6 +243,7 @@ robot::StereoFrame VirtualOwl::Compose(int64_t seq, const FrameTruth& ft, const 
   cv::Mat received = side;
   if (encode_jpeg_) {
     cv::imencode(".jpg", side, f.jpeg, {cv::IMWRITE_JPEG_QUALITY, truth_.stream.jpeg_quality});
+    if (!decode_frames_) return f;
     received = cv::imdecode(f.jpeg, cv::IMREAD_COLOR);
     if (received.empty()) throw std::runtime_error("virtual Owl: JPEG round trip of frame " + std::to_string(seq) + " failed");
   }

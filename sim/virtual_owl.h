@@ -12,7 +12,7 @@
 //
 // Stream timing. Frame `seq` (0, 1, ...) is exposed at ExposureNs(seq, eye) = seq / fps
 // (+ stream.eye_offset_ms for the right eye) and received at StampNs(seq) = seq / fps +
-// latency. GrabFrame(after, timeout) returns the newest received frame whose stamp > after;
+// latency (+ the eye offset if positive: the frame is complete when both eyes are). GrabFrame(after, timeout) returns the newest received frame whose stamp > after;
 // if there is none yet it advances the clock to the delivery of the next one (skipping
 // dropped frames), or by `timeout` and returns nullopt. Each frame shows the servo angles
 // at its exposure time, so a command reaches the image after the latency. Frames depend only
@@ -63,6 +63,7 @@ struct VirtualOwlOptions {
   std::optional<int> jpeg_quality;
   std::optional<int> quantum_us;            // all five servos (1, or 5 as pigpio)
   bool encode_jpeg = true;   // false: StereoFrame.jpeg stays empty, halves are the raw render
+  bool decode_frames = true; // false: StereoFrame.left/right stay empty (served mode)
   bool real_time = false;    // served mode: the host's clock
   bool Check(std::string* why) const;
 };
@@ -133,6 +134,7 @@ class VirtualOwl : public robot::RobotInterface, public robot::SceneControl {
   models::HeadModel head_;
   uint64_t seed_;
   bool encode_jpeg_;
+  bool decode_frames_;
   bool real_time_;
   std::chrono::steady_clock::time_point start_;
   SceneDescription scene_;

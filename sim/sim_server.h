@@ -1,0 +1,66 @@
+#pragma once
+// The served virtual Owl: a real-time VirtualOwl behind the robot's own network protocols,
+// on loopback by default (issue 3, "owlcal sim"):
+//   - TCP servo server (robot/servo_server.h: 24-byte packets, "ok" before parsing, the
+//     course server's clamp) -> VirtualOwl::SendServos;
+//   - HTTP (robot/mjpeg_server.h): GET /stream/video.mjpeg, the 1280x480 side-by-side MJPEG
+//     at the truth's fps; GET /truth (TruthJson); GET /scene/targets (names and poses);
+//     PUT /scene/targets/NAME with a JSON pose body {"t_m": [x, y, z], "q_xyzw": [..4]} or
+//     {"t_m": [...], "rpy_deg": [...]}, optionally "visible": true|false; 400 naming the
+//     problem on a bad body, 404 on an unknown target.
+// Malformed packets never move a servo (the servo server drops them before on_packet).
+//
+// Usage:
+//   SimServer server(options);   // options.owl.real_time is forced on
+//   server.Start();
+//   std::printf("servo port %d, http port %d\n", server.ServoPort(), server.HttpPort());
+//   ... server.Stop();
+#include <atomic>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "robot/mjpeg_server.h"
+#include "robot/servo_server.h"
+#include "sim/virtual_owl.h"
+
+namespace owlcal::sim {
+
+struct SimServerOptions {
+  VirtualOwlOptions owl;
+  std::string bind_address = "127.0.0.1";
+  int servo_port = 12345;   // 0 = ephemeral
+  int http_port = 8080;     // 0 = ephemeral
+  robot::LogSink log;       // session / clamp / malformed-packet messages
+  bool Check(std::string* why) const;
+};
+
+class SimServer {
+ public:
+  explicit SimServer(SimServerOptions options);
+  ~SimServer();
+  SimServer(const SimServer&) = delete;
+  SimServer& operator=(const SimServer&) = delete;
+
+  // Binds both servers and starts streaming. Throws naming the address and port.
+  void Start();
+  void Stop();
+  int ServoPort() const;
+  int HttpPort() const;
+  VirtualOwl& Owl() { return *owl_; }
+  robot::ServoServerStats ServoStats() const;
+  int64_t NumFramesPublished() const;
+
+ private:
+  std::optional<robot::HttpResponse> Route(const robot::HttpRequest& request);
+  void StreamLoop();
+
+  SimServerOptions options_;
+  std::unique_ptr<VirtualOwl> owl_;
+  std::unique_ptr<robot::ServoServer> servo_server_;
+  std::unique_ptr<robot::MjpegServer> http_server_;
+  std::thread stream_thread_;
+  std::atomic<bool> stop_{false};
+};
+
+}  // namespace owlcal::sim
