@@ -153,10 +153,14 @@ int BuildProblem(State& s,
                  double sigma_px,
                  double huber_k,
                  const HeadFitOptions& options,
+                 int max_corners_per_view,
                  ceres::Problem* problem) {
   int num_corners = 0;
   for (const PreparedView& v : views) {
     const int eye = v.command.eye;
+    const int stride = max_corners_per_view > 0
+                           ? std::max<int>(1, static_cast<int>(v.pixels.size()) / max_corners_per_view)
+                           : 1;
     Block& board = s.boards.at(v.target_id);
     double* blocks[7] = {s.servo[models::kPanServo[eye]].data(),
                          s.servo[models::kTiltServo[eye]].data(),
@@ -171,7 +175,7 @@ int BuildProblem(State& s,
       f->sigma_px = sigma_px;
       f->huber_k = huber_k;
       for (size_t i = 0; i < v.pixels.size(); ++i) {
-        if (!v.inlier[i]) continue;
+        if (!v.inlier[i] || i % stride != 0) continue;
         f->points_in_target.push_back(v.points[i]);
         f->pixels.push_back(v.pixels[i]);
       }
@@ -233,14 +237,14 @@ int BuildProblem(State& s,
   return num_corners;
 }
 
-ceres::Solver::Summary Solve(ceres::Problem* problem, const HeadFitOptions& options) {
+ceres::Solver::Summary Solve(ceres::Problem* problem, const HeadFitOptions& options, double tolerance) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   so.max_num_iterations = options.max_iterations;
   so.num_threads = options.num_threads;
-  so.function_tolerance = 1e-12;
-  so.gradient_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-12;
+  so.function_tolerance = tolerance;
+  so.gradient_tolerance = tolerance * 1e-2;
+  so.parameter_tolerance = tolerance;
   so.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(so, problem, &summary);
@@ -518,8 +522,10 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   double initial_cost = 0;
   {
     ceres::Problem problem;
-    BuildProblem(s, prepared, sigma, options.huber_sigma, options, &problem);
-    const ceres::Solver::Summary s1 = Solve(&problem, options);
+    // Every corner is not needed to reach the basin: a spread subset per view is 3-5 x faster.
+    BuildProblem(s, prepared, sigma, options.huber_sigma, options, 12, &problem);
+    // Loose tolerance: this stage only has to find the basin and the outliers.
+    const ceres::Solver::Summary s1 = Solve(&problem, options, 1e-7);
     iterations += s1.iterations.size();
     initial_cost = s1.initial_cost;
   }
@@ -537,8 +543,8 @@ HeadFit FitHead(const std::vector<calib::View>& views,
     }
   }
   ceres::Problem problem;
-  fit.num_corners_used = BuildProblem(s, prepared, sigma, 0.0, options, &problem);
-  const ceres::Solver::Summary s2 = Solve(&problem, options);
+  fit.num_corners_used = BuildProblem(s, prepared, sigma, 0.0, options, 0, &problem);
+  const ceres::Solver::Summary s2 = Solve(&problem, options, 1e-12);
   iterations += s2.iterations.size();
   mark("solve_final_s");
   // Blocks the problem does not contain are not determined by anything.

@@ -69,7 +69,10 @@ TEST(FitHead, RecoversServoMapsMountsAndIpdFromSweepWithNeck) {
   std::mt19937_64 rng(20261122);
   const models::RobotConfig robot = models::DefaultRobotConfig();
   const models::HeadModel truth = PerturbedHead(robot, &rng);
-  const SyntheticHeadData data = SynthesizeHeadViews(truth, robot, SyntheticHeadOptions(), &rng);
+  SyntheticHeadOptions so;
+  so.steps_per_sweep = 6;
+  so.grid_side = 4;
+  const SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
   HeadFitOptions opt;
   const HeadFit fit = FitHead(data.views, robot, InitialFor(robot, truth), opt);
   ASSERT_TRUE(fit.ok) << fit.message << "\n" << AllWarnings(fit.result);
@@ -98,8 +101,8 @@ TEST(FitHead, NonCanonicalTruthMatchesItsCanonicalFormAndJointIntrinsics) {
   // Mount pitch, unequal centre depths, neck centre off the robot file: all gauge.
   const models::HeadModel truth = PerturbedHead(robot, &rng, /*mount_pitch_deg_sigma=*/1.0, /*canonical=*/false);
   SyntheticHeadOptions so;
-  so.steps_per_sweep = 7;
-  so.grid_side = 4;
+  so.steps_per_sweep = 6;
+  so.grid_side = 3;
   const SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
   HeadFitOptions opt;
   opt.fit_intrinsics = true;
@@ -126,7 +129,7 @@ TEST(FitHead, NeckNeverMovedNamesTheNeckAndStillGivesIpd) {
   const models::HeadModel truth = PerturbedHead(robot, &rng);
   SyntheticHeadOptions so;
   so.move_neck = false;
-  so.steps_per_sweep = 6;
+  so.steps_per_sweep = 5;
   so.grid_side = 3;
   const SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
   const HeadFit fit = FitHead(data.views, robot, InitialFor(robot, truth), HeadFitOptions());
@@ -154,7 +157,7 @@ TEST(FitHead, OneEyeOnlyNamesTheOtherEyeAndTheIpd) {
   const models::RobotConfig robot = models::DefaultRobotConfig();
   const models::HeadModel truth = PerturbedHead(robot, &rng);
   SyntheticHeadOptions so;
-  so.steps_per_sweep = 5;
+  so.steps_per_sweep = 4;
   so.grid_side = 3;
   SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
   std::vector<calib::View> left;
@@ -211,7 +214,7 @@ TEST(FitHead, RejectsGrossCornerOutliers) {
   const models::RobotConfig robot = models::DefaultRobotConfig();
   const models::HeadModel truth = PerturbedHead(robot, &rng);
   SyntheticHeadOptions so;
-  so.steps_per_sweep = 6;
+  so.steps_per_sweep = 4;
   so.grid_side = 3;
   SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
   int corrupted = 0;
