@@ -34,8 +34,8 @@ struct DetectorOptions {
   // chessboard
   ChessboardMethod chessboard_method = ChessboardMethod::kClassic;
   int subpix_half_window = 5;       // cornerSubPix winSize = (h, h): window (2h+1)^2 px
-  int subpix_max_iterations = 30;
-  double subpix_epsilon_px = 0.01;
+  int subpix_max_iterations = 100;
+  double subpix_epsilon_px = 0.001;
   bool fast_check = false;          // CALIB_CB_FAST_CHECK: quick reject when no board is visible
   bool adaptive_threshold = true;   // CALIB_CB_ADAPTIVE_THRESH | NORMALIZE_IMAGE (classic)
   bool sb_accuracy = false;         // CALIB_CB_ACCURACY (sb)

@@ -28,8 +28,8 @@ namespace owlcal::fitting {
 
 struct StereoFitOptions {
   IntrinsicsFitOptions intrinsics;   // model, fix flags, robust loss; applied to both eyes
-  bool same_focal_length = false;    // CALIB_SAME_FOCAL_LENGTH
-  bool fix_intrinsics = false;       // only R, T and board poses float
+  int width = 640, height = 480;     // image size of each eye [px]
+  bool fix_intrinsics = false;       // only R, T and board poses float (per-eye fits kept)
   std::string length_unit = "m";     // unit of the target's sizes: "m" -> baseline in mm
   double rectify_alpha = -1;         // cv::stereoRectify alpha (-1 = OpenCV's default scaling)
   int max_iterations = 200;
@@ -72,8 +72,8 @@ StereoFit FitStereo(const std::vector<calib::View>& left_views,
                     const std::vector<calib::View>& right_views,
                     const StereoFitOptions& options);
 
-// Adds left.* and right.* intrinsics, stereo.baseline_mm (or stereo.baseline_<unit> when the
-// unit is not m, e.g. stereo.baseline_squares), stereo.tx/ty/tz (mm or unit),
+// Adds left.* and right.* intrinsics, stereo.baseline_mm (or stereo.baseline_<unit>s when the
+// unit is not m, e.g. stereo.baseline_squares for unit "square"), stereo.tx/ty/tz (mm or unit),
 // stereo.rx_deg/ry_deg/rz_deg (rotation vector of R), rectification errors, with sigma and
 // unit; fills result->cameras and result->stereo (covariance in [rad, m] only when unit is m,
 // else in the target unit) and the summary.
