@@ -1,0 +1,60 @@
+#pragma once
+// Monte-Carlo check of reported uncertainties ("honest sigma", issue 4 part 4): run a fit on
+// many noisy realisations with known truth and count how often |estimate - truth| lies
+// within 1 and 3 reported sigmas. For Gaussian errors and honest sigmas: 68.3 % and 99.7 %.
+//
+// Usage:
+//   SigmaCoverage cov = RunMonteCarlo(50, /*first_seed=*/1, [&](uint64_t seed) {
+//     ... simulate with seed, fit, SetHeadTruth(...) ...
+//     return fit.result.parameters;            // Parameter.truth set on those to score
+//   });
+//   std::cout << cov.Report();
+// Only parameters with determined = true, a finite sigma > 0 and a truth are scored.
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "fitting/result.h"
+
+namespace owlcal::fitting {
+
+class SigmaCoverage {
+ public:
+  // Scores one fit's parameters.
+  void Add(const std::vector<Parameter>& parameters);
+  // Records a fit that failed (not scored, counted).
+  void AddFailure(const std::string& why);
+
+  int num_fits() const { return num_fits_; }
+  int num_failures() const { return static_cast<int>(failures_.size()); }
+  int num_scored() const { return total_; }
+  // Fraction of scored (fit, parameter) pairs with |error| <= k sigma.
+  double FractionWithin(double k) const;
+  // Per parameter: number scored, fraction within 1 sigma, RMS of error / sigma.
+  struct PerParameter {
+    int count = 0;
+    int within1 = 0;
+    int within3 = 0;
+    double sum_z2 = 0;
+  };
+  const std::map<std::string, PerParameter>& per_parameter() const { return per_; }
+  // A table: overall fractions, then every parameter's count, within-1/3 sigma and RMS(z).
+  std::string Report() const;
+
+ private:
+  int num_fits_ = 0;
+  int total_ = 0;
+  std::vector<double> abs_z_;
+  std::map<std::string, PerParameter> per_;
+  std::vector<std::string> failures_;
+};
+
+// Runs fit_one(seed) for seeds first_seed .. first_seed + num_seeds - 1. fit_one returns the
+// parameters with truth set, or throws std::runtime_error (counted as a failure).
+SigmaCoverage RunMonteCarlo(int num_seeds,
+                            uint64_t first_seed,
+                            const std::function<std::vector<Parameter>(uint64_t seed)>& fit_one);
+
+}  // namespace owlcal::fitting
