@@ -1,0 +1,189 @@
+#include "fitting/opencv_calib_file.h"
+
+#include <stdexcept>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+namespace owlcal::fitting {
+namespace {
+
+cv::Mat Skew(const cv::Mat& t) {
+  const double x = t.at<double>(0), y = t.at<double>(1), z = t.at<double>(2);
+  return (cv::Mat_<double>(3, 3) << 0, -z, y, z, 0, -x, -y, x, 0);
+}
+
+void WriteFields(cv::FileStorage& fs, const OpenCvStereoCalibration& c, bool intr, bool extr) {
+  if (c.image_width > 0 && intr) {
+    fs << "image_width" << c.image_width;
+    fs << "image_height" << c.image_height;
+  }
+  auto put = [&](const char* name, const cv::Mat& m) {
+    if (!m.empty()) fs << name << m;
+  };
+  if (intr) {
+    put("M1", c.M1);
+    put("D1", c.D1);
+    put("M2", c.M2);
+    put("D2", c.D2);
+  }
+  if (extr) {
+    put("R", c.R);
+    put("T", c.T);
+    put("E", c.E);
+    put("F", c.F);
+    put("R1", c.R1);
+    put("R2", c.R2);
+    put("P1", c.P1);
+    put("P2", c.P2);
+    put("Q", c.Q);
+  }
+}
+
+void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereoCalibration* c) {
+  struct Field {
+    const char* name;
+    cv::Mat* m;
+    int rows, cols;  // -1: any
+  };
+  const Field fields[] = {{"M1", &c->M1, 3, 3}, {"D1", &c->D1, -1, -1}, {"M2", &c->M2, 3, 3}, {"D2", &c->D2, -1, -1},
+                          {"R", &c->R, 3, 3},   {"T", &c->T, -1, -1},   {"E", &c->E, 3, 3},   {"F", &c->F, 3, 3},
+                          {"R1", &c->R1, 3, 3}, {"R2", &c->R2, 3, 3},   {"P1", &c->P1, 3, 4}, {"P2", &c->P2, 3, 4},
+                          {"Q", &c->Q, 4, 4}};
+  for (const Field& f : fields) {
+    const cv::FileNode n = fs[f.name];
+    if (n.empty()) continue;
+    cv::Mat m;
+    try {
+      n >> m;
+    } catch (const cv::Exception& e) {
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + ": " + e.what());
+    }
+    if (m.empty()) continue;
+    m.convertTo(m, CV_64F);
+    if (f.rows > 0 && (m.rows != f.rows || m.cols != f.cols))
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " is " + std::to_string(m.rows) +
+                               "x" + std::to_string(m.cols) + ", expected " + std::to_string(f.rows) + "x" +
+                               std::to_string(f.cols));
+    if (std::string(f.name) == "T" && m.total() != 3)
+      throw std::runtime_error("OpenCV calibration file " + path + ": field T has " + std::to_string(m.total()) +
+                               " values, expected 3");
+    if (f.name[0] == 'D') {
+      const size_t k = m.total();
+      if (k != 4 && k != 5 && k != 8 && k != 12 && k != 14)
+        throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " has " + std::to_string(k) +
+                                 " coefficients (4, 5, 8, 12 or 14 expected)");
+      m = m.reshape(1, 1);
+    }
+    if (std::string(f.name) == "T") m = m.reshape(1, 3);
+    *f.m = m;
+  }
+  if (!fs["image_width"].empty()) c->image_width = int(fs["image_width"]);
+  if (!fs["image_height"].empty()) c->image_height = int(fs["image_height"]);
+}
+
+}  // namespace
+
+OpenCvStereoCalibration ToOpenCvCalibration(const StereoFit& fit) {
+  OpenCvStereoCalibration c;
+  for (int e = 0; e < 2; ++e) {
+    const auto& p = fit.cameras[e].params;
+    cv::Mat M = (cv::Mat_<double>(3, 3) << p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1);
+    cv::Mat D = cv::Mat(std::vector<double>(p.begin() + 4, p.end()), true).reshape(1, 1);
+    (e == 0 ? c.M1 : c.M2) = M;
+    (e == 0 ? c.D1 : c.D2) = D;
+  }
+  c.image_width = fit.cameras[0].width;
+  c.image_height = fit.cameras[0].height;
+  cv::eigen2cv(Eigen::Matrix3d(fit.right_from_left.rotation.toRotationMatrix()), c.R);
+  cv::eigen2cv(Eigen::Vector3d(fit.right_from_left.translation), c.T);
+  c.E = Skew(c.T) * c.R;
+  c.F = c.M2.inv().t() * c.E * c.M1.inv();
+  c.F /= c.F.at<double>(2, 2);
+  cv::eigen2cv(fit.R1, c.R1);
+  cv::eigen2cv(fit.R2, c.R2);
+  cv::eigen2cv(Eigen::Matrix<double, 3, 4>(fit.P1), c.P1);
+  cv::eigen2cv(Eigen::Matrix<double, 3, 4>(fit.P2), c.P2);
+  cv::eigen2cv(fit.Q, c.Q);
+  return c;
+}
+
+void WriteOpenCvCalibration(const std::string& path, const OpenCvStereoCalibration& c) {
+  cv::FileStorage fs;
+  try {
+    if (!fs.open(path, cv::FileStorage::WRITE)) throw std::runtime_error("");
+    WriteFields(fs, c, true, true);
+    fs.release();
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot write OpenCV calibration file " + path + " " + e.what());
+  }
+}
+
+void WriteOpenCvSplitFiles(const std::string& intrinsics_path,
+                           const std::string& extrinsics_path,
+                           const OpenCvStereoCalibration& c) {
+  for (int k = 0; k < 2; ++k) {
+    const std::string& path = k == 0 ? intrinsics_path : extrinsics_path;
+    cv::FileStorage fs;
+    try {
+      if (!fs.open(path, cv::FileStorage::WRITE)) throw std::runtime_error("");
+      WriteFields(fs, c, k == 0, k == 1);
+      fs.release();
+    } catch (const std::exception& e) {
+      throw std::runtime_error("cannot write OpenCV calibration file " + path + " " + e.what());
+    }
+  }
+}
+
+OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path) {
+  OpenCvStereoCalibration c;
+  cv::FileStorage fs;
+  try {
+    if (!fs.open(path, cv::FileStorage::READ)) throw std::runtime_error("cannot open");
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot open OpenCV calibration file " + path + ": " + e.what());
+  }
+  ReadFields(fs, path, &c);
+  return c;
+}
+
+OpenCvStereoCalibration ReadOpenCvSplitFiles(const std::string& intrinsics_path, const std::string& extrinsics_path) {
+  OpenCvStereoCalibration c = ReadOpenCvCalibration(intrinsics_path);
+  const OpenCvStereoCalibration e = ReadOpenCvCalibration(extrinsics_path);
+  for (auto [dst, src] : {std::pair{&c.R, &e.R}, {&c.T, &e.T}, {&c.E, &e.E}, {&c.F, &e.F}, {&c.R1, &e.R1},
+                          {&c.R2, &e.R2}, {&c.P1, &e.P1}, {&c.P2, &e.P2}, {&c.Q, &e.Q}})
+    if (dst->empty()) *dst = *src;
+  return c;
+}
+
+std::optional<models::CameraIntrinsics> CameraFromOpenCv(const cv::Mat& M,
+                                                         const cv::Mat& D,
+                                                         int width,
+                                                         int height,
+                                                         std::string* why) {
+  auto fail = [&](const std::string& m) -> std::optional<models::CameraIntrinsics> {
+    if (why) *why = m;
+    return std::nullopt;
+  };
+  if (M.rows != 3 || M.cols != 3) return fail("camera matrix is not 3x3");
+  cv::Mat m, d;
+  M.convertTo(m, CV_64F);
+  D.convertTo(d, CV_64F);
+  d = d.reshape(1, 1);
+  std::vector<double> dist(d.begin<double>(), d.end<double>());
+  for (size_t i = 8; i < dist.size(); ++i)
+    if (dist[i] != 0) return fail("distortion coefficient " + std::to_string(i) + " (thin prism / tilt) is non-zero");
+  if (std::abs(m.at<double>(0, 1)) > 1e-9) return fail("camera matrix has skew");
+  bool rational = false;
+  for (size_t i = 5; i < std::min<size_t>(8, dist.size()); ++i) rational = rational || dist[i] != 0;
+  dist.resize(rational ? 8 : 5, 0.0);
+  models::CameraIntrinsics c;
+  c.model = rational ? models::DistortionModel::kOpenCv8 : models::DistortionModel::kOpenCv5;
+  c.width = width;
+  c.height = height;
+  c.params = {m.at<double>(0, 0), m.at<double>(1, 1), m.at<double>(0, 2), m.at<double>(1, 2)};
+  c.params.insert(c.params.end(), dist.begin(), dist.end());
+  return c;
+}
+
+}  // namespace owlcal::fitting
