@@ -18,11 +18,9 @@ extern "C" {
 namespace owlcal::calib {
 namespace {
 
-// libapriltag 3.3 (apriltag.c) computes detection corner i at tag coordinates
-// (tcx, tcy) = (-1,+1), (+1,+1), (+1,-1), (-1,-1) with the tag's y axis pointing DOWN the
-// upright tag image: so p[0] = top-left... is NOT what the docs' "counter-clockwise" suggests.
-// The mapping below was pinned by DetectorAprilTag.CornerOrderMatchesRenderedTag: entry k is
-// the libapriltag index of our corner k (0 TL, 1 TR, 2 BR, 3 BL on the upright board).
+// libapriltag 3.3 returns p[0..3] = bottom-left, bottom-right, top-right, top-left of the
+// upright tag (counter-clockwise in a y-up view). Entry k is the libapriltag index of our
+// corner k (0 TL, 1 TR, 2 BR, 3 BL); pinned by DetectorAprilTag.CornerOrderMatchesRenderedTag.
 constexpr int kAprilIndexOfCorner[4] = {3, 2, 1, 0};
 
 cv::Mat ToGray(const cv::Mat& image) {
@@ -234,8 +232,12 @@ std::vector<CornerObservation> DetectionToObservations(const TargetDetection& de
 void SplitStereoFrame(const cv::Mat& frame, bool mirror, bool swap, cv::Mat* left, cv::Mat* right) {
   if (frame.empty() || frame.cols % 2 != 0)
     throw std::invalid_argument("SplitStereoFrame: frame width " + std::to_string(frame.cols) + " is not even");
-  cv::Mat f = frame;
-  if (mirror) cv::flip(frame, f, 1);
+  cv::Mat f;
+  if (mirror) {
+    cv::flip(frame, f, 1);  // into new storage: never flip the caller's frame in place
+  } else {
+    f = frame;
+  }
   const int w = f.cols / 2;
   cv::Mat a = f(cv::Rect(0, 0, w, f.rows)).clone();
   cv::Mat b = f(cv::Rect(w, 0, w, f.rows)).clone();
