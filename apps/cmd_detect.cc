@@ -1,0 +1,156 @@
+// owlcal detect: images -> observation CSV (calib/observation_io.h).
+#include <algorithm>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <regex>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "apps/command_registry.h"
+#include "calib/detector.h"
+#include "calib/observation_io.h"
+#include "calib/target_file.h"
+
+namespace owlcal::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct DetectOptions {
+  std::vector<std::string> inputs;
+  std::string target_path;
+  std::string out;
+  std::string method = "classic";
+  int half_window = 5;
+  bool pairs = false;
+  bool mirror = false;
+  bool swap = false;
+};
+
+bool IsImage(const fs::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), ::tolower);
+  return e == ".jpg" || e == ".jpeg" || e == ".png" || e == ".bmp" || e == ".pgm" || e == ".ppm" || e == ".tif";
+}
+
+// Frame index from the digits in a file name ("left07.jpg" -> 7), or -1.
+int NumberIn(const std::string& stem) {
+  static const std::regex digits("([0-9]+)");
+  std::smatch m;
+  std::string last;
+  for (auto it = std::sregex_iterator(stem.begin(), stem.end(), digits); it != std::sregex_iterator(); ++it)
+    last = (*it)[1];
+  return last.empty() ? -1 : std::stoi(last);
+}
+
+int RunDetect(const DetectOptions& o) {
+  const calib::TargetFile tf = calib::LoadTargetFileWithUnit(o.target_path);
+  calib::DetectorOptions dopt;
+  if (o.method == "sb") {
+    dopt.chessboard_method = calib::ChessboardMethod::kSectorBased;
+  } else if (o.method != "classic") {
+    throw UsageError("--method must be classic or sb, got '" + o.method + "'");
+  }
+  dopt.subpix_half_window = o.half_window;
+  std::string why;
+  if (!dopt.Check(&why)) throw UsageError(why);
+
+  std::vector<fs::path> files;
+  for (const std::string& in : o.inputs) {
+    if (fs::is_directory(in)) {
+      for (const auto& e : fs::directory_iterator(in))
+        if (e.is_regular_file() && IsImage(e.path())) files.push_back(e.path());
+    } else if (fs::is_regular_file(in)) {
+      files.push_back(in);
+    } else {
+      throw UsageError("input '" + in + "' is neither an image file nor a folder");
+    }
+  }
+  std::sort(files.begin(), files.end());
+  if (files.empty()) throw UsageError("no images found in the inputs");
+
+  std::vector<calib::CornerObservation> obs;
+  int found = 0, tried = 0, sequential = 0;
+  std::map<std::string, int> index_of_suffix;
+  for (const fs::path& p : files) {
+    const cv::Mat img = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
+    if (img.empty()) {
+      std::cerr << "warning: cannot read image " << p << ", skipped\n";
+      continue;
+    }
+    const std::string stem = p.stem().string();
+    std::vector<std::pair<int, cv::Mat>> eyes;  // (eye, image)
+    int frame = -1;
+    const bool side_by_side = img.cols >= 2 * img.rows * 1.2 && img.cols % 2 == 0;
+    if (side_by_side) {
+      cv::Mat l, r;
+      calib::SplitStereoFrame(img, o.mirror, o.swap, &l, &r);
+      eyes = {{0, l}, {1, r}};
+      frame = NumberIn(stem);
+      if (frame < 0) frame = sequential;
+    } else {
+      std::string lower = stem;
+      std::transform(lower.begin(), lower.end(), lower.begin(), ::tolower);
+      int eye = 0;
+      std::string suffix = lower;
+      if (lower.rfind("left", 0) == 0) {
+        suffix = lower.substr(4);
+      } else if (lower.rfind("right", 0) == 0) {
+        eye = 1;
+        suffix = lower.substr(5);
+      } else if (o.pairs) {
+        std::cerr << "warning: " << p << ": --pairs expects left*/right* names, skipped\n";
+        continue;
+      }
+      if (o.pairs) {
+        frame = NumberIn(suffix);
+        if (frame < 0) {
+          auto it = index_of_suffix.emplace(suffix, int(index_of_suffix.size())).first;
+          frame = it->second;
+        }
+      } else {
+        frame = sequential;
+      }
+      cv::Mat im = img;
+      if (o.mirror) cv::flip(img, im, 1);
+      eyes = {{eye, im}};
+    }
+    ++sequential;
+    for (auto& [eye, im] : eyes) {
+      ++tried;
+      const calib::TargetDetection d = calib::DetectTarget(im, tf.target, dopt);
+      std::cout << p.filename().string() << (side_by_side ? (eye == 0 ? " [left]" : " [right]") : "") << ": "
+                << (d.found ? std::to_string(d.pixels.size()) + " corners" : "not found: " + d.message) << "\n";
+      if (!d.found) continue;
+      ++found;
+      const auto o2 = calib::DetectionToObservations(d, tf.target, frame, eye);
+      obs.insert(obs.end(), o2.begin(), o2.end());
+    }
+  }
+  calib::WriteObservationsCsv(o.out, obs);
+  std::cout << "detected the target in " << found << " of " << tried << " eye images; " << obs.size()
+            << " corners written to " << o.out << " (target '" << tf.target.id << "', unit " << tf.unit << ")\n";
+  return found > 0 ? kExitOk : kExitFailed;
+}
+
+const bool kRegistered = RegisterCommand(
+    "detect",
+    "Detect a chessboard/AprilGrid in images and write an observation CSV. Consumes image files or "
+    "folders (left*/right* pairs, single-eye images, or 1280x480 side-by-side frames); produces OBS.csv.",
+    [](CLI::App* cmd) {
+      auto o = std::make_shared<DetectOptions>();
+      cmd->add_option("inputs", o->inputs, "image files and/or folders")->required();
+      cmd->add_option("--target", o->target_path, "target file (data/targets/*.yaml)")->required();
+      cmd->add_option("--out", o->out, "observation CSV to write")->required();
+      cmd->add_option("--method", o->method, "chessboard detector: classic (findChessboardCorners + cornerSubPix) or sb");
+      cmd->add_option("--subpix-half-window", o->half_window, "cornerSubPix half-window (default 5)");
+      cmd->add_flag("--pairs", o->pairs, "images are left*/right* pairs; frame index from the number in the name");
+      cmd->add_flag("--mirror", o->mirror, "flip each image (or side-by-side frame) horizontally first");
+      cmd->add_flag("--swap", o->swap, "side-by-side frames: left eye is the right half");
+      return [o] { return RunDetect(*o); };
+    });
+
+}  // namespace
+}  // namespace owlcal::apps
