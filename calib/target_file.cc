@@ -55,8 +55,10 @@ TargetFile ParseTargetYaml(const std::string& yaml_text, const std::string& sour
       t.square_m = Get<double>(root, source, "square_size_m");
     } else if (root["square_size"]) {
       t.square_m = Get<double>(root, source, "square_size");
-    } else {
+    } else if (root["rowSpacingMeters"]) {
       t.square_m = Get<double>(root, source, "rowSpacingMeters");
+    } else {
+      Fail(source, "square_size_m", "missing (give square_size_m, or square_size with unit)");
     }
     known.insert({"cols", "rows", "targetCols", "targetRows", "square_size_m", "square_size", "rowSpacingMeters",
                   "colSpacingMeters"});

@@ -1,0 +1,95 @@
+#include "calib/observation_io.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+namespace owlcal::calib {
+namespace {
+
+std::string TempPath(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("owlcal_obsio_" + std::to_string(::getpid()) + "_" + name)).string();
+}
+
+std::vector<CornerObservation> Sample() {
+  std::vector<CornerObservation> v;
+  for (int i = 0; i < 3; ++i) {
+    CornerObservation o;
+    o.frame_index = 10 + i;
+    o.eye = i % 2;
+    o.target_id = "owl-kit";
+    o.corner_id = 5 * i;
+    o.pixel = Eigen::Vector2d(100.123456789012345 + i, 200.0 / 3.0);
+    o.point_in_target = Eigen::Vector3d(0.026 * i, 0.052, 0);
+    o.pwm_us = {1545, 1530, 1545 + i, 1580, 1530};
+    o.approach = {1, -1, 0, 1, int8_t(i == 2 ? -1 : 0)};
+    o.stamp_ns = 1234567890123LL + i;
+    v.push_back(o);
+  }
+  return v;
+}
+
+TEST(ObservationCsv, RoundTripIsExact) {
+  const std::string p = TempPath("rt.csv");
+  const auto obs = Sample();
+  WriteObservationsCsv(p, obs);
+  const auto back = ReadObservationsCsv(p);
+  ASSERT_EQ(back.size(), obs.size());
+  for (size_t i = 0; i < obs.size(); ++i) {
+    EXPECT_EQ(back[i].frame_index, obs[i].frame_index);
+    EXPECT_EQ(back[i].eye, obs[i].eye);
+    EXPECT_EQ(back[i].target_id, obs[i].target_id);
+    EXPECT_EQ(back[i].corner_id, obs[i].corner_id);
+    EXPECT_EQ(back[i].pixel, obs[i].pixel);  // bit-exact
+    EXPECT_EQ(back[i].point_in_target, obs[i].point_in_target);
+    EXPECT_EQ(back[i].pwm_us, obs[i].pwm_us);
+    EXPECT_EQ(back[i].approach, obs[i].approach);
+    EXPECT_EQ(back[i].stamp_ns, obs[i].stamp_ns);
+  }
+  std::filesystem::remove(p);
+}
+
+TEST(ObservationCsv, AppendWritesHeaderOnce) {
+  const std::string p = TempPath("app.csv");
+  std::filesystem::remove(p);
+  AppendObservationsCsv(p, Sample());
+  AppendObservationsCsv(p, Sample());
+  EXPECT_EQ(ReadObservationsCsv(p).size(), 6u);
+  std::filesystem::remove(p);
+}
+
+TEST(ObservationCsv, TruncatedLastLineIsDropped) {
+  const std::string p = TempPath("trunc.csv");
+  WriteObservationsCsv(p, Sample());
+  {
+    std::ofstream f(p, std::ios::app);
+    f << "13,left,owl-kit,4,101.5,";  // recording cut short, no newline
+  }
+  EXPECT_EQ(ReadObservationsCsv(p).size(), 3u);
+  std::filesystem::remove(p);
+}
+
+TEST(ObservationCsv, BadLineNamesFileLineAndField) {
+  const std::string p = TempPath("bad.csv");
+  WriteObservationsCsv(p, Sample());
+  {
+    std::ofstream f(p, std::ios::app);
+    f << "13,middle,owl-kit,4,1,2,0,0,0,1,2,3,4,5,0,0,0,0,0,7\n";
+    f << "14,left,owl-kit,4,1,2,0,0,0,1,2,3,4,5,0,0,0,0,0,7\n";
+  }
+  try {
+    ReadObservationsCsv(p);
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(p + ":5:"), std::string::npos) << m;
+    EXPECT_NE(m.find("eye"), std::string::npos) << m;
+    EXPECT_NE(m.find("middle"), std::string::npos) << m;
+  }
+  std::filesystem::remove(p);
+  EXPECT_THROW(ReadObservationsCsv(p), std::runtime_error);  // missing file
+}
+
+}  // namespace
+}  // namespace owlcal::calib
