@@ -53,7 +53,11 @@ void OwlLink::Close() {
 ServoReply OwlLink::SendServos(const PwmVector& pwm_us) {
   const ClampResult clamp = guard_.Clamp(pwm_us);
   const ServoClientReply r = servo_.Send(clamp.pwm_us);
-  if (!r.ok) throw std::runtime_error("servo command " + std::to_string(pwm_us[0]) + "...: " + r.error);
+  if (!r.ok) {
+    std::string sent;
+    for (int i = 0; i < models::kNumServos; ++i) sent += (i ? " " : "") + std::to_string(clamp.pwm_us[i]);
+    throw std::runtime_error("servo command [" + sent + "] not answered: " + r.error);
+  }
   ServoReply reply;
   reply.ok = r.ok;
   reply.text = r.text;
