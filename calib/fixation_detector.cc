@@ -24,8 +24,9 @@ cv::Mat Grey(const cv::Mat& image) {
   return g;
 }
 
-// Median grey level of the ring r_in..r_out around c (clipped to the image).
-double RingMedian(const cv::Mat& g, const cv::Point2d& c, double r_in, double r_out) {
+// Median grey level of the ring r_in..r_out around c (clipped to the image); *sd (optional)
+// the ring's standard deviation.
+double RingMedian(const cv::Mat& g, const cv::Point2d& c, double r_in, double r_out, double* sd = nullptr) {
   std::vector<uint8_t> v;
   const int x0 = std::max(0, int(c.x - r_out)), x1 = std::min(g.cols - 1, int(c.x + r_out) + 1);
   const int y0 = std::max(0, int(c.y - r_out)), y1 = std::min(g.rows - 1, int(c.y + r_out) + 1);
@@ -35,6 +36,15 @@ double RingMedian(const cv::Mat& g, const cv::Point2d& c, double r_in, double r_
       if (d >= r_in && d <= r_out) v.push_back(g.at<uint8_t>(y, x));
     }
   if (v.empty()) return 0;
+  if (sd) {
+    double m = 0, m2 = 0;
+    for (uint8_t x : v) {
+      m += x;
+      m2 += double(x) * x;
+    }
+    m /= v.size();
+    *sd = std::sqrt(std::max(0.0, m2 / v.size() - m * m));
+  }
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
 }
@@ -83,11 +93,15 @@ FixationDetection DetectFixationTarget(const cv::Mat& image, const FixationDetec
     if (roundness < options.min_roundness) continue;
     const double r = std::sqrt(area / M_PI);
     const cv::Point2d centre0(cc.x, cc.y);
-    const double bg = RingMedian(g, centre0, cr * 1.3 + 1, cr * 1.6 + 3);
+    double ring_sd = 0;
+    const double bg = RingMedian(g, centre0, cr * 1.3 + 1, cr * 1.6 + 3, &ring_sd);
     const double fg = RingMedian(g, centre0, 0, std::max(1.0, cr * 0.5));
     const double contrast = options.dark_on_light ? bg - fg : fg - bg;
     if (contrast < options.min_contrast) continue;
-    const double score = roundness * contrast * std::sqrt(r);
+    // A fixation target is a disc on a plain card: high contrast against a uniform surround
+    // wins over dark spots of a textured background.
+    const double uniformity = 1.0 / (1.0 + 4.0 * ring_sd / contrast);
+    const double score = roundness * contrast * contrast * uniformity * std::sqrt(r);
     if (score <= best_score) continue;
     // Sub-pixel centre: contrast-weighted centroid inside 1.25 * the enclosing radius.
     const double rw = cr * 1.25 + 1;

@@ -8,8 +8,9 @@
 // pixel.
 //
 // Disc: the image is thresholded (Otsu, or the given polarity), connected blobs are scored by
-// roundness (4 pi area / perimeter^2, and area / enclosing-circle area) and size; the best
-// blob's centre is the intensity-weighted centroid of its contrast against the local
+// roundness (4 pi area / perimeter^2, and area / enclosing-circle area), squared contrast,
+// the uniformity of its surround (a disc on a plain card beats textured dark spots) and size;
+// the best blob's centre is the intensity-weighted centroid of its contrast against the local
 // background (a ring around it), which is unbiased for a symmetric antialiased disc.
 //
 // Template: cv::matchTemplate with TM_CCOEFF_NORMED; the peak is refined by a parabola fit in

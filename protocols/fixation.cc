@@ -12,15 +12,42 @@ namespace {
 class FixationLocator : public TargetLocator {
  public:
   explicit FixationLocator(const calib::FixationDetectorOptions& o) : options_(o) {}
-  std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int) override {
+  bool Prepare(const robot::StereoFrame&, std::string*) override {
+    has_last_[0] = has_last_[1] = false;
+    return true;
+  }
+  // Tracks: near the last position first (a textured background has dark spots that can
+  // outscore a small, distant disc), the whole image when it is not there.
+  std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int eye) override {
+    if (has_last_[eye]) {
+      const int half = std::max(60, int(8 * last_radius_[eye]));
+      const cv::Rect roi = cv::Rect(int(last_[eye].x()) - half, int(last_[eye].y()) - half, 2 * half, 2 * half) &
+                           cv::Rect(0, 0, image.cols, image.rows);
+      if (roi.width > 8 && roi.height > 8) {
+        calib::FixationDetectorOptions o = options_;
+        o.border_px = 0;
+        const calib::FixationDetection d = calib::DetectFixationTarget(image(roi), o);
+        if (d.found && d.radius_px > 0.5 * last_radius_[eye] && d.radius_px < 2 * last_radius_[eye]) {
+          last_[eye] = d.centre + Eigen::Vector2d(roi.x, roi.y);
+          last_radius_[eye] = d.radius_px;
+          return last_[eye];
+        }
+      }
+    }
     const calib::FixationDetection d = calib::DetectFixationTarget(image, options_);
     if (!d.found) return std::nullopt;
+    has_last_[eye] = true;
+    last_[eye] = d.centre;
+    last_radius_[eye] = d.radius_px;
     return d.centre;
   }
   std::string Name() const override { return "fixation"; }
 
  private:
   calib::FixationDetectorOptions options_;
+  bool has_last_[2] = {false, false};
+  Eigen::Vector2d last_[2];
+  double last_radius_[2] = {0, 0};
 };
 
 class TemplateLocator : public TargetLocator {
@@ -170,6 +197,7 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
     s.pwm_us = sent;
     bool all_found = true;
     double max_err = 0;
+    double eye_err[2] = {0, 0};
     for (int e = 0; e < 2; ++e) {
       if (!o.eyes[e]) continue;
       const cv::Mat img = e == models::kLeftEye ? frame.left : frame.right;
@@ -184,6 +212,7 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       r.residual_px[e] = s.offset_px[e];
       const double err = std::max(o.pan ? std::abs(s.offset_px[e].x()) : 0.0, o.tilt ? std::abs(s.offset_px[e].y()) : 0.0);
       max_err = std::max(max_err, err);
+      eye_err[e] = err;
       if (initial_err[e] < 0) initial_err[e] = err;
       peaks[e][0].Add(s.offset_px[e].x(), o.tolerance_px);
       peaks[e][1].Add(s.offset_px[e].y(), o.tolerance_px);
@@ -215,9 +244,10 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
           return r;
         }
       }
-      if (initial_err[e] >= 0 && max_err > 2 * std::max(initial_err[e], 10.0)) {
+      if (initial_err[e] >= 0 && eye_err[e] > 2 * std::max(initial_err[e], 10.0)) {
         r.outcome = FixationResult::Outcome::kDiverged;
-        r.message = "error grew to " + std::to_string(max_err) + " px from " + std::to_string(initial_err[e]) +
+        r.message = std::string(models::kEyeNames[e]) + " error grew to " + std::to_string(eye_err[e]) + " px from " +
+                    std::to_string(initial_err[e]) +
                     " px at gain " + std::to_string(o.gain);
         r.final_pwm_us = sent;
         return r;

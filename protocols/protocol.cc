@@ -293,6 +293,7 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
     s.step_us = f.PositiveInt("step_us", 20);
     s.both_directions = f.Value<bool>("both_directions", true);
     s.pre_approach = f.Value<bool>("pre_approach", true);
+    s.detect = f.Value<bool>("detect", false);
     s.frames = f.PositiveInt("frames", 1);
     s.pose = ParsePose(f.Get("hold"), context + " hold");
     s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);

@@ -16,9 +16,9 @@
 //   steps:
 //     - move-to: {pose: {Rx: centre, Lx: centre+50, Neck: 1530}, settle: {...}}
 //     - sweep: {servo: Rx, from: centre-150, to: centre+150, step_us: 25,
-//               both_directions: true, frames: 1, settle: {...}, hold: {pose...}}
+//               both_directions: true, frames: 1, settle: {...}, hold: {pose...}, detect: false}
 //     - grid: {eyes: both, pan_us: [-100, 0, 100], tilt_us: [-60, 0, 60], neck_us: [0],
-//              frames: 1, settle: {...}}
+//              frames: 1, settle: {...}, detect: false}
 //     - place-target: {target: board, distance_m: 0.6, offset_m: [0, 0], rpy_deg: [0, 20, 0],
 //                      hide_others: true, prompt: "..."}
 //     - capture: {frames: 5, settle: {...}, detect: true}
@@ -40,6 +40,9 @@
 // Unlisted servos of a pose stay at the robot's centre. Grid offsets are "toward the robot's
 // right / up" in us: the runner multiplies them by each servo's direction (so a tilt of +60
 // raises both eyes although Ly is mirrored).
+//
+// detect: true detects the protocol's `target` (its geometry from `targets`) in both eyes of
+// every recorded frame: observations.csv, and coverage.csv (X/Y/Size/Skew) at the end.
 //
 // settle: {mode: image|time, time_ms: 300, min_ms: 150, max_ms: 2000, still_px: 0.5,
 //          still_frames: 2}. image = wait at least min_ms, then until the image moved less

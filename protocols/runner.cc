@@ -12,7 +12,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/detector.h"
+#include "calib/observation_io.h"
 #include "models/head_model.h"
+#include "protocols/coverage.h"
 #include "owlcal_version.h"
 #include "protocols/fixation.h"
 #include "protocols/image_motion.h"
@@ -114,12 +117,55 @@ class Runner {
       index = writer_->AppendFrame(jpeg, r);
     }
     ++step_frames_;
+    if (cur_step_ && cur_step_->detect) Detect(f, index);
     if (o_.on_frame) o_.on_frame(index);
     Progress(false);
     return index;
   }
   void Event(const std::string& kind, const std::string& message) {
     if (writer_) writer_->Event(robot_.NowNs(), kind, message);
+  }
+
+  // Detects the protocol's target in both eyes of a recorded frame: observations.csv and the
+  // coverage views.
+  void Detect(const robot::StereoFrame& f, int64_t index) {
+    auto it = cur_protocol_->targets.find(cur_protocol_->target);
+    if (it == cur_protocol_->targets.end() || it->second.kind == calib::TargetKind::kFixation) return;
+    const calib::TargetDefinition& target = it->second;
+    calib::DetectorOptions opt;
+    opt.fast_check = true;
+    std::vector<calib::CornerObservation> all;
+    for (int e = 0; e < 2; ++e) {
+      const cv::Mat& img = e == models::kLeftEye ? f.left : f.right;
+      const calib::TargetDetection d = calib::DetectTarget(img, target, opt);
+      if (!d.found) continue;
+      std::vector<calib::CornerObservation> obs = calib::DetectionToObservations(d, target, int(index), e, cmd_, f.stamp_ns);
+      for (auto& o : obs) o.approach = approach_;
+      const std::vector<calib::View> views = calib::GroupIntoViews(obs);
+      ViewParams vp;
+      if (!views.empty() && ComputeViewParams(views[0], target, img.cols, img.rows, &vp)) coverage_views_[e].push_back(vp);
+      all.insert(all.end(), obs.begin(), obs.end());
+    }
+    if (!all.empty()) calib::AppendObservationsCsv(writer_->Dir() + "/observations.csv", all);
+    detected_any_ = true;
+  }
+  void WriteCoverage() {
+    if (!detected_any_) return;
+    for (int e = 0; e < 2; ++e) {
+      const Coverage c = ComputeCoverage(coverage_views_[e]);
+      std::vector<std::string> row = {models::kEyeNames[e], std::to_string(c.num_views)};
+      for (int k = 0; k < 4; ++k) {
+        row.push_back(F(c.min[k], 4));
+        row.push_back(F(c.max[k], 4));
+        row.push_back(F(c.progress[k], 4));
+      }
+      row.push_back(c.Good() ? "1" : "0");
+      writer_->AppendRow("coverage.csv",
+                         "eye,num_views,x_min,x_max,x_progress,y_min,y_max,y_progress,size_min,size_max,size_progress,"
+                         "skew_min,skew_max,skew_progress,good",
+                         row);
+      if (o_.progress) *o_.progress << "coverage " << models::kEyeNames[e] << " eye, " << c.num_views << " views:\n" << c.Bars();
+    }
   }
 
   // Waits until the robot settled after the last command; false on a settle timeout.
@@ -204,6 +250,10 @@ class Runner {
   int64_t last_stamp_ = -1;
   int64_t step_frames_ = 0;
   RunSummary summary_;
+  const Step* cur_step_ = nullptr;
+  const Protocol* cur_protocol_ = nullptr;
+  std::vector<ViewParams> coverage_views_[2];
+  bool detected_any_ = false;
   std::chrono::steady_clock::time_point wall_start_, last_progress_;
   double total_work_ = 0, done_work_ = 0, current_work_ = 0, step_work_fraction_ = 0;
 };
@@ -755,6 +805,8 @@ RunSummary Runner::Run() {
       step_index_ = i;
       step_name_ = steps_[i].step->name;
       step_frames_ = 0;
+      cur_step_ = steps_[i].step;
+      cur_protocol_ = steps_[i].protocol;
       current_work_ = work[i];
       step_work_fraction_ = 0;
       Progress(true);
@@ -767,6 +819,8 @@ RunSummary Runner::Run() {
       current_work_ = 0;
       summary_.steps_done = i + 1;
     }
+    cur_step_ = nullptr;
+    WriteCoverage();
   } catch (const RunAborted& e) {
     status = "aborted";
     message = e.what();

@@ -29,6 +29,10 @@
 //                      (reason: end-stop | rim | configured)
 //   alignment.csv      step_index,frame_index,method,roll_deg,vertical_offset_px,horizontal_offset_px,corners
 //   latency.csv        step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px
+//   coverage.csv       eye,num_views,x_min,x_max,x_progress,y_min,y_max,y_progress,size_min,size_max,
+//                      size_progress,skew_min,skew_max,skew_progress,good (protocols/coverage.h), written
+//                      at the end when steps with `detect: true` detected the protocol's target
+//                      (observations.csv, calib/observation_io.h, holds the corners).
 #include <atomic>
 #include <functional>
 #include <iosfwd>

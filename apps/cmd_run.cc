@@ -1,0 +1,128 @@
+// owlcal run PROTOCOL... --robot sim|HOST --out DATASET: executes experiment protocols and
+// records a dataset (protocols/runner.h, protocols/dataset.h).
+#include <unistd.h>
+
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "apps/command_registry.h"
+#include "protocols/protocol.h"
+#include "protocols/robot_factory.h"
+#include "protocols/runner.h"
+#include "robot/link_commands.h"
+
+namespace owlcal::apps {
+namespace {
+
+struct RunCmdOptions {
+  std::vector<std::string> protocols;
+  std::string robot = "sim";
+  std::string robot_file;
+  std::string robot_truth;
+  std::string scene;
+  uint64_t seed = 1;
+  int http_port = 8080;
+  std::string out;
+  bool dry_run = false;
+  bool resume = false;
+  bool non_interactive = false;
+  bool quiet = false;
+};
+
+std::string ReadText(const std::string& path) {
+  if (path.empty()) return "";
+  std::ifstream in(path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+int RunRun(const RunCmdOptions& o) {
+  if (o.protocols.empty()) throw UsageError("give at least one protocol (a file or a standard name: " +
+                                            [] {
+                                              std::string s;
+                                              for (const auto& n : protocols::StandardProtocolNames()) s += (s.empty() ? "" : ", ") + n;
+                                              return s;
+                                            }() + ")");
+  if (!o.dry_run && o.out.empty()) throw UsageError("--out DATASET is required (except with --dry-run)");
+  std::vector<protocols::Protocol> loaded;
+  for (const std::string& p : o.protocols) {
+    try {
+      loaded.push_back(protocols::LoadProtocolFile(protocols::ResolveProtocolPath(p)));
+    } catch (const protocols::ProtocolError& e) {
+      throw UsageError(e.what());
+    }
+  }
+  protocols::RunOptions ro;
+  ro.out_dir = o.out;
+  ro.dry_run = o.dry_run;
+  ro.resume = o.resume;
+  ro.robot_spec = o.robot;
+  ro.robot_file = o.robot_file;
+  ro.robot_file_text = ReadText(o.robot_file);
+  if (o.robot == "sim") ro.sim = {{"seed", o.seed}, {"truth_file", o.robot_truth}, {"scene_file", o.scene}};
+  ro.progress = o.quiet ? nullptr : &std::cout;
+  ro.interactive = o.robot != "sim" && !o.non_interactive && ::isatty(STDIN_FILENO);
+  if (o.dry_run) {
+    // Nothing moves and nothing connects: plan against the robot file's limits.
+    models::RobotConfig config = robot::RobotConfigOrDefault(o.robot_file);
+    if (o.robot == "sim") {
+      protocols::RobotFactoryOptions fo;
+      fo.robot_file = o.robot_file;
+      fo.truth_file = o.robot_truth;
+      fo.seed = o.seed;
+      config = protocols::MakeRobot("sim", fo)->Config();
+    }
+    int64_t clamped = 0;
+    for (const std::string& line : protocols::PlanRun(loaded, config, &clamped)) std::cout << line << "\n";
+    return kExitOk;
+  }
+  protocols::RobotFactoryOptions fo;
+  fo.robot_file = o.robot_file;
+  fo.truth_file = o.robot_truth;
+  fo.scene_file = o.scene;
+  fo.seed = o.seed;
+  fo.http_port = o.http_port;
+  std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot, fo);
+  ro.stop_flag = protocols::InstallSigintStop();
+  const protocols::RunSummary s = protocols::RunProtocols(loaded, *robot, ro);
+  if (s.status != "complete") {
+    std::cerr << "owlcal run: " << s.status << ": " << s.message << "\n"
+              << "the dataset in " << o.out << " is closed and usable; continue with --resume\n";
+    return kExitFailed;
+  }
+  std::cout << "dataset: " << o.out << " (" << s.num_frames << " frames)\n";
+  return kExitOk;
+}
+
+const bool kRegistered = RegisterCommand(
+    "run",
+    "Run experiment protocols on a robot and record a dataset.\n"
+    "Consumes protocol files (YAML; or standard names: limits, alignment, intrinsics, stereo,\n"
+    "servo_sweep, vergence, step_response, latency); produces DATASET/ (manifest.json, frames/,\n"
+    "frames.csv, placements.csv, steps.csv, events.log and measurement tables). Every command\n"
+    "is clamped to the robot file's limits; Ctrl-C parks the head and closes the dataset.",
+    [](CLI::App* cmd) {
+      auto o = std::make_shared<RunCmdOptions>();
+      cmd->add_option("protocols", o->protocols, "protocol files or standard protocol names")->required();
+      cmd->add_option("--robot", o->robot, "'sim' (in-process virtual Owl, default) or the robot's HOST[:PORT]");
+      cmd->add_option("--robot-file", o->robot_file, "robot file (limits, centres); default: the guide's robot")
+          ->check(CLI::ExistingFile);
+      cmd->add_option("--robot-truth", o->robot_truth, "sim: robot-truth file; default: the built-in robot")
+          ->check(CLI::ExistingFile);
+      cmd->add_option("--scene", o->scene, "sim: scene file; default: the built-in scene")->check(CLI::ExistingFile);
+      cmd->add_option("--seed", o->seed, "sim: random seed");
+      cmd->add_option("--http-port", o->http_port, "real robot: MJPEG stream port")->check(CLI::Range(1, 65535));
+      cmd->add_option("--out", o->out, "dataset folder to create (or continue with --resume)");
+      cmd->add_flag("--dry-run", o->dry_run, "print the planned commands checked against the limits; move nothing");
+      cmd->add_flag("--resume", o->resume, "continue an interrupted run in --out");
+      cmd->add_flag("--non-interactive", o->non_interactive,
+                    "real robot: do not prompt; assume targets are placed as the protocol says");
+      cmd->add_flag("--quiet", o->quiet, "no progress output");
+      return [o] { return RunRun(*o); };
+    });
+
+}  // namespace
+}  // namespace owlcal::apps

@@ -1,0 +1,28 @@
+#pragma once
+// Makes the robot a protocol runs on from its command-line spec:
+//   "sim"         the in-process virtual Owl (sim::VirtualOwl) on a virtual clock, from
+//                 options.truth_file (empty = built-in default robot) and options.seed;
+//   "HOST[:PORT]" a real (or served virtual) Owl over TCP + HTTP (robot::OwlLink), servo port
+//                 PORT (default 12345), stream on options.http_port (default 8080), limits
+//                 from options.robot_file (empty = the guide's robot).
+// There is no default address: an empty spec is an error. Throws std::invalid_argument for a
+// bad spec and std::runtime_error (naming the file) for unreadable files.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "robot/robot_interface.h"
+
+namespace owlcal::protocols {
+
+struct RobotFactoryOptions {
+  std::string robot_file;    // robot file (limits, centres); "" = built-in
+  std::string truth_file;    // sim only: robot-truth file; "" = built-in default truth
+  std::string scene_file;    // sim only
+  uint64_t seed = 1;         // sim only
+  int http_port = 8080;      // real robot: MJPEG stream port
+};
+
+std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const RobotFactoryOptions& options);
+
+}  // namespace owlcal::protocols

@@ -1,0 +1,103 @@
+// Closed-loop fixation on the virtual Owl: converges at the course gain 0.1, a divergent gain
+// is stopped before any limit; the fixation detector finds the rendered disc.
+#include <gtest/gtest.h>
+
+#include "models/head_model.h"
+#include "protocols/fixation.h"
+#include "protocols/step_plan.h"
+#include "robot/limits_guard.h"
+#include "sim/virtual_owl.h"
+
+namespace owlcal::protocols {
+namespace {
+
+struct Rig {
+  sim::VirtualOwl owl{sim::VirtualOwlOptions{}};
+  robot::LimitsGuard guard{owl.Config()};
+  models::PwmVector cmd = owl.Config().Centre();
+  std::vector<models::PwmVector> sent;
+  int64_t last = -1;
+  FixationIo Io() {
+    FixationIo io;
+    io.command = [this] { return cmd; };
+    io.send = [this](const models::PwmVector& p) {
+      cmd = guard.Clamp(p).pwm_us;
+      sent.push_back(cmd);
+      owl.SendServos(cmd);
+    };
+    io.grab = [this] {
+      auto f = owl.GrabFrame(last, 1'000'000'000);
+      last = f->stamp_ns;
+      return *f;
+    };
+    return io;
+  }
+  void PlaceFixation(double distance_m, double x_m = 0) {
+    Step s;
+    s.target = "fixation";
+    s.distance_m = distance_m;
+    s.offset_m = Eigen::Vector2d(x_m, 0);
+    owl.SetTargetPose("fixation", PlacementPose(s, nullptr));
+    for (const std::string& n : owl.TargetNames())
+      if (n != "fixation") owl.SetTargetPose(n, HiddenPose());
+    owl.SendServos(cmd);
+    owl.SleepNs(300'000'000);
+  }
+};
+
+TEST(FixationDetector, FindsTheRenderedDiscWithSubpixelAccuracy) {
+  Rig rig;
+  rig.PlaceFixation(0.8, 0.05);
+  auto f = rig.owl.GrabFrame(rig.owl.NowNs(), 1'000'000'000);
+  ASSERT_TRUE(f);
+  const models::HeadModel head = rig.owl.TruthHeadModel();
+  const sim::FrameTruth truth = rig.owl.TruthForFrame(f->seq);
+  for (int e = 0; e < 2; ++e) {
+    Eigen::Vector2d expected;
+    ASSERT_TRUE(head.Project(models::Eye(e), truth.angles[e], Eigen::Vector3d(0.05, 0, 0.8), &expected));
+    const calib::FixationDetection d = calib::DetectFixationTarget(e == 0 ? f->left : f->right, {});
+    ASSERT_TRUE(d.found) << d.message;
+    std::cout << models::kEyeNames[e] << ": detected " << d.centre.transpose() << " truth " << expected.transpose()
+              << " error " << (d.centre - expected).norm() << " px\n";
+    EXPECT_LT((d.centre - expected).norm(), 0.5);
+  }
+}
+
+TEST(Fixation, ConvergesAtTheCourseGain) {
+  for (double distance : {0.25, 0.5, 1.0, 2.0}) {
+    Rig rig;
+    rig.PlaceFixation(distance, 0.03);
+    FixationOptions o;
+    o.gain = 0.1;
+    o.max_iterations = 150;
+    auto loc = MakeFixationLocator();
+    const FixationResult r = RunFixation(o, rig.owl.Config(), *loc, rig.Io());
+    EXPECT_EQ(r.outcome, FixationResult::Outcome::kConverged) << "distance " << distance << ": " << r.message;
+    for (int e = 0; e < 2; ++e) EXPECT_LT(r.residual_px[e].norm(), 1.5) << "distance " << distance;
+    std::cout << "distance " << distance << ": " << OutcomeName(r.outcome) << " in " << r.iterations
+              << " frames, residual L " << r.residual_px[0].transpose() << " R " << r.residual_px[1].transpose() << "\n";
+  }
+}
+
+TEST(Fixation, DivergentGainIsStoppedBeforeAnyLimit) {
+  Rig rig;
+  rig.PlaceFixation(1.0, 0.15);
+  FixationOptions o;
+  o.gain = 0.6;
+  o.max_iterations = 200;
+  o.eyes[0] = false;
+  auto loc = MakeFixationLocator();
+  const FixationResult r = RunFixation(o, rig.owl.Config(), *loc, rig.Io());
+  std::cout << OutcomeName(r.outcome) << ": " << r.message << "\n";
+  EXPECT_TRUE(r.outcome == FixationResult::Outcome::kDiverged || r.outcome == FixationResult::Outcome::kLimit)
+      << OutcomeName(r.outcome);
+  const models::RobotConfig& c = rig.owl.Config();
+  for (const auto& p : rig.sent)
+    for (int i = 0; i < models::kNumServos; ++i) {
+      EXPECT_GT(p[i], c.servos[i].min_us + o.limit_margin_us - 1);
+      EXPECT_LT(p[i], c.servos[i].max_us - o.limit_margin_us + 1);
+    }
+}
+
+}  // namespace
+}  // namespace owlcal::protocols
