@@ -1,0 +1,94 @@
+#include "fitting/opencv_calib_file.h"
+
+#include <cstdlib>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "owlcal_version.h"
+
+namespace owlcal::fitting {
+namespace {
+
+std::string SharedData() {
+  const char* env = std::getenv("OWLCAL_SHARED_DATA");
+  return env ? env : OWLCAL_SHARED_DATA;
+}
+
+StereoFit MakeFit() {
+  StereoFit f;
+  f.ok = true;
+  f.cameras[0].params = {580, 581, 320, 240, -0.1, 0.05, 0.001, -0.001, 0.01};
+  f.cameras[1].params = {579, 578, 318, 242, -0.11, 0.06, 0.0, 0.0, 0.0};
+  f.right_from_left = models::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY())),
+                                      Eigen::Vector3d(-0.064, 0.001, 0.0005));
+  f.P1(0, 0) = 500;
+  f.Q(3, 2) = 15.6;
+  return f;
+}
+
+TEST(OpenCvCalibFile, WriteReadRoundTripYamlAndXml) {
+  const OpenCvStereoCalibration c = ToOpenCvCalibration(MakeFit());
+  // E = [T]x R and F are consistent: x_r^T F x_l = 0 for a projected point.
+  for (const char* ext : {".yaml", ".xml"}) {
+    const std::string p = (std::filesystem::temp_directory_path() / (std::string("owlcal_cv") + ext)).string();
+    WriteOpenCvCalibration(p, c);
+    const OpenCvStereoCalibration b = ReadOpenCvCalibration(p);
+    ASSERT_TRUE(b.HasIntrinsics());
+    ASSERT_TRUE(b.HasExtrinsics());
+    EXPECT_EQ(cv::norm(b.M1 - c.M1), 0);
+    EXPECT_EQ(cv::norm(b.D1 - c.D1), 0);
+    EXPECT_EQ(cv::norm(b.T - c.T), 0);
+    EXPECT_EQ(cv::norm(b.F - c.F), 0);
+    EXPECT_EQ(b.P1.at<double>(0, 0), 500);
+    EXPECT_EQ(b.Q.at<double>(3, 2), 15.6);
+    EXPECT_EQ(b.image_width, 640);
+    std::filesystem::remove(p);
+  }
+  const cv::Mat xl = (cv::Mat_<double>(3, 1) << 0.1, -0.05, 1.0);
+  cv::Mat xr = c.R * xl + c.T;
+  const cv::Mat pl = c.M1 * xl / xl.at<double>(2);
+  const cv::Mat pr = c.M2 * xr / xr.at<double>(2);
+  EXPECT_NEAR(cv::Mat(pr.t() * c.F * pl).at<double>(0), 0.0, 1e-9);
+}
+
+TEST(OpenCvCalibFile, ReadsTheCourseSplitFiles) {
+  const std::string dir = SharedData() + "/owl-real/kit2020-chessboard/reference/";
+  if (!std::filesystem::exists(dir + "intrinsics.xml")) GTEST_SKIP() << "no shared data at " << dir;
+  const OpenCvStereoCalibration c = ReadOpenCvSplitFiles(dir + "intrinsics.xml", dir + "extrinsics.xml");
+  ASSERT_TRUE(c.HasIntrinsics());
+  ASSERT_TRUE(c.HasExtrinsics());
+  EXPECT_NEAR(c.M1.at<double>(0, 0), 587.876, 0.01);
+  EXPECT_EQ(c.D1.total(), 14u);
+  EXPECT_NEAR(c.T.at<double>(0), -64.123, 0.01);
+  EXPECT_FALSE(c.Q.empty());
+  std::string why;
+  const auto cam = CameraFromOpenCv(c.M1, c.D1, 640, 480, &why);
+  ASSERT_TRUE(cam.has_value()) << why;
+  EXPECT_EQ(cam->model, models::DistortionModel::kOpenCv8);  // k6 is non-zero in the course file
+  EXPECT_NEAR(cam->params[11], 0.0563457, 1e-6);
+}
+
+TEST(OpenCvCalibFile, BadShapesAndMissingFilesNameThePath) {
+  const std::string p = (std::filesystem::temp_directory_path() / "owlcal_cv_bad.yaml").string();
+  {
+    cv::FileStorage fs(p, cv::FileStorage::WRITE);
+    fs << "M1" << cv::Mat::eye(2, 2, CV_64F);
+  }
+  try {
+    ReadOpenCvCalibration(p);
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("M1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(p);
+  EXPECT_THROW(ReadOpenCvCalibration("/nonexistent/x.yaml"), std::runtime_error);
+  cv::Mat D = (cv::Mat_<double>(1, 14) << 0.1, 0, 0, 0, 0, 0, 0, 0, 0.01, 0, 0, 0, 0, 0);
+  std::string why;
+  EXPECT_FALSE(CameraFromOpenCv(cv::Mat::eye(3, 3, CV_64F), D, 640, 480, &why).has_value());
+  EXPECT_NE(why.find("thin prism"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace owlcal::fitting
