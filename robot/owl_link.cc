@@ -55,7 +55,10 @@ ServoReply OwlLink::SendServos(const PwmVector& pwm_us) {
   const ServoClientReply r = servo_.Send(clamp.pwm_us);
   if (!r.ok) {
     std::string sent;
-    for (int i = 0; i < models::kNumServos; ++i) sent += (i ? " " : "") + std::to_string(clamp.pwm_us[i]);
+    for (int i = 0; i < models::kNumServos; ++i) {
+      if (i) sent += ' ';
+      sent += std::to_string(clamp.pwm_us[i]);
+    }
     throw std::runtime_error("servo command [" + sent + "] not answered: " + r.error);
   }
   ServoReply reply;
