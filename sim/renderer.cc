@@ -72,9 +72,12 @@ float MipTexture::Sample(float u, float v, int level) const {
   const float scale = 1.f / float(1 << level);
   // Texel centres sit at integer + 0.5.
   const float su = u * scale - 0.5f, sv = v * scale - 0.5f;
-  const float fu = std::floor(su), fv = std::floor(sv);
-  const float ax = su - fu, ay = sv - fv;
-  int x0 = int(fu), y0 = int(fv), x1 = x0 + 1, y1 = y0 + 1;
+  // floor without the libm call (coordinates are far inside the int range).
+  int x0 = int(su), y0 = int(sv);
+  x0 -= su < float(x0);
+  y0 -= sv < float(y0);
+  const float ax = su - float(x0), ay = sv - float(y0);
+  int x1 = x0 + 1, y1 = y0 + 1;
   if (wrap_) {
     x0 &= l.w - 1;
     x1 &= l.w - 1;
@@ -253,6 +256,15 @@ EyeRenderer::EyeRenderer(const models::CameraIntrinsics& k, double lens_shading,
       const double pr2 = std::pow((x - cx) / fx_, 2) + std::pow((y - cy) / fy_, 2);
       gain_[i] = float(1.0 - lens_shading * pr2 / r_corner2);
     }
+  row_ray_y_min_.assign(height_, 1e30f);
+  row_ray_y_max_.assign(height_, -1e30f);
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const float ry = ray_y_[size_t(y) * width_ + x];
+      if (ry > 1e5f) continue;
+      row_ray_y_min_[y] = std::min(row_ray_y_min_[y], ry);
+      row_ray_y_max_[y] = std::max(row_ray_y_max_[y], ry);
+    }
 }
 
 void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
@@ -376,16 +388,23 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
   const float rim_floor = float(socket.rim_floor);
 
   grey->create(height_, width_, CV_8U);
-  const int np = int(planes.size());
+  std::vector<int> active;
+  active.reserve(planes.size());
   for (int y = 0; y < height_; ++y) {
     uint8_t* out = grey->ptr<uint8_t>(y);
     const size_t row = size_t(y) * width_;
+    // Planes whose bounding box meets this row's range of rays.
+    active.clear();
+    for (int i = 0; i < int(planes.size()); ++i)
+      if (planes[i].y0 <= row_ray_y_max_[y] && planes[i].y1 >= row_ray_y_min_[y]) active.push_back(i);
+    const int np = int(active.size());
     for (int x = 0; x < width_; ++x) {
       const size_t k = row + x;
       const float rx = ray_x_[k], ry = ray_y_[k];
       int best = -1;
       float best_q2 = 0.f, bu = 0.f, bv = 0.f;
-      for (int i = 0; i < np; ++i) {
+      for (int j = 0; j < np; ++j) {
+        const int i = active[j];
         const Plane& p = planes[i];
         if (rx < p.x0 || rx > p.x1 || ry < p.y0 || ry > p.y1) continue;
         const float q2 = p.m[6] * rx + p.m[7] * ry + p.m[8];

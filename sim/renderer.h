@@ -81,6 +81,7 @@ class EyeRenderer {
   double fx_, fy_;
   double blur_px_;
   std::vector<float> ray_x_, ray_y_, inv_norm_, gain_;
+  std::vector<float> row_ray_y_min_, row_ray_y_max_;  // per image row
 };
 
 // Adds zero-mean, approximately Gaussian noise of sigma grey levels (sum of four uniform
