@@ -78,10 +78,11 @@ ServoClientReply ServoClient::SendBytes(std::string_view bytes) {
     const int64_t got = RecvSome(socket_.fd(), buf, sizeof(buf), options_.reply_timeout);
     if (got > 0) {
       reply.text.assign(buf, static_cast<size_t>(got));
-      // Collect the rest of a reply split over segments, without waiting for more.
+      // Collect the rest of a reply split over segments if it is already here (never wait:
+      // the reply is one short write, and waiting would add to every command's latency).
       int64_t more;
       while (reply.text.size() < 64 &&
-             (more = RecvSome(socket_.fd(), buf, sizeof(buf), std::chrono::milliseconds(2))) > 0) {
+             (more = RecvSome(socket_.fd(), buf, sizeof(buf), std::chrono::milliseconds(0))) > 0) {
         reply.text.append(buf, static_cast<size_t>(more));
       }
       reply.ok = true;

@@ -1,5 +1,7 @@
 #include "robot/servo_server.h"
 
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <sys/socket.h>
 
 #include <stdexcept>
@@ -64,6 +66,8 @@ void ServoServer::Loop() {
     if (!WaitReadable(listener_.fd(), kPollStep)) continue;
     Socket client(::accept4(listener_.fd(), nullptr, nullptr, SOCK_CLOEXEC));
     if (!client.valid()) continue;
+    const int one = 1;  // replies are tiny writes: do not let Nagle hold them back
+    ::setsockopt(client.fd(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
     {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.num_sessions;
