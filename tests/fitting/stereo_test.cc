@@ -2,6 +2,7 @@
 #include "fitting/stereo_fit.h"
 
 #include <cstdlib>
+#include <random>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -116,6 +117,62 @@ TEST_F(OpenCvStereo, NoCommonFramesIsReported) {
   const StereoFit fit = FitStereo(l, r, StereoFitOptions());
   EXPECT_FALSE(fit.ok);
   EXPECT_NE(fit.message.find("no frame"), std::string::npos) << fit.message;
+}
+
+// Synthetic rig in metres: the baseline comes out in mm, within its reported sigma.
+TEST(FitStereoSynthetic, BaselineInMillimetresWithinSigma) {
+  models::CameraIntrinsics cam[2];
+  cam[0].params = {585.0, 584.0, 320.0, 238.0, -0.12, 0.08, 0.0, 0.0, 0.0};
+  cam[1].params = {580.0, 579.5, 317.0, 242.0, -0.10, 0.05, 0.0, 0.0, 0.0};
+  const models::Rigid3d right_from_left(Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
+                                        Eigen::Vector3d(-0.0645, 0.0008, 0.0012));
+  calib::TargetDefinition board;  // 9x6, 26 mm
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::normal_distribution<double> noise(0, 0.15);
+  std::vector<calib::View> views[2];
+  for (int k = 0; k < 15; ++k) {
+    const Eigen::Vector3d axis(u(rng), u(rng), 0.2 * u(rng));
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(0.15 + 0.4 * std::abs(u(rng)), axis.normalized()));
+    const Eigen::Vector3d t =
+        Eigen::Vector3d(-0.03 + 0.1 * u(rng), 0.07 * u(rng), 0.5 + 0.1 * u(rng)) - q * Eigen::Vector3d(0.104, 0.065, 0);
+    const models::Rigid3d left_from_target(q, t);
+    for (int e = 0; e < 2; ++e) {
+      const models::Rigid3d cam_from_target = e == 0 ? left_from_target : right_from_left * left_from_target;
+      calib::View v;
+      v.frame_index = k;
+      v.eye = e;
+      for (const auto& [id, p] : board.Corners()) {
+        const Eigen::Vector3d pc = cam_from_target * p;
+        double px[2];
+        if (!cam[e].Project(pc.data(), px) || px[0] < 0 || px[1] < 0 || px[0] > 639 || px[1] > 479) continue;
+        v.corner_ids.push_back(id);
+        v.pixels.emplace_back(px[0] + noise(rng), px[1] + noise(rng));
+        v.points_in_target.push_back(p);
+      }
+      if (v.pixels.size() >= 8) views[e].push_back(v);
+    }
+  }
+  const StereoFit fit = FitStereo(views[0], views[1], StereoFitOptions());
+  ASSERT_TRUE(fit.ok) << fit.message;
+  CalibrationResult r;
+  AppendStereoToResult(fit, &r);
+  const Parameter* b = r.Find("stereo.baseline_mm");
+  ASSERT_NE(b, nullptr);
+  EXPECT_EQ(b->unit, "mm");
+  const double truth_mm = right_from_left.translation.norm() * 1000;
+  EXPECT_LT(std::abs(b->value - truth_mm), 3.5 * b->sigma) << b->value << " +- " << b->sigma << " truth " << truth_mm;
+  EXPECT_LT(b->sigma, 0.5);
+  const Eigen::Vector3d rv_truth = Eigen::AngleAxisd(right_from_left.rotation).angle() *
+                                   Eigen::AngleAxisd(right_from_left.rotation).axis() * 180 / M_PI;
+  const char* rn[3] = {"stereo.rx_deg", "stereo.ry_deg", "stereo.rz_deg"};
+  for (int j = 0; j < 3; ++j) {
+    const Parameter* p = r.Find(rn[j]);
+    ASSERT_NE(p, nullptr);
+    EXPECT_LT(std::abs(p->value - rv_truth(j)), 3.5 * p->sigma) << rn[j] << " " << p->value << " +- " << p->sigma;
+  }
+  EXPECT_NEAR(r.Find("stereo.tx")->value, -64.5, 1.0);
+  EXPECT_LT(fit.rectified_dy_mean_px, 0.2);
 }
 
 }  // namespace
