@@ -416,6 +416,7 @@ IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
       << " px, corner sigma " << Fmt(sigma_hat) << " px";
   if (!fit.rejected.empty()) msg << ", " << fit.rejected.size() << " outliers rejected";
   if (!core_ok) msg << "; focal length / principal point NOT determined";
+  if (distinct.size() < 3) msg << "; WARNING: only " << distinct.size() << " board orientations (use 10 or more)";
   fit.message = msg.str();
   fit.summary.message = fit.message + " | " + fit.summary.message;
   fit.summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
