@@ -169,7 +169,7 @@ struct Step {
   int coarse_us = 20;
   int fine_us = 2;
   double moved_fraction = 0.3;
-  double rim_fraction = 0.02;
+  double rim_fraction = 0.02;  // growth of the dark fraction of the border band (RimFraction)
 
   // latency
   int amplitude_us = 40;

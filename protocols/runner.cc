@@ -485,16 +485,24 @@ void Runner::DoLimits(const Step& s) {
       const PwmVector centre = config_.Centre();
       Send(centre);
       Settle(s.settle);
-      auto grab_eye = [&](cv::Mat* thumb, double* rim) {
+      RimProfile base_profile;
+      bool have_base = false;
+      double rim = 0, rim0 = 0;
+      auto grab_eye = [&](cv::Mat* thumb) {
         robot::StereoFrame f = Grab();
         if (s.record_frames) Record(f);
         const cv::Mat& img = eye == models::kLeftEye ? f.left : f.right;
         *thumb = MotionThumb(img, 2);
-        *rim = RimFraction(img);
+        (void)base_profile;
+        const double frac = RimFraction(img);
+        if (!have_base) {
+          rim0 = frac;
+          have_base = true;
+        }
+        rim = frac - rim0;
       };
       cv::Mat prev;
-      double rim0 = 0, rim = 0;
-      grab_eye(&prev, &rim0);
+      grab_eye(&prev);
       int v = centre[servo];
       std::string reason = "configured";
       double last_shift = 0;
@@ -505,12 +513,13 @@ void Runner::DoLimits(const Step& s) {
         p[servo] = nv;
         Send(p);
         Settle(s.settle);
-        grab_eye(cur, &rim);
+        grab_eye(cur);
         const Shift sh = ThumbShift(prev, *cur, 2);
         last_shift = std::abs(sh.px[axis]);
         const double expected = std::abs(nv - v) * px_per_us;
         if (last_shift < s.moved_fraction * expected) return std::string("end-stop");
-        if (rim - rim0 > s.rim_fraction) return std::string("rim");
+        // The neck carries the sockets with the head: no rim for it.
+        if (servo != models::kNeck && rim > s.rim_fraction) return std::string("rim");
         return std::string();
       };
       // Coarse.
@@ -535,8 +544,7 @@ void Runner::DoLimits(const Step& s) {
         p[servo] = v;
         Send(p);
         Settle(s.settle);
-        double r0;
-        grab_eye(&prev, &r0);
+        grab_eye(&prev);
         while (v != limit) {
           const int nv = d > 0 ? std::min(limit, v + s.fine_us) : std::max(limit, v - s.fine_us);
           cv::Mat cur;
@@ -550,9 +558,9 @@ void Runner::DoLimits(const Step& s) {
         }
         if (v == limit && reason.empty()) reason = "configured";
       }
-      writer_->AppendRow("limits.csv", "step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_fraction",
+      writer_->AppendRow("limits.csv", "step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening",
                          {std::to_string(step_index_), models::kServoNames[servo], d > 0 ? "max" : "min",
-                          std::to_string(limit), std::to_string(v), reason, F(last_shift, 3), F(rim - rim0, 4)});
+                          std::to_string(limit), std::to_string(v), reason, F(last_shift, 3), F(rim, 4)});
       Event("limits", std::string(models::kServoNames[servo]) + (d > 0 ? " max" : " min") + ": configured " +
                           std::to_string(limit) + ", measured " + std::to_string(v) + " (" + reason + ")");
       if (o_.progress)

@@ -26,7 +26,11 @@
 //   step_trials.csv    step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,
 //                      frames,final_offset_px,message
 //   limits.csv         step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_fraction
-//                      (reason: end-stop | rim | configured)
+//                      (reason: end-stop = the image moved less than moved_fraction of the
+//                      nominal shift; rim = the fraction of the 8 px border band darker than
+//                      grey 20 grew by more than rim_fraction over the centre pose
+//                      (protocols/image_motion.h RimFraction);
+//                      configured = the robot file's limit reached with neither)
 //   alignment.csv      step_index,frame_index,method,roll_deg,vertical_offset_px,horizontal_offset_px,corners
 //   latency.csv        step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px
 //   coverage.csv       eye,num_views,x_min,x_max,x_progress,y_min,y_max,y_progress,size_min,size_max,
