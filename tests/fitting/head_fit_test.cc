@@ -207,6 +207,20 @@ TEST(FitHead, NoViewsOrBadOptionsFailWithAMessage) {
   const HeadFit b = FitHead({}, robot, models::NominalHeadModel(robot), bad);
   EXPECT_FALSE(b.ok);
   EXPECT_NE(b.message.find("corner_sigma_px"), std::string::npos);
+  // Too few corners: every view is dropped and named.
+  calib::View tiny;
+  tiny.frame_index = 4;
+  tiny.target_id = "board";
+  tiny.pwm_us = robot.Centre();
+  for (int i = 0; i < 3; ++i) {
+    tiny.corner_ids.push_back(i);
+    tiny.pixels.emplace_back(300 + 10 * i, 200);
+    tiny.points_in_target.emplace_back(0.04 * i, 0, 0);
+  }
+  const HeadFit few = FitHead({tiny}, robot, models::NominalHeadModel(robot), HeadFitOptions());
+  EXPECT_FALSE(few.ok);
+  EXPECT_NE(few.message.find("no usable view"), std::string::npos);
+  EXPECT_TRUE(HasWarning(few.result, "frame 4", "3 corners < 6")) << AllWarnings(few.result);
 }
 
 TEST(FitHead, RejectsGrossCornerOutliers) {
