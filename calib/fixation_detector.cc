@@ -92,6 +92,8 @@ FixationDetection DetectFixationTarget(const cv::Mat& image, const FixationDetec
     const double roundness = std::min(1.0, std::sqrt(std::min(1.0, circ) * fill));
     if (roundness < options.min_roundness) continue;
     const double r = std::sqrt(area / M_PI);
+    const bool tracking = options.expected_radius_px > 0;
+    if (tracking && (r < 0.5 * options.expected_radius_px || r > 2 * options.expected_radius_px)) continue;
     const cv::Point2d centre0(cc.x, cc.y);
     double ring_sd = 0;
     const double bg = RingMedian(g, centre0, cr * 1.3 + 1, cr * 1.6 + 3, &ring_sd);
@@ -101,7 +103,9 @@ FixationDetection DetectFixationTarget(const cv::Mat& image, const FixationDetec
     // A fixation target is a disc on a plain card: high contrast against a uniform surround
     // wins over dark spots of a textured background.
     const double uniformity = 1.0 / (1.0 + 4.0 * ring_sd / contrast);
-    const double score = roundness * contrast * contrast * uniformity * std::sqrt(r);
+    const double score =
+        tracking ? 1.0 / (1.0 + std::hypot(cc.x - options.expected_px.x(), cc.y - options.expected_px.y()))
+                 : roundness * contrast * contrast * uniformity * std::sqrt(r);
     if (score <= best_score) continue;
     // Sub-pixel centre: contrast-weighted centroid inside 1.25 * the enclosing radius.
     const double rw = cr * 1.25 + 1;

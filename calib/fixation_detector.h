@@ -33,6 +33,10 @@ struct FixationDetectorOptions {
   double min_roundness = 0.6;   // 0..1, see above
   double min_contrast = 25;     // grey levels between the blob and its surround
   int border_px = 2;            // blobs touching the image border closer than this are ignored
+  // Tracking: when expected_radius_px > 0, only blobs of 0.5x..2x that radius are kept and
+  // the one closest to expected_px wins (instead of the best score).
+  Eigen::Vector2d expected_px = Eigen::Vector2d::Zero();
+  double expected_radius_px = 0;
 
   bool Check(std::string* why) const;
 };

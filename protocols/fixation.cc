@@ -20,19 +20,24 @@ class FixationLocator : public TargetLocator {
   // outscore a small, distant disc), the whole image when it is not there.
   std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int eye) override {
     if (has_last_[eye]) {
-      const int half = std::max(60, int(8 * last_radius_[eye]));
-      const cv::Rect roi = cv::Rect(int(last_[eye].x()) - half, int(last_[eye].y()) - half, 2 * half, 2 * half) &
-                           cv::Rect(0, 0, image.cols, image.rows);
-      if (roi.width > 8 && roi.height > 8) {
+      // Two windows around the last position; never jump to a far blob once tracking.
+      for (int scale : {1, 2}) {
+        const int half = scale * std::max(30, int(5 * last_radius_[eye]));
+        const cv::Rect roi = cv::Rect(int(last_[eye].x()) - half, int(last_[eye].y()) - half, 2 * half, 2 * half) &
+                             cv::Rect(0, 0, image.cols, image.rows);
+        if (roi.width <= 8 || roi.height <= 8) continue;
         calib::FixationDetectorOptions o = options_;
         o.border_px = 0;
+        o.expected_px = last_[eye] - Eigen::Vector2d(roi.x, roi.y);
+        o.expected_radius_px = last_radius_[eye];
         const calib::FixationDetection d = calib::DetectFixationTarget(image(roi), o);
-        if (d.found && d.radius_px > 0.5 * last_radius_[eye] && d.radius_px < 2 * last_radius_[eye]) {
+        if (d.found) {
           last_[eye] = d.centre + Eigen::Vector2d(roi.x, roi.y);
           last_radius_[eye] = d.radius_px;
           return last_[eye];
         }
       }
+      return std::nullopt;
     }
     const calib::FixationDetection d = calib::DetectFixationTarget(image, options_);
     if (!d.found) return std::nullopt;
@@ -109,11 +114,12 @@ struct PeakTracker {
     sign = s;
     peak = std::max(peak, std::abs(e));
   }
-  // Two consecutive completed half-cycles whose peaks did not decay.
+  // Two consecutive completed half-cycles whose peaks grew (a sustained small limit cycle
+  // from backlash is not divergence).
   bool Growing(double floor) const {
     const size_t n = peaks.size();
     if (n < 3) return false;
-    return peaks[n - 1] > floor && peaks[n - 1] >= 0.95 * peaks[n - 2] && peaks[n - 2] >= 0.95 * peaks[n - 3];
+    return peaks[n - 1] > floor && peaks[n - 1] > 1.05 * peaks[n - 2] && peaks[n - 2] > 1.05 * peaks[n - 3];
   }
 };
 
@@ -265,6 +271,9 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       const int servos[2] = {models::kPanServo[e], models::kTiltServo[e]};
       for (int a = 0; a < 2; ++a) {
         if ((a == 0 && !o.pan) || (a == 1 && !o.tilt)) continue;
+        // Dead zone: an axis already within the tolerance is left alone (with backlash an
+        // integrating loop would otherwise chase it in a limit cycle).
+        if (std::abs(s.offset_px[e][a]) <= o.tolerance_px) continue;
         const double step = std::clamp(o.gain * err_us[a], -double(o.max_step_us), double(o.max_step_us));
         state[servos[a]] += step;
         next[servos[a]] = static_cast<int>(std::lround(state[servos[a]]));

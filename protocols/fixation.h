@@ -11,14 +11,15 @@
 // and the command moves by gain * error (the course's incremental loop theta += K * error,
 // FACTS.md "Control with latency": with d frames of delay K_crit = 2 sin(pi / (2 (2d + 1))),
 // 0.445 for d = 3; K = 0.1 settles without overshoot). The command is kept as a real number
-// and rounded to whole microseconds when sent.
+// and rounded to whole microseconds when sent. An axis whose offset is within tolerance_px is
+// not updated (a dead zone: with servo backlash an integrating loop would limit-cycle).
 //
 // Latency awareness: latency_frames = n > 0 waits n frames after every update (those frames
 // still show the old pose), which makes large gains stable at the cost of a slower loop.
 //
 // Divergence stop: the loop stops (and reports why) BEFORE sending a command that would come
-// within limit_margin_us of a servo's limit, when the error's half-cycle peaks stop decaying
-// (an oscillation that does not die out), when the error grows beyond twice its initial
+// within limit_margin_us of a servo's limit, when the error's half-cycle peaks grow twice in
+// a row (an oscillation building up), when the error grows beyond twice its initial
 // value, or when the target is lost for lost_frames frames.
 #include <functional>
 #include <memory>

@@ -1,0 +1,62 @@
+// Standard protocols end to end on the in-process virtual Owl: capture protocols.
+#include <gtest/gtest.h>
+
+#include "tests/protocols/suite_helpers.h"
+
+namespace owlcal::protocols {
+namespace {
+using testing::ExpectCleanDataset;
+using testing::ReadTableRows;
+using testing::Ran;
+using testing::RunStandard;
+
+TEST(StandardSuite, ServoSweepRecordsBothApproachDirections) {
+  const Ran r = RunStandard("servo_sweep");
+  ExpectCleanDataset(r);
+  const auto frames = ReadFramesCsv(r.dir);
+  ASSERT_GT(frames.size(), 50u);
+  int up = 0, down = 0;
+  for (const auto& f : frames) {
+    if (f.step_name != "sweep1") continue;
+    up += f.approach[models::kRx] > 0;
+    down += f.approach[models::kRx] < 0;
+  }
+  EXPECT_GT(up, 5);
+  EXPECT_GT(down, 5);
+  EXPECT_EQ(ReadPlacementsCsv(r.dir).size(), 2u);
+}
+
+TEST(StandardSuite, IntrinsicsAndStereoRecordFrames) {
+  for (const char* name : {"intrinsics", "stereo"}) {
+    const Ran r = RunStandard(name);
+    ExpectCleanDataset(r);
+    EXPECT_GE(r.summary.num_frames, 6);
+  }
+}
+
+TEST(StandardSuite, AlignmentFindsSmallRollAndOffset) {
+  const Ran r = RunStandard("alignment");
+  ExpectCleanDataset(r);
+  const auto rows = ReadTableRows(r.dir + "/alignment.csv");
+  ASSERT_EQ(rows.size(), 3u);
+  for (const auto& row : rows) {
+    EXPECT_EQ(row[2], "chessboard");
+    EXPECT_LT(std::abs(std::stod(row[3])), 5.0);   // roll [deg]
+    EXPECT_LT(std::abs(std::stod(row[4])), 20.0);  // vertical offset [px]
+  }
+}
+
+TEST(StandardSuite, LatencyNearTheStreamLatency) {
+  const Ran r = RunStandard("latency");
+  ExpectCleanDataset(r);
+  const auto rows = ReadTableRows(r.dir + "/latency.csv");
+  ASSERT_EQ(rows.size(), 8u);
+  for (const auto& row : rows) {
+    const double ms = std::stod(row[4]);
+    EXPECT_GT(ms, 90.0);
+    EXPECT_LT(ms, 200.0);
+  }
+}
+
+}  // namespace
+}  // namespace owlcal::protocols

@@ -1,0 +1,38 @@
+// The standard step-response protocol end to end on the in-process virtual Owl.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "tests/protocols/suite_helpers.h"
+
+namespace owlcal::protocols {
+namespace {
+using testing::ExpectCleanDataset;
+using testing::ReadTableRows;
+using testing::Ran;
+using testing::RunStandard;
+
+TEST(StandardSuite, StepResponseLogsEveryGain) {
+  const Ran r = RunStandard("step_response");
+  ExpectCleanDataset(r);
+  const auto trials = ReadTableRows(r.dir + "/step_trials.csv");
+  EXPECT_EQ(trials.size(), 6u);
+  const auto rows = ReadTableRows(r.dir + "/step_response.csv");
+  EXPECT_GE(rows.size(), 6u * 40);
+  // step_trials: step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,final_offset_px
+  for (const auto& t : trials) {
+    EXPECT_TRUE(t[9] == "converged" || t[9] == "max-iterations") << t[9];
+    if (std::stod(t[1]) == 0.1) EXPECT_LT(std::abs(std::stod(t[11])), 3.0) << "gain 0.1 amplitude " << t[2];
+    // The step: start and fixation pulse widths differ by the amplitude at the nominal scale.
+    EXPECT_NEAR(std::abs(std::stod(t[7]) - std::stod(t[8])), std::stod(t[2]) / 0.113, 1.0);
+  }
+  // step_response: the first logged offset of every trial is about the amplitude in pixels.
+  for (const auto& row : rows) {
+    if (row[4] != "0") continue;
+    const double expected_px = 585 * std::tan(std::stod(row[2]) * M_PI / 180);
+    EXPECT_NEAR(std::abs(std::stod(row[6])), expected_px, 0.35 * expected_px) << "amplitude " << row[2];
+  }
+}
+
+}  // namespace
+}  // namespace owlcal::protocols
