@@ -10,6 +10,8 @@
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "protocols/robot_factory.h"
+#include "robot/robot_file.h"
 #include "tests/protocols/fake_robot.h"
 
 namespace owlcal::protocols {
@@ -200,6 +202,51 @@ steps:
   ASSERT_EQ(pl2.size(), 2u);
   EXPECT_EQ(pl2[1].source, "file");
   EXPECT_DOUBLE_EQ(pl2[1].distance_m, 0.9);
+}
+
+}  // namespace
+}  // namespace owlcal::protocols
+
+namespace owlcal::protocols {
+namespace {
+
+// The same on the in-process virtual Owl, built by the robot factory from a robot file whose
+// limits are tighter than the standard servo sweep asks for.
+TEST(Runner, TighterRobotFileOnTheVirtualOwlIsClampedAndReported) {
+  models::RobotConfig tight = models::DefaultRobotConfig();
+  tight.servos[models::kRx].min_us = 1480;
+  tight.servos[models::kRx].max_us = 1600;
+  tight.servos[models::kNeck].min_us = 1480;
+  tight.servos[models::kNeck].max_us = 1580;
+  const std::string file = TempDir("tight_robot") + ".yaml";
+  {
+    std::ofstream out(file);
+    out << robot::RobotConfigToYaml(tight);
+  }
+  RobotFactoryOptions fo;
+  fo.robot_file = file;
+  std::unique_ptr<robot::RobotInterface> owl = MakeRobot("sim", fo);
+  EXPECT_EQ(owl->Config().servos[models::kRx].max_us, 1600);
+  testing::RecordingRobot robot(owl.get());
+  const Protocol p = ParseProtocolYaml(R"(
+name: tight
+steps:
+  - sweep: {servo: Rx, from: centre-120, to: centre+120, step_us: 40, settle: {mode: time, time_ms: 100}}
+  - sweep: {servo: Neck, from: centre-100, to: centre+100, step_us: 100, settle: {mode: time, time_ms: 100}}
+)",
+                                       "tight.yaml");
+  RunOptions o;
+  o.out_dir = TempDir("tight_sim");
+  const RunSummary s = RunProtocols({p}, robot, o);
+  EXPECT_EQ(s.status, "complete") << s.message;
+  EXPECT_GT(s.num_clamped, 4);
+  for (const auto& cmd : robot.requested)
+    for (int i = 0; i < models::kNumServos; ++i) {
+      EXPECT_GE(cmd[i], tight.servos[i].min_us) << models::kServoNames[i];
+      EXPECT_LE(cmd[i], tight.servos[i].max_us) << models::kServoNames[i];
+    }
+  EXPECT_NE(ReadText(o.out_dir + "/events.log").find("clamped to 1600"), std::string::npos);
+  EXPECT_TRUE(CheckDataset(o.out_dir).ok);
 }
 
 }  // namespace
