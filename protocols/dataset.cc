@@ -374,8 +374,12 @@ void DatasetWriter::Event(int64_t stamp_ns, const std::string& kind, const std::
 
 void DatasetWriter::AppendRow(const std::string& name, const std::string& header, const std::vector<std::string>& row) {
   std::string line;
-  for (size_t i = 0; i < row.size(); ++i) line += (i ? "," : "") + CsvSafe(row[i]);
-  AppendLine(Open(name, header), name, line + "\n");
+  for (size_t i = 0; i < row.size(); ++i) {
+    if (i) line.push_back(',');
+    line.append(CsvSafe(row[i]));
+  }
+  line.push_back('\n');
+  AppendLine(Open(name, header), name, line);
 }
 
 // ---------------------------------------------------------------- reading and checking
