@@ -1,6 +1,7 @@
 #include "protocols/runner.h"
 
 #include <csignal>
+#include <filesystem>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -40,7 +41,10 @@ std::string F(double v, int prec = 4) {
 
 std::string PwmText(const PwmVector& p) {
   std::string s;
-  for (int i = 0; i < kNumServos; ++i) s += (i ? " " : "") + std::to_string(p[i]);
+  for (int i = 0; i < kNumServos; ++i) {
+    if (i) s.push_back(' ');
+    s.append(std::to_string(p[i]));
+  }
   return s;
 }
 
@@ -738,6 +742,21 @@ RunSummary Runner::Run() {
     for (const StepRecord& r : writer_->Steps())
       if (r.status == "done" && r.step_index >= 0 && r.step_index < int(done.size())) done[r.step_index] = true;
     while (first_step < int(done.size()) && done[first_step]) ++first_step;
+    // Coverage continues over the corners detected before the interruption.
+    const std::string obs_path = o_.out_dir + "/observations.csv";
+    if (std::filesystem::exists(obs_path)) {
+      for (const calib::View& v : calib::GroupIntoViews(calib::ReadObservationsCsv(obs_path))) {
+        for (const Protocol& p : *protocols_) {
+          auto it = p.targets.find(v.target_id);
+          if (it == p.targets.end()) continue;
+          ViewParams vp;
+          if (ComputeViewParams(v, it->second, config_.image_width, config_.image_height, &vp))
+            coverage_views_[v.eye == models::kLeftEye ? 0 : 1].push_back(vp);
+          detected_any_ = true;
+          break;
+        }
+      }
+    }
     writer_->Event(robot_.NowNs(), "resume", "resuming at step " + std::to_string(first_step) + " with " +
                                                  std::to_string(writer_->NumFrames()) + " frames recorded");
     if (o_.progress) *o_.progress << "resuming " << o_.out_dir << " at step " << (first_step + 1) << "/" << steps_.size()
