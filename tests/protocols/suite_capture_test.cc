@@ -1,6 +1,8 @@
 // Standard protocols end to end on the in-process virtual Owl: capture protocols.
 #include <gtest/gtest.h>
 
+#include "calib/observation_io.h"
+
 #include "tests/protocols/suite_helpers.h"
 
 namespace owlcal::protocols {
@@ -31,6 +33,13 @@ TEST(StandardSuite, IntrinsicsAndStereoRecordFrames) {
     const Ran r = RunStandard(name);
     ExpectCleanDataset(r);
     EXPECT_GE(r.summary.num_frames, 6);
+    // Detection ran during capture: corners of the chessboard in both eyes, and coverage.
+    const auto obs = calib::ReadObservationsCsv(r.dir + "/observations.csv");
+    EXPECT_GE(obs.size(), size_t(r.summary.num_frames) * 54) << name;  // most frames, both eyes, 54 corners
+    const auto coverage = ReadTableRows(r.dir + "/coverage.csv");
+    ASSERT_EQ(coverage.size(), 2u) << name;
+    if (std::string(name) == "intrinsics")
+      for (const auto& row : coverage) EXPECT_GT(std::stod(row[4]), 0.7) << "X coverage " << row[0];
   }
 }
 
