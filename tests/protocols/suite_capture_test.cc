@@ -38,8 +38,11 @@ TEST(StandardSuite, IntrinsicsAndStereoRecordFrames) {
     EXPECT_GE(obs.size(), size_t(r.summary.num_frames) * 54) << name;  // most frames, both eyes, 54 corners
     const auto coverage = ReadTableRows(r.dir + "/coverage.csv");
     ASSERT_EQ(coverage.size(), 2u) << name;
-    if (std::string(name) == "intrinsics")
-      for (const auto& row : coverage) EXPECT_GT(std::stod(row[4]), 0.7) << "X coverage " << row[0];
+    if (std::string(name) == "intrinsics") {
+      for (const auto& row : coverage) {
+        EXPECT_GT(std::stod(row[4]), 0.7) << "X coverage " << row[0];
+      }
+    }
   }
 }
 

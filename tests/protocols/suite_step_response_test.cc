@@ -22,7 +22,9 @@ TEST(StandardSuite, StepResponseLogsEveryGain) {
   // step_trials: step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,final_offset_px
   for (const auto& t : trials) {
     EXPECT_TRUE(t[9] == "converged" || t[9] == "max-iterations") << t[9];
-    if (std::stod(t[1]) == 0.1) EXPECT_LT(std::abs(std::stod(t[11])), 3.0) << "gain 0.1 amplitude " << t[2];
+    if (std::stod(t[1]) == 0.1) {
+      EXPECT_LT(std::abs(std::stod(t[11])), 3.0) << "gain 0.1 amplitude " << t[2];
+    }
     // The step: start and fixation pulse widths differ by the amplitude at the nominal scale.
     EXPECT_NEAR(std::abs(std::stod(t[7]) - std::stod(t[8])), std::stod(t[2]) / 0.113, 1.0);
   }
