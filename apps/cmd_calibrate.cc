@@ -1,0 +1,464 @@
+// owlcal calibrate [--robot sim|HOST] [--robot-truth FILE] [--seed N] --out DIR: the main job.
+// Runs the standard protocol suite (one dataset per protocol under DIR/datasets/), fits
+// intrinsics + stereo (fitting/stereo_fit.h) and the head (fitting/head_fit.h), evaluates
+// ranging, step responses, gains and limits (fitting/*_eval.h), compares with the truth on
+// the virtual Owl, and writes DIR/results.json, DIR/evaluation.json, DIR/calibration.yaml,
+// DIR/exports/, DIR/figures/, DIR/tables/ and DIR/report/index.html.
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "apps/command_registry.h"
+#include "calib/observation.h"
+#include "calib/observation_io.h"
+#include "fitting/head_fit.h"
+#include "fitting/limits_eval.h"
+#include "fitting/ranging_eval.h"
+#include "fitting/stereo_fit.h"
+#include "fitting/step_response.h"
+#include "fitting/truth_compare.h"
+#include "models/head_kinematics.h"
+#include "owlcal_version.h"
+#include "protocols/dataset.h"
+#include "protocols/protocol.h"
+#include "protocols/robot_factory.h"
+#include "protocols/runner.h"
+#include "reports/exports.h"
+#include "reports/report.h"
+#include "reports/report_data.h"
+#include "sim/virtual_owl.h"
+
+namespace owlcal::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CalibrateOptions {
+  std::string robot = "sim";
+  std::string robot_file;
+  std::string robot_truth;
+  std::string scene;
+  uint64_t seed = 1;
+  int http_port = 8080;
+  std::string out;
+  std::vector<std::string> protocols;  // default: the standard suite
+  bool no_figures = false;
+  bool quiet = false;
+};
+
+// A CSV table with a header row, by column name.
+struct Csv {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  int Col(const std::string& name) const {
+    for (size_t i = 0; i < header.size(); ++i)
+      if (header[i] == name) return int(i);
+    return -1;
+  }
+  std::string Get(size_t r, const std::string& name) const {
+    const int c = Col(name);
+    return (c >= 0 && c < int(rows[r].size())) ? rows[r][c] : std::string();
+  }
+  double Num(size_t r, const std::string& name) const {
+    const std::string s = Get(r, name);
+    if (s.empty()) return NAN;
+    try {
+      return std::stod(s);
+    } catch (...) {
+      return NAN;
+    }
+  }
+};
+
+Csv ReadCsv(const std::string& path) {
+  Csv t;
+  std::ifstream f(path);
+  if (!f) return t;
+  std::string line;
+  bool first = true;
+  while (std::getline(f, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    auto cells = protocols::SplitCsv(line);
+    if (first) t.header = cells;
+    else t.rows.push_back(cells);
+    first = false;
+  }
+  return t;
+}
+
+class Progress {
+ public:
+  explicit Progress(bool quiet) : quiet_(quiet), t0_(std::chrono::steady_clock::now()) {}
+  void operator()(const std::string& msg) const {
+    if (quiet_) return;
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    std::cout << "[calibrate " << std::fixed;
+    std::cout.precision(1);
+    std::cout << s << " s] " << msg << std::endl;
+    std::cout.unsetf(std::ios::fixed);
+  }
+  double Elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+
+ private:
+  bool quiet_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+std::vector<calib::CornerObservation> ReadObs(const std::string& dataset) {
+  const std::string p = dataset + "/observations.csv";
+  if (!fs::exists(p)) return {};
+  return calib::ReadObservationsCsv(p);
+}
+
+void SplitEyes(const std::vector<calib::View>& views, std::vector<calib::View>* l, std::vector<calib::View>* r) {
+  for (const auto& v : views) (v.eye == models::kLeftEye ? l : r)->push_back(v);
+}
+
+// Reprojection residuals of the per-eye intrinsics fits, and the coverage points.
+void CollectResiduals(const fitting::StereoFit& fit,
+                      const std::vector<calib::View>& views,
+                      reports::ReportData* d) {
+  for (int e = 0; e < 2; ++e) {
+    const fitting::IntrinsicsFit& f = fit.per_eye[e];
+    std::map<int, size_t> pose_of;
+    for (size_t i = 0; i < f.frame_indices.size(); ++i) pose_of[f.frame_indices[i]] = i;
+    for (const auto& v : views) {
+      if (v.eye != e) continue;
+      for (const auto& px : v.pixels) d->coverage.push_back({e, px.x(), px.y()});
+      const auto it = pose_of.find(v.frame_index);
+      if (!f.ok || it == pose_of.end() || it->second >= f.cam_from_target.size()) continue;
+      for (size_t k = 0; k < v.pixels.size(); ++k) {
+        const Eigen::Vector3d p = f.cam_from_target[it->second] * v.points_in_target[k];
+        double pix[2];
+        if (!f.camera.Project(p.data(), pix)) continue;
+        const double dx = pix[0] - v.pixels[k].x(), dy = pix[1] - v.pixels[k].y();
+        if (std::hypot(dx, dy) > 5.0) continue;  // rejected outliers are listed by the fit
+        d->residuals.push_back({e, v.frame_index, v.pixels[k].x(), v.pixels[k].y(), dx, dy});
+      }
+    }
+  }
+}
+
+std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
+                                             const models::RobotConfig& config,
+                                             const std::optional<models::HeadModel>& truth,
+                                             const models::HeadModel& fitted) {
+  std::vector<fitting::Fixation> out;
+  const Csv t = ReadCsv(dataset + "/fixations.csv");
+  const auto placements = fs::exists(dataset + "/placements.csv") ? protocols::ReadPlacementsCsv(dataset)
+                                                                   : std::vector<protocols::PlacementRecord>{};
+  const double cx = (config.image_width - 1) / 2.0, cy = (config.image_height - 1) / 2.0;
+  for (size_t r = 0; r < t.rows.size(); ++r) {
+    if (t.Get(r, "outcome") != "converged") continue;
+    if (t.Get(r, "left_found") != "1" || t.Get(r, "right_found") != "1") continue;
+    fitting::Fixation f;
+    f.index = int(r);
+    for (int s = 0; s < models::kNumServos; ++s) f.pwm_us[s] = int(t.Num(r, std::string(models::kServoNames[s]) + "_us"));
+    f.target_px[0] = Eigen::Vector2d(cx + t.Num(r, "left_dx_px"), cy + t.Num(r, "left_dy_px"));
+    f.target_px[1] = Eigen::Vector2d(cx + t.Num(r, "right_dx_px"), cy + t.Num(r, "right_dy_px"));
+    // True distance: from the placement pose (base frame) to the midpoint of the eye centres
+    // (the truth's on the virtual Owl, else the fitted head's); else the logged distance.
+    const int pi = int(t.Num(r, "placement_index"));
+    const models::HeadModel& ref = truth ? *truth : fitted;
+    const double neck = ref.ServoAngle(models::kNeck, f.pwm_us[models::kNeck]);
+    const Eigen::Vector3d mid = models::HeadFromBase(neck).Inverse() *
+                                (0.5 * (ref.geometry.centre_in_head[0] + ref.geometry.centre_in_head[1]));
+    f.true_distance_m = t.Num(r, "distance_m");
+    for (const auto& p : placements)
+      if (p.placement_index == pi) f.true_distance_m = (p.base_from_target.translation() - mid).norm();
+    if (std::isfinite(f.true_distance_m)) out.push_back(f);
+  }
+  return out;
+}
+
+std::vector<reports::StepTrace> ReadSteps(const std::string& dataset) {
+  std::vector<reports::StepTrace> out;
+  const Csv t = ReadCsv(dataset + "/step_response.csv");
+  std::map<std::tuple<int, double, double, int>, reports::StepTrace> by;
+  std::vector<std::tuple<int, double, double, int>> order;
+  for (size_t r = 0; r < t.rows.size(); ++r) {
+    const auto key = std::make_tuple(int(t.Num(r, "step_index")), t.Num(r, "gain"), t.Num(r, "amplitude_deg"),
+                                     int(t.Num(r, "trial")));
+    if (!by.count(key)) {
+      order.push_back(key);
+      reports::StepTrace s;
+      s.gain = std::get<1>(key);
+      s.amplitude_deg = std::get<2>(key);
+      s.trial = std::get<3>(key);
+      by[key] = s;
+    }
+    if (t.Get(r, "found") != "1") continue;
+    by[key].t_s.push_back(t.Num(r, "t_s"));
+    by[key].y.push_back(t.Num(r, "offset_px"));  // converted below
+  }
+  for (const auto& key : order) {
+    reports::StepTrace s = by[key];
+    if (s.y.size() < 3 || std::abs(s.y.front()) < 1e-6) continue;
+    const double o0 = s.y.front();
+    s.residual_px = std::abs(s.y.back());
+    for (double& y : s.y) y = 1.0 - y / o0;  // fraction of the step done
+    fitting::StepInfoOptions o;
+    o.y_init = 0.0;
+    o.y_final = 1.0;
+    try {
+      s.info = fitting::ComputeStepInfo(s.t_s, s.y, o);
+    } catch (const std::exception&) {
+      continue;  // non-increasing times (dropped frames logged twice)
+    }
+    s.eye_axis = "step-response";
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset) {
+  std::vector<fitting::LimitMeasurement> out;
+  const Csv t = ReadCsv(dataset + "/limits.csv");
+  for (size_t r = 0; r < t.rows.size(); ++r) {
+    const int s = protocols::ServoIndexFromName(t.Get(r, "servo"));
+    if (s < 0) continue;
+    fitting::LimitMeasurement m;
+    m.servo = s;
+    m.high_end = t.Get(r, "end") == "max";
+    m.measured_us = t.Num(r, "measured_us");
+    m.cause = fitting::LimitCauseFromName(t.Get(r, "reason"));
+    if (std::isfinite(m.measured_us)) out.push_back(m);
+  }
+  return out;
+}
+
+// Median latency in frames from latency.csv; nullopt without data.
+std::optional<int> LatencyFrames(const std::string& dataset, double fps) {
+  const Csv t = ReadCsv(dataset + "/latency.csv");
+  std::vector<double> v;
+  for (size_t r = 0; r < t.rows.size(); ++r)
+    if (std::isfinite(t.Num(r, "latency_ms"))) v.push_back(t.Num(r, "latency_ms"));
+  if (v.empty()) return std::nullopt;
+  std::sort(v.begin(), v.end());
+  return std::max(1, int(std::lround(v[v.size() / 2] * fps / 1000.0)));
+}
+
+void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
+  for (const auto& p : h.result.parameters) r->Set(p);
+  for (const auto& s : h.result.summaries) r->summaries.push_back(s);
+  for (const auto& w : h.result.warnings) r->warnings.push_back(w);
+  r->head = h.head;
+  if (h.result.diagnostics.contains("head")) r->diagnostics["head"] = h.result.diagnostics["head"];
+  for (auto it = h.result.inputs.begin(); it != h.result.inputs.end(); ++it) r->inputs[it.key()] = it.value();
+  if (h.covariance.rows() == int(h.param_names.size()) && !h.param_names.empty()) {
+    nlohmann::json m = nlohmann::json::array();
+    for (int i = 0; i < h.covariance.rows(); ++i) {
+      std::vector<double> row(h.covariance.cols());
+      for (int j = 0; j < h.covariance.cols(); ++j) row[j] = std::isfinite(h.covariance(i, j)) ? h.covariance(i, j) : 0.0;
+      m.push_back(row);
+    }
+    r->diagnostics["covariance"] = {{"names", h.param_names}, {"matrix", m}, {"source", "head fit"}};
+  }
+}
+
+int RunCalibrate(const CalibrateOptions& o) {
+  if (o.out.empty()) throw UsageError("--out DIR is required");
+  if (fs::exists(o.out + "/results.json")) throw UsageError(o.out + " already holds a calibration (results.json); choose a new --out");
+  const Progress progress(o.quiet);
+  fs::create_directories(o.out);
+  std::vector<std::string> names = o.protocols.empty() ? protocols::StandardProtocolNames() : o.protocols;
+
+  protocols::RobotFactoryOptions fo;
+  fo.robot_file = o.robot_file;
+  fo.truth_file = o.robot_truth;
+  fo.scene_file = o.scene;
+  fo.seed = o.seed;
+  fo.http_port = o.http_port;
+  std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot, fo);
+  const models::RobotConfig config = robot->Config();
+  progress("robot: " + robot->Describe());
+
+  reports::ReportData d;
+  d.config = config;
+  d.result.software_version = OWLCAL_VERSION;
+  d.settings = {{"command", "owlcal calibrate"}, {"robot", o.robot}, {"robot_file", o.robot_file},
+                {"robot_truth", o.robot_truth}, {"scene", o.scene}, {"seed", o.seed}, {"protocols", names},
+                {"owlcal_version", OWLCAL_VERSION}};
+  std::optional<sim::RobotTruth> truth;
+  if (auto* owl = dynamic_cast<sim::VirtualOwl*>(robot.get())) truth = owl->Truth();
+
+  // 1) Record one dataset per protocol.
+  std::atomic<bool>* stop = protocols::InstallSigintStop();
+  std::map<std::string, std::string> dataset;
+  nlohmann::json run_info = nlohmann::json::object();
+  for (const std::string& name : names) {
+    const std::string dir = o.out + "/datasets/" + fs::path(name).stem().string();
+    protocols::Protocol p;
+    try {
+      p = protocols::LoadProtocolFile(protocols::ResolveProtocolPath(name));
+    } catch (const protocols::ProtocolError& e) {
+      throw UsageError(e.what());
+    }
+    progress("protocol " + p.name + " -> " + dir);
+    protocols::RunOptions ro;
+    ro.out_dir = dir;
+    ro.robot_spec = o.robot;
+    ro.robot_file = o.robot_file;
+    if (o.robot == "sim") ro.sim = {{"seed", o.seed}, {"truth_file", o.robot_truth}, {"scene_file", o.scene}};
+    ro.progress = nullptr;
+    ro.stop_flag = stop;
+    const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
+    run_info[p.name] = {{"status", s.status}, {"frames", s.num_frames}, {"clamped", s.num_clamped},
+                        {"robot_clock_s", s.elapsed_s}, {"message", s.message}};
+    progress("  " + s.status + ", " + std::to_string(s.num_frames) + " frames, " + std::to_string(s.num_clamped) +
+             " clamped commands");
+    if (s.status == "aborted") throw std::runtime_error("stopped by the user; datasets so far are in " + o.out);
+    if (s.status != "complete") d.result.warnings.push_back("protocol " + p.name + ": " + s.status + ": " + s.message);
+    dataset[p.name] = dir;
+  }
+  d.settings["runs"] = run_info;
+
+  // 2) Intrinsics + stereo from the intrinsics and stereo datasets.
+  std::optional<fitting::StereoFit> stereo;
+  {
+    std::vector<calib::CornerObservation> obs = ReadObs(dataset.count("intrinsics") ? dataset["intrinsics"] : "");
+    if (dataset.count("stereo")) {
+      for (auto c : ReadObs(dataset["stereo"])) {
+        c.frame_index += 1000000;  // keep frames of the two datasets apart
+        obs.push_back(c);
+      }
+    }
+    const std::vector<calib::View> views = calib::GroupIntoViews(obs);
+    std::vector<calib::View> l, r;
+    SplitEyes(views, &l, &r);
+    progress("stereo fit: " + std::to_string(l.size()) + " left and " + std::to_string(r.size()) + " right views");
+    if (!l.empty() && !r.empty()) {
+      fitting::StereoFitOptions so;
+      stereo = fitting::FitStereo(l, r, so);
+      if (stereo->ok) {
+        fitting::AppendStereoToResult(*stereo, &d.result);
+        CollectResiduals(*stereo, views, &d);
+        progress("  RMS " + reports::Fmt(stereo->rms_px[0], 3) + " / " + reports::Fmt(stereo->rms_px[1], 3) + " px");
+      } else {
+        d.result.warnings.push_back("stereo fit failed: " + stereo->message);
+        progress("  failed: " + stereo->message);
+      }
+    } else {
+      d.result.warnings.push_back("no chessboard views: intrinsics and stereo not fitted");
+    }
+  }
+
+  // 3) The head from the servo sweep.
+  models::HeadModel initial = models::NominalHeadModel(config);
+  for (int e = 0; e < 2; ++e)
+    if (d.result.cameras[e]) initial.intrinsics[e] = *d.result.cameras[e];
+  bool neck_moved = false;
+  if (dataset.count("servo_sweep")) {
+    const auto views = calib::GroupIntoViews(ReadObs(dataset["servo_sweep"]));
+    progress("head fit: " + std::to_string(views.size()) + " views");
+    for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
+    fitting::HeadFitOptions ho;
+    const fitting::HeadFit h = fitting::FitHead(views, config, initial, ho);
+    if (h.ok) {
+      MergeHead(h, &d.result);
+      progress("  RMS " + reports::Fmt(h.result.summaries.empty() ? NAN : h.result.summaries.back().rms_px, 3) + " px, IPD " +
+               reports::Fmt(d.result.Find("head.ipd_mm") ? d.result.Find("head.ipd_mm")->value : NAN, 5) + " mm");
+    } else {
+      d.result.warnings.push_back("head fit failed: " + h.message);
+      progress("  failed: " + h.message);
+    }
+  }
+  if (!d.result.head) {
+    d.result.head = initial;
+    d.result.warnings.push_back("no head fit: ranging uses the nominal head (configured centres, 0.113 deg/us)");
+  }
+
+  // 4) Truth (virtual Owl), in the fit's gauge.
+  if (truth) {
+    const models::HeadModel canonical = fitting::CanonicalHead(truth->HeadModel(), config.servos[models::kNeck].centre_us,
+                                                               neck_moved, initial.geometry.centre_in_head[0]);
+    d.truth = canonical;
+    fitting::SetHeadTruth(canonical, &d.result);
+    fitting::FillTruth(fitting::IntrinsicsTruthValues(truth->HeadModel()), &d.result);
+    fitting::FillTruth(fitting::StereoTruthValues(truth->HeadModel(), config.Centre()), &d.result);
+  }
+
+  // 5) Evaluations.
+  if (dataset.count("vergence")) {
+    const auto fixations = ReadFixations(dataset["vergence"], config,
+                                         truth ? std::optional(truth->HeadModel()) : std::nullopt, *d.result.head);
+    const fitting::NamedCovariance cov = fitting::CovarianceFromResult(d.result, fitting::RangingParameterNames());
+    std::vector<double> theory;
+    for (double x = 0.2; x <= 2.0001; x += 0.05) theory.push_back(x);
+    d.ranging = fitting::EvaluateRanging(*d.result.head, cov, config, fixations, {}, theory);
+    progress("ranging: " + std::to_string(d.ranging->num_ok) + " fixations, RMS error " +
+             reports::Fmt(100 * d.ranging->rms_rel_error, 3) + " %, " +
+             reports::Fmt(100 * d.ranging->fraction_within_2sigma, 3) + " % within 2 sigma (course method " +
+             reports::Fmt(100 * d.ranging->nominal_rms_rel_error, 3) + " %)");
+  }
+  const double fps = truth ? truth->stream.fps : 30.0;
+  int delay = 3;
+  if (dataset.count("latency"))
+    if (auto lf = LatencyFrames(dataset["latency"], fps)) delay = *lf;
+  d.gains = reports::MakeGainStudy(delay, fps);
+  if (dataset.count("step_response")) {
+    d.steps = ReadSteps(dataset["step_response"]);
+    progress("step responses: " + std::to_string(d.steps.size()) + " trials; delay " + std::to_string(delay) +
+             " frames, K_crit " + reports::Fmt(d.gains->critical_gain, 3));
+  }
+  if (dataset.count("limits")) {
+    d.limits = fitting::EvaluateLimits(config, ReadLimits(dataset["limits"]), &*d.result.head);
+    progress("limits: " + std::to_string(d.limits->notes.size()) + " notes");
+  }
+  d.result.inputs["datasets"] = dataset;
+
+  // 6) Files.
+  reports::WriteReportData(d, o.out);
+  std::vector<std::string> skipped;
+  try {
+    reports::WriteOpenCvYaml(d.result, o.out + "/calibration.yaml");
+  } catch (const std::exception& e) {
+    skipped.push_back(std::string("calibration.yaml: ") + e.what());
+  }
+  reports::WriteAllExports(d.result, config, d.limits ? &*d.limits : nullptr, o.out + "/exports", &skipped);
+  for (const auto& s : skipped) progress("export skipped: " + s);
+  reports::ReportOptions ro;
+  ro.draw = !o.no_figures;
+  const reports::ReportOutput rep = reports::WriteReport(d, o.out, ro);
+  for (const auto& w : rep.warnings) progress("report: " + w);
+  if (truth) {
+    const fitting::TruthComparison c = fitting::CompareWithTruth(d.result);
+    progress("truth: " + std::to_string(c.num_with_sigma) + " parameters with sigma, " +
+             reports::Fmt(100 * c.fraction_within_2sigma, 3) + " % within 2 sigma, worst " + c.worst + " (z = " +
+             reports::Fmt(c.worst_z, 3) + ")");
+  }
+  progress("done: " + rep.index_html);
+  return kExitOk;
+}
+
+const bool kRegistered = RegisterCommand(
+    "calibrate",
+    "The main job: run the standard suite, fit, evaluate and write the report folder.\n"
+    "With no --robot it uses the in-process virtual Owl. Produces DIR/results.json (every\n"
+    "parameter with value, sigma, unit and truth), DIR/calibration.yaml (OpenCV), DIR/exports/\n"
+    "(ROS, Kalibr, mrcal, owl-pwm.h), DIR/figures/, DIR/tables/, DIR/report/index.html and the\n"
+    "recorded datasets in DIR/datasets/.",
+    [](CLI::App* cmd) {
+      auto o = std::make_shared<CalibrateOptions>();
+      cmd->add_option("--robot", o->robot, "'sim' (in-process virtual Owl, default) or the robot's HOST[:PORT]");
+      cmd->add_option("--robot-file", o->robot_file, "robot file (limits, centres); default: the guide's robot")
+          ->check(CLI::ExistingFile);
+      cmd->add_option("--robot-truth", o->robot_truth, "sim: robot-truth file; default: the built-in robot")
+          ->check(CLI::ExistingFile);
+      cmd->add_option("--scene", o->scene, "sim: scene file")->check(CLI::ExistingFile);
+      cmd->add_option("--seed", o->seed, "sim: random seed");
+      cmd->add_option("--http-port", o->http_port, "real robot: MJPEG stream port")->check(CLI::Range(1, 65535));
+      cmd->add_option("--protocols", o->protocols, "protocols to run instead of the standard suite");
+      cmd->add_option("--out", o->out, "report folder to create")->required();
+      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
+      cmd->add_flag("--quiet", o->quiet, "no progress output");
+      return [o] { return RunCalibrate(*o); };
+    });
+
+}  // namespace
+}  // namespace owlcal::apps
