@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/calib3d.hpp>
+
+#include "calib/detector.h"
 #include "models/head_model.h"
 
 namespace owlcal::protocols {
@@ -87,6 +90,39 @@ class TemplateLocator : public TargetLocator {
   cv::Mat templ_;
 };
 
+class BoardLocator : public TargetLocator {
+ public:
+  explicit BoardLocator(const calib::TargetDefinition& t) : target_(t), corners_(t.Corners()) {
+    const Eigen::Vector4d e = t.Extent();
+    centre_ = cv::Point2d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2);
+  }
+  std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int) override {
+    calib::DetectorOptions opt;
+    opt.fast_check = true;
+    const calib::TargetDetection d = calib::DetectTarget(image, target_, opt);
+    if (!d.found || d.pixels.size() < 4) return std::nullopt;
+    std::vector<cv::Point2d> board, pix;
+    for (size_t i = 0; i < d.corner_ids.size(); ++i) {
+      auto it = corners_.find(d.corner_ids[i]);
+      if (it == corners_.end()) continue;
+      board.emplace_back(it->second.x(), it->second.y());
+      pix.emplace_back(d.pixels[i].x(), d.pixels[i].y());
+    }
+    if (board.size() < 4) return std::nullopt;
+    const cv::Mat h = cv::findHomography(board, pix);
+    if (h.empty()) return std::nullopt;
+    std::vector<cv::Point2d> in = {centre_}, out;
+    cv::perspectiveTransform(in, out, h);
+    return Eigen::Vector2d(out[0].x, out[0].y);
+  }
+  std::string Name() const override { return "board"; }
+
+ private:
+  calib::TargetDefinition target_;
+  std::map<int, Eigen::Vector3d> corners_;
+  cv::Point2d centre_;
+};
+
 class FunctionLocator : public TargetLocator {
  public:
   FunctionLocator(std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn)
@@ -130,6 +166,9 @@ std::unique_ptr<TargetLocator> MakeFixationLocator(const calib::FixationDetector
 }
 std::unique_ptr<TargetLocator> MakeTemplateLocator(int half_size, double min_score) {
   return std::make_unique<TemplateLocator>(half_size, min_score);
+}
+std::unique_ptr<TargetLocator> MakeBoardLocator(const calib::TargetDefinition& target) {
+  return std::make_unique<BoardLocator>(target);
 }
 std::unique_ptr<TargetLocator> MakeFunctionLocator(
     std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn) {

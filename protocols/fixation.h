@@ -31,6 +31,7 @@
 #include <opencv2/core.hpp>
 
 #include "calib/fixation_detector.h"
+#include "calib/target.h"
 #include "models/robot_config.h"
 #include "protocols/protocol.h"
 #include "robot/robot_interface.h"
@@ -56,6 +57,9 @@ std::unique_ptr<TargetLocator> MakeFixationLocator(const calib::FixationDetector
 // Template cut from the centre of the right eye's image at Prepare (the course's Owl-1 demo:
 // the right eye looks at the target, the template is found in both eyes by NCC).
 std::unique_ptr<TargetLocator> MakeTemplateLocator(int half_size = 20, double min_score = 0.6);
+// The centre of an AprilTag (or chessboard) board found by calib::DetectTarget: the board
+// centre mapped through the homography fitted to the detected corners (partial views work).
+std::unique_ptr<TargetLocator> MakeBoardLocator(const calib::TargetDefinition& target);
 // Any callable.
 std::unique_ptr<TargetLocator> MakeFunctionLocator(
     std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn);

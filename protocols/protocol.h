@@ -23,6 +23,8 @@
 //                      hide_others: true, prompt: "..."}
 //     - capture: {frames: 5, settle: {...}, detect: true}
 //     - fixate: {eyes: both, locator: fixation|template|apriltag, gain: 0.1, max_iterations: 90,
+//                (fixation: the disc detector; template: NCC of the right eye's centre patch;
+//                 apriltag: the centre of the protocol's `target` board via calib::DetectTarget)
 //                tolerance_px: 0.5, still_frames: 4, latency_frames: 0, max_step_us: 60,
 //                limit_margin_us: 20, record_frames: false, from: current|centre}
 //     - step-response: {eye: right, axis: pan, amplitudes_deg: [5, 10, 20], gains: [0.05, 0.1],

@@ -262,16 +262,20 @@ class Runner {
   double total_work_ = 0, done_work_ = 0, current_work_ = 0, step_work_fraction_ = 0;
 };
 
-std::unique_ptr<TargetLocator> Runner::MakeLocator(const Protocol&, Locator kind) {
+std::unique_ptr<TargetLocator> Runner::MakeLocator(const Protocol& p, Locator kind) {
   switch (kind) {
     case Locator::kFixation:
       return MakeFixationLocator();
     case Locator::kTemplate:
       return MakeTemplateLocator();
-    case Locator::kAprilTag:
-      // The centre of the detected tags: the fixation blob detector on the tag's dark
-      // border is not reliable, so use the template of the right eye's centre.
-      return MakeTemplateLocator(24, 0.5);
+    case Locator::kAprilTag: {
+      // The board centre of the protocol's target (its geometry from `targets`).
+      auto it = p.targets.find(p.target);
+      if (it == p.targets.end() || it->second.kind == calib::TargetKind::kFixation)
+        throw std::runtime_error(p.file + ": locator apriltag needs the protocol's target '" + p.target +
+                                 "' defined under 'targets' (aprilgrid or chessboard)");
+      return MakeBoardLocator(it->second);
+    }
   }
   return MakeFixationLocator();
 }

@@ -101,3 +101,46 @@ TEST(Fixation, DivergentGainIsStoppedBeforeAnyLimit) {
 
 }  // namespace
 }  // namespace owlcal::protocols
+
+namespace owlcal::protocols {
+namespace {
+
+TEST(Fixation, ConvergesOnTheAprilGridCentre) {
+  Rig rig;
+  calib::TargetDefinition grid;
+  grid.id = "aprilgrid";
+  grid.kind = calib::TargetKind::kAprilGrid;
+  grid.tag_cols = 6;
+  grid.tag_rows = 6;
+  grid.tag_size_m = 0.024;
+  grid.tag_spacing = 0.3;
+  Step s;
+  s.target = "aprilgrid";
+  s.distance_m = 0.7;
+  s.offset_m = Eigen::Vector2d(0.04, 0.02);
+  rig.owl.SetTargetPose("aprilgrid", PlacementPose(s, &grid));
+  for (const std::string& n : rig.owl.TargetNames())
+    if (n != "aprilgrid") rig.owl.SetTargetPose(n, HiddenPose());
+  rig.owl.SleepNs(300'000'000);
+  FixationOptions o;
+  o.gain = 0.1;
+  o.max_iterations = 150;
+  auto loc = MakeBoardLocator(grid);
+  const FixationResult r = RunFixation(o, rig.owl.Config(), *loc, rig.Io());
+  EXPECT_EQ(r.outcome, FixationResult::Outcome::kConverged) << r.message;
+  // The board centre is on both optical axes: check against the truth projection.
+  auto f = rig.owl.GrabFrame(rig.last, 1'000'000'000);
+  const sim::FrameTruth t = rig.owl.TruthForFrame(f->seq);
+  for (int e = 0; e < 2; ++e) {
+    Eigen::Vector2d px;
+    ASSERT_TRUE(rig.owl.TruthHeadModel().Project(models::Eye(e), t.angles[e], Eigen::Vector3d(0.04, 0.02, 0.7), &px));
+    const models::CameraIntrinsics& k = rig.owl.Truth().intrinsics[e];
+    const Eigen::Vector2d centre((k.width - 1) / 2.0, (k.height - 1) / 2.0);
+    std::cout << models::kEyeNames[e] << " board centre at " << px.transpose() << ", image centre " << centre.transpose()
+              << "\n";
+    EXPECT_LT((px - centre).norm(), 2.0) << models::kEyeNames[e];
+  }
+}
+
+}  // namespace
+}  // namespace owlcal::protocols
