@@ -1,0 +1,171 @@
+// The `owlcal` command line as a user runs it: the built binary is executed with popen and its
+// exit code and output are checked (exit codes: 0 ok, 1 failed, 2 usage; apps/command_registry.h).
+// The binary's path comes from OWLCAL_BINARY (tests/CMakeLists.txt); without it, the binary is
+// looked for next to the test's build folder (build/X/tests/<exe> -> build/X/owlcal), and the
+// tests are skipped with a message when it has not been built. Network: loopback only.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "fitting/result.h"
+#include "owlcal_version.h"
+
+namespace owlcal {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string OwlcalBinary() {
+#ifdef OWLCAL_BINARY
+  if (fs::exists(OWLCAL_BINARY)) return OWLCAL_BINARY;
+#endif
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return "";
+  const fs::path candidate = self.parent_path().parent_path() / "owlcal";
+  return fs::exists(candidate) ? candidate.string() : "";
+}
+
+std::string SharedData() {
+  const char* env = std::getenv("OWLCAL_SHARED_DATA");
+  return env && *env ? env : OWLCAL_SHARED_DATA;
+}
+
+std::string SourceDir() { return OWLCAL_SOURCE_DIR; }
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+RunResult RunOwlcal(const std::string& args) {
+  RunResult r;
+  std::string cmd = OwlcalBinary();  // appended in place: GCC 12 warns (-Wrestrict, false positive) on a literal + string
+  cmd.insert(cmd.begin(), '\'');
+  cmd.append("' ").append(args).append(" 2>&1");
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) r.output.append(buf, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// A loopback port nobody listens on: bound once by the kernel's choice, then released.
+int ClosedLoopbackPort() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  addr.sin_port = 0;
+  socklen_t len = sizeof(addr);
+  int port = 0;
+  if (bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0 &&
+      getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) == 0)
+    port = ntohs(addr.sin_port);
+  close(fd);
+  return port;
+}
+
+class OwlcalCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (OwlcalBinary().empty())
+      GTEST_SKIP() << "the owlcal binary is not built (build the 'owlcal' target first; expected next to tests/)";
+  }
+};
+
+TEST_F(OwlcalCliTest, HelpExitsZeroAndListsSubcommands) {
+  const RunResult r = RunOwlcal("--help");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  for (const char* sub : {"detect", "fit", "move", "calibrate", "run", "sim", "report"})
+    EXPECT_NE(r.output.find(std::string("  ") + sub + " "), std::string::npos) << "--help does not list " << sub;
+}
+
+TEST_F(OwlcalCliTest, VersionPrintsTheVersion) {
+  const RunResult r = RunOwlcal("--version");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find(OWLCAL_VERSION), std::string::npos) << r.output;
+}
+
+TEST_F(OwlcalCliTest, UnknownOptionIsAUsageError) {
+  const RunResult r = RunOwlcal("--no-such-option");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  const RunResult s = RunOwlcal("no-such-command");
+  EXPECT_EQ(s.exit_code, 2) << s.output;
+  const RunResult t = RunOwlcal("");
+  EXPECT_EQ(t.exit_code, 2) << "no subcommand: " << t.output;
+}
+
+TEST_F(OwlcalCliTest, MoveWithoutRobotIsAUsageError) {
+  const RunResult r = RunOwlcal("move 1500 1500 1500 1500 1500");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--robot"), std::string::npos) << r.output;
+  const RunResult s = RunOwlcal("move --robot 127.0.0.1:1 1500 1500 1500");
+  EXPECT_EQ(s.exit_code, 2) << "three pulse widths: " << s.output;
+}
+
+TEST_F(OwlcalCliTest, MoveToAClosedPortFailsWithAClearMessage) {
+  const int port = ClosedLoopbackPort();
+  ASSERT_GT(port, 0);
+  const std::string address = "127.0.0.1:" + std::to_string(port);
+  const RunResult r = RunOwlcal("move --robot " + address + " --timeout-ms 2000 1500 1500 1500 1500 1500");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find(address), std::string::npos) << "message should name the address: " << r.output;
+  EXPECT_NE(r.output.find("connect"), std::string::npos) << r.output;
+}
+
+// detect + fit on the OpenCV stereo sample set (13 pairs, 9x6, square = 1): the left camera's
+// fx should be near OpenCV's 532.8 (FACTS.md) and the baseline near 3.327 squares.
+TEST_F(OwlcalCliTest, DetectAndFitOnOpenCvSampleImages) {
+  const std::string images = SharedData() + "/opencv-stereo-chessboard";
+  if (!fs::exists(images + "/left01.jpg")) GTEST_SKIP() << "shared data not found: " << images;
+  const std::string target = SourceDir() + "/data/targets/opencv-sample-chessboard.yaml";
+  ASSERT_TRUE(fs::exists(target)) << target;
+  const fs::path dir = fs::path(::testing::TempDir()) / ("owlcal_cli_test_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string obs = (dir / "obs.csv").string();
+
+  const RunResult d = RunOwlcal("detect '" + images + "' --pairs --target '" + target + "' --out '" + obs + "'");
+  ASSERT_EQ(d.exit_code, 0) << d.output;
+  EXPECT_NE(d.output.find("detected the target in 26 of 26"), std::string::npos) << d.output;
+  ASSERT_TRUE(fs::exists(obs));
+  EXPECT_GT(fs::file_size(obs), 1000u);
+
+  const std::string out = (dir / "fit").string();
+  const RunResult f = RunOwlcal("fit '" + obs + "' --target '" + target + "' --out '" + out + "'");
+  ASSERT_EQ(f.exit_code, 0) << f.output;
+  ASSERT_TRUE(fs::exists(out + "/results.json")) << f.output;
+  EXPECT_TRUE(fs::exists(out + "/calibration.yaml")) << f.output;
+  const fitting::CalibrationResult result = fitting::ReadResultJson(out + "/results.json");
+  const fitting::Parameter* fx = result.Find("left.fx");
+  ASSERT_NE(fx, nullptr) << "results.json has no left.fx";
+  std::printf("owlcal fit: left.fx = %.3f +- %.3f (OpenCV 532.8)\n", fx->value, fx->sigma);
+  EXPECT_NEAR(fx->value, 532.8, 0.005 * 532.8);
+  EXPECT_GT(fx->sigma, 0);
+  const fitting::Parameter* baseline = result.Find("stereo.baseline_squares");
+  ASSERT_NE(baseline, nullptr) << "results.json has no stereo.baseline_squares";
+  std::printf("owlcal fit: stereo.baseline_squares = %.4f (OpenCV 3.327)\n", baseline->value);
+  EXPECT_NEAR(baseline->value, 3.327, 0.02);
+
+  // A missing observation file is a failure naming the file, not a crash.
+  const RunResult m = RunOwlcal("fit '" + (dir / "missing.csv").string() + "' --out '" + out + "2'");
+  EXPECT_NE(m.exit_code, 0);
+  EXPECT_NE(m.output.find("missing.csv"), std::string::npos) << m.output;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace owlcal
