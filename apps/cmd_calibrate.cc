@@ -321,7 +321,12 @@ int RunCalibrate(const CalibrateOptions& o) {
   // 2) Intrinsics + stereo from the intrinsics and stereo datasets.
   std::optional<fitting::StereoFit> stereo;
   {
+    // The intrinsics capture moves the eyes, so its left/right frames do not share one
+    // right_from_left: keep them unpaired (they constrain each eye's intrinsics only). Only the
+    // stereo capture, taken at one fixed eye pose, pairs left with right.
     std::vector<calib::CornerObservation> obs = ReadObs(dataset.count("intrinsics") ? dataset["intrinsics"] : "");
+    for (auto& c : obs)
+      if (c.eye == models::kRightEye) c.frame_index += 2000000;
     if (dataset.count("stereo")) {
       for (auto c : ReadObs(dataset["stereo"])) {
         c.frame_index += 1000000;  // keep frames of the two datasets apart
