@@ -35,6 +35,10 @@ struct ErrorStats {
   int corners = 0;
   int found = 0;
   int tried = 0;
+  // Least-squares scale of the detected corners about the true principal point:
+  // detected - c = scale * (truth - c). sum of (truth-c).(detected-c) and |truth-c|^2.
+  double dot = 0, norm_sq = 0;
+  double Scale() const { return norm_sq > 0 ? dot / norm_sq : 1.0; }
   double Rms() const { return std::sqrt(sum_sq / std::max(1, corners)); }
 };
 
@@ -61,6 +65,16 @@ void AccumulateErrors(const calib::TargetDetection& d, const calib::TargetDefini
   const int best = (counted[1] > 0 && total[1] < total[0]) ? 1 : 0;
   stats->sum_sq += total[best];
   stats->corners += counted[best];
+  const Eigen::Vector2d c(truth.params[2], truth.params[3]);
+  for (size_t i = 0; i < d.pixels.size(); ++i) {
+    const int id = best ? n_corners - 1 - d.corner_ids[i] : d.corner_ids[i];
+    const Eigen::Vector3d p_cam = cam_from_base * (base_from_target * corners.at(id));
+    double px[2] = {0, 0};
+    if (!truth.Project(p_cam.data(), px)) continue;
+    const Eigen::Vector2d t = Eigen::Vector2d(px[0], px[1]) - c;
+    stats->dot += t.dot(d.pixels[i] - c);
+    stats->norm_sq += t.squaredNorm();
+  }
 }
 
 // Renders `views` poses of target `name` in front of `eye`, detects it and returns the error
@@ -101,10 +115,13 @@ ErrorStats MeasureTarget(const std::string& name, models::Eye eye, double distan
 
 TEST(SimDetectionTest, ChessboardCornersWithinTenthPixelNoiseFree) {
   const ErrorStats s = MeasureTarget("chessboard", models::kLeftEye, 0.45, 0.06, 30, 0.0, 8, 3);
-  std::printf("chessboard, left eye, noise-free: found %d/%d, %d corners, RMS %.4f px\n", s.found, s.tried,
-              s.corners, s.Rms());
+  std::printf("chessboard, left eye, noise-free: found %d/%d, %d corners, RMS %.4f px, scale about (cx, cy) "
+              "1%+.2e\n", s.found, s.tried, s.corners, s.Rms(), s.Scale() - 1);
   EXPECT_GE(s.found, 6);
   EXPECT_LE(s.Rms(), 0.1);
+  // A radial scale bias of the rendered+detected corners would bias fx, fy directly; keep it
+  // well inside the 0.2 % fx/fy tolerance.
+  EXPECT_LE(std::abs(s.Scale() - 1), 5e-4);
 }
 
 TEST(SimDetectionTest, ChessboardCornersWithinTenthPixelWithNoise) {
@@ -120,8 +137,8 @@ TEST(SimDetectionTest, ChessboardCornersWithinTenthPixelWithNoise) {
 TEST(SimDetectionTest, AprilGridCornersWithinFifthPixel) {
   for (double noise : {0.0, 2.0}) {
     const ErrorStats s = MeasureTarget("aprilgrid", models::kLeftEye, 0.38, 0.04, 25, noise, 6, 7);
-    std::printf("aprilgrid, left eye, noise %.1f grey levels: found %d/%d, %d corners, RMS %.4f px\n", noise,
-                s.found, s.tried, s.corners, s.Rms());
+    std::printf("aprilgrid, left eye, noise %.1f grey levels: found %d/%d, %d corners, RMS %.4f px, scale 1%+.2e\n",
+                noise, s.found, s.tried, s.corners, s.Rms(), s.Scale() - 1);
     EXPECT_GE(s.found, 4);
     EXPECT_GE(s.corners, 4 * 4 * 36 / 2);  // most of the 144 tag corners per found view
     EXPECT_LE(s.Rms(), 0.2);
