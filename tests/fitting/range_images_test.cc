@@ -1,0 +1,99 @@
+#include "fitting/range_images_ranging.h"
+
+#include <cmath>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+namespace owlcal::fitting {
+namespace {
+
+// Parallel rig: no distortion, identity rotation, right camera 64 mm along +x of the left.
+StereoRig ParallelRig(double f, double baseline_m) {
+  StereoRig rig;
+  for (int e = 0; e < 2; ++e) {
+    rig.cameras[e].model = models::DistortionModel::kOpenCv5;
+    rig.cameras[e].params = {f, f, 319.5, 239.5, 0, 0, 0, 0, 0};
+  }
+  rig.right_from_left = models::Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-baseline_m, 0, 0));
+  return rig;
+}
+
+cv::Mat Texture(unsigned seed) {
+  cv::Mat n(480, 640, CV_32F);
+  cv::RNG rng(seed);
+  rng.fill(n, cv::RNG::NORMAL, 128, 60);
+  cv::GaussianBlur(n, n, cv::Size(0, 0), 1.5);
+  cv::Mat out;
+  n.convertTo(out, CV_8U, 2.0, -128);
+  return out;
+}
+
+TEST(RangeImages, TriangulatesExactPixelsToTheTrueDepth) {
+  const StereoRig rig = ParallelRig(585, 0.064);
+  for (double z : {0.3, 1.0, 2.5}) {
+    const Eigen::Vector3d x_left(0.05, -0.02, z);
+    const Eigen::Vector3d x_right = rig.right_from_left * x_left;
+    Eigen::Vector2d pl, pr;
+    ASSERT_TRUE(rig.cameras[0].Project(x_left.data(), pl.data()));
+    ASSERT_TRUE(rig.cameras[1].Project(x_right.data(), pr.data()));
+    double gap = 1;
+    const auto d = TriangulateDepth(rig, RigParameters(rig), pl, pr, Eigen::Vector3d::UnitZ(), &gap);
+    ASSERT_TRUE(d.has_value());
+    EXPECT_NEAR(*d, z, 1e-9);
+    EXPECT_NEAR(gap, 0, 1e-9);
+  }
+}
+
+// A textured fronto-parallel plane at depth Z: the right image is the left one shifted left
+// by f B / Z. Ranging must return Z, and a baseline sigma of 1 mm must give Z sigma_B / B.
+TEST(RangeImages, RangesShiftedPlaneAndPropagatesBaselineSigma) {
+  const double f = 585, b = 0.064;
+  StereoRig rig = ParallelRig(f, b);
+  const int n = rig.NumParams();
+  rig.covariance = Eigen::MatrixXd::Zero(n, n);
+  rig.covariance(n - 3, n - 3) = 0.001 * 0.001;  // T_x sigma 1 mm
+  const Rectification rect = RectifyRig(rig);
+  EXPECT_NEAR(rect.baseline_m, b, 1e-12);
+  const cv::Mat left = Texture(4);
+  for (double z : {0.4, 0.9, 1.5}) {
+    const double d = f * b / z;
+    cv::Mat right;
+    const cv::Mat M = (cv::Mat_<double>(2, 3) << 1, 0, -d, 0, 1, 0);
+    cv::warpAffine(left, right, M, left.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT);
+    RangeOptions o;
+    const RangeMeasurement m = RangePair(left, right, rig, rect, o);
+    ASSERT_TRUE(m.ok) << m.message;
+    EXPECT_NEAR(m.range_m, z, z * z / (f * b) * 0.15) << "z=" << z;  // 0.15 px disparity
+    EXPECT_NEAR(m.sigma_calib_m, z * 0.001 / b, 0.02 * z * 0.001 / b) << "z=" << z;
+    EXPECT_NEAR(m.sigma_match_m, m.range_m / m.match.disparity_px * m.match.sigma_disparity_px, 1e-12);
+    EXPECT_NEAR(m.sigma_m, std::hypot(m.sigma_calib_m, m.sigma_match_m), 1e-12);
+  }
+}
+
+TEST(RangeImages, TruthCsvReadsRoisAndNamesBadFields) {
+  const std::string path = ::testing::TempDir() + "/truth_test.csv";
+  {
+    std::ofstream f(path);
+    f << "left,right,distance_mm,roi_x,roi_y,roi_w,roi_h\nl1.jpg,r1.jpg,300,10,20,30,40\nl2.jpg,r2.jpg,4x0,,,,\n";
+  }
+  try {
+    ReadRangeTruthCsv(path);
+    FAIL() << "no throw";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(":3: field distance_mm = '4x0'"), std::string::npos) << e.what();
+  }
+  {
+    std::ofstream f(path);
+    f << "left,right,distance_mm,roi_x,roi_y,roi_w,roi_h\nl1.jpg,r1.jpg,300,10,20,30,40\nl2.jpg,r2.jpg,400,,,,\n";
+  }
+  const auto rows = ReadRangeTruthCsv(path);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_NEAR(rows[0].distance_m, 0.3, 1e-12);
+  EXPECT_EQ(rows[0].roi, cv::Rect(10, 20, 30, 40));
+  EXPECT_EQ(rows[1].roi.area(), 0);
+}
+
+}  // namespace
+}  // namespace owlcal::fitting
