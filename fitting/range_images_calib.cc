@@ -1,0 +1,187 @@
+#include "fitting/range_images_calib.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include <Eigen/Geometry>
+
+namespace owlcal::fitting {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string Fmt(double v, int prec) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(prec) << v;
+  return s.str();
+}
+
+void MarkUndetermined(CalibrationResult* r, const std::string& name, const std::string& why) {
+  for (auto& p : r->parameters) {
+    if (p.name != name) continue;
+    p.determined = false;
+    p.sigma = kNaN;
+    p.note = why;
+  }
+}
+
+}  // namespace
+
+std::vector<std::pair<int, double>> ViewTilts(const StereoFit& fit, int eye) {
+  std::vector<std::pair<int, double>> out;
+  const IntrinsicsFit& f = fit.per_eye[eye];
+  for (size_t i = 0; i < f.cam_from_target.size() && i < f.frame_indices.size(); ++i) {
+    const Eigen::Vector3d n = f.cam_from_target[i].rotation * Eigen::Vector3d::UnitZ();
+    out.push_back({f.frame_indices[i], std::acos(std::clamp(std::abs(n.z()), 0.0, 1.0)) * 180 / M_PI});
+  }
+  return out;
+}
+
+ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation>& observations,
+                                      const StereoFitOptions& options,
+                                      const ImageSetVerdictOptions& vo) {
+  ImageSetCalibration c;
+  std::vector<calib::View> views[2];
+  for (const auto& v : calib::GroupIntoViews(observations)) views[v.eye == 0 ? 0 : 1].push_back(v);
+  c.fit = FitStereo(views[0], views[1], options);
+  if (c.fit.ok) AppendStereoToResult(c.fit, &c.result);
+  c.result.inputs["num_observations"] = observations.size();
+
+  // Coverage per eye.
+  const double cx = (options.width - 1) / 2.0, cy = (options.height - 1) / 2.0;
+  const double half_diag = std::hypot(cx, cy);
+  for (int e = 0; e < 2; ++e) {
+    EyeCoverage& cov = c.coverage[e];
+    std::set<int> cells;
+    for (const auto& v : views[e]) {
+      for (const auto& px : v.pixels) {
+        const int gx = std::clamp(static_cast<int>(px.x() / options.width * 8), 0, 7);
+        const int gy = std::clamp(static_cast<int>(px.y() / options.height * 6), 0, 5);
+        cells.insert(gy * 8 + gx);
+        cov.max_radius_fraction = std::max(cov.max_radius_fraction, std::hypot(px.x() - cx, px.y() - cy) / half_diag);
+      }
+    }
+    cov.grid_fraction = cells.size() / 48.0;
+    const IntrinsicsFit& f = c.fit.per_eye[e];
+    for (const auto& [frame, tilt] : ViewTilts(c.fit, e)) {
+      cov.frames.push_back(frame);
+      cov.tilt_deg.push_back(tilt);
+      cov.max_tilt_deg = std::max(cov.max_tilt_deg, tilt);
+    }
+    for (size_t i = 0; i < f.cam_from_target.size(); ++i) {
+      for (size_t j = i + 1; j < f.cam_from_target.size(); ++j) {
+        const Eigen::Vector3d a = f.cam_from_target[i].rotation * Eigen::Vector3d::UnitZ();
+        const Eigen::Vector3d b = f.cam_from_target[j].rotation * Eigen::Vector3d::UnitZ();
+        cov.spread_deg = std::max(cov.spread_deg, std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180 / M_PI);
+      }
+    }
+  }
+
+  // Verdict.
+  const int pairs = static_cast<int>(c.fit.paired_frames.size());
+  if (!c.fit.ok) {
+    c.poor = true;
+    c.verdict.push_back("stereo fit failed: " + c.fit.message);
+  }
+  if (pairs < vo.min_pairs) {
+    c.poor = true;
+    c.verdict.push_back("too few poses: " + std::to_string(pairs) + " pairs seen by both eyes (< " +
+                        std::to_string(vo.min_pairs) + "): no parameter is determined");
+    for (auto& p : c.result.parameters) {
+      p.determined = false;
+      p.sigma = kNaN;
+      p.note = "too few poses";
+    }
+  }
+  const char* eye_name[2] = {"left", "right"};
+  const double spread = std::min(c.coverage[0].spread_deg, c.coverage[1].spread_deg);
+  if (spread < vo.min_spread_deg) {
+    c.poor = true;
+    const std::string why = "no tilt: board normals span only " + Fmt(spread, 1) + " deg (< " +
+                            Fmt(vo.min_spread_deg, 0) +
+                            "), so the focal length trades against the board distance and the principal point "
+                            "against the board position";
+    c.verdict.push_back("focal length, principal point and the baseline's z component are not determined (" + why +
+                        ")");
+    for (const char* e : eye_name)
+      for (const char* n : {"fx", "fy", "cx", "cy"}) MarkUndetermined(&c.result, std::string(e) + "." + n, why);
+    MarkUndetermined(&c.result, "stereo.tz", why);
+    MarkUndetermined(&c.result, "stereo.tz_mm", why);
+  }
+  for (int e = 0; e < 2; ++e) {
+    const EyeCoverage& cov = c.coverage[e];
+    if (cov.grid_fraction < vo.min_grid_coverage || cov.max_radius_fraction < vo.min_radius_fraction) {
+      c.poor = true;
+      const std::string why = std::string("board always central in the ") + eye_name[e] + " eye: corners in " +
+                              Fmt(100 * cov.grid_fraction, 0) + " % of the image cells, out to " +
+                              Fmt(100 * cov.max_radius_fraction, 0) + " % of the half-diagonal";
+      c.verdict.push_back("higher distortion terms (k2, k3, k4-k6) of the " + std::string(eye_name[e]) +
+                          " eye are not determined (" + why + ")");
+      for (const char* n : {"k2", "k3", "k4", "k5", "k6"}) MarkUndetermined(&c.result, std::string(eye_name[e]) + "." + n, why);
+    }
+  }
+  for (const auto& v : c.verdict) c.result.warnings.push_back(v);
+
+  // Diagnostics: per-view residuals and coverage.
+  nlohmann::json d = nlohmann::json::object();
+  for (int e = 0; e < 2; ++e) {
+    const IntrinsicsFit& f = c.fit.per_eye[e];
+    nlohmann::json views_j = nlohmann::json::array();
+    for (size_t i = 0; i < f.frame_indices.size(); ++i) {
+      views_j.push_back({{"frame", f.frame_indices[i]},
+                         {"rms_px", i < f.view_rms_px.size() ? f.view_rms_px[i] : kNaN},
+                         {"tilt_deg", i < c.coverage[e].tilt_deg.size() ? c.coverage[e].tilt_deg[i] : kNaN}});
+    }
+    d[eye_name[e]] = {{"views", views_j},
+                      {"grid_coverage", c.coverage[e].grid_fraction},
+                      {"max_radius_fraction", c.coverage[e].max_radius_fraction},
+                      {"max_tilt_deg", c.coverage[e].max_tilt_deg},
+                      {"orientation_spread_deg", c.coverage[e].spread_deg}};
+  }
+  d["verdict"] = c.verdict;
+  d["poor"] = c.poor;
+  c.result.diagnostics["image_set"] = d;
+  return c;
+}
+
+std::string ImageSetReportMarkdown(const ImageSetCalibration& c, const std::vector<std::string>& keys) {
+  std::ostringstream md;
+  md << "# Stereo calibration from images\n\n";
+  if (c.verdict.empty()) {
+    md << "Verdict: the set determines every reported parameter.\n\n";
+  } else {
+    md << "Verdict: **poor set**. What it cannot determine:\n";
+    for (const auto& v : c.verdict) md << "- " << v << "\n";
+    md << "\n";
+  }
+  md << "Pairs used: " << c.fit.paired_frames.size() << "; RMS left " << Fmt(c.fit.rms_px[0], 3) << " px, right "
+     << Fmt(c.fit.rms_px[1], 3) << " px, joint " << Fmt(c.fit.rms_joint_px, 3) << " px; rectified |dy| mean "
+     << Fmt(c.fit.rectified_dy_mean_px, 3) << " px, max " << Fmt(c.fit.rectified_dy_max_px, 3) << " px.\n\n";
+  md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
+  for (const auto& p : c.result.parameters)
+    md << "| " << p.name << " | " << Fmt(p.value, 4) << " | " << (p.determined ? Fmt(p.sigma, 4) : "not determined")
+       << " | " << p.unit << " | " << p.note << " |\n";
+  const char* eye_name[2] = {"left", "right"};
+  for (int e = 0; e < 2; ++e) {
+    const EyeCoverage& cov = c.coverage[e];
+    md << "\n## " << eye_name[e] << " eye: coverage " << Fmt(100 * cov.grid_fraction, 0) << " % of cells, radius "
+       << Fmt(100 * cov.max_radius_fraction, 0) << " %, tilt up to " << Fmt(cov.max_tilt_deg, 1)
+       << " deg, orientation spread " << Fmt(cov.spread_deg, 1) << " deg\n\n| frame | pair | RMS (px) | tilt (deg) |\n"
+       << "|---|---|---|---|\n";
+    const IntrinsicsFit& f = c.fit.per_eye[e];
+    for (size_t i = 0; i < f.frame_indices.size(); ++i) {
+      const int fr = f.frame_indices[i];
+      md << "| " << fr << " | " << (fr >= 0 && fr < static_cast<int>(keys.size()) ? keys[fr] : "") << " | "
+         << (i < f.view_rms_px.size() ? Fmt(f.view_rms_px[i], 3) : "-") << " | "
+         << (i < cov.tilt_deg.size() ? Fmt(cov.tilt_deg[i], 1) : "-") << " |\n";
+    }
+  }
+  return md.str();
+}
+
+}  // namespace owlcal::fitting
