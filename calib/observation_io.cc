@@ -1,5 +1,7 @@
 #include "calib/observation_io.h"
 
+#include "calib/csv.h"
+
 #include <charconv>
 #include <cstdio>
 #include <fstream>
@@ -37,20 +39,6 @@ void WriteRows(std::ostream& f, const std::vector<CornerObservation>& obs) {
   }
 }
 
-std::vector<std::string> Split(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
-    } else if (c != '\r') {
-      cur += c;
-    }
-  }
-  out.push_back(cur);
-  return out;
-}
 
 template <typename T>
 bool ParseNum(const std::string& s, T* v) {
@@ -156,7 +144,7 @@ std::vector<CornerObservation> ReadObservationsCsv(const std::string& path) {
     if (line.empty() || line == "\r") continue;
     CornerObservation o;
     int bad = -1;
-    const std::vector<std::string> fields = Split(line);
+    const std::vector<std::string> fields = SplitCsvLine(line);
     if (ParseRow(fields, &o, &bad)) {
       out.push_back(o);
       continue;

@@ -1,5 +1,7 @@
 #include "fitting/range_images_ranging.h"
 
+#include "calib/csv.h"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -34,17 +36,7 @@ cv::Mat DistCoeffs(const models::CameraIntrinsics& c) {
   return cv::Mat(d, true).reshape(1, 1);
 }
 
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cell;
-  std::stringstream ss(line);
-  while (std::getline(ss, cell, ',')) {
-    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
-    while (!cell.empty() && cell.front() == ' ') cell.erase(cell.begin());
-    out.push_back(cell);
-  }
-  return out;
-}
+std::vector<std::string> SplitCsv(const std::string& line) { return calib::SplitCsvLine(line, /*trim=*/true); }
 
 }  // namespace
 
@@ -263,17 +255,7 @@ std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path) {
     if (line.find_first_not_of(" \r\t,") == std::string::npos) continue;
     const auto c = SplitCsv(line);
     auto num = [&](int col, const std::string& field) {
-      if (col >= static_cast<int>(c.size()))
-        throw std::runtime_error(path + ":" + std::to_string(ln) + ": missing field " + field);
-      try {
-        size_t used = 0;
-        const double v = std::stod(c[col], &used);
-        if (used != c[col].size()) throw std::invalid_argument("trailing");
-        return v;
-      } catch (const std::exception&) {
-        throw std::runtime_error(path + ":" + std::to_string(ln) + ": field " + field + " = '" + c[col] +
-                                 "' is not a number");
-      }
+      return calib::CsvNumber(c, col, path + ":" + std::to_string(ln), field);
     };
     RangeTruthRow r;
     if (std::max(cl, cr) >= static_cast<int>(c.size()))

@@ -1,5 +1,7 @@
 #include "fitting/vergence_log_fit.h"
 
+#include "calib/csv.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -20,17 +22,7 @@ namespace {
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kDegToRad = M_PI / 180.0;
 
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cell;
-  std::stringstream ss(line);
-  while (std::getline(ss, cell, ',')) {
-    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
-    while (!cell.empty() && cell.front() == ' ') cell.erase(cell.begin());
-    out.push_back(cell);
-  }
-  return out;
-}
+std::vector<std::string> SplitCsv(const std::string& line) { return calib::SplitCsvLine(line, /*trim=*/true); }
 
 std::string Lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -209,17 +201,7 @@ std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path) {
     if (line.find_first_not_of(" \r\t,") == std::string::npos) continue;
     const auto cells = SplitCsv(line);
     auto get = [&](int c, const char* what) {
-      if (c >= static_cast<int>(cells.size()))
-        throw std::runtime_error(path + ":" + std::to_string(line_no) + ": missing field " + what);
-      try {
-        size_t used = 0;
-        const double v = std::stod(cells[c], &used);
-        if (used != cells[c].size()) throw std::invalid_argument("trailing");
-        return v;
-      } catch (const std::exception&) {
-        throw std::runtime_error(path + ":" + std::to_string(line_no) + ": field " + what + " = '" + cells[c] +
-                                 "' is not a number");
-      }
+      return calib::CsvNumber(cells, c, path + ":" + std::to_string(line_no), what);
     };
     VergenceLogRow r;
     r.run = c_run >= 0 ? static_cast<int>(get(c_run, "run")) : 1;

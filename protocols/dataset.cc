@@ -1,5 +1,7 @@
 #include "protocols/dataset.h"
 
+#include "calib/csv.h"
+
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -247,20 +249,7 @@ std::string FramePath(const std::string& dir, int64_t frame_index) {
   return (fs::path(dir) / "frames" / name).string();
 }
 
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
-    } else if (c != '\r') {
-      cur.push_back(c);
-    }
-  }
-  out.push_back(cur);
-  return out;
-}
+std::vector<std::string> SplitCsv(const std::string& line) { return calib::SplitCsvLine(line); }
 
 std::string CsvSafe(std::string text) {
   for (char& c : text)
