@@ -24,6 +24,7 @@
 #include "models/head_kinematics.h"
 #include "owlcal_version.h"
 #include "protocols/dataset.h"
+#include "protocols/placement_views.h"
 #include "protocols/protocol.h"
 #include "protocols/robot_factory.h"
 #include "protocols/runner.h"
@@ -359,7 +360,8 @@ int RunCalibrate(const CalibrateOptions& o) {
     if (d.result.cameras[e]) initial.intrinsics[e] = *d.result.cameras[e];
   bool neck_moved = false;
   if (dataset.count("servo_sweep")) {
-    const auto views = calib::GroupIntoViews(ReadObs(dataset["servo_sweep"]));
+    // One board per placement: the sweep places the same chessboard at two poses.
+    const auto views = protocols::ReadViewsByPlacement(dataset["servo_sweep"]);
     progress("head fit: " + std::to_string(views.size()) + " views");
     for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
     fitting::HeadFitOptions ho;
