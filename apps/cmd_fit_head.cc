@@ -14,6 +14,7 @@
 #include "fitting/head_fit.h"
 #include "fitting/result.h"
 #include "models/head_model.h"
+#include "protocols/placement_views.h"
 #include "robot/robot_file.h"
 
 namespace owlcal::apps {
@@ -49,7 +50,11 @@ int RunFitHead(const FitHeadArgs& a) {
     std::cerr << "owlcal fit-head: no --intrinsics given: nominal intrinsics (f = 585 px, no distortion) are held "
                  "fixed; results are only as good as that guess (or use --fit-intrinsics)\n";
   }
-  const std::vector<calib::View> views = calib::GroupIntoViews(calib::ReadObservationsCsv(a.observations));
+  std::vector<calib::View> views = calib::GroupIntoViews(calib::ReadObservationsCsv(a.observations));
+  // A dataset's observations.csv: each placement of one target is its own fixed board.
+  const std::filesystem::path frames_dir = std::filesystem::path(a.observations).parent_path();
+  if (std::filesystem::exists(frames_dir / "frames.csv"))
+    views = protocols::SplitViewsByPlacement(std::move(views), protocols::ReadFramesCsv(frames_dir.string()));
   fitting::HeadFit fit = fitting::FitHead(views, robot, init, o);
   fit.result.inputs["observations"] = a.observations;
   if (!a.intrinsics_json.empty()) fit.result.inputs["intrinsics"] = a.intrinsics_json;
