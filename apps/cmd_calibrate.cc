@@ -159,7 +159,11 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
     if (t.Get(r, "left_found") != "1" || t.Get(r, "right_found") != "1") continue;
     fitting::Fixation f;
     f.index = int(r);
-    for (int s = 0; s < models::kNumServos; ++s) f.pwm_us[s] = int(t.Num(r, std::string(models::kServoNames[s]) + "_us"));
+    for (int s = 0; s < models::kNumServos; ++s) {
+      f.pwm_us[s] = int(t.Num(r, std::string(models::kServoNames[s]) + "_us"));
+      const double a = t.Num(r, std::string("approach_") + models::kServoNames[s]);  // NaN in older datasets
+      f.approach[s] = std::isfinite(a) ? int8_t(a) : 0;
+    }
     f.target_px[0] = Eigen::Vector2d(cx + t.Num(r, "left_dx_px"), cy + t.Num(r, "left_dy_px"));
     f.target_px[1] = Eigen::Vector2d(cx + t.Num(r, "right_dx_px"), cy + t.Num(r, "right_dy_px"));
     // True distance: from the placement pose (base frame) to the midpoint of the eye centres

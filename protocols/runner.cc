@@ -387,9 +387,13 @@ void Runner::DoFixate(const Protocol& p, const Step& s) {
     row.push_back(F(r.residual_px[e].y(), 3));
   }
   row.push_back(std::to_string(robot_.NowNs()));
+  // The approach of the settled command: backlash shifts the eyes by the hysteresis (~0.25 deg
+  // each), which ranging must account for (a vergence run moves both eyes outward in turn).
+  for (int i = 0; i < kNumServos; ++i) row.push_back(std::to_string(int(approach_[i])));
   writer_->AppendRow("fixations.csv",
                      "step_index,step_name,placement_index,target,distance_m,eyes,gain,outcome,iterations,Rx_us,Ry_us,"
-                     "Lx_us,Ly_us,Neck_us,left_found,left_dx_px,left_dy_px,right_found,right_dx_px,right_dy_px,stamp_ns",
+                     "Lx_us,Ly_us,Neck_us,left_found,left_dx_px,left_dy_px,right_found,right_dx_px,right_dy_px,stamp_ns,"
+                     "approach_Rx,approach_Ry,approach_Lx,approach_Ly,approach_Neck",
                      row);
   Event("fixate", std::string(OutcomeName(r.outcome)) + ": " + r.message + " (frame " + std::to_string(frame_index) + ")");
   if (o_.progress)

@@ -20,7 +20,8 @@
 // Measurement tables written by the closed-loop steps (columns):
 //   fixations.csv      step_index,step_name,placement_index,target,distance_m,eyes,gain,outcome,iterations,
 //                      Rx_us,Ry_us,Lx_us,Ly_us,Neck_us,left_found,left_dx_px,left_dy_px,right_found,
-//                      right_dx_px,right_dy_px,stamp_ns
+//                      right_dx_px,right_dy_px,stamp_ns,approach_Rx,approach_Ry,approach_Lx,approach_Ly,
+//                      approach_Neck (sign of the last move of each servo: +1 up, -1 down, 0 unknown)
 //   step_response.csv  step_index,gain,amplitude_deg,trial,k,t_s,offset_px,offset_y_px,pwm_us,found,frame_index
 //                      (offset_px along the stepped axis: x for pan, y for tilt; t_s from the step)
 //   step_trials.csv    step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,
