@@ -391,7 +391,17 @@ int RunCalibrate(const CalibrateOptions& o) {
     d.truth = canonical;
     fitting::SetHeadTruth(canonical, &d.result);
     fitting::FillTruth(fitting::IntrinsicsTruthValues(truth->HeadModel()), &d.result);
-    fitting::FillTruth(fitting::StereoTruthValues(truth->HeadModel(), config.Centre()), &d.result);
+    // The stereo truth at the stereo capture's command and approach (backlash side).
+    models::PwmVector stereo_pwm = config.Centre();
+    std::array<int, models::kNumServos> stereo_approach{};
+    if (dataset.count("stereo")) {
+      const auto obs = ReadObs(dataset["stereo"]);
+      if (!obs.empty()) {
+        stereo_pwm = obs.front().pwm_us;
+        for (int s = 0; s < models::kNumServos; ++s) stereo_approach[s] = obs.front().approach[s];
+      }
+    }
+    fitting::FillTruth(fitting::StereoTruthValues(truth->HeadModel(), stereo_pwm, stereo_approach), &d.result);
   }
 
   // 5) Evaluations.

@@ -30,8 +30,11 @@ std::map<std::string, double> IntrinsicsTruthValues(const models::HeadModel& tru
   return m;
 }
 
-std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth, const models::PwmVector& pwm_us) {
-  const models::JointAngles a = truth.Angles(pwm_us);
+std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth, const models::PwmVector& pwm_us,
+                                                const std::array<int, models::kNumServos>& approach) {
+  std::array<double, models::kNumServos> pwm;
+  for (int i = 0; i < models::kNumServos; ++i) pwm[i] = pwm_us[i];
+  const models::JointAngles a = truth.Angles(pwm, approach);
   models::Rigid3d cam_from_base[2];
   for (int e = 0; e < 2; ++e) {
     cam_from_base[e] = truth.geometry.cam_from_eye[e] *

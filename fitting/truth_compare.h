@@ -6,6 +6,7 @@
 //
 // z = (value - truth) / sigma. A parameter is "within" when |z| <= 2 (or, with sigma 0 or
 // undetermined, never counted in the z statistics but listed).
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -24,8 +25,10 @@ std::map<std::string, double> IntrinsicsTruthValues(const models::HeadModel& tru
 
 // The stereo truth at a command: right_from_left of the two camera frames (x_right = R x_left
 // + T) at `pwm_us`, as stereo.baseline_mm, stereo.tx/ty/tz (mm), stereo.rx_deg/ry_deg/rz_deg
-// (rotation vector, deg), the names of fitting/stereo_fit.h.
-std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth, const models::PwmVector& pwm_us);
+// (rotation vector, deg), the names of fitting/stereo_fit.h. `approach`: each servo's last move
+// (+1/-1/0, models::ServoMap), which side of the backlash the joints sit on.
+std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth, const models::PwmVector& pwm_us,
+                                                const std::array<int, models::kNumServos>& approach = {});
 
 struct TruthRow {
   std::string name, unit;
