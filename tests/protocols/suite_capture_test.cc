@@ -18,8 +18,11 @@ TEST(StandardSuite, ServoSweepRecordsBothApproachDirections) {
   const auto frames = ReadFramesCsv(r.dir);
   ASSERT_GT(frames.size(), 50u);
   int up = 0, down = 0;
+  std::string first_sweep;  // the Rx sweep (after the backlash take-up moves)
+  for (const auto& f : frames)
+    if (first_sweep.empty() && f.step_name.rfind("sweep", 0) == 0) first_sweep = f.step_name;
   for (const auto& f : frames) {
-    if (f.step_name != "sweep1") continue;
+    if (f.step_name != first_sweep) continue;
     up += f.approach[models::kRx] > 0;
     down += f.approach[models::kRx] < 0;
   }
