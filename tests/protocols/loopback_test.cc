@@ -1,6 +1,8 @@
 // A protocol over loopback against the served virtual Owl (the same TCP servo protocol and
 // MJPEG stream as the real robot), through the robot factory's HOST:PORT path (OwlLink).
+#include <chrono>
 #include <filesystem>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -53,8 +55,13 @@ steps:
   const auto placements = ReadPlacementsCsv(o.out_dir);
   ASSERT_EQ(placements.size(), 1u);
   EXPECT_EQ(placements[0].source, "file");
-  // The served robot received the commands and was parked at its centre.
-  EXPECT_EQ(server.Owl().LastCommand(), robot->Config().Centre());
+  // The served robot received the commands and was parked at its centre. The server answers
+  // "ok" before it parses the packet (as the course server does), so the park may reach the
+  // virtual Owl just after the client saw its "ok": wait for it, up to 5 s.
+  const auto centre = robot->Config().Centre();
+  for (int i = 0; i < 500 && server.Owl().LastCommand() != centre; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(server.Owl().LastCommand(), centre);
   EXPECT_GE(server.ServoStats().num_packets, 5);
   robot.reset();
   server.Stop();
