@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "apps/command_registry.h"
+#include "fitting/format.h"
 #include "fitting/range_images_ranging.h"
 #include "reports/gnuplot_figure.h"
 
@@ -64,9 +65,11 @@ int RunRangeImages(const RangeImagesOptions& a) {
   const fs::path out(a.out);
   std::string md = fitting::RangeTableMarkdown(ms, s, "Range from stereo images: " + a.dir);
   md += "\nCalibration: " + rig.source + (rig.covariance.size() ? "" : " (no covariance: sigma is matching only)") +
-        "; rectified f " + std::to_string(rect.focal_px) + " px, baseline " + std::to_string(rect.baseline_m * 1000) +
-        " mm. Range = depth from the optical centres along the rectified axis + datum " + std::to_string(a.datum_cm) +
-        " cm; truth sigma " + std::to_string(a.truth_sigma_cm) + " cm.\n";
+        "; rectified f " + fitting::FixedOrDash(rect.focal_px, 2) + " px, baseline " +
+        fitting::FixedOrDash(rect.baseline_m * 1000, 3) +
+        " mm. Range = depth from the optical centres along the rectified axis + datum " +
+        fitting::FixedOrDash(a.datum_cm, 1) + " cm; truth sigma " + fitting::FixedOrDash(a.truth_sigma_cm, 1) +
+        " cm (the uncertainty of the true distances themselves: datum and placement).\n";
   std::ofstream(out / "ranges.md") << md;
   std::ofstream(out / "ranges.csv") << fitting::RangeTableCsv(ms);
   reports::Figure f;
@@ -74,14 +77,24 @@ int RunRangeImages(const RangeImagesOptions& a) {
   f.title = "Stereo range error vs true distance";
   f.xlabel = "true distance [cm]";
   f.ylabel = "error [%]";
+  // The owlcal prediction (calibration + matching) as error bars; the uncertainty of the true
+  // distances themselves as a grey band, so neither hides the other.
+  reports::Series band;
+  band.title = "true distance +-3 sigma";
+  band.style = "filledcurves fs transparent solid 0.18 noborder lc rgb '#777777'";
+  band.using_spec = "1:2:3";
+  band.columns = {"true_cm", "lo_pct", "hi_pct"};
   reports::Series pts;
-  pts.title = "measured, +-3 sigma";
+  pts.title = "measured, +-3 sigma predicted";
   pts.style = "yerrorbars pt 7 lc rgb '#1f77b4'";
   pts.using_spec = "1:2:3";
   pts.columns = {"true_cm", "err_pct", "three_sigma_pct"};
   for (const auto& m : ms)
-    if (m.ok)
-      pts.rows.push_back({m.true_m * 100, 100 * m.error_m() / m.true_m, 300 * m.error_sigma_m() / m.true_m});
+    if (m.ok) {
+      pts.rows.push_back({m.true_m * 100, 100 * m.error_m() / m.true_m, 300 * m.sigma_m / m.true_m});
+      band.rows.push_back({m.true_m * 100, -300 * m.truth_sigma_m / m.true_m, 300 * m.truth_sigma_m / m.true_m});
+    }
+  if (a.truth_sigma_cm > 0) f.series.push_back(band);
   f.series.push_back(pts);
   f.settings.push_back("set xzeroaxis");
   const auto ff = reports::WriteFigure(f, a.out);

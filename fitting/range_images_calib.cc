@@ -9,17 +9,14 @@
 
 #include <Eigen/Geometry>
 
+#include "fitting/format.h"
+
 namespace owlcal::fitting {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string Fmt(double v, int prec) {
-  if (!std::isfinite(v)) return "-";
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(prec) << v;
-  return s.str();
-}
+std::string Fmt(double v, int prec) { return FixedOrDash(v, prec); }
 
 void MarkUndetermined(CalibrationResult* r, const std::string& name, const std::string& why) {
   for (auto& p : r->parameters) {

@@ -14,6 +14,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "fitting/format.h"
 #include "models/vergence.h"
 
 namespace owlcal::fitting {
@@ -21,12 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string Fmt(double v, int prec) {
-  if (!std::isfinite(v)) return "-";
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(prec) << v;
-  return s.str();
-}
+std::string Fmt(double v, int prec) { return FixedOrDash(v, prec); }
 
 cv::Mat CameraMatrix(const models::CameraIntrinsics& c) {
   return (cv::Mat_<double>(3, 3) << c.params[0], 0, c.params[2], 0, c.params[1], c.params[3], 0, 0, 1);
@@ -81,6 +77,12 @@ StereoRig RigFromResult(const CalibrationResult& r) {
   rig.cameras[1] = *r.cameras[1];
   rig.right_from_left = r.stereo->right_from_left;
   const int n = rig.NumParams();
+  rig.source = "results.json";
+  if (r.stereo->full_covariance.rows() == n && r.stereo->full_covariance.cols() == n) {
+    rig.covariance = r.stereo->full_covariance;  // with the correlations (same layout)
+    return rig;
+  }
+  // An older or partial result: per-parameter sigmas (correlations lost) and the pose block.
   rig.covariance = Eigen::MatrixXd::Zero(n, n);
   int k = 0;
   for (int e = 0; e < 2; ++e) {
@@ -92,7 +94,7 @@ StereoRig RigFromResult(const CalibrationResult& r) {
     }
   }
   rig.covariance.block(n - 6, n - 6, 6, 6) = r.stereo->covariance;
-  rig.source = "results.json";
+  rig.source = "results.json (per-parameter sigmas: correlations unknown)";
   return rig;
 }
 
@@ -309,23 +311,23 @@ std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
 std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const RangeSummary& s, const std::string& title) {
   std::ostringstream md;
   md << "# " << title << "\n\n"
-     << "| pair | true (cm) | range (cm) | error (%) | sigma (cm) | sigma calib / match (cm) | error/sigma | "
-        "disparity (px) | NCC |\n|---|---|---|---|---|---|---|---|---|\n";
+     << "| pair | true (cm) | range (cm) | error (%) | sigma (cm) | sigma calib / match (cm) | truth sigma (cm) | "
+        "error/sigma | disparity (px) | NCC |\n|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : m) {
     if (!r.ok) {
       md << "| " << r.name << " | " << Fmt(r.true_m * 100, 1) << " | not ranged: " << r.message
-         << " | | | | | | |\n";
+         << " | | | | | | | |\n";
       continue;
     }
     md << "| " << r.name << " | " << Fmt(r.true_m * 100, 1) << " | " << Fmt(r.range_m * 100, 2) << " | "
        << Fmt(100 * r.error_m() / r.true_m, 2) << " | " << Fmt(r.sigma_m * 100, 2) << " | "
        << Fmt(r.sigma_calib_m * 100, 2) << " / " << Fmt(r.sigma_match_m * 100, 2) << " | "
-       << Fmt(r.error_m() / r.error_sigma_m(), 2) << " | " << Fmt(r.match.disparity_px, 2) << " | " << Fmt(r.match.ncc, 3)
+       << Fmt(r.truth_sigma_m * 100, 2) << " | " << Fmt(r.error_m() / r.error_sigma_m(), 2) << " | " << Fmt(r.match.disparity_px, 2) << " | " << Fmt(r.match.ncc, 3)
        << " |\n";
   }
   md << "\nRanged " << s.num_ranged << "/" << s.num_rows << "; mean |error| " << Fmt(100 * s.mean_abs_rel, 2)
      << " %, max " << Fmt(100 * s.max_abs_rel, 2) << " %; max |error|/sigma " << Fmt(s.max_abs_z, 2) << "; "
-     << s.num_outside_3sigma << " outside +-3 sigma.\n";
+     << s.num_outside_3sigma << " outside +-3 sigma (error/sigma uses sqrt(sigma^2 + truth sigma^2)).\n";
   return md.str();
 }
 

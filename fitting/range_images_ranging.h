@@ -49,7 +49,8 @@ struct StereoRig {
 
 // From a stereo fit; `length_unit_m` converts the fit's length unit to metres (1 for "m").
 StereoRig RigFromStereoFit(const StereoFit& fit, double length_unit_m = 1.0);
-// From owlcal's results.json: cameras, stereo pose; covariance = per-parameter sigmas of
+// From owlcal's results.json: cameras, stereo pose; covariance = the stereo fit's joint
+// covariance (stereo.full_covariance) when the file has it, else per-parameter sigmas of
 // left.* / right.* (diagonal) and result.stereo->covariance for [rotation, T].
 StereoRig RigFromResult(const CalibrationResult& result);
 // From an OpenCV calibration file: T in millimetres when |T| > 1 (the course's 26.0 mm

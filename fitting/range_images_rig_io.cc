@@ -48,6 +48,8 @@ StereoRig LoadStereoRig(const std::string& path) {
   StereoRig rig;
   if (p.extension() == ".json") {
     rig = RigFromResult(ReadResultJson(path));
+    rig.source = path + " (" + rig.source + ")";
+    return rig;
   } else if (p.filename() == "intrinsics.xml" && fs::exists(p.parent_path() / "extrinsics.xml")) {
     rig = RigFromOpenCv(ReadOpenCvSplitFiles(path, (p.parent_path() / "extrinsics.xml").string()));
   } else {

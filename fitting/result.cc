@@ -122,6 +122,16 @@ json ToJson(const CalibrationResult& r) {
   if (r.stereo) {
     std::vector<double> cov(r.stereo->covariance.data(), r.stereo->covariance.data() + 36);
     j["stereo"] = {{"right_from_left", PoseJson(r.stereo->right_from_left)}, {"covariance", cov}};
+    const Eigen::MatrixXd& F = r.stereo->full_covariance;
+    if (F.rows() > 0 && F.rows() == F.cols() && F.rows() == Eigen::Index(r.stereo->full_names.size())) {
+      nlohmann::json rows = nlohmann::json::array();
+      for (Eigen::Index i = 0; i < F.rows(); ++i) {
+        std::vector<double> row(F.cols());
+        for (Eigen::Index k = 0; k < F.cols(); ++k) row[k] = F(i, k);
+        rows.push_back(row);
+      }
+      j["stereo"]["full_covariance"] = {{"names", r.stereo->full_names}, {"matrix", rows}};
+    }
   }
   if (r.head) j["head"] = HeadJson(*r.head);
   j["inputs"] = r.inputs;
@@ -170,6 +180,22 @@ CalibrationResult ResultFromJson(const json& j) {
     s.right_from_left = PoseFromJson(j.at("stereo").at("right_from_left"));
     const auto cov = j.at("stereo").at("covariance").get<std::vector<double>>();
     if (cov.size() == 36) s.covariance = Eigen::Map<const Eigen::Matrix<double, 6, 6>>(cov.data());
+    if (j.at("stereo").contains("full_covariance")) {
+      const auto& fc = j.at("stereo").at("full_covariance");
+      s.full_names = fc.at("names").get<std::vector<std::string>>();
+      const auto rows = fc.at("matrix").get<std::vector<std::vector<double>>>();
+      const Eigen::Index n = Eigen::Index(s.full_names.size());
+      if (Eigen::Index(rows.size()) != n)
+        throw std::runtime_error("stereo.full_covariance.matrix: " + std::to_string(rows.size()) + " rows for " +
+                                 std::to_string(n) + " names");
+      s.full_covariance.resize(n, n);
+      for (Eigen::Index i = 0; i < n; ++i) {
+        if (Eigen::Index(rows[i].size()) != n)
+          throw std::runtime_error("stereo.full_covariance.matrix: row " + std::to_string(i) + " has " +
+                                   std::to_string(rows[i].size()) + " values, not " + std::to_string(n));
+        for (Eigen::Index k = 0; k < n; ++k) s.full_covariance(i, k) = rows[i][k];
+      }
+    }
     r.stereo = s;
   }
   if (j.contains("head")) r.head = HeadFromJson(j.at("head"));

@@ -49,6 +49,12 @@ struct SolveSummary {
 struct StereoEstimate {
   models::Rigid3d right_from_left;       // x_in_right = right_from_left * x_in_left (OpenCV's R, T)
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();  // [rot vec (rad), t (m)]
+  // The joint covariance of the stereo fit with its correlations (focal length and baseline
+  // are strongly correlated, which per-parameter sigmas lose): `full_names` in order, left
+  // intrinsics, right intrinsics, rotation vector [rad], T [m]; units of each name. Empty when
+  // the fit's length unit was not metres.
+  std::vector<std::string> full_names;
+  Eigen::MatrixXd full_covariance;
 };
 
 struct CalibrationResult {

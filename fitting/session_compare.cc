@@ -7,17 +7,14 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "fitting/format.h"
+
 namespace owlcal::fitting {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string Fmt(double v, int prec) {
-  if (!std::isfinite(v)) return "-";
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(prec) << v;
-  return s.str();
-}
+std::string Fmt(double v, int prec) { return FixedOrDash(v, prec); }
 
 // Decimals for a value of this magnitude and sigma: two significant digits of sigma.
 int Decimals(double sigma, double value) {

@@ -489,6 +489,10 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   const Eigen::MatrixXd& C = fit.covariance;
   for (int a = 0; a < 6; ++a)
     for (int c = 0; c < 6; ++c) est.covariance(a, c) = C(ro + a, ro + c);
+  if (metres && C.rows() == int(fit.param_names.size()) && C.cols() == C.rows()) {
+    est.full_names = fit.param_names;
+    est.full_covariance = C;
+  }
   result->stereo = est;
   SolveSummary s = fit.summary;
   s.problem = "stereo";

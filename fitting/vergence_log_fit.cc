@@ -14,6 +14,7 @@
 
 #include <ceres/ceres.h>
 
+#include "fitting/format.h"
 #include "models/vergence.h"
 
 namespace owlcal::fitting {
@@ -160,12 +161,7 @@ double Median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-std::string Fmt(double v, int prec) {
-  if (!std::isfinite(v)) return "-";
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(prec) << v;
-  return s.str();
-}
+std::string Fmt(double v, int prec) { return FixedOrDash(v, prec); }
 
 }  // namespace
 

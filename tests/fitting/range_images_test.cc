@@ -72,6 +72,46 @@ TEST(RangeImages, RangesShiftedPlaneAndPropagatesBaselineSigma) {
   }
 }
 
+// results.json keeps the stereo fit's joint covariance, so a rig read back from it ranges with
+// the focal-length/baseline correlation instead of independent sigmas.
+TEST(RangeImages, ResultsJsonKeepsTheJointStereoCovariance) {
+  const StereoRig rig = ParallelRig(585, 0.064);
+  const int n = rig.NumParams();
+  CalibrationResult r;
+  r.cameras[0] = rig.cameras[0];
+  r.cameras[1] = rig.cameras[1];
+  StereoEstimate est;
+  est.right_from_left = rig.right_from_left;
+  for (int i = 0; i < n; ++i) est.full_names.push_back("p" + std::to_string(i));
+  // fx of both eyes and T_x fully correlated (a common scale error), sigma 2 px and 0.2 mm.
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+  g(0) = 2.0;
+  g(1) = 2.0;
+  g(9) = 2.0;
+  g(10) = 2.0;
+  g(n - 3) = -0.0002;
+  est.full_covariance = g * g.transpose() + 1e-12 * Eigen::MatrixXd::Identity(n, n);
+  est.covariance = est.full_covariance.bottomRightCorner(6, 6);
+  r.stereo = est;
+  r.Set({"left.fx", 585, 2.0, "px"});
+  const CalibrationResult back = ResultFromJson(ToJson(r));
+  ASSERT_TRUE(back.stereo.has_value());
+  ASSERT_EQ(back.stereo->full_names.size(), size_t(n));
+  EXPECT_NEAR((back.stereo->full_covariance - est.full_covariance).cwiseAbs().maxCoeff(), 0, 1e-18);
+  const StereoRig read = RigFromResult(back);
+  ASSERT_EQ(read.covariance.rows(), n);
+  EXPECT_NEAR(read.covariance(0, n - 3), -2.0 * 0.0002, 1e-15);  // the correlation survived
+  // A truncated matrix is named, not silently read.
+  nlohmann::json j = ToJson(r);
+  j["stereo"]["full_covariance"]["matrix"].erase(0);
+  try {
+    ResultFromJson(j);
+    ADD_FAILURE() << "a truncated covariance was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("stereo.full_covariance"), std::string::npos) << e.what();
+  }
+}
+
 TEST(RangeImages, TruthCsvReadsRoisAndNamesBadFields) {
   const std::string path = ::testing::TempDir() + "/truth_test.csv";
   {
