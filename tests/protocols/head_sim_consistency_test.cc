@@ -16,6 +16,7 @@
 // chessboard were fitted as one fixed board (head RMS 0.3 px, IPD 55 mm).
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -31,6 +32,7 @@
 #include "protocols/placement_views.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "models/servo_map.h"
 #include "sim/virtual_owl.h"
 
 namespace owlcal {
@@ -78,7 +80,9 @@ class HeadSimConsistency : public ::testing::Test {
       for (int64_t s = std::max<int64_t>(0, seq - 2); s <= seq; ++s) (*truth_)[s] = owl_->TruthForFrame(s);
     };
     summary_ = new protocols::RunSummary(protocols::RunProtocols(
-        {protocols::LoadProtocolFile(protocols::ResolveProtocolPath("servo_sweep"))}, *owl_, o));
+        {protocols::LoadProtocolFile(protocols::ResolveProtocolPath(
+            std::getenv("OWLCAL_SERVO_SWEEP_PROTOCOL") ? std::getenv("OWLCAL_SERVO_SWEEP_PROTOCOL") : "servo_sweep"))},
+        *owl_, o));
   }
   static void TearDownTestSuite() {
     std::filesystem::remove_all(dir_);
@@ -162,57 +166,116 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
 }
 
 
-// The head fit on the same data (true intrinsics held, as after a perfect stereo fit) against
-// the truth in the fit's gauge.
-TEST_F(HeadSimConsistency, HeadFitRecoversTheTruth) {
-  ASSERT_EQ(summary_->status, "complete") << summary_->message;
-  // Each board placement is its own fixed board (the sweep places one chessboard twice).
-  const auto views = protocols::ReadViewsByPlacement(dir_);
-  std::set<std::string> boards;
-  for (const auto& v : views) boards.insert(v.target_id);
-  EXPECT_EQ(boards, (std::set<std::string>{"chessboard@placement0", "chessboard@placement1"}));
-  const models::RobotConfig& config = owl_->Config();
-  const models::HeadModel truth = owl_->TruthHeadModel();
-  models::HeadModel initial = models::NominalHeadModel(config);
-  for (int e = 0; e < 2; ++e) initial.intrinsics[e] = truth.intrinsics[e];
+// The head fit against the truth in the fit's gauge (fitting::CanonicalHead), as issue 4
+// accepts it: every servo's map within 0.1 deg RMS over the robot file's WHOLE range (the
+// pans' ranges are swept to their limits from the +-25 deg placements) and every determined
+// parameter within 3 sigma. Returns the fit.
+fitting::HeadFit FitAndCompare(const char* label, const std::vector<calib::View>& views, const models::RobotConfig& config,
+                               const models::HeadModel& truth, const models::HeadModel& initial,
+                               const fitting::HeadFitOptions& ho) {
   bool neck_moved = false;
   for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
-  fitting::HeadFitOptions ho;
-  ho.corner_sigma_px = 0.03;
   const fitting::HeadFit fit = fitting::FitHead(views, config, initial, ho);
-  ASSERT_TRUE(fit.ok) << fit.message;
+  EXPECT_TRUE(fit.ok) << label << ": " << fit.message;
+  if (!fit.ok) return fit;
   const models::HeadModel canonical = fitting::CanonicalHead(truth, config.servos[models::kNeck].centre_us, neck_moved,
                                                              initial.geometry.centre_in_head[models::kLeftEye]);
   const double rms = fit.result.summaries.back().rms_px;
   const double ipd_err_mm = 1000 * (fit.head.geometry.Ipd() - truth.geometry.Ipd());
-  std::printf("head fit: RMS %.4f px, IPD %.3f mm (truth %.3f, error %.3f mm), %d views\n", rms,
-              1000 * fit.head.geometry.Ipd(), 1000 * truth.geometry.Ipd(), ipd_err_mm, fit.num_views_used);
+  std::printf("[%s] head fit: RMS %.4f px, IPD %.3f mm (truth %.3f, error %.3f mm), %d views, %.1f s\n", label, rms,
+              1000 * fit.head.geometry.Ipd(), 1000 * truth.geometry.Ipd(), ipd_err_mm, fit.num_views_used,
+              fit.result.summaries.back().time_s);
+  auto sigma_of = [&](const std::string& name) {
+    const fitting::Parameter* p = fit.result.Find(name);
+    return p ? p->sigma : std::nan("");
+  };
+  // Each map's error split into the constant offset (the zero; for the pans the head-yaw gauge,
+  // i.e. how well the eye centres' z difference is known) and the rest (scale, nonlinear terms).
   for (int s = 0; s < models::kNumServos; ++s) {
     const auto& lim = config.servos[s];
-    const double lo = s == models::kNeck ? lim.centre_us - 100 : (s == models::kRy || s == models::kLy ? lim.centre_us - 90 : lim.centre_us - 120);
-    const double hi = 2 * lim.centre_us - lo;
-    const double d = fitting::ServoMapRmsDeg(fit.head.servo_params[s].data(), canonical.servo_params[s].data(),
-                                             canonical.directions[s], lo, hi);
-    std::printf("servo %s: fitted centre %.2f us (truth %.2f), scale %.5f (truth %.5f), map RMS error %.4f deg\n",
-                models::kServoNames[s], fit.head.servo_params[s][0], canonical.servo_params[s][0],
-                fit.head.servo_params[s][1], canonical.servo_params[s][1], d);
-    EXPECT_LT(d, 0.1) << models::kServoNames[s];
+    const double* f = fit.head.servo_params[s].data();
+    const double* t = canonical.servo_params[s].data();
+    const int dir = canonical.directions[s];
+    double mean = 0, sum_sq = 0, max_abs = 0;
+    for (int i = 0; i <= 200; ++i) {
+      const double u = lim.min_us + (lim.max_us - lim.min_us) * i / 200.0;
+      const double diff = (models::ServoMap::JointAngle(f, dir, u, 0) - models::ServoMap::JointAngle(t, dir, u, 0)) * 180 / M_PI;
+      mean += diff / 201;
+      sum_sq += diff * diff / 201;
+      max_abs = std::max(max_abs, std::abs(diff));
+    }
+    const double rest = std::sqrt(std::max(0.0, sum_sq - mean * mean));
+    const double d = fitting::ServoMapRmsDeg(f, t, dir, lim.min_us, lim.max_us);
+    const std::string name = std::string("servo.") + models::kServoNames[s] + ".";
+    std::printf("[%s] servo %s: centre %.2f us (truth %.2f, err %+.2f, sigma %.2f), scale %.5f (truth %.5f), cubic %.3f "
+                "(truth %.3f, sigma %.3f); map over %d..%d us: RMS %.4f deg = offset %+.4f (+) rest %.4f, max %.4f\n",
+                label, models::kServoNames[s], f[0], t[0], f[0] - t[0], sigma_of(name + "centre_us"), f[1], t[1], f[3], t[3],
+                sigma_of(name + "cubic_deg"), lim.min_us, lim.max_us, d, mean, rest, max_abs);
+    EXPECT_LT(d, 0.1) << label << ": " << models::kServoNames[s] << " map over the robot file's range";
   }
-  std::map<int, int> outliers_by_neck;
-  std::map<int, int> neck_of_frame;
-  for (const auto& v : views) neck_of_frame[v.frame_index] = v.pwm_us[models::kNeck];
-  for (const auto& o : fit.outliers) outliers_by_neck[neck_of_frame[o.frame_index]]++;
-  std::printf("outliers: %zu of %d corners used\n", fit.outliers.size(), fit.num_corners_used);
-  for (const auto& [neck, n] : outliers_by_neck) std::printf("  neck %d us: %d outliers\n", neck, n);
-  if (std::getenv("OWLCAL_HEAD_SIM_VERBOSE")) {
-    const auto tp = fitting::HeadParameters(canonical, false);
-    for (const auto& p : fit.result.parameters)
-      for (const auto& t : tp)
-        if (t.name == p.name)
-          std::printf("  %-32s fit %12.5f  truth %12.5f  sigma %.5f\n", p.name.c_str(), p.value, t.value, p.sigma);
+  const auto tp = fitting::HeadParameters(canonical, /*with_intrinsics=*/true);
+  int n = 0, in1 = 0, in2 = 0, in3 = 0;
+  for (const auto& p : fit.result.parameters) {
+    if (!p.determined || !(p.sigma > 0)) continue;
+    for (const auto& t : tp) {
+      if (t.name != p.name) continue;
+      const double z = (p.value - t.value) / p.sigma;
+      ++n;
+      in1 += std::abs(z) <= 1;
+      in2 += std::abs(z) <= 2;
+      in3 += std::abs(z) <= 3;
+      EXPECT_LE(std::abs(z), 3.0) << label << ": " << p.name << " fit " << p.value << " truth " << t.value << " sigma "
+                                  << p.sigma;
+      if (std::getenv("OWLCAL_HEAD_SIM_VERBOSE"))
+        std::printf("  %-32s fit %12.5f  truth %12.5f  sigma %.5f  z %+.2f\n", p.name.c_str(), p.value, t.value, p.sigma, z);
+    }
   }
-  EXPECT_LT(rms, 0.06);
-  EXPECT_LT(std::abs(ipd_err_mm), 0.5);
+  std::printf("[%s] parameters vs truth: %d with sigma, %d within 1 sigma, %d within 2, %d within 3\n", label, n, in1, in2,
+              in3);
+  std::printf("[%s] outliers: %zu of %d corners used\n", label, fit.outliers.size(), fit.num_corners_used);
+  EXPECT_LT(rms, 0.06) << label;
+  EXPECT_LT(std::abs(ipd_err_mm), 0.5) << label;
+  return fit;
+}
+
+// True intrinsics held, as after a perfect stereo fit: what the sweep itself determines.
+TEST_F(HeadSimConsistency, HeadFitRecoversTheTruth) {
+  ASSERT_EQ(summary_->status, "complete") << summary_->message;
+  // Each board placement is its own fixed board (the sweep places one chessboard five times).
+  const auto views = protocols::ReadViewsByPlacement(dir_);
+  std::set<std::string> boards;
+  for (const auto& v : views) boards.insert(v.target_id);
+  EXPECT_EQ(boards, (std::set<std::string>{"chessboard@placement0", "chessboard@placement1", "chessboard@placement2",
+                                           "chessboard@placement3", "chessboard@placement4"}));
+  const models::RobotConfig& config = owl_->Config();
+  const models::HeadModel truth = owl_->TruthHeadModel();
+  models::HeadModel initial = models::NominalHeadModel(config);
+  for (int e = 0; e < 2; ++e) initial.intrinsics[e] = truth.intrinsics[e];
+  fitting::HeadFitOptions ho;
+  ho.corner_sigma_px = 0.03;
+  FitAndCompare("true intrinsics held", views, config, truth, initial, ho);
+}
+
+// As owlcal calibrate fits it: the intrinsics start from a stereo fit's (here the truth with
+// the errors the default run's stereo fit had: left focal lengths 0.12 px short, principal
+// points 0.06-0.1 px off) and are refined on the sweep. Held, these errors put the pan zeros
+// 0.17 deg off (outside every sigma: the eye centres' depths follow the focal lengths).
+TEST_F(HeadSimConsistency, HeadFitRefinesStereoIntrinsics) {
+  ASSERT_EQ(summary_->status, "complete") << summary_->message;
+  const auto views = protocols::ReadViewsByPlacement(dir_);
+  const models::RobotConfig& config = owl_->Config();
+  const models::HeadModel truth = owl_->TruthHeadModel();
+  models::HeadModel initial = models::NominalHeadModel(config);
+  for (int e = 0; e < 2; ++e) initial.intrinsics[e] = truth.intrinsics[e];
+  initial.intrinsics[models::kLeftEye].params[0] -= 0.12;
+  initial.intrinsics[models::kLeftEye].params[1] -= 0.11;
+  initial.intrinsics[models::kLeftEye].params[2] -= 0.06;
+  initial.intrinsics[models::kRightEye].params[2] += 0.1;
+  initial.intrinsics[models::kRightEye].params[3] += 0.07;
+  fitting::HeadFitOptions ho;
+  ho.corner_sigma_px = 0.03;
+  ho.fit_intrinsics = true;
+  FitAndCompare("stereo intrinsics refined", views, config, truth, initial, ho);
 }
 
 }  // namespace

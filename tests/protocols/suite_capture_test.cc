@@ -28,7 +28,7 @@ TEST(StandardSuite, ServoSweepRecordsBothApproachDirections) {
   }
   EXPECT_GT(up, 5);
   EXPECT_GT(down, 5);
-  EXPECT_EQ(ReadPlacementsCsv(r.dir).size(), 2u);
+  EXPECT_EQ(ReadPlacementsCsv(r.dir).size(), 5u);  // 0.6 m, 0.85 m, 0.45 m, +-25 deg
 }
 
 TEST(StandardSuite, IntrinsicsAndStereoRecordFrames) {
