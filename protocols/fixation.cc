@@ -33,10 +33,14 @@ class FixationLocator : public TargetLocator {
         o.border_px = 0;
         o.expected_px = last_[eye] - Eigen::Vector2d(roi.x, roi.y);
         o.expected_radius_px = last_radius_[eye];
+        // The disc keeps its contrast; a background spot that a blurred, fast-moving disc
+        // leaves alone in the window has far less (the sim's texture: ~0.35 of black-white).
+        o.min_contrast = std::max(options_.min_contrast, 0.6 * last_contrast_[eye]);
         const calib::FixationDetection d = calib::DetectFixationTarget(image(roi), o);
         if (d.found) {
           last_[eye] = d.centre + Eigen::Vector2d(roi.x, roi.y);
           last_radius_[eye] = d.radius_px;
+          last_contrast_[eye] = d.contrast;
           return last_[eye];
         }
       }
@@ -47,6 +51,7 @@ class FixationLocator : public TargetLocator {
     has_last_[eye] = true;
     last_[eye] = d.centre;
     last_radius_[eye] = d.radius_px;
+    last_contrast_[eye] = d.contrast;
     return d.centre;
   }
   std::string Name() const override { return "fixation"; }
@@ -56,6 +61,7 @@ class FixationLocator : public TargetLocator {
   bool has_last_[2] = {false, false};
   Eigen::Vector2d last_[2];
   double last_radius_[2] = {0, 0};
+  double last_contrast_[2] = {0, 0};
 };
 
 class TemplateLocator : public TargetLocator {

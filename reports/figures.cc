@@ -1,5 +1,6 @@
 #include "reports/figures.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
@@ -22,20 +23,27 @@ std::vector<Figure> MakeServoFigures(const ReportData& d) {
   std::vector<Figure> out;
   if (!d.result.head) return out;
   const models::HeadModel& h = *d.result.head;
-  Figure all{"servo_maps", "Servo maps: joint angle vs pulse width", "pulse width [us]", "joint angle [deg]", {}, {}, "top left"};
-  all.caption = "Fitted PWM-to-angle map of every servo over its configured range (solid); dashed: the truth of the virtual Owl.";
+  Figure all{"servo_maps", "Servo maps: joint angle vs pulse width", "pulse width [us]", "joint angle [deg]", {}, {},
+             "outside right top vertical"};
+  all.caption = "Fitted PWM-to-angle map of every servo over its configured range (solid); dashed: the truth of the "
+                "virtual Owl (on top of the fit at this scale: the deviation figures show the difference).";
+  bool truth_titled = false;
   for (int s = 0; s < models::kNumServos; ++s) {
     const models::ServoConfig& c = d.config.servos[s];
     const std::string sname = models::kServoNames[s];
-    // Is this servo determined at all?
-    const fitting::Parameter* pc = d.result.Find("servo." + sname + ".centre_us");
-    const bool determined = pc && pc->determined;
-    if (!determined) continue;
+    // Was this servo's map fitted at all? (The neck's centre is a gauge held at the robot
+    // file's value, so the scale decides.)
+    const fitting::Parameter* ps = d.result.Find("servo." + sname + ".deg_per_us");
+    if (!ps || !ps->determined) continue;
     Series fit{sname + " fitted", "lines lw 2.5 " + Lc(s), "1:2", {"pwm_us", "angle_deg"}, {}};
-    Series truth{sname + " truth", "lines lw 1.5 dt 2 " + Lc(s), "1:2", {"pwm_us", "angle_deg"}, {}};
-    // Deviation figure with the sigma band.
+    Series truth{truth_titled ? "" : "truth (dashed)", "lines lw 1.5 dt 2 lc rgb 'black'", "1:2", {"pwm_us", "angle_deg"}, {}};
+    truth_titled = truth_titled || d.truth.has_value();
+    // Deviation figure with the sigma band (over the map parameters the data determined).
     std::vector<std::string> names;
-    for (const char* f : {"centre_us", "deg_per_us", "quad_deg", "cubic_deg"}) names.push_back("servo." + sname + "." + f);
+    for (const char* f : {"centre_us", "deg_per_us", "quad_deg", "cubic_deg"}) {
+      const fitting::Parameter* p = d.result.Find("servo." + sname + "." + f);
+      if (p && p->determined) names.push_back("servo." + sname + "." + f);
+    }
     const fitting::NamedCovariance cov = fitting::CovarianceFromResult(d.result, names);
     Figure dev{"servo_" + std::string(sname == "Neck" ? "neck" : sname) + "_deviation",
                sname + ": fitted map minus the course's nominal map (0.113 deg/us at the configured centre)",
@@ -198,12 +206,39 @@ std::optional<Figure> MakeRangeErrorFigure(const ReportData& d) {
     f.series.push_back(q_lo);
   }
   f.series.push_back(cal);
-  if (!nom.rows.empty()) f.series.push_back(nom);
   f.settings.push_back("set xzeroaxis lt -1 lw 1");
   double nmax = 0;
   for (const auto& x : nom.rows) nmax = std::max(nmax, std::abs(x[1]));
   const double lim = std::min(std::max(ymax * 1.5, std::min(nmax * 1.1, 60.0)), 60.0);
   f.settings.push_back("set yrange [" + Fmt(-lim, 3) + ":" + Fmt(lim, 3) + "]");
+  // Nominal-method points beyond the axis are drawn at its edge as open triangles pointing the
+  // way they left, and the legend says how far they went (the table has every value).
+  Series nom_in = nom, nom_off{"", "points pt 8 ps 1.5 " + Lc(1), "1:2", {"true_m", "edge_pct"}, {}};
+  nom_in.rows.clear();
+  double off_max = 0;
+  bool any_negative = false;
+  for (const auto& x : nom.rows) {
+    any_negative = any_negative || x[1] < 0;
+    if (std::abs(x[1]) <= lim) {
+      nom_in.rows.push_back(x);
+    } else {
+      nom_off.rows.push_back({x[0], (x[1] > 0 ? 0.93 : -0.93) * lim});
+      off_max = std::max(off_max, std::abs(x[1]));
+    }
+  }
+  if (!nom_off.rows.empty()) nom_off.title = "course nominal, off scale (max " + std::to_string(int(std::lround(off_max))) + " %)";
+  // Fixations the course method cannot range at all (its gaze rays diverge): open squares at
+  // the top edge at their true distance.
+  Series nom_none{"course nominal: no range (rays diverge)", "points pt 4 ps 1.5 " + Lc(1), "1:2",
+                  {"true_m", "edge_pct"}, {}};
+  for (const auto& x : r.rows)
+    if (x.ok && !x.nominal_m) nom_none.rows.push_back({x.true_m, 0.93 * lim});
+  // The key goes where the nominal points are not (they lie above the axis when the course
+  // constants over-read).
+  f.key = any_negative ? "top left" : "bottom left";
+  if (!nom_in.rows.empty()) f.series.push_back(nom_in);
+  if (!nom_off.rows.empty()) f.series.push_back(nom_off);
+  if (!nom_none.rows.empty()) f.series.push_back(nom_none);
   return f;
 }
 
@@ -238,11 +273,12 @@ std::optional<Figure> MakeStepResponseFigure(const ReportData& d) {
 std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
   if (!d.gains) return std::nullopt;
   const GainStudy& g = *d.gains;
-  Figure f{"settling_vs_gain", "2 % settling time vs proportional gain", "gain K [-]", "settling time [s]", {}, {}, "top right"};
+  Figure f{"settling_vs_gain", "2 % settling time vs proportional gain", "gain K [-]", "settling time [s]", {}, {},
+           "top right"};
   f.caption = "Settling time of the course's incremental P loop with " + std::to_string(g.delay_frames) +
               " frames of delay at " + Fmt(g.fps, 3) + " fps (model), the measured trials, the stability limit K_crit = " +
               Fmt(g.critical_gain, 3) + " and the physical lower bound for a 10 deg step (slew + latency + one frame).";
-  Series model{"delayed P-loop model (d = " + std::to_string(g.delay_frames) + ")", "lines lw 2.5 " + Lc(0), "1:2", {"gain", "settling_s"}, {}};
+  Series model{"P-loop model (d = " + std::to_string(g.delay_frames) + ")", "lines lw 2.5 " + Lc(0), "1:2", {"gain", "settling_s"}, {}};
   double ymax = 0;
   for (const auto& r : g.simulated)
     if (r.settled) {
@@ -257,15 +293,15 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
     if (!s.simulated && s.info.settled) meas.rows.push_back({s.gain, s.info.settling_time});
   if (!meas.rows.empty()) f.series.push_back(meas);
   if (g.fastest)
-    f.series.push_back({"fastest: K = " + Fmt(g.fastest->gain, 3) + ", " + Fmt(g.fastest->settling_time_s, 3) + " s",
+    f.series.push_back({"model fastest: K = " + Fmt(g.fastest->gain, 3) + ", " + Fmt(g.fastest->settling_time_s, 3) + " s",
                         "points pt 5 ps 2 lc rgb 'black'", "1:2", {"gain", "settling_s"},
                         {{g.fastest->gain, g.fastest->settling_time_s}}});
-  const double xmax = std::max(0.6, g.critical_gain * 1.1);
+  const double xmax = std::max(0.75, g.critical_gain * 2.1);  // room for the key right of K_crit
   for (size_t i = 0; i < g.amplitudes_deg.size(); ++i) {
     if (g.amplitudes_deg[i] != 10.0) continue;
-    f.series.push_back({"physical bound, 10 deg (400 deg/s, 100 ms)", "lines lw 2 dt 4 " + Lc(2), "1:2",
+    f.series.push_back({"bound, 10 deg: 400 deg/s + 100 ms", "lines lw 2 dt 4 " + Lc(2), "1:2",
                         {"gain", "s"}, {{0, g.lower_bound_fast_s[i]}, {xmax, g.lower_bound_fast_s[i]}}});
-    f.series.push_back({"physical bound, 10 deg (300 deg/s, 150 ms)", "lines lw 2 dt 5 " + Lc(3), "1:2",
+    f.series.push_back({"bound, 10 deg: 300 deg/s + 150 ms", "lines lw 2 dt 5 " + Lc(3), "1:2",
                         {"gain", "s"}, {{0, g.lower_bound_slow_s[i]}, {xmax, g.lower_bound_slow_s[i]}}});
   }
   f.series.push_back({"K_crit = " + Fmt(g.critical_gain, 3), "lines lw 2 lc rgb '#888888'", "1:2", {"gain", "s"},

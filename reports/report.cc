@@ -1,5 +1,6 @@
 #include "reports/report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <filesystem>
@@ -86,7 +87,8 @@ std::vector<Table> MakeTables(const ReportData& d) {
     for (const auto& x : r.rows)
       t.rows.push_back({std::to_string(x.index), Fmt(x.true_m, 4), Fmt(x.range_m, 5), Pct(x.rel_error),
                         Pct(2 * x.sigma_m / x.true_m), x.ok ? Bool(std::abs(x.error_m) <= 2 * x.sigma_m) : "",
-                        Fmt(1000 * x.gap_m, 3), x.nominal_m ? Fmt(*x.nominal_m, 4) : "", Pct(x.nominal_rel_error)});
+                        Fmt(1000 * x.gap_m, 3), x.nominal_m ? Fmt(*x.nominal_m, 4) : "none: gaze rays diverge",
+                        x.nominal_m ? Pct(x.nominal_rel_error) : ""});
     out.push_back(t);
     Table s{"ranging_summary", "Vergence ranging summary", {"quantity", "value"}, {}};
     s.rows = {{"fixations evaluated", std::to_string(r.num_ok) + " of " + std::to_string(r.rows.size())},
@@ -94,7 +96,10 @@ std::vector<Table> MakeTables(const ReportData& d) {
               {"mean |relative error|, calibrated [%]", Pct(r.mean_abs_rel_error)},
               {"max |relative error|, calibrated [%]", Pct(r.max_abs_rel_error)},
               {"fraction within +-2 sigma [%]", Pct(r.fraction_within_2sigma)},
-              {"RMS relative error, course nominal method [%]", Pct(r.nominal_rms_rel_error)}};
+              {"RMS relative error, course nominal method [%]", Pct(r.nominal_rms_rel_error)},
+              {"fixations the course nominal method can range",
+               std::to_string(std::count_if(r.rows.begin(), r.rows.end(), [](const auto& x) { return x.nominal_m.has_value(); })) +
+                   " of " + std::to_string(r.rows.size()) + " (the others: its gaze rays diverge)"}};
     out.push_back(s);
   }
   if (!d.steps.empty()) {
