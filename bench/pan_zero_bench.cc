@@ -8,7 +8,8 @@
 //   result-held     intrinsics of RESULT_JSON held (what calibrate does)
 //   result-prior    intrinsics of RESULT_JSON as a Gaussian prior (diagonal sigmas), refined
 //   free            intrinsics free (from RESULT_JSON's values, else the truth)
-// Usage: pan_zero_bench SWEEP_DATASET_DIR [RESULT_JSON] [corner_sigma_px=0.15]
+// Usage: pan_zero_bench SWEEP_DATASET_DIR [RESULT_JSON|-] [corner_sigma_px=0.15] [ROBOT_TRUTH_FILE]
+// (the truth file the dataset was recorded with, `owlcal run --robot-truth`; default: the built-in robot)
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -84,13 +85,13 @@ void Report(const char* label, const fitting::HeadFit& fit, const models::HeadMo
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: pan_zero_bench SWEEP_DATASET_DIR [RESULT_JSON] [corner_sigma_px=0.15]\n");
+    std::fprintf(stderr, "usage: pan_zero_bench SWEEP_DATASET_DIR [RESULT_JSON|-] [corner_sigma_px=0.15] [ROBOT_TRUTH_FILE]\n");
     return 2;
   }
   const std::string dir = argv[1];
-  const std::string result_json = argc > 2 ? argv[2] : "";
+  const std::string result_json = argc > 2 && std::string(argv[2]) != "-" ? argv[2] : "";
   const double sigma = argc > 3 ? std::atof(argv[3]) : 0.15;
-  const sim::RobotTruth truth_robot = sim::DefaultRobotTruth();
+  const sim::RobotTruth truth_robot = argc > 4 ? sim::LoadRobotTruth(argv[4]) : sim::DefaultRobotTruth();
   const models::RobotConfig& config = truth_robot.robot;
   const models::HeadModel truth = truth_robot.HeadModel();
   const auto views = protocols::ReadViewsByPlacement(dir);
@@ -106,6 +107,11 @@ int main(int argc, char** argv) {
     models::HeadModel init = initial;
     for (int e = 0; e < 2; ++e) init.intrinsics[e] = truth.intrinsics[e];
     Report("truth-held", fitting::FitHead(views, config, init, ho), canonical, config);
+    if (result_json.empty()) {
+      fitting::HeadFitOptions fo = ho;
+      fo.fit_intrinsics = true;
+      Report("truth-free", fitting::FitHead(views, config, init, fo), canonical, config);
+    }
   }
   if (!result_json.empty()) {
     const fitting::CalibrationResult r = fitting::ReadResultJson(result_json);
