@@ -364,7 +364,7 @@ int RunCalibrate(const CalibrateOptions& o) {
     if (d.result.cameras[e]) initial.intrinsics[e] = *d.result.cameras[e];
   bool neck_moved = false;
   if (dataset.count("servo_sweep")) {
-    // One board per placement: the sweep places the same chessboard at two poses.
+    // One board per placement: the sweep places the same chessboard at five poses.
     const auto views = protocols::ReadViewsByPlacement(dataset["servo_sweep"]);
     progress("head fit: " + std::to_string(views.size()) + " views");
     for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
