@@ -18,6 +18,7 @@
 
 #include "fitting/result.h"
 #include "owlcal_version.h"
+#include "tests/shared_data.h"
 
 namespace owlcal {
 namespace {
@@ -35,10 +36,7 @@ std::string OwlcalBinary() {
   return fs::exists(candidate) ? candidate.string() : "";
 }
 
-std::string SharedData() {
-  const char* env = std::getenv("OWLCAL_SHARED_DATA");
-  return env && *env ? env : OWLCAL_SHARED_DATA;
-}
+using ::owlcal::test_data::SharedData;
 
 std::string SourceDir() { return OWLCAL_SOURCE_DIR; }
 

@@ -8,16 +8,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include "owlcal_version.h"
+#include "tests/shared_data.h"
 
 namespace owlcal::calib {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string SharedData() {
-  const char* env = std::getenv("OWLCAL_SHARED_DATA");
-  return env ? env : OWLCAL_SHARED_DATA;
-}
+using ::owlcal::test_data::SharedData;
 
 TEST(ImagePairs, ListsKitChessboardPairsInNaturalOrderWithoutPairSeven) {
   const auto list = ListImagePairs(SharedData() + "/owl-real/kit2020-chessboard", {});

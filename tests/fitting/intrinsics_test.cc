@@ -11,14 +11,12 @@
 
 #include "calib/detector.h"
 #include "owlcal_version.h"
+#include "tests/shared_data.h"
 
 namespace owlcal::fitting {
 namespace {
 
-std::string SharedData() {
-  const char* env = std::getenv("OWLCAL_SHARED_DATA");
-  return env ? env : OWLCAL_SHARED_DATA;
-}
+using ::owlcal::test_data::SharedData;
 
 calib::TargetDefinition OpenCvBoard() {
   calib::TargetDefinition t;

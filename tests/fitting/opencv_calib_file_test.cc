@@ -6,14 +6,12 @@
 #include <gtest/gtest.h>
 
 #include "owlcal_version.h"
+#include "tests/shared_data.h"
 
 namespace owlcal::fitting {
 namespace {
 
-std::string SharedData() {
-  const char* env = std::getenv("OWLCAL_SHARED_DATA");
-  return env ? env : OWLCAL_SHARED_DATA;
-}
+using ::owlcal::test_data::SharedData;
 
 StereoFit MakeFit() {
   StereoFit f;

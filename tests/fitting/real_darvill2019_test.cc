@@ -9,14 +9,12 @@
 #include "fitting/range_images_calib.h"
 #include "fitting/session_compare.h"
 #include "owlcal_version.h"
+#include "tests/shared_data.h"
 
 namespace owlcal::fitting {
 namespace {
 
-std::string SharedData() {
-  const char* env = std::getenv("OWLCAL_SHARED_DATA");
-  return env ? env : OWLCAL_SHARED_DATA;
-}
+using ::owlcal::test_data::SharedData;
 
 TEST(RealDarvill2019, ThreeSessionsComparedInOneTable) {
   calib::TargetDefinition board;

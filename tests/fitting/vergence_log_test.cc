@@ -8,14 +8,12 @@
 #include <gtest/gtest.h>
 
 #include "owlcal_version.h"
+#include "tests/shared_data.h"
 
 namespace owlcal::fitting {
 namespace {
 
-std::string SharedData() {
-  const char* env = std::getenv("OWLCAL_SHARED_DATA");
-  return env ? env : OWLCAL_SHARED_DATA;
-}
+using ::owlcal::test_data::SharedData;
 
 // Synthetic log from known maps, PWM rounded to 1 us like a real log.
 std::vector<VergenceLogRow> SyntheticLog(const VergenceMaps& truth, int runs, unsigned seed) {
