@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "apps/command_registry.h"
+#include "apps/robot_options.h"
 #include "calib/observation.h"
 #include "calib/observation_io.h"
 #include "fitting/head_fit.h"
@@ -39,12 +40,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct CalibrateOptions {
-  std::string robot = "sim";
-  std::string robot_file;
-  std::string robot_truth;
-  std::string scene;
-  uint64_t seed = 1;
-  int http_port = 8080;
+  RobotOptions robot;
   std::string out;
   std::vector<std::string> protocols;  // default: the standard suite
   bool no_figures = false;
@@ -273,21 +269,15 @@ int RunCalibrate(const CalibrateOptions& o) {
   fs::create_directories(o.out);
   std::vector<std::string> names = o.protocols.empty() ? protocols::StandardProtocolNames() : o.protocols;
 
-  protocols::RobotFactoryOptions fo;
-  fo.robot_file = o.robot_file;
-  fo.truth_file = o.robot_truth;
-  fo.scene_file = o.scene;
-  fo.seed = o.seed;
-  fo.http_port = o.http_port;
-  std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot, fo);
+  std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot.robot, o.robot.Factory());
   const models::RobotConfig config = robot->Config();
   progress("robot: " + robot->Describe());
 
   reports::ReportData d;
   d.config = config;
   d.result.software_version = OWLCAL_VERSION;
-  d.settings = {{"command", "owlcal calibrate"}, {"robot", o.robot}, {"robot_file", o.robot_file},
-                {"robot_truth", o.robot_truth}, {"scene", o.scene}, {"seed", o.seed}, {"protocols", names},
+  d.settings = {{"command", "owlcal calibrate"}, {"robot", o.robot.robot}, {"robot_file", o.robot.robot_file},
+                {"robot_truth", o.robot.robot_truth}, {"scene", o.robot.scene}, {"seed", o.robot.seed}, {"protocols", names},
                 {"owlcal_version", OWLCAL_VERSION}};
   std::optional<sim::RobotTruth> truth;
   if (auto* owl = dynamic_cast<sim::VirtualOwl*>(robot.get())) truth = owl->Truth();
@@ -307,9 +297,7 @@ int RunCalibrate(const CalibrateOptions& o) {
     progress("protocol " + p.name + " -> " + dir);
     protocols::RunOptions ro;
     ro.out_dir = dir;
-    ro.robot_spec = o.robot;
-    ro.robot_file = o.robot_file;
-    if (o.robot == "sim") ro.sim = {{"seed", o.seed}, {"truth_file", o.robot_truth}, {"scene_file", o.scene}};
+    o.robot.FillRunOptions(&ro);
     ro.progress = nullptr;
     ro.stop_flag = stop;
     const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
@@ -375,6 +363,11 @@ int RunCalibrate(const CalibrateOptions& o) {
     // length error of 2e-4 between the eyes moves one eye centre's depth by ~0.15 mm at 0.6 m,
     // 0.15 deg of both pan maps (virtual Owl: Rx/Lx 0.17/0.18 deg RMS held, 0.003/0.003 refined).
     ho.fit_intrinsics = true;
+    // Whitening: the assumed corner sigma (0.15 px, HeadFitOptions), not the stereo fit's a
+    // posteriori 0.025 px. On the virtual Owl the smaller value leaves 4 of 58 head parameters
+    // at 3.3-3.7 sigma (errors of 0.07 us, 0.1 px: systematic detector bias that more views
+    // do not average away; a cluster-robust covariance over views did not cover it either),
+    // and on a real robot it would print servo centres to +-0.02 us. 0.15 px is conservative.
     const fitting::HeadFit h = fitting::FitHead(views, config, initial, ho);
     if (h.ok) {
       MergeHead(h, &d.result);
@@ -472,14 +465,7 @@ const bool kRegistered = RegisterCommand(
     "recorded datasets in DIR/datasets/.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<CalibrateOptions>();
-      cmd->add_option("--robot", o->robot, "'sim' (in-process virtual Owl, default) or the robot's HOST[:PORT]");
-      cmd->add_option("--robot-file", o->robot_file, "robot file (limits, centres); default: the guide's robot")
-          ->check(CLI::ExistingFile);
-      cmd->add_option("--robot-truth", o->robot_truth, "sim: robot-truth file; default: the built-in robot")
-          ->check(CLI::ExistingFile);
-      cmd->add_option("--scene", o->scene, "sim: scene file")->check(CLI::ExistingFile);
-      cmd->add_option("--seed", o->seed, "sim: random seed");
-      cmd->add_option("--http-port", o->http_port, "real robot: MJPEG stream port")->check(CLI::Range(1, 65535));
+      AddRobotOptions(cmd, &o->robot);
       cmd->add_option("--protocols", o->protocols, "protocols to run instead of the standard suite");
       cmd->add_option("--out", o->out, "report folder to create")->required();
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "apps/command_registry.h"
+#include "apps/robot_options.h"
 #include "protocols/protocol.h"
 #include "protocols/robot_factory.h"
 #include "protocols/runner.h"
@@ -18,26 +19,13 @@ namespace {
 
 struct RunCmdOptions {
   std::vector<std::string> protocols;
-  std::string robot = "sim";
-  std::string robot_file;
-  std::string robot_truth;
-  std::string scene;
-  uint64_t seed = 1;
-  int http_port = 8080;
+  RobotOptions robot;
   std::string out;
   bool dry_run = false;
   bool resume = false;
   bool non_interactive = false;
   bool quiet = false;
 };
-
-std::string ReadText(const std::string& path) {
-  if (path.empty()) return "";
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 int RunRun(const RunCmdOptions& o) {
   if (o.protocols.empty()) throw UsageError("give at least one protocol (a file or a standard name: " +
@@ -59,33 +47,18 @@ int RunRun(const RunCmdOptions& o) {
   ro.out_dir = o.out;
   ro.dry_run = o.dry_run;
   ro.resume = o.resume;
-  ro.robot_spec = o.robot;
-  ro.robot_file = o.robot_file;
-  ro.robot_file_text = ReadText(o.robot_file);
-  if (o.robot == "sim") ro.sim = {{"seed", o.seed}, {"truth_file", o.robot_truth}, {"scene_file", o.scene}};
+  o.robot.FillRunOptions(&ro);
   ro.progress = o.quiet ? nullptr : &std::cout;
-  ro.interactive = o.robot != "sim" && !o.non_interactive && ::isatty(STDIN_FILENO);
+  ro.interactive = !o.robot.IsSim() && !o.non_interactive && ::isatty(STDIN_FILENO);
   if (o.dry_run) {
     // Nothing moves and nothing connects: plan against the robot file's limits.
-    models::RobotConfig config = robot::RobotConfigOrDefault(o.robot_file);
-    if (o.robot == "sim") {
-      protocols::RobotFactoryOptions fo;
-      fo.robot_file = o.robot_file;
-      fo.truth_file = o.robot_truth;
-      fo.seed = o.seed;
-      config = protocols::MakeRobot("sim", fo)->Config();
-    }
+    models::RobotConfig config = robot::RobotConfigOrDefault(o.robot.robot_file);
+    if (o.robot.IsSim()) config = protocols::MakeRobot("sim", o.robot.Factory())->Config();
     int64_t clamped = 0;
     for (const std::string& line : protocols::PlanRun(loaded, config, &clamped)) std::cout << line << "\n";
     return kExitOk;
   }
-  protocols::RobotFactoryOptions fo;
-  fo.robot_file = o.robot_file;
-  fo.truth_file = o.robot_truth;
-  fo.scene_file = o.scene;
-  fo.seed = o.seed;
-  fo.http_port = o.http_port;
-  std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot, fo);
+  std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot.robot, o.robot.Factory());
   ro.stop_flag = protocols::InstallSigintStop();
   const protocols::RunSummary s = protocols::RunProtocols(loaded, *robot, ro);
   if (s.status != "complete") {
@@ -107,14 +80,7 @@ const bool kRegistered = RegisterCommand(
     [](CLI::App* cmd) {
       auto o = std::make_shared<RunCmdOptions>();
       cmd->add_option("protocols", o->protocols, "protocol files or standard protocol names")->required();
-      cmd->add_option("--robot", o->robot, "'sim' (in-process virtual Owl, default) or the robot's HOST[:PORT]");
-      cmd->add_option("--robot-file", o->robot_file, "robot file (limits, centres); default: the guide's robot")
-          ->check(CLI::ExistingFile);
-      cmd->add_option("--robot-truth", o->robot_truth, "sim: robot-truth file; default: the built-in robot")
-          ->check(CLI::ExistingFile);
-      cmd->add_option("--scene", o->scene, "sim: scene file; default: the built-in scene")->check(CLI::ExistingFile);
-      cmd->add_option("--seed", o->seed, "sim: random seed");
-      cmd->add_option("--http-port", o->http_port, "real robot: MJPEG stream port")->check(CLI::Range(1, 65535));
+      AddRobotOptions(cmd, &o->robot);
       cmd->add_option("--out", o->out, "dataset folder to create (or continue with --resume)");
       cmd->add_flag("--dry-run", o->dry_run, "print the planned commands checked against the limits; move nothing");
       cmd->add_flag("--resume", o->resume, "continue an interrupted run in --out");
