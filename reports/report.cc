@@ -81,6 +81,28 @@ std::vector<Table> MakeTables(const ReportData& d) {
                         Fmt(r.z, 3), std::isfinite(r.z) ? Bool(r.within_2sigma) : "n/a"});
     out.push_back(t);
   }
+  if (d.truth && d.result.head) {
+    // Whole maps, not just their parameters: fitted minus true angle over the configured range.
+    Table t{"servo_map_truth", "Virtual Owl: fitted servo maps vs the truth over each servo's configured range",
+            {"servo", "range [us]", "RMS [deg]", "max |error| [deg]", "mean error [deg]"}, {}};
+    for (int s = 0; s < models::kNumServos; ++s) {
+      const fitting::Parameter* p = d.result.Find("servo." + std::string(models::kServoNames[s]) + ".deg_per_us");
+      if (!p || !p->determined) continue;
+      const models::ServoConfig& c = d.config.servos[s];
+      double sum = 0, sum2 = 0, worst = 0;
+      const int n = 201;
+      for (int i = 0; i < n; ++i) {
+        const double u = c.min_us + (c.max_us - c.min_us) * i / (n - 1.0);
+        const double e = (d.result.head->ServoAngle(s, u) - d.truth->ServoAngle(s, u)) * 180 / M_PI;
+        sum += e;
+        sum2 += e * e;
+        worst = std::max(worst, std::abs(e));
+      }
+      t.rows.push_back({models::kServoNames[s], std::to_string(c.min_us) + "-" + std::to_string(c.max_us),
+                        Fmt(std::sqrt(sum2 / n), 3), Fmt(worst, 3), Fmt(sum / n, 3)});
+    }
+    if (!t.rows.empty()) out.push_back(t);
+  }
   if (d.ranging) {
     const auto& r = *d.ranging;
     Table t{"ranging", "Vergence ranging per fixation", {"fixation", "true [m]", "calibrated [m]", "error [%]", "2 sigma [%]", "within 2 sigma", "ray gap [mm]", "course nominal [m]", "nominal error [%]"}, {}};
@@ -217,6 +239,7 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   }
   h << "<h2 id=\"truth\">Ground-truth comparison (virtual Owl)</h2>\n";
   if (tables_html.count("truth_comparison")) h << table("truth_comparison");
+  if (tables_html.count("servo_map_truth")) h << table("servo_map_truth");
   else h << "<p>No ground truth: this run used a real robot, or no truth file was given.</p>\n";
   h << "<h2 id=\"undetermined\">Undetermined parameters and warnings</h2>\n" << table("undetermined");
   h << "<h2 id=\"settings\">Settings and versions</h2>\n<p>Inputs recorded by the fits:</p>\n<pre>"
