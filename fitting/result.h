@@ -65,7 +65,7 @@ struct CalibrationResult {
   std::optional<models::CameraIntrinsics> cameras[2];
   std::optional<StereoEstimate> stereo;
   std::optional<models::HeadModel> head;
-  nlohmann::json inputs = nlohmann::json::object();       // observation file + sha256, options
+  nlohmann::json inputs = nlohmann::json::object();       // observation file + its FNV-1a 64 hash, options
   nlohmann::json diagnostics = nlohmann::json::object();  // per-view RMS, outliers, coverage ...
 
   const Parameter* Find(const std::string& name) const;

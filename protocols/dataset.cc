@@ -5,12 +5,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cinttypes>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -292,6 +294,65 @@ std::unique_ptr<DatasetWriter> DatasetWriter::Resume(const std::string& dir) {
   w->manifest_["resumed_utc"].push_back(UtcNow());
   w->WriteManifest();
   return w;
+}
+
+int64_t DatasetWriter::SupersedeFrom(int first_step, int64_t stamp_ns) {
+  for (auto& [name, f] : files_) std::fclose(f);  // every table is rewritten below
+  files_.clear();
+  const fs::path dir(dir_);
+  // frames.csv: relabel, keep every line (frame_index stays contiguous, JPEGs stay).
+  std::set<int64_t> superseded;
+  const std::string frames_path = (dir / "frames.csv").string();
+  bool partial = false;
+  size_t bytes = 0;
+  std::vector<std::string> lines = ReadLines(frames_path, &partial, &bytes);
+  std::string out = lines.empty() ? std::string(kFramesCsvHeader) + "\n" : lines[0] + "\n";
+  for (size_t i = 1; i < lines.size(); ++i) {
+    FrameRecord r = ParseFrameLine(lines[i], frames_path + ":" + std::to_string(i + 1));
+    if (r.step_index >= first_step) {
+      superseded.insert(r.frame_index);
+      r.step_name = "superseded:" + r.step_name;
+      r.step_index = -1;
+    }
+    out += FrameLine(r);
+  }
+  if (!superseded.empty()) WriteFileAtomic(frames_path, out);
+  // Tables: move rows of the superseded steps (or frames) out.
+  int64_t moved = 0;
+  std::vector<fs::path> tables;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file() && e.path().extension() == ".csv") tables.push_back(e.path());
+  std::sort(tables.begin(), tables.end());
+  for (const fs::path& path : tables) {
+    const std::string name = path.filename().string();
+    if (name == "frames.csv" || name == "placements.csv" || name == "steps.csv") continue;
+    const std::vector<std::string> t = ReadLines(path.string(), &partial, &bytes);
+    if (t.empty()) continue;
+    const std::vector<std::string> header = SplitCsv(t[0]);
+    const bool by_step = !header.empty() && header[0] == "step_index";
+    const bool by_frame = !header.empty() && header[0] == "frame_index";
+    if (!by_step && !by_frame) continue;
+    std::string keep = t[0] + "\n", gone;
+    for (size_t i = 1; i < t.size(); ++i) {
+      const std::vector<std::string> f = SplitCsv(t[i]);
+      const std::string where = path.string() + ":" + std::to_string(i + 1) + " field " + header[0];
+      const int64_t key = f.empty() ? -1 : ParseInt(f[0], where);
+      const bool drop = by_step ? key >= first_step : superseded.count(key) > 0;
+      (drop ? gone : keep) += t[i] + "\n";
+    }
+    if (gone.empty()) continue;
+    fs::create_directories(dir / "superseded");
+    const fs::path side = dir / "superseded" / name;
+    const bool fresh = !fs::exists(side) || fs::file_size(side) == 0;
+    const std::string previous = fresh ? t[0] + "\n" : ReadWholeFile(side.string());
+    WriteFileAtomic(side.string(), previous + gone);  // first, so a crash here loses nothing
+    WriteFileAtomic(path.string(), keep);
+    moved += static_cast<int64_t>(std::count(gone.begin(), gone.end(), '\n'));
+  }
+  Event(stamp_ns, "supersede",
+        "resuming at step " + std::to_string(first_step) + ": " + std::to_string(superseded.size()) +
+            " frames relabelled 'superseded:', " + std::to_string(moved) + " table rows moved to superseded/");
+  return static_cast<int64_t>(superseded.size());
 }
 
 DatasetWriter::~DatasetWriter() {

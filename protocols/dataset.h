@@ -31,6 +31,9 @@
 //                     per finished step ("done" or "failed"); resume continues after the last
 //                     done step.
 //   events.log       stamp_ns<TAB>kind<TAB>message: progress, clamps, prompts, aborts.
+//   superseded/      after --resume: the rows the interrupted step had written to
+//                     observations.csv and the measurement tables (its frames stay in
+//                     frames.csv with step_index -1, step_name "superseded:<name>").
 //   observations.csv (calib/observation_io.h) when the protocol ran detection.
 //   Measurement tables written by closed-loop steps (all CSV with a header row):
 //     fixations.csv      fixate steps: one row per fixation (vergence ranging).
@@ -131,6 +134,13 @@ class DatasetWriter {
   void AppendStep(const StepRecord& step);
   const std::vector<StepRecord>& Steps() const { return steps_; }
   void Event(int64_t stamp_ns, const std::string& kind, const std::string& message);
+
+  // Resume support: the rows an interrupted step (and any later one) left behind, so that the
+  // re-run step does not count twice. Nothing is deleted: frames of steps >= first_step keep
+  // their line and JPEG but get step_index -1 and step_name "superseded:<name>"; their rows of
+  // observations.csv and of every measurement table with a step_index column move to
+  // DIR/superseded/<table>. Each file is rewritten atomically. Returns the frames relabelled.
+  int64_t SupersedeFrom(int first_step, int64_t stamp_ns);
 
   // Appends one row to a measurement table DIR/<name>, writing `header` first if the file is
   // new. Values are written as given (the caller formats them).

@@ -750,6 +750,8 @@ RunSummary Runner::Run() {
     for (const StepRecord& r : writer_->Steps())
       if (r.status == "done" && r.step_index >= 0 && r.step_index < int(done.size())) done[r.step_index] = true;
     while (first_step < int(done.size()) && done[first_step]) ++first_step;
+    // What the interrupted step recorded is set aside, so the re-run does not count twice.
+    writer_->SupersedeFrom(first_step, robot_.NowNs());
     // Coverage continues over the corners detected before the interruption.
     const std::string obs_path = o_.out_dir + "/observations.csv";
     if (std::filesystem::exists(obs_path)) {

@@ -3,6 +3,7 @@
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -157,6 +158,19 @@ TEST(Runner, ResumeContinuesAfterTheLastFinishedStep) {
   for (const StepRecord& r : ReadStepsCsv(dir))
     if (r.status == "done") done.push_back(r.step_index);
   EXPECT_EQ(done, (std::vector<int>{0, 1, 2}));
+  // The interrupted attempt of step 1 is set aside, not counted twice and not deleted: every
+  // step has exactly its own frames, and the old ones are labelled.
+  std::map<int, int> per_step;
+  int superseded = 0;
+  for (const FrameRecord& r : ReadFramesCsv(dir)) {
+    ++per_step[r.step_index];
+    if (r.step_name.rfind("superseded:", 0) == 0) ++superseded;
+  }
+  EXPECT_EQ(per_step[1], 30);
+  EXPECT_EQ(per_step[2], 3);
+  EXPECT_EQ(superseded, per_step[-1]);
+  EXPECT_EQ(13 + 30 + 3, per_step[0] + per_step[1] + per_step[2] + per_step[-1]);
+  EXPECT_GT(superseded, 0);
   // Resuming with another protocol is refused.
   testing::FakeRobot robot;
   RunOptions o;
