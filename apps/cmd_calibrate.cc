@@ -4,6 +4,8 @@
 // ranging, step responses, gains and limits (fitting/*_eval.h), compares with the truth on
 // the virtual Owl, and writes DIR/results.json, DIR/evaluation.json, DIR/calibration.yaml,
 // DIR/exports/, DIR/figures/, DIR/tables/ and DIR/report/index.html.
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -43,6 +45,7 @@ struct CalibrateOptions {
   RobotOptions robot;
   std::string out;
   std::vector<std::string> protocols;  // default: the standard suite
+  bool non_interactive = false;
   bool no_figures = false;
   bool quiet = false;
 };
@@ -299,6 +302,10 @@ int RunCalibrate(const CalibrateOptions& o) {
     ro.out_dir = dir;
     o.robot.FillRunOptions(&ro);
     ro.progress = nullptr;
+    // A real robot: a person places the targets, prompted on the terminal (the prompt and the
+    // answer are recorded in placements.csv); piped or --non-interactive: the protocol's poses
+    // are assumed, and the dataset says so.
+    ro.interactive = !o.robot.IsSim() && !o.non_interactive && ::isatty(STDIN_FILENO);
     ro.stop_flag = stop;
     const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
     run_info[p.name] = {{"status", s.status}, {"frames", s.num_frames}, {"clamped", s.num_clamped},
@@ -466,6 +473,8 @@ const bool kRegistered = RegisterCommand(
     [](CLI::App* cmd) {
       auto o = std::make_shared<CalibrateOptions>();
       AddRobotOptions(cmd, &o->robot);
+      cmd->add_flag("--non-interactive", o->non_interactive,
+                    "real robot: do not prompt; assume targets are placed as the protocols say");
       cmd->add_option("--protocols", o->protocols, "protocols to run instead of the standard suite");
       cmd->add_option("--out", o->out, "report folder to create")->required();
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
