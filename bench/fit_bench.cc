@@ -63,8 +63,8 @@ void VirtualOwlSection() {
       if (!truth.Project(p_cam.data(), px)) continue;
       // OpenCV may number the board from either end; compare with the nearer end's corner.
       const Eigen::Vector3d p2 = cam_from_base * (base_from_target * corners.at(int(d.pixels.size()) - 1 - d.corner_ids[i]));
-      double px2[2];
-      truth.Project(p2.data(), px2);
+      double px2[2] = {px[0], px[1]};
+      if (!truth.Project(p2.data(), px2)) px2[0] = px2[1] = 1e9;  // behind the camera: never the nearer
       const double e1 = (d.pixels[i] - Eigen::Vector2d(px[0], px[1])).squaredNorm();
       const double e2 = (d.pixels[i] - Eigen::Vector2d(px2[0], px2[1])).squaredNorm();
       err_sq += std::min(e1, e2);

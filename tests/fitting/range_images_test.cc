@@ -82,7 +82,7 @@ TEST(RangeImages, ResultsJsonKeepsTheJointStereoCovariance) {
   r.cameras[1] = rig.cameras[1];
   StereoEstimate est;
   est.right_from_left = rig.right_from_left;
-  for (int i = 0; i < n; ++i) est.full_names.push_back("p" + std::to_string(i));
+  for (int i = 0; i < n; ++i) est.full_names.push_back(std::string("p").append(std::to_string(i)));
   // fx of both eyes and T_x fully correlated (a common scale error), sigma 2 px and 0.2 mm.
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
   g(0) = 2.0;
@@ -93,7 +93,12 @@ TEST(RangeImages, ResultsJsonKeepsTheJointStereoCovariance) {
   est.full_covariance = g * g.transpose() + 1e-12 * Eigen::MatrixXd::Identity(n, n);
   est.covariance = est.full_covariance.bottomRightCorner(6, 6);
   r.stereo = est;
-  r.Set({"left.fx", 585, 2.0, "px"});
+  Parameter fx;
+  fx.name = "left.fx";
+  fx.value = 585;
+  fx.sigma = 2.0;
+  fx.unit = "px";
+  r.Set(fx);
   const CalibrationResult back = ResultFromJson(ToJson(r));
   ASSERT_TRUE(back.stereo.has_value());
   ASSERT_EQ(back.stereo->full_names.size(), size_t(n));

@@ -166,7 +166,9 @@ TEST(Report, TablesCarryValuesSigmasAndTruth) {
       EXPECT_NEAR(std::stod(row[2]), 0.033, 0.002) << ToCsv(by["servo_map_truth"]);
       EXPECT_NEAR(std::abs(std::stod(row[4])), 0.033, 0.002);
     }
-    if (row[0] == "Ry") EXPECT_LT(std::stod(row[2]), 1e-9);
+    if (row[0] == "Ry") {
+      EXPECT_LT(std::stod(row[2]), 1e-9);
+    }
   }
   const std::string md = ToMarkdown(by["parameters"]);
   EXPECT_NE(md.find("| servo.Rx.centre_us | 1540.30 | 0.4 | us | yes | 1540 | 0.3 | 0.75 |"), std::string::npos) << md;
