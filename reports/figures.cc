@@ -47,7 +47,7 @@ std::vector<Figure> MakeServoFigures(const ReportData& d) {
     const fitting::NamedCovariance cov = fitting::CovarianceFromResult(d.result, names);
     Figure dev{"servo_" + std::string(sname == "Neck" ? "neck" : sname) + "_deviation",
                sname + ": fitted map minus the course's nominal map (0.113 deg/us at the configured centre)",
-               "pulse width [us]", "angle difference [deg]", {}, {}, "top left"};
+               "pulse width [us]", "angle difference [deg]", {}, {"set bmargin 6"}, "outside bottom center horizontal"};
     for (auto& ch : dev.name) ch = std::tolower(ch);
     dev.caption = sname + ": the fitted map minus the nominal course map, with its +-2 sigma band from the fit "
                           "covariance (centre, scale, quadratic and cubic terms). On the virtual Owl the truth is dashed.";
