@@ -364,11 +364,12 @@ int RunCalibrate(const CalibrateOptions& o) {
     progress("head fit: " + std::to_string(views.size()) + " views");
     for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
     fitting::HeadFitOptions ho;
-    // The intrinsics start from the stereo fit and are refined on the sweep (boards at three
+    // The intrinsics start from the stereo fit and are refined on the sweep (boards at four
     // distances over the whole image). Held, their errors are not in any sigma and bias the
     // pan zeros: the head-yaw gauge puts pan zero on the eye baseline, and a relative focal
     // length error of 2e-4 between the eyes moves one eye centre's depth by ~0.15 mm at 0.6 m,
-    // 0.15 deg of both pan maps (virtual Owl: Rx/Lx 0.17/0.18 deg RMS held, 0.003/0.003 refined).
+    // 0.15 deg of both pan maps (virtual Owl: Rx/Lx 0.17/0.18 deg RMS held; refined, the
+    // report's servo_map_truth table shows them, 0.03-0.04 deg).
     ho.fit_intrinsics = true;
     // Whitening: the assumed corner sigma (0.15 px, HeadFitOptions), not the stereo fit's a
     // posteriori 0.025 px. On the virtual Owl the smaller value leaves 4 of 58 head parameters

@@ -2,10 +2,8 @@
 // records a dataset (protocols/runner.h, protocols/dataset.h).
 #include <unistd.h>
 
-#include <fstream>
 #include <iostream>
 #include <memory>
-#include <sstream>
 
 #include "apps/command_registry.h"
 #include "apps/robot_options.h"

@@ -16,8 +16,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string Fmt(double v, int prec) { return FixedOrDash(v, prec); }
-
 void MarkUndetermined(CalibrationResult* r, const std::string& name, const std::string& why) {
   for (auto& p : r->parameters) {
     if (p.name != name) continue;
@@ -99,8 +97,8 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
   const double spread = std::min(c.coverage[0].spread_deg, c.coverage[1].spread_deg);
   if (spread < vo.min_spread_deg) {
     c.poor = true;
-    const std::string why = "no tilt: board normals span only " + Fmt(spread, 1) + " deg (< " +
-                            Fmt(vo.min_spread_deg, 0) +
+    const std::string why = "no tilt: board normals span only " + FixedOrDash(spread, 1) + " deg (< " +
+                            FixedOrDash(vo.min_spread_deg, 0) +
                             "), so the focal length trades against the board distance and the principal point "
                             "against the board position";
     c.verdict.push_back("focal length, principal point and the baseline's z component are not determined (" + why +
@@ -115,8 +113,8 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
     if (cov.grid_fraction < vo.min_grid_coverage || cov.max_radius_fraction < vo.min_radius_fraction) {
       c.poor = true;
       const std::string why = std::string("board always central in the ") + eye_name[e] + " eye: corners in " +
-                              Fmt(100 * cov.grid_fraction, 0) + " % of the image cells, out to " +
-                              Fmt(100 * cov.max_radius_fraction, 0) + " % of the half-diagonal";
+                              FixedOrDash(100 * cov.grid_fraction, 0) + " % of the image cells, out to " +
+                              FixedOrDash(100 * cov.max_radius_fraction, 0) + " % of the half-diagonal";
       c.verdict.push_back("higher distortion terms (k2, k3, k4-k6) of the " + std::string(eye_name[e]) +
                           " eye are not determined (" + why + ")");
       for (const char* n : {"k2", "k3", "k4", "k5", "k6"}) MarkUndetermined(&c.result, std::string(eye_name[e]) + "." + n, why);
@@ -156,26 +154,26 @@ std::string ImageSetReportMarkdown(const ImageSetCalibration& c, const std::vect
     for (const auto& v : c.verdict) md << "- " << v << "\n";
     md << "\n";
   }
-  md << "Pairs used: " << c.fit.paired_frames.size() << "; RMS left " << Fmt(c.fit.rms_px[0], 3) << " px, right "
-     << Fmt(c.fit.rms_px[1], 3) << " px, joint " << Fmt(c.fit.rms_joint_px, 3) << " px; rectified |dy| mean "
-     << Fmt(c.fit.rectified_dy_mean_px, 3) << " px, max " << Fmt(c.fit.rectified_dy_max_px, 3) << " px.\n\n";
+  md << "Pairs used: " << c.fit.paired_frames.size() << "; RMS left " << FixedOrDash(c.fit.rms_px[0], 3) << " px, right "
+     << FixedOrDash(c.fit.rms_px[1], 3) << " px, joint " << FixedOrDash(c.fit.rms_joint_px, 3) << " px; rectified |dy| mean "
+     << FixedOrDash(c.fit.rectified_dy_mean_px, 3) << " px, max " << FixedOrDash(c.fit.rectified_dy_max_px, 3) << " px.\n\n";
   md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
   for (const auto& p : c.result.parameters)
-    md << "| " << p.name << " | " << Fmt(p.value, 4) << " | " << (p.determined ? Fmt(p.sigma, 4) : "not determined")
+    md << "| " << p.name << " | " << FixedOrDash(p.value, 4) << " | " << (p.determined ? FixedOrDash(p.sigma, 4) : "not determined")
        << " | " << p.unit << " | " << p.note << " |\n";
   const char* eye_name[2] = {"left", "right"};
   for (int e = 0; e < 2; ++e) {
     const EyeCoverage& cov = c.coverage[e];
-    md << "\n## " << eye_name[e] << " eye: coverage " << Fmt(100 * cov.grid_fraction, 0) << " % of cells, radius "
-       << Fmt(100 * cov.max_radius_fraction, 0) << " %, tilt up to " << Fmt(cov.max_tilt_deg, 1)
-       << " deg, orientation spread " << Fmt(cov.spread_deg, 1) << " deg\n\n| frame | pair | RMS (px) | tilt (deg) |\n"
+    md << "\n## " << eye_name[e] << " eye: coverage " << FixedOrDash(100 * cov.grid_fraction, 0) << " % of cells, radius "
+       << FixedOrDash(100 * cov.max_radius_fraction, 0) << " %, tilt up to " << FixedOrDash(cov.max_tilt_deg, 1)
+       << " deg, orientation spread " << FixedOrDash(cov.spread_deg, 1) << " deg\n\n| frame | pair | RMS (px) | tilt (deg) |\n"
        << "|---|---|---|---|\n";
     const IntrinsicsFit& f = c.fit.per_eye[e];
     for (size_t i = 0; i < f.frame_indices.size(); ++i) {
       const int fr = f.frame_indices[i];
       md << "| " << fr << " | " << (fr >= 0 && fr < static_cast<int>(keys.size()) ? keys[fr] : "") << " | "
-         << (i < f.view_rms_px.size() ? Fmt(f.view_rms_px[i], 3) : "-") << " | "
-         << (i < cov.tilt_deg.size() ? Fmt(cov.tilt_deg[i], 1) : "-") << " |\n";
+         << (i < f.view_rms_px.size() ? FixedOrDash(f.view_rms_px[i], 3) : "-") << " | "
+         << (i < cov.tilt_deg.size() ? FixedOrDash(cov.tilt_deg[i], 1) : "-") << " |\n";
     }
   }
   return md.str();

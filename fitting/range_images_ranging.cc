@@ -22,8 +22,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string Fmt(double v, int prec) { return FixedOrDash(v, prec); }
-
 cv::Mat CameraMatrix(const models::CameraIntrinsics& c) {
   return (cv::Mat_<double>(3, 3) << c.params[0], 0, c.params[2], 0, c.params[1], c.params[3], 0, 0, 1);
 }
@@ -297,13 +295,13 @@ std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
   c << "name,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,z,disparity_px,"
        "sigma_disparity_px,dy_px,ncc,second_ncc,ray_gap_mm,ok,message\n";
   for (const auto& r : m) {
-    c << r.name << "," << Fmt(r.true_m * 100, 2) << "," << (r.ok ? Fmt(r.range_m * 100, 3) : "") << ","
-      << (r.ok ? Fmt(r.error_m() * 100, 3) : "") << "," << (r.ok ? Fmt(100 * r.error_m() / r.true_m, 3) : "") << ","
-      << (r.ok ? Fmt(r.sigma_m * 100, 3) : "") << "," << (r.ok ? Fmt(r.sigma_calib_m * 100, 3) : "") << ","
-      << (r.ok ? Fmt(r.sigma_match_m * 100, 3) : "") << "," << (r.ok ? Fmt(r.error_m() / r.error_sigma_m(), 2) : "") << ","
-      << Fmt(r.match.disparity_px, 3) << "," << Fmt(r.match.sigma_disparity_px, 3) << ","
-      << Fmt(r.match.dy_px, 2) << "," << Fmt(r.match.ncc, 3) << "," << Fmt(r.match.second_ncc, 3) << ","
-      << Fmt(r.ray_gap_m * 1000, 2) << "," << (r.ok ? 1 : 0) << ",\"" << r.message << "\"\n";
+    c << r.name << "," << FixedOrDash(r.true_m * 100, 2) << "," << (r.ok ? FixedOrDash(r.range_m * 100, 3) : "") << ","
+      << (r.ok ? FixedOrDash(r.error_m() * 100, 3) : "") << "," << (r.ok ? FixedOrDash(100 * r.error_m() / r.true_m, 3) : "") << ","
+      << (r.ok ? FixedOrDash(r.sigma_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_calib_m * 100, 3) : "") << ","
+      << (r.ok ? FixedOrDash(r.sigma_match_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "") << ","
+      << FixedOrDash(r.match.disparity_px, 3) << "," << FixedOrDash(r.match.sigma_disparity_px, 3) << ","
+      << FixedOrDash(r.match.dy_px, 2) << "," << FixedOrDash(r.match.ncc, 3) << "," << FixedOrDash(r.match.second_ncc, 3) << ","
+      << FixedOrDash(r.ray_gap_m * 1000, 2) << "," << (r.ok ? 1 : 0) << ",\"" << r.message << "\"\n";
   }
   return c.str();
 }
@@ -315,18 +313,18 @@ std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const Ran
         "error/sigma | disparity (px) | NCC |\n|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : m) {
     if (!r.ok) {
-      md << "| " << r.name << " | " << Fmt(r.true_m * 100, 1) << " | not ranged: " << r.message
+      md << "| " << r.name << " | " << FixedOrDash(r.true_m * 100, 1) << " | not ranged: " << r.message
          << " | | | | | | | |\n";
       continue;
     }
-    md << "| " << r.name << " | " << Fmt(r.true_m * 100, 1) << " | " << Fmt(r.range_m * 100, 2) << " | "
-       << Fmt(100 * r.error_m() / r.true_m, 2) << " | " << Fmt(r.sigma_m * 100, 2) << " | "
-       << Fmt(r.sigma_calib_m * 100, 2) << " / " << Fmt(r.sigma_match_m * 100, 2) << " | "
-       << Fmt(r.truth_sigma_m * 100, 2) << " | " << Fmt(r.error_m() / r.error_sigma_m(), 2) << " | " << Fmt(r.match.disparity_px, 2) << " | " << Fmt(r.match.ncc, 3)
+    md << "| " << r.name << " | " << FixedOrDash(r.true_m * 100, 1) << " | " << FixedOrDash(r.range_m * 100, 2) << " | "
+       << FixedOrDash(100 * r.error_m() / r.true_m, 2) << " | " << FixedOrDash(r.sigma_m * 100, 2) << " | "
+       << FixedOrDash(r.sigma_calib_m * 100, 2) << " / " << FixedOrDash(r.sigma_match_m * 100, 2) << " | "
+       << FixedOrDash(r.truth_sigma_m * 100, 2) << " | " << FixedOrDash(r.error_m() / r.error_sigma_m(), 2) << " | " << FixedOrDash(r.match.disparity_px, 2) << " | " << FixedOrDash(r.match.ncc, 3)
        << " |\n";
   }
-  md << "\nRanged " << s.num_ranged << "/" << s.num_rows << "; mean |error| " << Fmt(100 * s.mean_abs_rel, 2)
-     << " %, max " << Fmt(100 * s.max_abs_rel, 2) << " %; max |error|/sigma " << Fmt(s.max_abs_z, 2) << "; "
+  md << "\nRanged " << s.num_ranged << "/" << s.num_rows << "; mean |error| " << FixedOrDash(100 * s.mean_abs_rel, 2)
+     << " %, max " << FixedOrDash(100 * s.max_abs_rel, 2) << " %; max |error|/sigma " << FixedOrDash(s.max_abs_z, 2) << "; "
      << s.num_outside_3sigma << " outside +-3 sigma (error/sigma uses sqrt(sigma^2 + truth sigma^2)).\n";
   return md.str();
 }

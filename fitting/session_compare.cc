@@ -14,8 +14,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string Fmt(double v, int prec) { return FixedOrDash(v, prec); }
-
 // Decimals for a value of this magnitude and sigma: two significant digits of sigma.
 int Decimals(double sigma, double value) {
   const double ref = std::isfinite(sigma) && sigma > 0 ? sigma : std::abs(value) * 1e-3;
@@ -68,7 +66,7 @@ SessionComparison CompareSessions(const std::vector<NamedResult>& sessions,
         d.diff.push_back(diff);
         d.z.push_back(z);
         if (std::isfinite(z) && std::abs(z) > z_changed)
-          c.changed.push_back(c.parameters[i] + ": " + c.sessions[a] + " -> " + c.sessions[b] + " z = " + Fmt(z, 1));
+          c.changed.push_back(c.parameters[i] + ": " + c.sessions[a] + " -> " + c.sessions[b] + " z = " + FixedOrDash(z, 1));
       }
       c.pairs.push_back(d);
     }
@@ -91,22 +89,22 @@ std::string SessionComparisonMarkdown(const SessionComparison& c) {
         md << " absent |";
       } else {
         const int dec = Decimals(cell.sigma, cell.value);
-        md << " " << Fmt(cell.value, dec) << " ± " << (cell.determined ? Fmt(cell.sigma, dec) : "n/d") << " |";
+        md << " " << FixedOrDash(cell.value, dec) << " ± " << (cell.determined ? FixedOrDash(cell.sigma, dec) : "n/d") << " |";
       }
     }
     for (const auto& p : c.pairs) {
       const double z = p.z[i];
-      md << " " << Fmt(p.diff[i], 3) << " (" << (std::isfinite(z) ? Fmt(z, 1) : "no sigma")
+      md << " " << FixedOrDash(p.diff[i], 3) << " (" << (std::isfinite(z) ? FixedOrDash(z, 1) : "no sigma")
          << (std::isfinite(z) && std::abs(z) > c.z_changed ? " **changed**" : "") << ") |";
     }
     md << "\n";
   }
   md << "\n";
   if (c.changed.empty()) {
-    md << "No parameter differs by more than " << Fmt(c.z_changed, 0) << " sigma between sessions: the differences are "
+    md << "No parameter differs by more than " << FixedOrDash(c.z_changed, 0) << " sigma between sessions: the differences are "
        << "consistent with calibration noise.\n";
   } else {
-    md << "Differences beyond " << Fmt(c.z_changed, 0) << " sigma (the robot or its set-up changed, or a sigma is "
+    md << "Differences beyond " << FixedOrDash(c.z_changed, 0) << " sigma (the robot or its set-up changed, or a sigma is "
        << "too small):\n";
     for (const auto& s : c.changed) md << "- " << s << "\n";
   }

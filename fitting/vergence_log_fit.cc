@@ -161,8 +161,6 @@ double Median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-std::string Fmt(double v, int prec) { return FixedOrDash(v, prec); }
-
 }  // namespace
 
 std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path) {
@@ -276,9 +274,9 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
       s = f;
       ipd_free = true;
     } else {
-      fit.notes.push_back("IPD not determined by this log (free, it went to " + Fmt(f.maps.ipd_m * 1000, 1) +
-                          " mm, lowering chi2 by only " + Fmt(gain, 1) + " residual variances" +
-                          "; it trades against the us/deg scales); fixed at " + Fmt(options.ipd_m * 1000, 1) +
+      fit.notes.push_back("IPD not determined by this log (free, it went to " + FixedOrDash(f.maps.ipd_m * 1000, 1) +
+                          " mm, lowering chi2 by only " + FixedOrDash(gain, 1) + " residual variances" +
+                          "; it trades against the us/deg scales); fixed at " + FixedOrDash(options.ipd_m * 1000, 1) +
                           " mm, so the scales are relative to that IPD");
     }
   }
@@ -286,13 +284,13 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     const double sig = s.covariance_ok ? s.sigma["datum"] * std::max(1.0, std::sqrt(s.chi2 / std::max(1, s.dof)))
                                        : std::numeric_limits<double>::infinity();
     if (!(sig < options.datum_sigma_threshold_m)) {
-      fit.notes.push_back("distance datum not determined (sigma " + Fmt(sig * 1000, 0) + " mm); fixed at " +
-                          Fmt(options.datum_offset_m * 1000, 0) + " mm in front of the eye centres");
+      fit.notes.push_back("distance datum not determined (sigma " + FixedOrDash(sig * 1000, 0) + " mm); fixed at " +
+                          FixedOrDash(options.datum_offset_m * 1000, 0) + " mm in front of the eye centres");
       datum_free = false;
       s = Solve(rows, options, ipd_free, datum_free, true);
     }
   } else {
-    fit.notes.push_back("distance datum fixed at " + Fmt(options.datum_offset_m * 1000, 0) + " mm by option");
+    fit.notes.push_back("distance datum fixed at " + FixedOrDash(options.datum_offset_m * 1000, 0) + " mm by option");
   }
   if (s.runs.size() > 1 && options.per_run_bearing)
     fit.notes.push_back("one target-line bearing per run (run " + std::to_string(s.runs[0]) +
@@ -409,11 +407,11 @@ std::string VergenceReportMarkdown(const std::vector<VergenceLogRow>& rows,
                                    const LooSummary& loo) {
   std::ostringstream md;
   md << "# Vergence log fit\n\n";
-  md << rows.size() << " rows, " << fit.runs.size() << " run(s); PWM residual sigma " << Fmt(fit.residual_sigma_us, 2)
+  md << rows.size() << " rows, " << fit.runs.size() << " run(s); PWM residual sigma " << FixedOrDash(fit.residual_sigma_us, 2)
      << " us; solver: " << fit.summary.termination << (fit.summary.usable ? "" : " (NOT usable)") << "\n\n";
   md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
   for (const auto& p : fit.parameters)
-    md << "| " << p.name << " | " << Fmt(p.value, 3) << " | " << (p.determined ? Fmt(p.sigma, 3) : "not determined")
+    md << "| " << p.name << " | " << FixedOrDash(p.value, 3) << " | " << (p.determined ? FixedOrDash(p.sigma, 3) : "not determined")
        << " | " << p.unit << " | " << p.note << " |\n";
   if (!fit.notes.empty()) {
     md << "\nNotes:\n";
@@ -429,16 +427,16 @@ std::string VergenceReportMarkdown(const std::vector<VergenceLogRow>& rows,
      << "|---|---|---|---|---|---|---|\n";
   for (size_t i = 0; i < std::min<size_t>(5, d.size()); ++i) {
     const auto& r = rows[d[i].row];
-    md << "| " << d[i].row << " | " << r.run << " | " << Fmt(r.true_distance_m * 100, 0) << " | "
-       << Fmt(d[i].residual_rx, 2) << " | " << Fmt(d[i].residual_lx, 2) << " | " << Fmt(100 * d[i].chi2 / total, 1)
-       << " % | " << Fmt(d[i].range_per_us_m * 100, 2) << " |\n";
+    md << "| " << d[i].row << " | " << r.run << " | " << FixedOrDash(r.true_distance_m * 100, 0) << " | "
+       << FixedOrDash(d[i].residual_rx, 2) << " | " << FixedOrDash(d[i].residual_lx, 2) << " | " << FixedOrDash(100 * d[i].chi2 / total, 1)
+       << " % | " << FixedOrDash(d[i].range_per_us_m * 100, 2) << " |\n";
   }
   md << "\n## Leave-one-out range error vs the course's fixed-constant method\n\n"
      << "| | mean abs error | median abs error | no fix |\n|---|---|---|---|\n"
-     << "| fixed constants | " << Fmt(100 * loo.fixed_mean_abs_rel, 1) << " % | "
-     << Fmt(100 * loo.fixed_median_abs_rel, 1) << " % | " << loo.fixed_failures << " |\n"
-     << "| fitted maps (leave-one-out) | " << Fmt(100 * loo.loo_mean_abs_rel, 1) << " % | "
-     << Fmt(100 * loo.loo_median_abs_rel, 1) << " % | " << loo.loo_failures << " |\n\n"
+     << "| fixed constants | " << FixedOrDash(100 * loo.fixed_mean_abs_rel, 1) << " % | "
+     << FixedOrDash(100 * loo.fixed_median_abs_rel, 1) << " % | " << loo.fixed_failures << " |\n"
+     << "| fitted maps (leave-one-out) | " << FixedOrDash(100 * loo.loo_mean_abs_rel, 1) << " % | "
+     << FixedOrDash(100 * loo.loo_median_abs_rel, 1) << " % | " << loo.loo_failures << " |\n\n"
      << "(a row without a fix, or off by more than 100 %, counts as 100 %)\n";
   return md.str();
 }
@@ -450,14 +448,14 @@ std::string VergenceRowsCsv(const std::vector<VergenceLogRow>& rows,
   c << "row,run,true_cm,Rx_us,Lx_us,fixed_cm,loo_cm,fit_cm,res_rx,res_lx,chi2,cm_per_us\n";
   for (size_t i = 0; i < rows.size(); ++i) {
     const auto& r = rows[i];
-    auto cm = [](const std::optional<double>& v) { return v ? Fmt(*v * 100, 2) : std::string(""); };
+    auto cm = [](const std::optional<double>& v) { return v ? FixedOrDash(*v * 100, 2) : std::string(""); };
     const auto fitted = fit.maps.Distance(r.rx_us, r.lx_us);
     const LooRow* l = i < loo.rows.size() ? &loo.rows[i] : nullptr;
     const VergenceRowDiagnostic& d = fit.rows[i];
-    c << i << "," << r.run << "," << Fmt(r.true_distance_m * 100, 2) << "," << r.rx_us << "," << r.lx_us << ","
+    c << i << "," << r.run << "," << FixedOrDash(r.true_distance_m * 100, 2) << "," << r.rx_us << "," << r.lx_us << ","
       << (l ? cm(l->fixed_m) : "") << "," << (l ? cm(l->loo_m) : "") << "," << cm(fitted) << ","
-      << Fmt(d.residual_rx, 3) << "," << Fmt(d.residual_lx, 3) << "," << Fmt(d.chi2, 3) << ","
-      << Fmt(d.range_per_us_m * 100, 3) << "\n";
+      << FixedOrDash(d.residual_rx, 3) << "," << FixedOrDash(d.residual_lx, 3) << "," << FixedOrDash(d.chi2, 3) << ","
+      << FixedOrDash(d.range_per_us_m * 100, 3) << "\n";
   }
   return c.str();
 }

@@ -349,6 +349,7 @@ int64_t DatasetWriter::SupersedeFrom(int first_step, int64_t stamp_ns) {
     WriteFileAtomic(path.string(), keep);
     moved += static_cast<int64_t>(std::count(gone.begin(), gone.end(), '\n'));
   }
+  if (superseded.empty() && moved == 0) return 0;  // stopped between steps: nothing to set apart
   Event(stamp_ns, "supersede",
         "resuming at step " + std::to_string(first_step) + ": " + std::to_string(superseded.size()) +
             " frames relabelled 'superseded:', " + std::to_string(moved) + " table rows moved to superseded/");

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -161,7 +162,9 @@ TEST(Report, TablesCarryValuesSigmasAndTruth) {
   // Whole-map comparison: Rx's centre is 0.3 us off at 0.110 deg/us, so every angle is about
   // 0.033 deg off; Lx's scale is off by 0.0004 deg/us, zero at its centre.
   ASSERT_TRUE(by.count("servo_map_truth"));
+  std::set<std::string> servos_seen;
   for (const auto& row : by["servo_map_truth"].rows) {
+    servos_seen.insert(row[0]);
     if (row[0] == "Rx") {
       EXPECT_NEAR(std::stod(row[2]), 0.033, 0.002) << ToCsv(by["servo_map_truth"]);
       EXPECT_NEAR(std::abs(std::stod(row[4])), 0.033, 0.002);
@@ -170,6 +173,7 @@ TEST(Report, TablesCarryValuesSigmasAndTruth) {
       EXPECT_LT(std::stod(row[2]), 1e-9);
     }
   }
+  EXPECT_TRUE(servos_seen.count("Rx") && servos_seen.count("Ry")) << ToCsv(by["servo_map_truth"]);
   const std::string md = ToMarkdown(by["parameters"]);
   EXPECT_NE(md.find("| servo.Rx.centre_us | 1540.30 | 0.4 | us | yes | 1540 | 0.3 | 0.75 |"), std::string::npos) << md;
   const std::string tex = ToLatex(by["parameters"]);

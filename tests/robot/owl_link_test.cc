@@ -133,7 +133,8 @@ TEST(ServoClient, RefusesToGuessAHostAndRejectsBadValues) {
 }
 
 TEST(HostPort, ParsesHostAndOptionalPort) {
-  EXPECT_EQ(ParseHostPort("10.0.0.10", 12345).ToString(), "10.0.0.10:12345");
+  // Parsing only (nothing connects); a documentation address (RFC 5737), not the robot.
+  EXPECT_EQ(ParseHostPort("192.0.2.10", 12345).ToString(), "192.0.2.10:12345");
   EXPECT_EQ(ParseHostPort("127.0.0.1:4000", 12345).ToString(), "127.0.0.1:4000");
   EXPECT_EQ(ParseHostPort("localhost:80", 1).host, "localhost");
   EXPECT_THROW(ParseHostPort("", 12345), std::invalid_argument);
