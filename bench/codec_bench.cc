@@ -66,8 +66,7 @@ int main() {
   }
   // 3. MJPEG client throughput with decode + split, on the OpenCV stereo pairs side by side.
   {
-    const char* env = std::getenv("OWLCAL_SHARED_DATA");
-    const std::filesystem::path dir = std::filesystem::path(env ? env : OWLCAL_SHARED_DATA) / "opencv-stereo-chessboard";
+    const std::filesystem::path dir = std::filesystem::path(OWLCAL_DATA_DIR) / "opencv-stereo-chessboard";
     std::vector<std::vector<uint8_t>> jpegs;
     for (int i = 1; i <= 14; ++i) {
       if (i == 10) continue;  // the set has no pair 10

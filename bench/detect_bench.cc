@@ -62,8 +62,7 @@ void Time(const char* name, const std::vector<cv::Mat>& images, const calib::Tar
 }  // namespace
 
 int main() {
-  const char* env = std::getenv("OWLCAL_SHARED_DATA");
-  const std::string dir = std::string(env ? env : OWLCAL_SHARED_DATA) + "/opencv-stereo-chessboard/";
+  const std::string dir = std::string(OWLCAL_DATA_DIR) + "/opencv-stereo-chessboard/";
   std::vector<cv::Mat> boards;
   for (int i : {1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 12, 13, 14}) {
     char name[32];

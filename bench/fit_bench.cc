@@ -139,8 +139,7 @@ void MonteCarloSection() {
 }
 
 int main() {
-  const char* env = std::getenv("OWLCAL_SHARED_DATA");
-  const std::string dir = std::string(env ? env : OWLCAL_SHARED_DATA) + "/opencv-stereo-chessboard/";
+  const std::string dir = std::string(OWLCAL_DATA_DIR) + "/opencv-stereo-chessboard/";
   calib::TargetDefinition board;
   board.square_m = 1.0;
   std::vector<calib::CornerObservation> obs;

@@ -23,7 +23,6 @@ function(owlcal_tests folder)
     set(exe ${folder}_${stem})
     add_executable(${exe} ${t})
     target_link_libraries(${exe} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
-    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60
-      PROPERTIES ENVIRONMENT "OWLCAL_SHARED_DATA=${OWLCAL_SHARED_DATA}")
+    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60)
   endforeach()
 endfunction()

@@ -1,6 +1,6 @@
 #pragma once
 // Eye-pan maps from a vergence log: rows of (true distance, Rx, Lx) recorded while both eyes
-// fixate one target (issue 7, item 4; shared/data/owl-real/noble2020-vergence-range).
+// fixate one target (issue 7, item 4; data/owl-real/noble2020-vergence-range).
 //
 // Model (head frame of models/vergence.h: eye rotation centres IPD apart on x, midpoint at
 // the origin, z forward). Run r's target moves along a line from the midpoint at bearing

@@ -30,7 +30,8 @@ TEST(RealDarvill2019, ThreeSessionsComparedInOneTable) {
   for (int s = 1; s <= 3; ++s) {
     const std::string dir = SharedData() + "/owl-real/darvill2019-chessboard/session" + std::to_string(s);
     const auto list = calib::ListImagePairs(dir, pairs);
-    EXPECT_EQ(list.pairs.size(), 20u);
+    // The repository keeps 12, 12 and 13 of the 20 pairs (data/owl-real/darvill2019-chessboard/README.md).
+    EXPECT_EQ(list.pairs.size(), s == 3 ? 13u : 12u);
     const auto set = calib::DetectImagePairs(list, pairs, board, det);
     const ImageSetCalibration c = CalibrateImageSet(set.observations, fit_options);
     ASSERT_TRUE(c.fit.ok) << "session " << s << ": " << c.fit.message;

@@ -111,10 +111,18 @@ TEST_F(OpenCvStereo, OneEyeOnlyNamesWhatCannotBeDetermined) {
 }
 
 TEST_F(OpenCvStereo, NoCommonFramesIsReported) {
+  ASSERT_EQ(left_->size(), 13u) << SharedData();
+  ASSERT_EQ(right_->size(), 13u);
   std::vector<calib::View> l(left_->begin(), left_->begin() + 6), r(right_->begin() + 7, right_->end());
   const StereoFit fit = FitStereo(l, r, StereoFitOptions());
   EXPECT_FALSE(fit.ok);
   EXPECT_NE(fit.message.find("no frame"), std::string::npos) << fit.message;
+}
+
+TEST(FitStereoInput, EmptyInputIsAClearErrorNotACrash) {
+  const StereoFit none = FitStereo({}, {}, StereoFitOptions());
+  EXPECT_FALSE(none.ok);
+  EXPECT_FALSE(none.message.empty());
 }
 
 // Synthetic rig in metres: the baseline comes out in mm, within its reported sigma.

@@ -1,4 +1,4 @@
-// MJPEG server + client on loopback, with the real stereo JPEGs in shared/data.
+// MJPEG server + client on loopback, with the real stereo JPEGs in data/opencv-stereo-chessboard.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -14,16 +14,14 @@
 #include "robot/mjpeg_client.h"
 #include "robot/mjpeg_server.h"
 #include "robot/socket_util.h"
+#include "tests/shared_data.h"
 
 namespace owlcal::robot {
 namespace {
 
 using namespace std::chrono_literals;
 
-std::filesystem::path SharedData() {
-  if (const char* env = std::getenv("OWLCAL_SHARED_DATA")) return env;
-  return OWLCAL_SHARED_DATA;
-}
+std::filesystem::path SharedData() { return owlcal::test_data::SharedData(); }
 
 // Side-by-side 1280x480 JPEGs made from the 13 OpenCV sample pairs (left | right).
 std::vector<std::vector<uint8_t>> StereoJpegs() {
@@ -48,7 +46,7 @@ class MjpegTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() { jpegs_ = new std::vector<std::vector<uint8_t>>(StereoJpegs()); }
   static void TearDownTestSuite() { delete jpegs_; }
-  void SetUp() override { ASSERT_EQ(jpegs_->size(), 13u) << "shared data not found under " << SharedData(); }
+  void SetUp() override { ASSERT_EQ(jpegs_->size(), 13u) << "test images not found under " << SharedData(); }
   static const std::vector<std::vector<uint8_t>>& Jpegs() { return *jpegs_; }
   static std::vector<std::vector<uint8_t>>* jpegs_;
 };
