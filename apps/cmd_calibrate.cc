@@ -3,7 +3,8 @@
 // intrinsics + stereo (fitting/stereo_fit.h) and the head (fitting/head_fit.h), evaluates
 // ranging, step responses, gains and limits (fitting/*_eval.h), compares with the truth on
 // the virtual Owl, and writes DIR/results.json, DIR/evaluation.json, DIR/calibration.yaml,
-// DIR/exports/, DIR/figures/, DIR/tables/ and DIR/report/index.html.
+// DIR/intrinsics.xml and extrinsics.xml (the course's files, mm), DIR/exports/, DIR/figures/,
+// DIR/tables/ and DIR/report/index.html.
 #include <unistd.h>
 
 #include <chrono>
@@ -32,6 +33,7 @@
 #include "protocols/robot_factory.h"
 #include "protocols/runner.h"
 #include "reports/exports.h"
+#include "reports/fit_points.h"
 #include "reports/report.h"
 #include "reports/report_data.h"
 #include "sim/virtual_owl.h"
@@ -119,29 +121,11 @@ void SplitEyes(const std::vector<calib::View>& views, std::vector<calib::View>* 
   for (const auto& v : views) (v.eye == models::kLeftEye ? l : r)->push_back(v);
 }
 
-// Reprojection residuals of the per-eye intrinsics fits, and the coverage points.
-void CollectResiduals(const fitting::StereoFit& fit,
-                      const std::vector<calib::View>& views,
-                      reports::ReportData* d) {
-  for (int e = 0; e < 2; ++e) {
-    const fitting::IntrinsicsFit& f = fit.per_eye[e];
-    std::map<int, size_t> pose_of;
-    for (size_t i = 0; i < f.frame_indices.size(); ++i) pose_of[f.frame_indices[i]] = i;
-    for (const auto& v : views) {
-      if (v.eye != e) continue;
-      for (const auto& px : v.pixels) d->coverage.push_back({e, px.x(), px.y()});
-      const auto it = pose_of.find(v.frame_index);
-      if (!f.ok || it == pose_of.end() || it->second >= f.cam_from_target.size()) continue;
-      for (size_t k = 0; k < v.pixels.size(); ++k) {
-        const Eigen::Vector3d p = f.cam_from_target[it->second] * v.points_in_target[k];
-        double pix[2];
-        if (!f.camera.Project(p.data(), pix)) continue;
-        const double dx = pix[0] - v.pixels[k].x(), dy = pix[1] - v.pixels[k].y();
-        if (std::hypot(dx, dy) > 5.0) continue;  // rejected outliers are listed by the fit
-        d->residuals.push_back({e, v.frame_index, v.pixels[k].x(), v.pixels[k].y(), dx, dy});
-      }
-    }
-  }
+// The report's name of a calibration view (frame numbers as offset in the stereo fit below).
+std::string ViewName(int frame, int /*eye*/) {
+  if (frame >= 2000000) return "intrinsics frame " + std::to_string(frame - 2000000);
+  if (frame >= 1000000) return "stereo frame " + std::to_string(frame - 1000000);
+  return "intrinsics frame " + std::to_string(frame);
 }
 
 std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
@@ -342,7 +326,7 @@ int RunCalibrate(const CalibrateOptions& o) {
       stereo = fitting::FitStereo(l, r, so);
       if (stereo->ok) {
         fitting::AppendStereoToResult(*stereo, &d.result);
-        CollectResiduals(*stereo, views, &d);
+        reports::AddFitPoints(*stereo, views, ViewName, &d);
         progress("  RMS " + reports::Fmt(stereo->rms_px[0], 3) + " / " + reports::Fmt(stereo->rms_px[1], 3) + " px");
       } else {
         d.result.warnings.push_back("stereo fit failed: " + stereo->message);
@@ -442,14 +426,8 @@ int RunCalibrate(const CalibrateOptions& o) {
 
   // 6) Files.
   reports::WriteReportData(d, o.out);
-  std::vector<std::string> skipped;
-  try {
-    reports::WriteOpenCvYaml(d.result, o.out + "/calibration.yaml");
-  } catch (const std::exception& e) {
-    skipped.push_back(std::string("calibration.yaml: ") + e.what());
-  }
-  reports::WriteAllExports(d.result, config, d.limits ? &*d.limits : nullptr, o.out + "/exports", &skipped);
-  for (const auto& s : skipped) progress("export skipped: " + s);
+  const reports::ExportSet ex = reports::WriteCalibrationFiles(d, o.out);
+  for (const auto& s : ex.skipped) progress("export skipped: " + s);
   reports::ReportOptions ro;
   ro.draw = !o.no_figures;
   const reports::ReportOutput rep = reports::WriteReport(d, o.out, ro);
@@ -468,9 +446,10 @@ const bool kRegistered = RegisterCommand(
     "calibrate",
     "The main job: run the standard suite, fit, evaluate and write the report folder.\n"
     "With no --robot it uses the in-process virtual Owl. Produces DIR/results.json (every\n"
-    "parameter with value, sigma, unit and truth), DIR/calibration.yaml (OpenCV), DIR/exports/\n"
-    "(ROS, Kalibr, mrcal, owl-pwm.h), DIR/figures/, DIR/tables/, DIR/report/index.html and the\n"
-    "recorded datasets in DIR/datasets/.",
+    "parameter with value, sigma, unit and truth), DIR/calibration.yaml (OpenCV, metres),\n"
+    "DIR/intrinsics.xml + extrinsics.xml (the course's files, mm), DIR/exports/ (ROS, Kalibr,\n"
+    "mrcal, owl-pwm.h), DIR/figures/, DIR/tables/, DIR/report/index.html and the recorded\n"
+    "datasets in DIR/datasets/.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<CalibrateOptions>();
       AddRobotOptions(cmd, &o->robot);

@@ -9,10 +9,12 @@
 #include "calib/image_pairs.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
-#include "fitting/opencv_calib_file.h"
 #include "fitting/range_images_calib.h"
 #include "owlcal_version.h"
+#include "reports/exports.h"
+#include "reports/fit_points.h"
 #include "reports/report.h"
+#include "reports/report_data.h"
 
 namespace owlcal::apps {
 namespace {
@@ -64,30 +66,42 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   fs::create_directories(a.out);
   const fs::path out(a.out);
   calib::WriteObservationsCsv((out / "observations.csv").string(), set.observations);
-  fitting::WriteResultJson(c.result, (out / "results.json").string());
   const std::string md = fitting::ImageSetReportMarkdown(c, keys);
   {
     std::ofstream f(out / "calibration.md");
     if (!f) throw std::runtime_error((out / "calibration.md").string() + ": cannot write");
     f << md;
   }
-  std::vector<std::string> written = {"observations.csv", "results.json", "calibration.md"};
-  if (c.fit.ok) {
-    const auto cv = fitting::ToOpenCvCalibration(c.fit);
-    fitting::WriteOpenCvCalibration((out / "calibration.yaml").string(), cv);
-    fitting::WriteOpenCvSplitFiles((out / "intrinsics.xml").string(), (out / "extrinsics.xml").string(), cv);
-    written.insert(written.end(), {"calibration.yaml", "intrinsics.xml", "extrinsics.xml"});
-  }
+  std::vector<std::string> written = {"observations.csv", "results.json", "evaluation.json", "calibration.md"};
+  // The report's data: the corners' residuals, views and board poses; no robot was involved
+  // (only the image size of the configuration is meaningful).
+  reports::ReportData rd;
+  rd.result = c.result;
+  rd.config.name = "none (calibration from images)";
+  rd.config.image_width = set.width;
+  rd.config.image_height = set.height;
+  rd.settings = {{"command", "owlcal calibrate-images"}, {"images", a.dir}, {"target", a.target}, {"mirror", a.mirror},
+                 {"side_by_side", a.side_by_side}, {"swap", a.swap}, {"model", a.model}, {"owlcal_version", OWLCAL_VERSION},
+                 {"robot", "none"}};
+  const std::vector<calib::View> views = calib::GroupIntoViews(set.observations);
+  auto name_of = [&](int frame, int eye) {
+    const std::string key = frame >= 0 && frame < int(list.pairs.size()) ? list.pairs[frame].key : std::to_string(frame);
+    const std::string& path = frame >= 0 && frame < int(list.pairs.size())
+                                  ? (eye == 0 ? list.pairs[frame].left_path : list.pairs[frame].right_path)
+                                  : key;
+    return "pair " + key + " (" + fs::path(path).filename().string() + ")";
+  };
+  reports::AddFitPoints(c.fit, views, name_of, &rd);
+  reports::WriteReportData(rd, a.out);
+  const reports::ExportSet ex = reports::WriteCalibrationFiles(rd, a.out);
+  for (const auto& p : ex.written) written.push_back(fs::relative(p, out).string());
+  for (const auto& s : ex.skipped) std::cerr << "export skipped: " << s << "\n";
   if (!a.no_report) {
-    reports::ReportData rd;
-    rd.result = c.result;
-    for (const auto& o : set.observations) rd.coverage.push_back({o.eye, o.pixel.x(), o.pixel.y()});
-    rd.settings = {{"command", "calibrate-images"}, {"images", a.dir}, {"target", a.target}};
     reports::ReportOptions ro;
     ro.title = "owlcal calibration from images: " + a.dir;
-    const auto rep = reports::WriteReport(rd, (out / "report").string(), ro);
+    const auto rep = reports::WriteReport(rd, a.out, ro);
     for (const auto& w : rep.warnings) std::cerr << "report: " << w << "\n";
-    written.push_back("report/");
+    written.insert(written.end(), {"figures/", "tables/", "report/index.html"});
   }
   std::cout << md << "\nwrote " << a.out << ":";
   for (const auto& w : written) std::cout << " " << w;
@@ -100,8 +114,9 @@ const bool kRegistered = RegisterCommand(
     "calibrate-images",
     "Stereo calibration from a folder of image pairs (left*/right* files, or 1280x480 side-by-side frames\n"
     "with --side-by-side): detect the target, fit both cameras and R, T with sigma, write results.json,\n"
-    "the course's intrinsics.xml/extrinsics.xml, calibration.md (verdict, per-view residuals, coverage)\n"
-    "and an HTML report. A poor set (few poses, board always central, no tilt) is named as such and the\n"
+    "calibration.yaml (OpenCV, metres), the course's intrinsics.xml/extrinsics.xml (mm), exports/ (ROS,\n"
+    "Kalibr, mrcal), calibration.md (verdict, per-view residuals, coverage) and the report\n"
+    "(report/index.html, figures/, tables/). A poor set (few poses, board always central, no tilt) is named as such and the\n"
     "parameters it cannot determine are reported as undetermined.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<CalibrateImagesOptions>();

@@ -22,14 +22,8 @@ int RunReport(const ReportCmdOptions& o) {
     throw UsageError(o.dir + " has no results.json (run `owlcal calibrate --out " + o.dir + "` first)");
   const reports::ReportData d = reports::ReadReportData(o.dir);
   if (!o.no_exports) {
-    std::vector<std::string> skipped;
-    try {
-      reports::WriteOpenCvYaml(d.result, o.dir + "/calibration.yaml");
-    } catch (const std::exception& e) {
-      skipped.push_back(std::string("calibration.yaml: ") + e.what());
-    }
-    reports::WriteAllExports(d.result, d.config, d.limits ? &*d.limits : nullptr, o.dir + "/exports", &skipped);
-    for (const auto& s : skipped) std::cout << "export skipped: " << s << "\n";
+    const reports::ExportSet ex = reports::WriteCalibrationFiles(d, o.dir);
+    for (const auto& s : ex.skipped) std::cout << "export skipped: " << s << "\n";
   }
   reports::ReportOptions ro;
   ro.draw = !o.no_figures;
@@ -47,7 +41,7 @@ const bool kRegistered = RegisterCommand(
       auto o = std::make_shared<ReportCmdOptions>();
       cmd->add_option("dir", o->dir, "calibration folder (from owlcal calibrate)")->required();
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
-      cmd->add_flag("--no-exports", o->no_exports, "do not rewrite calibration.yaml and exports/");
+      cmd->add_flag("--no-exports", o->no_exports, "do not rewrite calibration.yaml, intrinsics.xml, extrinsics.xml and exports/");
       return [o] { return RunReport(*o); };
     });
 

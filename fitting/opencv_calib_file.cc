@@ -1,5 +1,6 @@
 #include "fitting/opencv_calib_file.h"
 
+#include <cmath>
 #include <stdexcept>
 
 #include <opencv2/calib3d.hpp>
@@ -13,7 +14,21 @@ cv::Mat Skew(const cv::Mat& t) {
   return (cv::Mat_<double>(3, 3) << 0, -z, y, z, 0, -x, -y, x, 0);
 }
 
+// The comment every file carries: convention, unit and rectification.
+std::string UnitComment(const OpenCvStereoCalibration& c, bool intr, bool extr) {
+  std::string s = "owlcal stereo calibration (fields of OpenCV's stereo_calib sample and the Plymouth Owl course).";
+  if (intr) s += " M1 D1 = left camera, M2 D2 = right camera (pixels; OpenCV distortion order).";
+  if (extr) {
+    s += " x_right = R x_left + T. Lengths (T, E, P2[0,3], Q[3,2]) in " + c.length_unit + ".";
+    if (!c.R1.empty())
+      s += " R1 R2 P1 P2 Q: cv::stereoRectify, CALIB_ZERO_DISPARITY, alpha = " +
+           (std::isfinite(c.rectify_alpha) ? cv::format("%g", c.rectify_alpha) : std::string("unknown")) + ".";
+  }
+  return s;
+}
+
 void WriteFields(cv::FileStorage& fs, const OpenCvStereoCalibration& c, bool intr, bool extr) {
+  fs.writeComment(UnitComment(c, intr, extr));
   if (c.image_width > 0 && intr) {
     fs << "image_width" << c.image_width;
     fs << "image_height" << c.image_height;
@@ -28,6 +43,7 @@ void WriteFields(cv::FileStorage& fs, const OpenCvStereoCalibration& c, bool int
     put("D2", c.D2);
   }
   if (extr) {
+    fs << "length_unit" << c.length_unit;
     put("R", c.R);
     put("T", c.T);
     put("E", c.E);
@@ -38,6 +54,24 @@ void WriteFields(cv::FileStorage& fs, const OpenCvStereoCalibration& c, bool int
     put("P2", c.P2);
     put("Q", c.Q);
   }
+}
+
+void WriteFile(const std::string& path, const OpenCvStereoCalibration& c, bool intr, bool extr) {
+  cv::FileStorage fs;
+  try {
+    if (!fs.open(path, cv::FileStorage::WRITE)) throw std::runtime_error("");
+    WriteFields(fs, c, intr, extr);
+    fs.release();
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot write OpenCV calibration file " + path + " " + e.what());
+  }
+}
+
+double MetresPer(const std::string& unit) {
+  if (unit == "m") return 1.0;
+  if (unit == "mm") return 1e-3;
+  if (unit == "cm") return 1e-2;
+  return NAN;
 }
 
 void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereoCalibration* c) {
@@ -80,59 +114,100 @@ void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereo
   }
   if (!fs["image_width"].empty()) c->image_width = int(fs["image_width"]);
   if (!fs["image_height"].empty()) c->image_height = int(fs["image_height"]);
+  // The unit: stated by owlcal's files; else the course's mm when |T| > 1 (a stereo baseline
+  // of more than 1 m is not an Owl), metres otherwise.
+  c->rectify_alpha = NAN;
+  if (fs["length_unit"].isString()) {
+    c->length_unit = std::string(fs["length_unit"]);
+  } else if (!c->T.empty()) {
+    c->length_unit = cv::norm(c->T) > 1 ? "mm" : "m";
+  }
 }
 
 }  // namespace
 
-OpenCvStereoCalibration ToOpenCvCalibration(const StereoFit& fit) {
+OpenCvStereoCalibration MakeOpenCvCalibration(const models::CameraIntrinsics& left,
+                                              const models::CameraIntrinsics& right,
+                                              const models::Rigid3d& right_from_left,
+                                              const std::string& length_unit,
+                                              double rectify_alpha) {
+  if (left.width != right.width || left.height != right.height)
+    throw std::runtime_error("OpenCV calibration: the two cameras have different image sizes (" +
+                             std::to_string(left.width) + "x" + std::to_string(left.height) + " and " +
+                             std::to_string(right.width) + "x" + std::to_string(right.height) + ")");
   OpenCvStereoCalibration c;
   for (int e = 0; e < 2; ++e) {
-    const auto& p = fit.cameras[e].params;
+    const auto& p = (e == 0 ? left : right).params;
     cv::Mat M = (cv::Mat_<double>(3, 3) << p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1);
     cv::Mat D = cv::Mat(std::vector<double>(p.begin() + 4, p.end()), true).reshape(1, 1);
     (e == 0 ? c.M1 : c.M2) = M;
     (e == 0 ? c.D1 : c.D2) = D;
   }
-  c.image_width = fit.cameras[0].width;
-  c.image_height = fit.cameras[0].height;
-  cv::eigen2cv(Eigen::Matrix3d(fit.right_from_left.rotation.toRotationMatrix()), c.R);
-  cv::eigen2cv(Eigen::Vector3d(fit.right_from_left.translation), c.T);
+  c.image_width = left.width;
+  c.image_height = left.height;
+  c.length_unit = length_unit;
+  c.rectify_alpha = rectify_alpha;
+  cv::eigen2cv(Eigen::Matrix3d(right_from_left.rotation.toRotationMatrix()), c.R);
+  cv::eigen2cv(Eigen::Vector3d(right_from_left.translation), c.T);
   c.E = Skew(c.T) * c.R;
   c.F = c.M2.inv().t() * c.E * c.M1.inv();
   c.F /= c.F.at<double>(2, 2);
-  cv::eigen2cv(fit.R1, c.R1);
-  cv::eigen2cv(fit.R2, c.R2);
-  cv::eigen2cv(Eigen::Matrix<double, 3, 4>(fit.P1), c.P1);
-  cv::eigen2cv(Eigen::Matrix<double, 3, 4>(fit.P2), c.P2);
-  cv::eigen2cv(fit.Q, c.Q);
+  cv::stereoRectify(c.M1, c.D1, c.M2, c.D2, cv::Size(c.image_width, c.image_height), c.R, c.T, c.R1, c.R2, c.P1, c.P2,
+                    c.Q, cv::CALIB_ZERO_DISPARITY, rectify_alpha);
   return c;
 }
 
-void WriteOpenCvCalibration(const std::string& path, const OpenCvStereoCalibration& c) {
-  cv::FileStorage fs;
-  try {
-    if (!fs.open(path, cv::FileStorage::WRITE)) throw std::runtime_error("");
-    WriteFields(fs, c, true, true);
-    fs.release();
-  } catch (const std::exception& e) {
-    throw std::runtime_error("cannot write OpenCV calibration file " + path + " " + e.what());
-  }
+OpenCvStereoCalibration ToOpenCvCalibration(const StereoFit& fit, double rectify_alpha) {
+  return MakeOpenCvCalibration(fit.cameras[0], fit.cameras[1], fit.right_from_left, fit.length_unit, rectify_alpha);
 }
+
+OpenCvStereoCalibration ToOpenCvCalibration(const CalibrationResult& r, double rectify_alpha) {
+  const models::CameraIntrinsics* cam[2] = {nullptr, nullptr};
+  for (int e = 0; e < 2; ++e) {
+    if (r.cameras[e]) cam[e] = &*r.cameras[e];
+    else if (r.head) cam[e] = &r.head->intrinsics[e];
+    else throw std::runtime_error(std::string("OpenCV calibration: the result has no ") + (e ? "right" : "left") + " camera");
+  }
+  if (!r.stereo) throw std::runtime_error("OpenCV calibration: the result has no stereo estimate (right_from_left)");
+  std::string unit = "m";
+  if (r.diagnostics.contains("stereo") && r.diagnostics["stereo"].contains("length_unit"))
+    unit = r.diagnostics["stereo"]["length_unit"].get<std::string>();
+  return MakeOpenCvCalibration(*cam[0], *cam[1], r.stereo->right_from_left, unit, rectify_alpha);
+}
+
+OpenCvStereoCalibration WithLengthUnit(const OpenCvStereoCalibration& c, const std::string& unit) {
+  if (unit == c.length_unit) return c;
+  const double from = MetresPer(c.length_unit), to = MetresPer(unit);
+  if (!std::isfinite(from) || !std::isfinite(to))
+    throw std::runtime_error("OpenCV calibration: cannot convert lengths from '" + c.length_unit + "' to '" + unit + "'");
+  const double k = from / to;
+  OpenCvStereoCalibration o = c;
+  auto scaled = [](const cv::Mat& m, double f) { return m.empty() ? m : cv::Mat(m * f); };
+  o.T = scaled(c.T, k);
+  o.E = scaled(c.E, k);
+  if (!c.P2.empty()) {
+    o.P2 = c.P2.clone();
+    o.P2.at<double>(0, 3) *= k;
+    o.P2.at<double>(1, 3) *= k;
+  }
+  if (!c.Q.empty()) {
+    o.Q = c.Q.clone();
+    o.Q.at<double>(3, 2) /= k;  // -1 / Tx
+    o.Q.at<double>(3, 3) /= k;  // (cx1 - cx2) / Tx
+  }
+  o.length_unit = unit;
+  return o;
+}
+
+void WriteOpenCvCalibration(const std::string& path, const OpenCvStereoCalibration& c) { WriteFile(path, c, true, true); }
 
 void WriteOpenCvSplitFiles(const std::string& intrinsics_path,
                            const std::string& extrinsics_path,
                            const OpenCvStereoCalibration& c) {
-  for (int k = 0; k < 2; ++k) {
-    const std::string& path = k == 0 ? intrinsics_path : extrinsics_path;
-    cv::FileStorage fs;
-    try {
-      if (!fs.open(path, cv::FileStorage::WRITE)) throw std::runtime_error("");
-      WriteFields(fs, c, k == 0, k == 1);
-      fs.release();
-    } catch (const std::exception& e) {
-      throw std::runtime_error("cannot write OpenCV calibration file " + path + " " + e.what());
-    }
-  }
+  const bool convertible = std::isfinite(MetresPer(c.length_unit));
+  const OpenCvStereoCalibration mm = convertible ? WithLengthUnit(c, "mm") : c;
+  WriteFile(intrinsics_path, mm, true, false);
+  WriteFile(extrinsics_path, mm, false, true);
 }
 
 OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path) {
@@ -153,6 +228,8 @@ OpenCvStereoCalibration ReadOpenCvSplitFiles(const std::string& intrinsics_path,
   for (auto [dst, src] : {std::pair{&c.R, &e.R}, {&c.T, &e.T}, {&c.E, &e.E}, {&c.F, &e.F}, {&c.R1, &e.R1},
                           {&c.R2, &e.R2}, {&c.P1, &e.P1}, {&c.P2, &e.P2}, {&c.Q, &e.Q}})
     if (dst->empty()) *dst = *src;
+  c.length_unit = e.length_unit;
+  c.rectify_alpha = e.rectify_alpha;
   return c;
 }
 

@@ -23,15 +23,17 @@ StereoRig RigFromOpenCv(const OpenCvStereoCalibration& c, int width, int height)
   if (!rr) throw std::runtime_error("M2/D2: " + why);
   rig.cameras[0] = *l;
   rig.cameras[1] = *rr;
+  // Lengths in metres: the file's stated unit (owlcal writes one), else the reader's guess
+  // (the course writes mm: 26 mm squares).
+  const OpenCvStereoCalibration cm = WithLengthUnit(c, "m");
   cv::Mat R, T;
-  c.R.convertTo(R, CV_64F);
-  c.T.convertTo(T, CV_64F);
+  cm.R.convertTo(R, CV_64F);
+  cm.T.convertTo(T, CV_64F);
   if (R.rows == 1 || R.cols == 1) cv::Rodrigues(R.clone(), R);
   Eigen::Matrix3d Re;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) Re(i, j) = R.at<double>(i, j);
   Eigen::Vector3d t(T.at<double>(0), T.at<double>(1), T.at<double>(2));
-  if (t.norm() > 1) t *= 1e-3;  // the course writes mm (26.0 mm squares)
   rig.right_from_left = models::Rigid3d(Eigen::Quaterniond(Re).normalized(), t);
   rig.source = "OpenCV file";
   return rig;

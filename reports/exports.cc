@@ -8,27 +8,15 @@
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
+#include "fitting/opencv_calib_file.h"
+#include "fitting/projection_uncertainty.h"
+#include "fitting/radtan_refit.h"
 #include "models/head_kinematics.h"
+#include "reports/owl_pwm_header.h"
 #include "reports/table.h"
 
 namespace owlcal::reports {
 namespace {
-
-cv::Mat CameraMatrix(const models::CameraIntrinsics& c) {
-  cv::Mat m = cv::Mat::eye(3, 3, CV_64F);
-  m.at<double>(0, 0) = c.params[0];
-  m.at<double>(1, 1) = c.params[1];
-  m.at<double>(0, 2) = c.params[2];
-  m.at<double>(1, 2) = c.params[3];
-  return m;
-}
-
-cv::Mat DistMatrix(const models::CameraIntrinsics& c) {
-  const auto d = c.Distortion();
-  cv::Mat m(1, int(d.size()), CV_64F);
-  for (size_t i = 0; i < d.size(); ++i) m.at<double>(0, int(i)) = d[i];
-  return m;
-}
 
 const models::CameraIntrinsics& Camera(const fitting::CalibrationResult& r, int eye) {
   if (r.cameras[eye]) return *r.cameras[eye];
@@ -38,13 +26,6 @@ const models::CameraIntrinsics& Camera(const fitting::CalibrationResult& r, int 
 
 std::string Num(double v) { return Fmt(v, 12); }
 
-// A C floating literal (always with a '.' or exponent).
-std::string FloatLiteral(double v) {
-  std::string s = Fmt(v, 6);
-  if (s.find_first_of(".e") == std::string::npos) s += ".0";
-  return s;
-}
-
 std::string List(const cv::Mat& m) {
   std::ostringstream o;
   for (int i = 0; i < m.rows; ++i)
@@ -52,62 +33,61 @@ std::string List(const cv::Mat& m) {
   return o.str();
 }
 
-void Write(const std::string& path, const std::string& text) { WriteTextFile(path, text); }
+std::string StereoUnit(const fitting::CalibrationResult& r) {
+  if (r.diagnostics.contains("stereo") && r.diagnostics["stereo"].contains("length_unit"))
+    return r.diagnostics["stereo"]["length_unit"].get<std::string>();
+  return "m";
+}
+
+// ROS, Kalibr and mrcal take metres.
+void RequireMetres(const fitting::CalibrationResult& r, const std::string& path) {
+  if (StereoUnit(r) != "m")
+    throw std::runtime_error("export " + path + ": the stereo translation is in '" + StereoUnit(r) +
+                             "', not metres (give the target's size in metres)");
+}
+
+// The observed corner sigma of one eye: the stereo fit's, else the RMS residual per axis.
+double ObservedSigma(const ReportData& d, int eye) {
+  const auto& diag = d.result.diagnostics;
+  const char* name = models::kEyeNames[eye];
+  if (diag.contains("stereo") && diag["stereo"].contains("corner_sigma_px") && diag["stereo"]["corner_sigma_px"].contains(name))
+    return diag["stereo"]["corner_sigma_px"][name].get<double>();
+  double s = 0;
+  int n = 0;
+  for (const auto& p : d.residuals)
+    if (p.eye == eye) {
+      s += p.dx * p.dx + p.dy * p.dy;
+      n += 2;
+    }
+  return n ? std::sqrt(s / n) : NAN;
+}
 
 }  // namespace
 
-OpenCvStereoFields MakeOpenCvStereoFields(const fitting::CalibrationResult& r) {
-  if (!r.stereo) throw std::runtime_error("export: the result has no stereo estimate (right_from_left)");
-  OpenCvStereoFields f;
-  const auto& cl = Camera(r, models::kLeftEye);
-  const auto& cr = Camera(r, models::kRightEye);
-  f.M1 = CameraMatrix(cl);
-  f.D1 = DistMatrix(cl);
-  f.M2 = CameraMatrix(cr);
-  f.D2 = DistMatrix(cr);
-  f.image_size = cv::Size(cl.width, cl.height);
-  const Eigen::Matrix3d R = r.stereo->right_from_left.rotation.toRotationMatrix();
-  const Eigen::Vector3d T = r.stereo->right_from_left.translation;
-  f.R = cv::Mat(3, 3, CV_64F);
-  f.T = cv::Mat(3, 1, CV_64F);
-  for (int i = 0; i < 3; ++i) {
-    f.T.at<double>(i, 0) = T[i];
-    for (int j = 0; j < 3; ++j) f.R.at<double>(i, j) = R(i, j);
-  }
-  cv::Mat tx = (cv::Mat_<double>(3, 3) << 0, -T[2], T[1], T[2], 0, -T[0], -T[1], T[0], 0);
-  f.E = tx * f.R;
-  f.F = f.M2.inv().t() * f.E * f.M1.inv();
-  f.F /= f.F.at<double>(2, 2);
-  cv::stereoRectify(f.M1, f.D1, f.M2, f.D2, f.image_size, f.R, f.T, f.R1, f.R2, f.P1, f.P2, f.Q,
-                    cv::CALIB_ZERO_DISPARITY, -1);
-  return f;
-}
-
-void WriteOpenCvYaml(const fitting::CalibrationResult& r, const std::string& path) {
-  const OpenCvStereoFields f = MakeOpenCvStereoFields(r);
-  const std::filesystem::path p(path);
-  if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
-  cv::FileStorage fs(path, cv::FileStorage::WRITE);
-  if (!fs.isOpened()) throw std::runtime_error("cannot write OpenCV calibration " + path);
-  fs.writeComment("owlcal stereo calibration (OpenCV stereo_calib sample fields). x_right = R x_left + T, T in metres.");
-  fs << "image_width" << f.image_size.width << "image_height" << f.image_size.height;
-  fs << "M1" << f.M1 << "D1" << f.D1 << "M2" << f.M2 << "D2" << f.D2;
-  fs << "R" << f.R << "T" << f.T << "E" << f.E << "F" << f.F;
-  fs << "R1" << f.R1 << "R2" << f.R2 << "P1" << f.P1 << "P2" << f.P2 << "Q" << f.Q;
-  fs.release();
-}
-
-void WriteRosCameraInfo(const fitting::CalibrationResult& r, int eye, const std::string& path) {
+std::string WriteRosCameraInfo(const fitting::CalibrationResult& r, int eye, const std::string& path) {
   const auto& c = Camera(r, eye);
-  cv::Mat K = CameraMatrix(c), D = DistMatrix(c), Rr = cv::Mat::eye(3, 3, CV_64F), P = cv::Mat::zeros(3, 4, CV_64F);
-  K.copyTo(P(cv::Rect(0, 0, 3, 3)));
+  cv::Mat K = (cv::Mat_<double>(3, 3) << c.params[0], 0, c.params[2], 0, c.params[1], c.params[3], 0, 0, 1);
+  cv::Mat D(c.Distortion(), true);
+  D = D.reshape(1, 1);
+  cv::Mat Rr = cv::Mat::eye(3, 3, CV_64F), P = cv::Mat::zeros(3, 4, CV_64F);
+  std::string how;
   if (r.stereo) {
-    const OpenCvStereoFields f = MakeOpenCvStereoFields(r);
+    RequireMetres(r, path);
+    // ROS camera_calibration's StereoCalibrator: cv2.stereoRectify(..., alpha=0.0), default
+    // flags (CALIB_ZERO_DISPARITY).
+    const fitting::OpenCvStereoCalibration f = fitting::ToOpenCvCalibration(r, 0.0);
     Rr = eye == models::kLeftEye ? f.R1 : f.R2;
     P = eye == models::kLeftEye ? f.P1 : f.P2;
+    how = "stereo rectification: cv::stereoRectify, CALIB_ZERO_DISPARITY, alpha = 0 (as ROS camera_calibration's "
+          "StereoCalibrator; only valid pixels in the rectified image); P[0,3] = -fx' * baseline [m]";
+  } else {
+    // ROS's MonoCalibrator: P = getOptimalNewCameraMatrix(K, D, size, alpha 0), R = I.
+    cv::getOptimalNewCameraMatrix(K, D, cv::Size(c.width, c.height), 0.0).copyTo(P(cv::Rect(0, 0, 3, 3)));
+    how = "monocular: P = cv::getOptimalNewCameraMatrix(K, D, alpha = 0) as ROS camera_calibration's MonoCalibrator";
   }
   std::ostringstream o;
-  o << "# ROS camera_info (camera_calibration_parsers YAML), written by owlcal\n"
+  o << "# ROS camera_info (camera_calibration_parsers YAML), written by owlcal " << r.software_version << "\n"
+    << "# " << how << "\n"
     << "image_width: " << c.width << "\nimage_height: " << c.height << "\n"
     << "camera_name: owl_" << models::kEyeNames[eye] << "\n"
     << "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [" << List(K) << "]\n"
@@ -115,43 +95,58 @@ void WriteRosCameraInfo(const fitting::CalibrationResult& r, int eye, const std:
     << "distortion_coefficients:\n  rows: 1\n  cols: " << D.cols << "\n  data: [" << List(D) << "]\n"
     << "rectification_matrix:\n  rows: 3\n  cols: 3\n  data: [" << List(Rr) << "]\n"
     << "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [" << List(P) << "]\n";
-  Write(path, o.str());
+  WriteTextFile(path, o.str());
+  return r.stereo ? "rectification alpha = 0 (as ROS's calibrator), metres" : "monocular, alpha = 0";
 }
 
-void WriteKalibrCamchain(const fitting::CalibrationResult& r, const std::string& path) {
-  std::ostringstream o;
-  o << "# Kalibr camchain, written by owlcal. cam0 = left eye, cam1 = right eye; pinhole-radtan.\n";
+std::string WriteKalibrCamchain(const fitting::CalibrationResult& r, const std::string& path) {
+  if (!r.stereo) throw std::runtime_error("export " + path + ": the result has no stereo estimate");
+  RequireMetres(r, path);
+  std::ostringstream o, note;
+  o << "# Kalibr camchain, written by owlcal " << r.software_version
+    << ". cam0 = left eye, cam1 = right eye; pinhole-radtan (k1 k2 p1 p2).\n";
   for (int e = 0; e < 2; ++e) {
     const auto& c = Camera(r, e);
-    const auto d = c.Distortion();
+    const fitting::RadtanRefit fit = fitting::FitRadtan4(c);
+    if (!fit.ok) throw std::runtime_error("export " + path + ": " + models::kEyeNames[e] + " eye: " + fit.message);
+    const auto d = fit.camera.Distortion();
     o << "cam" << e << ":\n";
     if (e == 1) {
-      if (!r.stereo) throw std::runtime_error("export " + path + ": the result has no stereo estimate");
       const Eigen::Matrix4d T = r.stereo->right_from_left.Matrix();
       o << "  T_cn_cnm1:\n";
       for (int i = 0; i < 4; ++i)
         o << "  - [" << Num(T(i, 0)) << ", " << Num(T(i, 1)) << ", " << Num(T(i, 2)) << ", " << Num(T(i, 3)) << "]\n";
     }
+    if (fit.exact) {
+      o << "  # owlcal: the fitted model has no k3..k6: radtan represents it exactly\n";
+      note << (e ? "; " : "") << models::kEyeNames[e] << ": exact";
+    } else {
+      o << "  # owlcal: radtan cannot represent the fitted k3" << (c.NumDistortion() > 5 ? " and k4..k6" : "")
+        << "; k1 k2 p1 p2 refitted over the whole image (fx fy cx cy kept): max error " << Fmt(fit.max_error_px, 3)
+        << " px, RMS " << Fmt(fit.rms_error_px, 3) << " px over " << fit.num_points << " image points\n";
+      note << (e ? "; " : "") << models::kEyeNames[e] << ": radtan4 refit, max " << Fmt(fit.max_error_px, 3) << " px, RMS "
+           << Fmt(fit.rms_error_px, 3) << " px";
+    }
     o << "  camera_model: pinhole\n"
       << "  intrinsics: [" << Num(c.params[0]) << ", " << Num(c.params[1]) << ", " << Num(c.params[2]) << ", "
       << Num(c.params[3]) << "]\n"
       << "  distortion_model: radtan\n"
-      << "  distortion_coeffs: [" << Num(d[0]) << ", " << Num(d[1]) << ", " << Num(d[2]) << ", " << Num(d[3]) << "]\n";
-    bool dropped = false;
-    for (size_t i = 4; i < d.size(); ++i) dropped |= d[i] != 0.0;
-    if (dropped) o << "  # owlcal: k3 (and k4..k6) dropped: Kalibr's radtan has k1 k2 p1 p2 only\n";
-    o << "  resolution: [" << c.width << ", " << c.height << "]\n"
+      << "  distortion_coeffs: [" << Num(d[0]) << ", " << Num(d[1]) << ", " << Num(d[2]) << ", " << Num(d[3]) << "]\n"
+      << "  resolution: [" << c.width << ", " << c.height << "]\n"
       << "  rostopic: /owl/" << models::kEyeNames[e] << "/image_raw\n"
       << "  cam_overlaps: [" << (1 - e) << "]\n";
   }
-  Write(path, o.str());
+  WriteTextFile(path, o.str());
+  return note.str();
 }
 
-void WriteMrcalCameraModel(const fitting::CalibrationResult& r, int eye, const std::string& path) {
+std::string WriteMrcalCameraModel(const ReportData& d, int eye, const std::string& path) {
+  const fitting::CalibrationResult& r = d.result;
   const auto& c = Camera(r, eye);
   double rt[6] = {0, 0, 0, 0, 0, 0};
   if (eye == models::kRightEye) {
     if (!r.stereo) throw std::runtime_error("export " + path + ": the result has no stereo estimate");
+    RequireMetres(r, path);
     const Eigen::AngleAxisd aa(r.stereo->right_from_left.rotation);
     const Eigen::Vector3d rv = aa.axis() * aa.angle();
     for (int i = 0; i < 3; ++i) {
@@ -159,116 +154,97 @@ void WriteMrcalCameraModel(const fitting::CalibrationResult& r, int eye, const s
       rt[3 + i] = r.stereo->right_from_left.translation[i];
     }
   }
-  std::ostringstream o;
-  o << "# generated by owlcal: the " << models::kEyeNames[eye] << " eye; reference frame = left camera\n"
-    << "{\n    'lensmodel':  '" << (c.NumDistortion() == 5 ? "LENSMODEL_OPENCV5" : "LENSMODEL_OPENCV8") << "',\n"
-    << "    # fx, fy, cx, cy, distortion (OpenCV order)\n    'intrinsics': [ ";
+  // The valid-intrinsics region from the residuals of this eye's calibration corners.
+  std::vector<fitting::CornerResidual> res;
+  for (const auto& p : d.residuals)
+    if (p.eye == eye) res.push_back({p.x, p.y, p.dx, p.dy});
+  std::ostringstream o, note;
+  o << "# generated by owlcal " << r.software_version << ": the " << models::kEyeNames[eye]
+    << " eye; reference frame = left camera\n";
+  std::vector<Eigen::Vector2d> region;
+  bool have_region = false;
+  if (!res.empty()) {
+    const double sigma = ObservedSigma(d, eye);
+    const fitting::ValidIntrinsicsRegion v =
+        fitting::ComputeValidIntrinsicsRegion(c, fitting::IntrinsicsCovariance(r, eye), res, sigma);
+    region = v.contour;
+    have_region = true;
+    o << "# valid_intrinsics_region: mrcal's definition (mrcal-calibrate-cameras defaults 1 0.5 1.5 3 0): cells of a "
+      << v.uncertainty.nx << "x" << v.uncertainty.ny << " grid with projection uncertainty at infinity < 1 x the observed "
+      << "corner sigma (" << Fmt(sigma, 3) << " px), |mean residual| < 0.5 px, residual stdev < 1.5 x sigma and more "
+      << "than 3 residuals; " << Fmt(100 * v.valid_fraction, 3) << " % of the cells are valid\n";
+    note << "valid_intrinsics_region: " << Fmt(100 * v.valid_fraction, 3) << " % of the image";
+  } else {
+    o << "# no valid_intrinsics_region: the calibration corners' residuals are not in this result\n";
+    note << "no valid_intrinsics_region (no corner residuals)";
+  }
+  o << "{\n    'lensmodel':  '" << (c.NumDistortion() == 5 ? "LENSMODEL_OPENCV5" : "LENSMODEL_OPENCV8") << "',\n"
+    << "    # intrinsics are fx,fy,cx,cy,distortion0,distortion1,.... (OpenCV order)\n    'intrinsics': [ ";
   for (size_t i = 0; i < c.params.size(); ++i) o << (i ? ", " : "") << Num(c.params[i]);
-  o << " ],\n    # rt_cam_ref: rotation vector [rad], translation [m]\n    'extrinsics': [ ";
+  o << " ],\n";
+  if (have_region) {
+    o << "    'valid_intrinsics_region': [\n";
+    for (const auto& p : region) o << "    [ " << Num(p.x()) << ", " << Num(p.y()) << " ],\n";
+    o << "    ],\n";
+  }
+  o << "    # extrinsics are rt_fromref: rotation vector [rad], translation [m]\n    'extrinsics': [ ";
   for (int i = 0; i < 6; ++i) o << (i ? ", " : "") << Num(rt[i]);
   o << " ],\n    'imagersize': [ " << c.width << ", " << c.height << " ],\n}\n";
-  Write(path, o.str());
+  WriteTextFile(path, o.str());
+  return note.str();
 }
 
 std::string OwlPwmHeaderText(const fitting::CalibrationResult& r,
                              const models::RobotConfig& config,
                              const fitting::LimitsEvaluation* limits) {
-  int lo[models::kNumServos], hi[models::kNumServos], centre[models::kNumServos];
-  std::string centre_note[models::kNumServos], limit_note[models::kNumServos];
-  for (int s = 0; s < models::kNumServos; ++s) {
-    lo[s] = config.servos[s].min_us;
-    hi[s] = config.servos[s].max_us;
-    limit_note[s] = "configured";
-    if (limits) {
-      for (const auto& l : limits->servos) {
-        if (l.servo != s) continue;
-        lo[s] = l.recommended_min_us;
-        hi[s] = l.recommended_max_us;
-        limit_note[s] = std::string("measured: low ") + (l.measured_min_us ? fitting::LimitCauseName(l.min_cause) : "not measured") +
-                        ", high " + (l.measured_max_us ? fitting::LimitCauseName(l.max_cause) : "not measured");
-      }
-    }
-    centre[s] = config.servos[s].centre_us;
-    centre_note[s] = "configured";
-    const fitting::Parameter* p = r.Find(std::string("servo.") + models::kServoNames[s] + ".centre_us");
-    if (p && p->determined && std::isfinite(p->value)) {
-      centre[s] = int(std::lround(p->value));
-      centre_note[s] = "fitted " + Fmt(p->value, 6) + " +- " + Fmt(p->sigma, 2) + " us";
-    }
-  }
-  // The guide names ends by direction: R/L = the robot's right/left (pan), T/B = top/bottom.
-  auto end = [&](int s, bool positive_angle) { return (config.servos[s].direction > 0) == positive_angle ? hi[s] : lo[s]; };
-  using models::kLx; using models::kLy; using models::kNeck; using models::kRx; using models::kRy;
-  std::ostringstream o;
-  o << "// owl-pwm.h: servo limits and centres of this Owl, measured by owlcal " << r.software_version << ".\n"
-    << "// Course naming (Owl user guide, code snippet 5). Include it instead of the hand-set values.\n"
-    << "#pragma once\n\n// OWL eye ranges\n";
-  for (int s = 0; s < models::kNumServos; ++s)
-    o << "// " << models::kServoNames[s] << ": limits " << limit_note[s] << "; centre " << centre_note[s] << "\n";
-  o << "int RyB = " << end(kRy, false) << "; // (bottom) to\n"
-    << "int RyT = " << end(kRy, true) << "; // (top)\n"
-    << "int RxR = " << end(kRx, true) << "; // (right) to\n"
-    << "int RxL = " << end(kRx, false) << "; // (left)\n"
-    << "int LyB = " << end(kLy, false) << "; // (bottom) to\n"
-    << "int LyT = " << end(kLy, true) << "; // (top)\n"
-    << "int LxR = " << end(kLx, true) << "; // (right) to\n"
-    << "int LxL = " << end(kLx, false) << "; // (left)\n"
-    << "int NeckR = " << end(kNeck, true) << ";\n"
-    << "int NeckL = " << end(kNeck, false) << ";\n"
-    << "int RxC = " << centre[kRx] << ";\n"
-    << "int RyC = " << centre[kRy] << ";\n"
-    << "int LxC = " << centre[kLx] << ";\n"
-    << "int LyC = " << centre[kLy] << ";\n"
-    << "int NeckC = " << centre[kNeck] << ";\n"
-    << "int Ry, Rx, Ly, Lx, Neck; // calculate values for position\n"
-    << "int RyRange = RyT - RyB;\n"
-    << "int RxRange = RxR - RxL;\n"
-    << "int LyRange = LyT - LyB; // reflected so negative\n"
-    << "int LxRange = LxR - LxL;\n"
-    << "int NeckRange = NeckL - NeckR;\n\n"
-    << "// Calibrated scales [deg per us] (the course's nominal value is 0.113) and IPD [mm].\n";
-  for (int s = 0; s < models::kNumServos; ++s) {
-    const fitting::Parameter* p = r.Find(std::string("servo.") + models::kServoNames[s] + ".deg_per_us");
-    std::string name = models::kServoNames[s];
-    for (auto& ch : name) ch = std::toupper(ch);
-    const double v = p && p->determined && std::isfinite(p->value) ? p->value : config.servos[s].nominal_deg_per_us;
-    o << "#define OWLCAL_" << name << "_DEG_PER_US " << FloatLiteral(v) << (p && p->determined ? "" : "  // nominal: not determined") << "\n";
-  }
-  const fitting::Parameter* ipd = r.Find("head.ipd_mm");
-  const double ipd_mm = ipd && ipd->determined && std::isfinite(ipd->value) ? ipd->value : config.ipd_m * 1000;
-  o << "#define OWLCAL_IPD_MM " << FloatLiteral(ipd_mm) << (ipd && ipd->determined ? "" : "  // design value: not determined") << "\n";
-  return o.str();
+  return OwlPwmHeader(r, config, limits);
 }
 
 void WriteOwlPwmHeader(const fitting::CalibrationResult& r,
                        const models::RobotConfig& config,
                        const fitting::LimitsEvaluation* limits,
                        const std::string& path) {
-  Write(path, OwlPwmHeaderText(r, config, limits));
+  WriteTextFile(path, OwlPwmHeaderText(r, config, limits));
 }
 
-std::vector<std::string> WriteAllExports(const fitting::CalibrationResult& r,
-                                         const models::RobotConfig& config,
-                                         const fitting::LimitsEvaluation* limits,
-                                         const std::string& dir,
-                                         std::vector<std::string>* skipped) {
-  std::vector<std::string> written;
-  std::filesystem::create_directories(dir);
-  auto attempt = [&](const std::string& path, auto&& fn) {
+ExportSet WriteCalibrationFiles(const ReportData& d, const std::string& dir) {
+  ExportSet out;
+  const fitting::CalibrationResult& r = d.result;
+  const std::string ex = dir + "/exports";
+  std::filesystem::create_directories(ex);
+  auto attempt = [&](const std::string& rel, const std::string& tool, auto&& fn) {
+    const std::string path = dir + "/" + rel;
     try {
-      fn(path);
-      written.push_back(path);
+      const std::string note = fn(path);
+      out.written.push_back(path);
+      out.notes.push_back({rel, tool, note});
     } catch (const std::exception& e) {
-      if (skipped) skipped->push_back(path + ": " + e.what());
+      out.skipped.push_back(rel + ": " + e.what());
     }
   };
+  attempt("calibration.yaml", "OpenCV", [&](const std::string& p) {
+    const fitting::OpenCvStereoCalibration c = fitting::WithLengthUnit(fitting::ToOpenCvCalibration(r, -1), "m");
+    fitting::WriteOpenCvCalibration(p, c);
+    return std::string("lengths in metres; rectification alpha = -1 (OpenCV's default scaling)");
+  });
+  attempt("intrinsics.xml", "OpenCV (course)", [&](const std::string& p) {
+    const fitting::OpenCvStereoCalibration c = fitting::ToOpenCvCalibration(r, -1);
+    fitting::WriteOpenCvSplitFiles(p, dir + "/extrinsics.xml", c);
+    out.written.push_back(dir + "/extrinsics.xml");
+    return std::string("with extrinsics.xml: the course's files, lengths in ") +
+           (c.length_unit == "m" || c.length_unit == "mm" || c.length_unit == "cm" ? "millimetres" : c.length_unit);
+  });
   for (int e = 0; e < 2; ++e) {
-    attempt(dir + "/ros_" + models::kEyeNames[e] + ".yaml", [&](const std::string& p) { WriteRosCameraInfo(r, e, p); });
-    attempt(dir + "/" + models::kEyeNames[e] + ".cameramodel", [&](const std::string& p) { WriteMrcalCameraModel(r, e, p); });
+    const std::string eye = models::kEyeNames[e];
+    attempt("exports/ros_" + eye + ".yaml", "ROS", [&](const std::string& p) { return WriteRosCameraInfo(r, e, p); });
+    attempt("exports/" + eye + ".cameramodel", "mrcal", [&](const std::string& p) { return WriteMrcalCameraModel(d, e, p); });
   }
-  attempt(dir + "/kalibr_camchain.yaml", [&](const std::string& p) { WriteKalibrCamchain(r, p); });
-  attempt(dir + "/owl-pwm.h", [&](const std::string& p) { WriteOwlPwmHeader(r, config, limits, p); });
-  return written;
+  attempt("exports/kalibr_camchain.yaml", "Kalibr", [&](const std::string& p) { return WriteKalibrCamchain(r, p); });
+  attempt("exports/owl-pwm.h", "C/C++", [&](const std::string& p) {
+    WriteOwlPwmHeader(r, d.config, d.limits ? &*d.limits : nullptr, p);
+    return std::string("limits, centres and servo maps; valid C99 and C++");
+  });
+  return out;
 }
 
 }  // namespace owlcal::reports

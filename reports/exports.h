@@ -1,49 +1,67 @@
 #pragma once
-// Calibration exports for other tools, from a fitting::CalibrationResult (cameras, stereo,
-// head) and, for the course header, the limits evaluation.
+// Calibration exports for other tools, from ReportData (reports/report_data.h): the result
+// (cameras, stereo, head), the limits evaluation and the calibration corners' residuals.
 //
-//   WriteOpenCvYaml      OpenCV FileStorage YAML with the fields of OpenCV's stereo sample
-//                        (samples/cpp/stereo_calib.cpp) and the course code: M1 D1 M2 D2 R T E F
-//                        R1 R2 P1 P2 Q, image_width, image_height. x_right = R x_left + T, T in
-//                        metres. Rectification by cv::stereoRectify (CALIB_ZERO_DISPARITY, alpha -1).
-//   WriteRosCameraInfo   ROS camera_info YAML (camera_calibration_parsers format) for one eye:
-//                        plumb_bob (5 coefficients) or rational_polynomial (8), R and P of the
-//                        rectification when stereo is known.
-//   WriteKalibrCamchain  Kalibr camchain YAML: cam0 = left, cam1 = right, pinhole-radtan
-//                        (k1 k2 p1 p2; a non-zero k3 is dropped with a comment: radtan has 4),
-//                        cam1.T_cn_cnm1 = right_from_left (4x4, metres).
-//   WriteMrcalCameraModel mrcal .cameramodel: LENSMODEL_OPENCV5 / OPENCV8, intrinsics
-//                        [fx fy cx cy dist...], extrinsics rt_cam_ref (ref = left camera:
-//                        zeros for the left, rotation vector + translation [m] for the right).
-//   WriteOwlPwmHeader    owl-pwm.h: the guide's code snippet 5 variables (RyB RyT RxR RxL LyB
-//                        LyT LxR LxL NeckR NeckL RxC RyC LxC LyC NeckC and the *Range values)
-//                        from the measured limits and fitted centres, plus OWLCAL_* macros with
-//                        the fitted scales [deg/us] and IPD [mm].
-// All throw std::runtime_error naming the path (or the missing part of the result).
+//   calibration.yaml     OpenCV FileStorage, fields of OpenCV's stereo sample (M1 D1 M2 D2 R T E
+//                        F R1 R2 P1 P2 Q), lengths in metres, rectification alpha -1; written by
+//                        fitting/opencv_calib_file.h (the one OpenCV writer).
+//   intrinsics.xml,      the course's split files, lengths in millimetres (as the course's own
+//   extrinsics.xml       files and code), each saying its unit in a comment and a length_unit node.
+//   exports/ros_<eye>.yaml
+//                        ROS camera_info (camera_calibration_parsers format): plumb_bob (5
+//                        coefficients) or rational_polynomial (8); R and P from cv::stereoRectify
+//                        with alpha = 0 and CALIB_ZERO_DISPARITY, as ROS's camera_calibration
+//                        StereoCalibrator does (mono: P = getOptimalNewCameraMatrix(alpha 0), as
+//                        its MonoCalibrator); the file states the alpha. Lengths in metres.
+//   exports/kalibr_camchain.yaml
+//                        cam0 = left, cam1 = right, pinhole-radtan. Radtan has k1 k2 p1 p2 only: a
+//                        model with k3 (or k4..k6) is refitted to radtan4 over the whole image
+//                        (fitting/radtan_refit.h) and the file states the max and RMS pixel
+//                        error of the refit. cam1.T_cn_cnm1 = right_from_left (4x4, metres).
+//   exports/<eye>.cameramodel
+//                        mrcal: LENSMODEL_OPENCV5 / OPENCV8, intrinsics [fx fy cx cy dist...],
+//                        extrinsics rt_cam_ref (ref = left camera), and the valid_intrinsics_region
+//                        by mrcal's definition (fitting/projection_uncertainty.h) when the
+//                        corners' residuals are known.
+//   exports/owl-pwm.h    C and C++ header (static const, static inline): the guide's code
+//                        snippet 5 names from the measured limits and fitted centres, every
+//                        fitted servo map term with its direction, PWM -> angle and the inverse
+//                        angle -> PWM that clamps to the limits. Only when servo maps were fitted.
+// Writers throw std::runtime_error naming the path (or the missing part of the result).
 #include <string>
-
-#include <opencv2/core.hpp>
+#include <vector>
 
 #include "fitting/limits_eval.h"
 #include "fitting/result.h"
 #include "models/robot_config.h"
+#include "reports/report_data.h"
 
 namespace owlcal::reports {
 
-struct OpenCvStereoFields {
-  cv::Mat M1, D1, M2, D2, R, T, E, F, R1, R2, P1, P2, Q;
-  cv::Size image_size;
+// What each export says about itself (for the report's export table and the console).
+struct ExportNote {
+  std::string file;  // relative to the calibration folder
+  std::string tool;  // "OpenCV", "ROS", "Kalibr", "mrcal", "C/C++"
+  std::string note;  // unit, alpha, refit error, region ...
 };
 
-// Builds the fields from result.cameras and result.stereo (throws when either is missing).
-OpenCvStereoFields MakeOpenCvStereoFields(const fitting::CalibrationResult& result);
+struct ExportSet {
+  std::vector<std::string> written;  // paths
+  std::vector<std::string> skipped;  // "file: reason"
+  std::vector<ExportNote> notes;
+};
 
-void WriteOpenCvYaml(const fitting::CalibrationResult& result, const std::string& path);
-void WriteRosCameraInfo(const fitting::CalibrationResult& result, int eye, const std::string& path);
-void WriteKalibrCamchain(const fitting::CalibrationResult& result, const std::string& path);
-void WriteMrcalCameraModel(const fitting::CalibrationResult& result, int eye, const std::string& path);
+// Every file above into DIR (exports/ below it). Nothing it can write is left out; what it
+// cannot write is listed in `skipped` with the reason.
+ExportSet WriteCalibrationFiles(const ReportData& data, const std::string& dir);
+
+// The single writers (the note is what the file states about itself).
+std::string WriteRosCameraInfo(const fitting::CalibrationResult& result, int eye, const std::string& path);
+std::string WriteKalibrCamchain(const fitting::CalibrationResult& result, const std::string& path);
+std::string WriteMrcalCameraModel(const ReportData& data, int eye, const std::string& path);
 // limits may be null (configured limits are used); centres come from the fitted servo maps
-// (servo.<S>.centre_us) when determined, else the configured centre.
+// (servo.<S>.centre_us) when determined, else the configured centre. Throws when no servo map
+// was fitted (the header would hold nothing calibrated).
 std::string OwlPwmHeaderText(const fitting::CalibrationResult& result,
                              const models::RobotConfig& config,
                              const fitting::LimitsEvaluation* limits);
@@ -51,15 +69,5 @@ void WriteOwlPwmHeader(const fitting::CalibrationResult& result,
                        const models::RobotConfig& config,
                        const fitting::LimitsEvaluation* limits,
                        const std::string& path);
-
-// Writes every export the result supports into DIR: calibration.yaml (OpenCV) one level up
-// is written by the caller; here ros_left.yaml, ros_right.yaml, kalibr_camchain.yaml,
-// left.cameramodel, right.cameramodel, owl-pwm.h. Returns the paths written; skipped parts
-// are appended to `skipped` with the reason.
-std::vector<std::string> WriteAllExports(const fitting::CalibrationResult& result,
-                                         const models::RobotConfig& config,
-                                         const fitting::LimitsEvaluation* limits,
-                                         const std::string& dir,
-                                         std::vector<std::string>* skipped);
 
 }  // namespace owlcal::reports

@@ -207,6 +207,18 @@ json EvaluationToJson(const ReportData& d) {
   json cov = json::array();
   for (const auto& c : d.coverage) cov.push_back({c.eye, c.x, c.y});
   j["coverage"] = cov;  // [eye, x, y]
+  json views = json::array();
+  for (const auto& v : d.views)
+    views.push_back({{"eye", v.eye}, {"frame", v.frame}, {"name", v.name}, {"rms_px", Num(v.rms_px)},
+                     {"corners", v.num_corners}, {"over_1px", v.num_over_1px}});
+  j["views"] = views;
+  json boards = json::array();
+  for (const auto& b : d.boards) {
+    json c = json::array();
+    for (const auto& p : b.corners_in_cam) c.push_back({p.x(), p.y(), p.z()});
+    boards.push_back({{"eye", b.eye}, {"frame", b.frame}, {"corners_in_cam", c}});
+  }
+  j["boards"] = boards;
   return j;
 }
 
@@ -317,6 +329,22 @@ void EvaluationFromJson(const json& j, ReportData* d) {
   if (j.contains("coverage"))
     for (const json& c : j.at("coverage"))
       d->coverage.push_back({c.at(0).get<int>(), c.at(1).get<double>(), c.at(2).get<double>()});
+  d->views.clear();
+  if (j.contains("views"))
+    for (const json& v : j.at("views"))
+      d->views.push_back({v.at("eye").get<int>(), v.at("frame").get<int>(), v.value("name", std::string()),
+                          Get(v, "rms_px"), v.value("corners", 0), v.value("over_1px", 0)});
+  d->boards.clear();
+  if (j.contains("boards"))
+    for (const json& b : j.at("boards")) {
+      BoardOutline o;
+      o.eye = b.at("eye").get<int>();
+      o.frame = b.at("frame").get<int>();
+      const json& c = b.at("corners_in_cam");
+      if (c.size() != 4) throw std::runtime_error("boards[].corners_in_cam must have 4 points");
+      for (int k = 0; k < 4; ++k) o.corners_in_cam[k] = Eigen::Vector3d(c[k].at(0), c[k].at(1), c[k].at(2));
+      d->boards.push_back(o);
+    }
 }
 
 ReportData ReadReportData(const std::string& dir) {

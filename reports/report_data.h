@@ -4,10 +4,12 @@
 // residual and coverage figures, the robot configuration, the virtual Owl's truth and the
 // settings of the run. Written as DIR/evaluation.json so `owlcal report DIR` can regenerate
 // every figure and table without the robot or the dataset.
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
 #include "fitting/limits_eval.h"
@@ -57,6 +59,25 @@ struct CoveragePoint {
   double x = 0, y = 0;
 };
 
+// One calibration view of one eye: its RMS reprojection error and a name a student can find
+// the image by ("intrinsics frame 12", "pair left07.png").
+struct ViewStat {
+  int eye = 0;
+  int frame = 0;
+  std::string name;
+  double rms_px = 0;
+  int num_corners = 0;
+  int num_over_1px = 0;  // corners with |residual| > 1 px
+};
+
+// A board pose seen by one eye: the outline of the target's corner grid in that camera's frame
+// [m, or the target's unit], corners in order (for the 3D pose view).
+struct BoardOutline {
+  int eye = 0;
+  int frame = 0;
+  std::array<Eigen::Vector3d, 4> corners_in_cam;
+};
+
 struct ReportData {
   fitting::CalibrationResult result;
   models::RobotConfig config = models::DefaultRobotConfig();
@@ -67,6 +88,8 @@ struct ReportData {
   std::optional<GainStudy> gains;
   std::vector<ResidualPoint> residuals;
   std::vector<CoveragePoint> coverage;
+  std::vector<ViewStat> views;                  // reports/fit_points.h
+  std::vector<BoardOutline> boards;
   nlohmann::json settings = nlohmann::json::object();  // command line, seed, robot, protocols, timings
 };
 

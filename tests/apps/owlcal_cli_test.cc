@@ -15,6 +15,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "fitting/result.h"
 #include "owlcal_version.h"
@@ -162,6 +163,48 @@ TEST_F(OwlcalCliTest, DetectAndFitOnOpenCvSampleImages) {
   const RunResult m = RunOwlcal("fit '" + (dir / "missing.csv").string() + "' --out '" + out + "2'");
   EXPECT_NE(m.exit_code, 0);
   EXPECT_NE(m.output.find("missing.csv"), std::string::npos) << m.output;
+  fs::remove_all(dir);
+}
+
+// calibrate-images on the course's kit2020 set writes what calibrate writes: the course's xml in
+// millimetres agreeing with the course's own reference files (kit2020 reference/, cv::FileStorage),
+// calibration.yaml in metres, the ROS, Kalibr and mrcal exports, and the report in OUT/report/.
+TEST_F(OwlcalCliTest, CalibrateImagesWritesTheCourseFilesInMillimetresAndEveryExport) {
+  const std::string images = SharedData() + "/owl-real/kit2020-chessboard";
+  const std::string target = SourceDir() + "/data/targets/owl-kit-chessboard.yaml";
+  const fs::path dir = fs::path(::testing::TempDir()) / ("owlcal_cli_kit_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  const RunResult r = RunOwlcal("calibrate-images '" + images + "' --target '" + target + "' --out '" + dir.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* f : {"results.json", "evaluation.json", "calibration.yaml", "intrinsics.xml", "extrinsics.xml",
+                        "exports/ros_left.yaml", "exports/ros_right.yaml", "exports/kalibr_camchain.yaml",
+                        "exports/left.cameramodel", "exports/right.cameramodel", "report/index.html"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f << "\n" << r.output;
+  EXPECT_FALSE(fs::exists(dir / "report" / "report")) << "the report belongs in OUT/report/index.html";
+  // No servo maps from images: owl-pwm.h is not written, and the output says why.
+  EXPECT_FALSE(fs::exists(dir / "exports" / "owl-pwm.h"));
+  EXPECT_NE(r.output.find("owl-pwm.h: no servo map was fitted"), std::string::npos) << r.output;
+
+  const std::string ref = images + "/reference/";
+  cv::FileStorage ri(ref + "intrinsics.xml", cv::FileStorage::READ), re(ref + "extrinsics.xml", cv::FileStorage::READ);
+  cv::FileStorage oi((dir / "intrinsics.xml").string(), cv::FileStorage::READ);
+  cv::FileStorage oe((dir / "extrinsics.xml").string(), cv::FileStorage::READ);
+  ASSERT_TRUE(ri.isOpened() && re.isOpened() && oi.isOpened() && oe.isOpened());
+  auto mat = [](const cv::FileStorage& fs, const char* n) {
+    cv::Mat m;
+    fs[n] >> m;
+    return m;
+  };
+  EXPECT_EQ(std::string(oe["length_unit"]), "mm");
+  const cv::Mat t_ref = mat(re, "T"), t = mat(oe, "T");
+  std::printf("kit2020 T [mm]: owlcal %.2f %.2f %.2f, course %.2f %.2f %.2f\n", t.at<double>(0), t.at<double>(1),
+              t.at<double>(2), t_ref.at<double>(0), t_ref.at<double>(1), t_ref.at<double>(2));
+  EXPECT_NEAR(cv::norm(t - t_ref), 0.0, 1.0);  // mm, not m: a unit slip would be 64 mm off
+  EXPECT_NEAR(mat(oe, "Q").at<double>(3, 2) / mat(re, "Q").at<double>(3, 2), 1.0, 0.01);
+  EXPECT_NEAR(mat(oi, "M1").at<double>(0, 0) / mat(ri, "M1").at<double>(0, 0), 1.0, 0.015);
+  EXPECT_NEAR(mat(oi, "M2").at<double>(1, 1) / mat(ri, "M2").at<double>(1, 1), 1.0, 0.015);
+  cv::FileStorage y((dir / "calibration.yaml").string(), cv::FileStorage::READ);
+  EXPECT_NEAR(mat(y, "T").at<double>(0), t.at<double>(0) / 1000, 1e-12);
   fs::remove_all(dir);
 }
 

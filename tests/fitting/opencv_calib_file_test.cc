@@ -20,8 +20,6 @@ StereoFit MakeFit() {
   f.cameras[1].params = {579, 578, 318, 242, -0.11, 0.06, 0.0, 0.0, 0.0};
   f.right_from_left = models::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY())),
                                       Eigen::Vector3d(-0.064, 0.001, 0.0005));
-  f.P1(0, 0) = 500;
-  f.Q(3, 2) = 15.6;
   return f;
 }
 
@@ -38,9 +36,10 @@ TEST(OpenCvCalibFile, WriteReadRoundTripYamlAndXml) {
     EXPECT_EQ(cv::norm(b.D1 - c.D1), 0);
     EXPECT_EQ(cv::norm(b.T - c.T), 0);
     EXPECT_EQ(cv::norm(b.F - c.F), 0);
-    EXPECT_EQ(b.P1.at<double>(0, 0), 500);
-    EXPECT_EQ(b.Q.at<double>(3, 2), 15.6);
+    EXPECT_EQ(cv::norm(b.P1 - c.P1), 0);
+    EXPECT_EQ(cv::norm(b.Q - c.Q), 0);
     EXPECT_EQ(b.image_width, 640);
+    EXPECT_EQ(b.length_unit, "m");
     std::filesystem::remove(p);
   }
   const cv::Mat xl = (cv::Mat_<double>(3, 1) << 0.1, -0.05, 1.0);
@@ -48,6 +47,27 @@ TEST(OpenCvCalibFile, WriteReadRoundTripYamlAndXml) {
   const cv::Mat pl = c.M1 * xl / xl.at<double>(2);
   const cv::Mat pr = c.M2 * xr / xr.at<double>(2);
   EXPECT_NEAR(cv::Mat(pr.t() * c.F * pl).at<double>(0), 0.0, 1e-9);
+}
+
+TEST(OpenCvCalibFile, SplitFilesAreInMillimetresAndReadBackInMetres) {
+  const OpenCvStereoCalibration c = ToOpenCvCalibration(MakeFit());
+  const auto dir = std::filesystem::temp_directory_path() / "owlcal_cv_split";
+  std::filesystem::create_directories(dir);
+  WriteOpenCvSplitFiles((dir / "intrinsics.xml").string(), (dir / "extrinsics.xml").string(), c);
+  cv::FileStorage fs((dir / "extrinsics.xml").string(), cv::FileStorage::READ);
+  cv::Mat T, Q;
+  fs["T"] >> T;
+  fs["Q"] >> Q;
+  EXPECT_DOUBLE_EQ(T.at<double>(0), -64.0);
+  EXPECT_NEAR(Q.at<double>(3, 2), c.Q.at<double>(3, 2) / 1000, 1e-15);
+  const OpenCvStereoCalibration b = ReadOpenCvSplitFiles((dir / "intrinsics.xml").string(), (dir / "extrinsics.xml").string());
+  EXPECT_EQ(b.length_unit, "mm");
+  const OpenCvStereoCalibration m = WithLengthUnit(b, "m");
+  EXPECT_NEAR(cv::norm(m.T - c.T), 0, 1e-15);
+  EXPECT_NEAR(cv::norm(m.Q - c.Q), 0, 1e-9);
+  EXPECT_NEAR(cv::norm(m.P2 - c.P2), 0, 1e-9);
+  EXPECT_THROW(WithLengthUnit(b, "square"), std::runtime_error);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(OpenCvCalibFile, ReadsTheCourseSplitFiles) {
@@ -59,6 +79,7 @@ TEST(OpenCvCalibFile, ReadsTheCourseSplitFiles) {
   EXPECT_NEAR(c.M1.at<double>(0, 0), 587.876, 0.01);
   EXPECT_EQ(c.D1.total(), 14u);
   EXPECT_NEAR(c.T.at<double>(0), -64.123, 0.01);
+  EXPECT_EQ(c.length_unit, "mm");  // no length_unit node: |T| > 1 means the course's mm
   EXPECT_FALSE(c.Q.empty());
   std::string why;
   const auto cam = CameraFromOpenCv(c.M1, c.D1, 640, 480, &why);

@@ -1,0 +1,154 @@
+#include "reports/owl_pwm_header.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "models/servo_map.h"
+#include "reports/table.h"
+
+namespace owlcal::reports {
+namespace {
+
+// A C floating literal (always with a '.' or an exponent), 10 significant digits.
+std::string FloatLiteral(double v) {
+  std::string s = Fmt(v, 10);
+  if (s.find_first_of(".e") == std::string::npos) s += ".0";
+  return s;
+}
+
+const fitting::Parameter* Determined(const fitting::CalibrationResult& r, int servo, const char* field) {
+  const fitting::Parameter* p = r.Find(std::string("servo.") + models::kServoNames[servo] + "." + field);
+  return p && p->determined && std::isfinite(p->value) ? p : nullptr;
+}
+
+}  // namespace
+
+std::string OwlPwmHeader(const fitting::CalibrationResult& r,
+                         const models::RobotConfig& config,
+                         const fitting::LimitsEvaluation* limits) {
+  bool any_map = false;
+  for (int s = 0; s < models::kNumServos; ++s) any_map = any_map || Determined(r, s, "deg_per_us");
+  if (!r.head || !any_map) throw std::runtime_error("owl-pwm.h: no servo map was fitted (no servo sweep in this calibration)");
+  const models::HeadModel& h = *r.head;
+  int lo[models::kNumServos], hi[models::kNumServos], centre[models::kNumServos];
+  std::string centre_note[models::kNumServos], limit_note[models::kNumServos];
+  for (int s = 0; s < models::kNumServos; ++s) {
+    lo[s] = config.servos[s].min_us;
+    hi[s] = config.servos[s].max_us;
+    limit_note[s] = "low configured, high configured";
+    if (limits) {
+      for (const auto& l : limits->servos) {
+        if (l.servo != s) continue;
+        lo[s] = l.recommended_min_us;
+        hi[s] = l.recommended_max_us;
+        limit_note[s] = std::string("low ") +
+                        (l.measured_min_us ? std::string("measured (") + fitting::LimitCauseName(l.min_cause) + ")"
+                                           : std::string("configured")) +
+                        ", high " +
+                        (l.measured_max_us ? std::string("measured (") + fitting::LimitCauseName(l.max_cause) + ")"
+                                           : std::string("configured"));
+      }
+    }
+    centre[s] = config.servos[s].centre_us;
+    centre_note[s] = "configured";
+    if (const fitting::Parameter* p = Determined(r, s, "centre_us")) {
+      centre[s] = int(std::lround(p->value));
+      centre_note[s] = "fitted " + Fmt(p->value, 6) + " +/- " + Fmt(p->sigma, 2) + " us";
+    }
+  }
+  // The guide names ends by direction: R/L = the robot's right/left (pan), T/B = top/bottom.
+  auto end = [&](int s, bool positive_angle) { return (config.servos[s].direction > 0) == positive_angle ? hi[s] : lo[s]; };
+  using models::kLx;
+  using models::kLy;
+  using models::kNeck;
+  using models::kRx;
+  using models::kRy;
+  std::ostringstream o;
+  o << "/* owl-pwm.h: servo limits, centres and PWM <-> angle maps of this Owl (" << config.name
+    << "), measured by owlcal " << r.software_version << ".\n"
+    << " * Valid C (C99) and C++; include it from as many files as you like (static const objects and\n"
+    << " * static inline functions only). The first block uses the course's names (Owl user guide, code\n"
+    << " * snippet 5): include this header instead of the hand-set values.\n";
+  for (int s = 0; s < models::kNumServos; ++s)
+    o << " *   " << models::kServoNames[s] << ": limits " << limit_note[s] << "; centre " << centre_note[s] << "\n";
+  o << " */\n#ifndef OWL_PWM_H\n#define OWL_PWM_H\n\n/* OWL eye ranges (course naming) */\n"
+    << "static const int RyB = " << end(kRy, false) << "; /* (bottom) to */\n"
+    << "static const int RyT = " << end(kRy, true) << "; /* (top) */\n"
+    << "static const int RxR = " << end(kRx, true) << "; /* (right) to */\n"
+    << "static const int RxL = " << end(kRx, false) << "; /* (left) */\n"
+    << "static const int LyB = " << end(kLy, false) << "; /* (bottom) to */\n"
+    << "static const int LyT = " << end(kLy, true) << "; /* (top) */\n"
+    << "static const int LxR = " << end(kLx, true) << "; /* (right) to */\n"
+    << "static const int LxL = " << end(kLx, false) << "; /* (left) */\n"
+    << "static const int NeckR = " << end(kNeck, true) << ";\n"
+    << "static const int NeckL = " << end(kNeck, false) << ";\n"
+    << "static const int RxC = " << centre[kRx] << ";\n"
+    << "static const int RyC = " << centre[kRy] << ";\n"
+    << "static const int LxC = " << centre[kLx] << ";\n"
+    << "static const int LyC = " << centre[kLy] << ";\n"
+    << "static const int NeckC = " << centre[kNeck] << ";\n"
+    << "/* The ranges as the course computes them (written out: C needs constant initialisers). */\n"
+    << "static const int RyRange = " << end(kRy, true) - end(kRy, false) << "; /* RyT - RyB */\n"
+    << "static const int RxRange = " << end(kRx, true) - end(kRx, false) << "; /* RxR - RxL */\n"
+    << "static const int LyRange = " << end(kLy, true) - end(kLy, false) << "; /* LyT - LyB (reflected so negative) */\n"
+    << "static const int LxRange = " << end(kLx, true) - end(kLx, false) << "; /* LxR - LxL */\n"
+    << "static const int NeckRange = " << end(kNeck, false) - end(kNeck, true) << "; /* NeckL - NeckR */\n\n";
+  o << "/* The fitted map of each servo (owlcal models/servo_map.h). Angles in degrees, positive to the\n"
+    << " * robot's right (pan, neck) and up (tilt):\n"
+    << " *   x         = (pwm_us - centre_us) / norm_us\n"
+    << " *   angle_deg = direction * (deg_per_us * (pwm_us - centre_us) + quad_deg * x^2 + cubic_deg * x^3)\n"
+    << " * at the middle of the backlash band: a pulse width reached from below acts as pwm_us -\n"
+    << " * hysteresis_us, from above as pwm_us + hysteresis_us. direction = +1: increasing PWM turns\n"
+    << " * right (pan, neck) or up (tilt); -1: left or down (the left eye's tilt and the neck run backwards).\n"
+    << " * min_us, max_us: never command outside them. fitted = 0: the data did not determine this map;\n"
+    << " * it holds the course's nominal values (0.113 deg/us at the configured centre). */\n"
+    << "typedef struct OwlServoMap {\n  const char* name;\n  int direction;\n"
+    << "  double centre_us, deg_per_us, quad_deg, cubic_deg, norm_us, hysteresis_us;\n"
+    << "  int min_us, max_us;\n  int fitted;\n} OwlServoMap;\n\n";
+  for (int s = 0; s < models::kNumServos; ++s) {
+    const bool fitted = Determined(r, s, "deg_per_us") != nullptr;
+    const auto& p = h.servo_params[s];
+    const double c = fitted ? p[0] : config.servos[s].centre_us;
+    const double k = fitted ? p[1] : config.servos[s].nominal_deg_per_us;
+    const double q = fitted ? p[2] : 0.0, cu = fitted ? p[3] : 0.0, hy = fitted ? p[4] : 0.0;
+    const int dir = fitted ? h.directions[s] : config.servos[s].direction;
+    o << "static const OwlServoMap Owl" << models::kServoNames[s] << " = {\"" << models::kServoNames[s] << "\", " << dir
+      << ", " << FloatLiteral(c) << ", " << FloatLiteral(k) << ", " << FloatLiteral(q) << ", " << FloatLiteral(cu) << ", "
+      << FloatLiteral(models::ServoMap::kNormUs) << ", " << FloatLiteral(hy) << ", " << lo[s] << ", " << hi[s] << ", "
+      << (fitted ? 1 : 0) << "};";
+    if (fitted && !models::ServoMap::IsMonotone(p.data(), dir, lo[s], hi[s]))
+      o << " /* not monotone over its limits: OwlDegToPwm returns one of the solutions */";
+    o << "\n";
+  }
+  const fitting::Parameter* ipd = r.Find("head.ipd_mm");
+  const bool ipd_ok = ipd && ipd->determined && std::isfinite(ipd->value);
+  o << "\n/* Inter-pupillary distance [mm]" << (ipd_ok ? "" : " (design value: not determined)") << ". */\n"
+    << "static const double OwlIpdMm = " << FloatLiteral(ipd_ok ? ipd->value : config.ipd_m * 1000) << ";\n\n";
+  o << "/* Joint angle [deg] at a pulse width [us] (middle of the backlash band). */\n"
+    << "static inline double OwlPwmToDeg(const OwlServoMap* m, double pwm_us) {\n"
+    << "  const double du = pwm_us - m->centre_us;\n"
+    << "  const double x = du / m->norm_us;\n"
+    << "  return m->direction * (m->deg_per_us * du + m->quad_deg * x * x + m->cubic_deg * x * x * x);\n"
+    << "}\n\n"
+    << "/* The pulse width [us] for a joint angle [deg], rounded to 1 us and clamped to [min_us, max_us]:\n"
+    << " * an angle beyond what the limits reach gives the limit. Bisection (no maths library needed). */\n"
+    << "static inline int OwlDegToPwm(const OwlServoMap* m, double angle_deg) {\n"
+    << "  double lo = m->min_us, hi = m->max_us;\n"
+    << "  const double a_lo = OwlPwmToDeg(m, lo), a_hi = OwlPwmToDeg(m, hi);\n"
+    << "  const double sense = a_hi >= a_lo ? 1.0 : -1.0;\n"
+    << "  int i, u;\n"
+    << "  if ((angle_deg - a_lo) * sense <= 0.0) return m->min_us;\n"
+    << "  if ((angle_deg - a_hi) * sense >= 0.0) return m->max_us;\n"
+    << "  for (i = 0; i < 64; ++i) {\n"
+    << "    const double mid = 0.5 * (lo + hi);\n"
+    << "    if ((OwlPwmToDeg(m, mid) - angle_deg) * sense < 0.0) lo = mid;\n"
+    << "    else hi = mid;\n"
+    << "  }\n"
+    << "  u = (int)(0.5 * (lo + hi) + 0.5);\n"
+    << "  return u < m->min_us ? m->min_us : (u > m->max_us ? m->max_us : u);\n"
+    << "}\n\n#endif /* OWL_PWM_H */\n";
+  return o.str();
+}
+
+}  // namespace owlcal::reports
