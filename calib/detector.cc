@@ -3,25 +3,16 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <set>
 #include <stdexcept>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-extern "C" {
-#include <apriltag/apriltag.h>
-#include <apriltag/tag16h5.h>
-#include <apriltag/tag25h9.h>
-#include <apriltag/tag36h11.h>
-}
+#include "calib/apriltag_free.h"
 
 namespace owlcal::calib {
 namespace {
-
-// libapriltag 3.3 returns p[0..3] = bottom-left, bottom-right, top-right, top-left of the
-// upright tag (counter-clockwise in a y-up view). Entry k is the libapriltag index of our
-// corner k (0 TL, 1 TR, 2 BR, 3 BL); pinned by DetectorAprilTag.CornerOrderMatchesRenderedTag.
-constexpr int kAprilIndexOfCorner[4] = {3, 2, 1, 0};
 
 cv::Mat ToGray(const cv::Mat& image) {
   if (image.empty()) throw std::invalid_argument("DetectTarget: empty image");
@@ -78,81 +69,37 @@ TargetDetection DetectChessboard(const cv::Mat& gray, const TargetDefinition& ta
   return d;
 }
 
-// One cached libapriltag detector per thread and family.
-struct AprilDetector {
-  apriltag_family_t* family = nullptr;
-  apriltag_detector_t* detector = nullptr;
-  void (*destroy_family)(apriltag_family_t*) = nullptr;
-  ~AprilDetector() {
-    if (detector) apriltag_detector_destroy(detector);
-    if (family && destroy_family) destroy_family(family);
-  }
-};
-
-AprilDetector& GetAprilDetector(const std::string& family_name, int max_hamming) {
-  thread_local std::map<std::pair<std::string, int>, std::unique_ptr<AprilDetector>> cache;
-  auto& slot = cache[{family_name, max_hamming}];
-  if (!slot) {
-    slot = std::make_unique<AprilDetector>();
-    if (family_name == "tag36h11") {
-      slot->family = tag36h11_create();
-      slot->destroy_family = tag36h11_destroy;
-    } else if (family_name == "tag25h9") {
-      slot->family = tag25h9_create();
-      slot->destroy_family = tag25h9_destroy;
-    } else if (family_name == "tag16h5") {
-      slot->family = tag16h5_create();
-      slot->destroy_family = tag16h5_destroy;
-    } else {
-      throw std::invalid_argument("DetectTarget: AprilTag family '" + family_name + "' unsupported");
-    }
-    slot->detector = apriltag_detector_create();
-    apriltag_detector_add_family_bits(slot->detector, slot->family, max_hamming);
-    slot->detector->nthreads = 1;
-  }
-  return *slot;
-}
-
 TargetDetection DetectAprilGrid(const cv::Mat& gray, const TargetDefinition& target, const DetectorOptions& o) {
   TargetDetection d;
-  AprilDetector& ad = GetAprilDetector(target.family, o.apriltag_max_hamming);
-  ad.detector->quad_decimate = float(o.apriltag_decimate);
-  ad.detector->quad_sigma = float(o.apriltag_blur_sigma);
-  ad.detector->refine_edges = o.apriltag_refine_edges;
-  cv::Mat g = gray.isContinuous() ? gray : gray.clone();
-  image_u8_t im{g.cols, g.rows, int(g.step[0]), g.data};
-  zarray_t* detections = apriltag_detector_detect(ad.detector, &im);
+  AprilTagOptions ao;
+  ao.families = {target.family};
+  ao.quad_decimate = o.apriltag_decimate;
+  ao.quad_sigma = o.apriltag_blur_sigma;
+  ao.refine_edges = o.apriltag_refine_edges;
+  ao.max_hamming = o.apriltag_max_hamming;
+  std::string why;
+  if (!ao.Check(&why)) throw std::invalid_argument("DetectTarget: " + why);
   const int num_tags = target.tag_cols * target.tag_rows;
+  // A grid id names one physical tag: an id seen more than once is ambiguous and every copy
+  // is rejected (free-standing detection, calib/apriltag_free.h, keeps them all instead).
   std::map<int, std::array<Eigen::Vector2d, 4>> tags;  // tag id -> our corners 0..3
+  std::set<int> repeated;
   int dropped = 0;
-  for (int i = 0; i < zarray_size(detections); ++i) {
-    apriltag_detection_t* det = nullptr;
-    zarray_get(detections, i, &det);
-    if (det->id < target.first_id || det->id >= target.first_id + num_tags) {
+  for (const AprilTagDetection& t : DetectAprilTags(gray, ao)) {
+    if (t.id < target.first_id || t.id >= target.first_id + num_tags || t.decision_margin < o.apriltag_min_margin) {
       ++dropped;
       continue;
     }
-    if (det->decision_margin < o.apriltag_min_margin || det->hamming > o.apriltag_max_hamming) {
-      ++dropped;
+    if (t.repeated_id) {
+      repeated.insert(t.id);
       continue;
     }
-    if (tags.count(det->id)) {  // the same id twice: ambiguous, drop both
-      tags.erase(det->id);
-      ++dropped;
-      continue;
-    }
-    std::array<Eigen::Vector2d, 4> c;
-    for (int k = 0; k < 4; ++k) {
-      const int a = kAprilIndexOfCorner[k];
-      // libapriltag: (0,0) at the top-left pixel's corner -> OpenCV: subtract 0.5 px.
-      c[k] = Eigen::Vector2d(det->p[a][0] - 0.5, det->p[a][1] - 0.5);
-    }
-    tags[det->id] = c;
+    tags[t.id] = t.corners;
   }
-  apriltag_detections_destroy(detections);
   if (int(tags.size()) < std::max(1, o.apriltag_min_tags)) {
     d.message = "aprilgrid: " + std::to_string(tags.size()) + " tags of the grid found (need " +
                 std::to_string(std::max(1, o.apriltag_min_tags)) + ")";
+    if (!repeated.empty()) d.message += "; " + std::to_string(repeated.size()) + " repeated ids rejected";
     return d;
   }
   d.found = true;
@@ -162,7 +109,11 @@ TargetDetection DetectAprilGrid(const cv::Mat& gray, const TargetDefinition& tar
       d.pixels.push_back(c[k]);
     }
   d.message = std::to_string(tags.size()) + " tags";
-  if (dropped) d.message += ", " + std::to_string(dropped) + " other/ambiguous detections dropped";
+  if (dropped) d.message += ", " + std::to_string(dropped) + " other or weak detections dropped";
+  if (!repeated.empty()) {
+    d.message += ", repeated ids rejected (every copy):";
+    for (int id : repeated) d.message.append(" ").append(std::to_string(id));  // GCC 12 -Wrestrict on " " + s
+  }
   return d;
 }
 

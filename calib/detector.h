@@ -2,11 +2,11 @@
 // Target detection: an image -> the target's corners that are visible, with their stable ids.
 //
 // Pixels are in OpenCV's convention (STYLE.md section 7): (0,0) is the centre of the top-left
-// pixel. libapriltag reports corners with (0,0) at the top-left pixel's corner, so its corners
-// are shifted by -0.5 px here (FACTS.md). AprilTag corner ids follow calib/target.h:
+// pixel. AprilTags come from calib/apriltag_free.h (libapriltag's (0,0) at the top-left
+// pixel's corner shifted by -0.5 px, FACTS.md). AprilTag corner ids follow calib/target.h:
 // 4 * tag_id + k, k = 0 TL, 1 TR, 2 BR, 3 BL as seen on the upright board (target x right,
-// y down); libapriltag's own order (counter-clockwise from bottom-left in the tag's frame) is
-// mapped here and pinned by tests/calib/detector_test.cc on a rendered tag.
+// y down), pinned by tests/calib/detector_test.cc on a rendered tag. A tag id seen more than
+// once in one image is ambiguous for a grid: every copy is rejected and the message names it.
 //
 // Chessboard: classic = cv::findChessboardCorners + cv::cornerSubPix with a SMALL half-window
 // (default 5, i.e. an 11x11 px window: OpenCV's stereo sample's 11 misplaces corners by up to
