@@ -5,7 +5,9 @@
 #include <memory>
 
 #include "apps/command_registry.h"
+#include "fitting/format.h"
 #include "fitting/vergence_log_fit.h"
+#include "robot/robot_file.h"
 
 namespace owlcal::apps {
 namespace {
@@ -18,6 +20,8 @@ struct FitVergenceOptions {
   double datum_mm = 30;
   bool fix_datum = false;
   double pwm_sigma_us = 1;
+  fitting::VergenceColumnRequest columns;
+  std::string constants;  // robot file of THIS robot, for the fixed-constant comparison
 };
 
 void WriteText(const std::filesystem::path& p, const std::string& text) {
@@ -38,21 +42,49 @@ int RunFitVergence(const FitVergenceOptions& a) {
   o.pwm_sigma_us = a.pwm_sigma_us;
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
-  const auto rows = fitting::ReadVergenceLogCsv(a.csv);
+  fitting::VergenceColumns cols;
+  const auto rows = fitting::ReadVergenceLogCsv(a.csv, a.columns, &cols);
   const auto fit = fitting::FitVergenceLog(rows, o);
-  const auto loo = fitting::LeaveOneOut(rows, o, fit, fitting::FixedConstantVergence{});
+  fitting::LooSummary loo;
+  if (!a.constants.empty()) {
+    const auto robot = robot::LoadRobotFile(a.constants);
+    loo = fitting::LeaveOneOut(rows, o, fit,
+                               fitting::FixedConstantVergence::FromRobot(
+                                   robot, a.datum_mm / 1000,
+                                   a.constants + " (robot " + robot.name + ": Rx centre " +
+                                       std::to_string(robot.servos[models::kRx].centre_us) + " us, Lx centre " +
+                                       std::to_string(robot.servos[models::kLx].centre_us) + " us, " +
+                                       fitting::FixedOrDash(1 / robot.servos[models::kRx].nominal_deg_per_us, 2) + "/" +
+                                       fitting::FixedOrDash(1 / robot.servos[models::kLx].nominal_deg_per_us, 2) +
+                                       " us/deg, IPD " + fitting::FixedOrDash(robot.ipd_m * 1000, 1) + " mm, datum " +
+                                       fitting::FixedOrDash(a.datum_mm, 0) + " mm)"));
+  } else {
+    loo = fitting::LeaveOneOut(rows, o, fit);
+  }
   std::filesystem::create_directories(a.out);
-  const std::string md = fitting::VergenceReportMarkdown(rows, fit, loo);
+  const std::string md = "Columns used: " + cols.Describe() + ".\n\n" + fitting::VergenceReportMarkdown(rows, fit, loo);
   WriteText(std::filesystem::path(a.out) / "vergence_fit.md", md);
   WriteText(std::filesystem::path(a.out) / "vergence_rows.csv", fitting::VergenceRowsCsv(rows, fit, loo));
   fitting::CalibrationResult r;
   r.parameters = fit.parameters;
   r.summaries.push_back(fit.summary);
   r.warnings = fit.notes;
-  r.inputs = {{"vergence_log", a.csv}, {"ipd_mode", a.ipd}, {"pwm_sigma_us", a.pwm_sigma_us}};
-  r.diagnostics = {{"residual_sigma_us", fit.residual_sigma_us},
-                   {"loo_mean_abs_rel", loo.loo_mean_abs_rel},
-                   {"fixed_constant_mean_abs_rel", loo.fixed_mean_abs_rel}};
+  r.inputs = {{"vergence_log", a.csv},
+              {"ipd_mode", a.ipd},
+              {"pwm_sigma_us", a.pwm_sigma_us},
+              {"columns",
+               {{"distance", cols.distance_name},
+                {"distance_unit", cols.distance_unit},
+                {"rx", cols.rx_name},
+                {"lx", cols.lx_name},
+                {"run", cols.run_name},
+                {"ignored", cols.ignored}}},
+              {"constants", a.constants}};
+  r.diagnostics = {{"residual_sigma_us", fit.residual_sigma_us}, {"loo_mean_abs_rel", loo.loo_mean_abs_rel}};
+  if (loo.has_fixed) {
+    r.diagnostics["fixed_constant_mean_abs_rel"] = loo.fixed_mean_abs_rel;
+    r.diagnostics["fixed_constant_source"] = loo.fixed_source;
+  }
   fitting::WriteResultJson(r, (std::filesystem::path(a.out) / "results.json").string());
   std::cout << md << "\nwrote " << a.out << "/{vergence_fit.md, vergence_rows.csv, results.json}\n";
   return fit.summary.usable ? kExitOk : kExitFailed;
@@ -60,8 +92,10 @@ int RunFitVergence(const FitVergenceOptions& a) {
 
 const bool kRegistered = RegisterCommand(
     "fit-vergence",
-    "Fit each eye's pan centre and us/deg scale (and the distance datum) from a vergence log CSV "
-    "(run, distance_cm, Rx, Lx), with sigma and leave-one-out range error vs the course's fixed constants",
+    "Fit each eye's pan centre and us/deg scale (and the distance datum) from a vergence log CSV\n"
+    "(run, a true distance, Rx, Lx), with sigma and leave-one-out range error; with --constants ROBOT-FILE,\n"
+    "compared with that robot's fixed constants. A header with more than one distance-like column is refused\n"
+    "unless --distance-column names the true distance; the columns used are reported.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<FitVergenceOptions>();
       cmd->add_option("csv", o->csv, "vergence log: header with distance_cm|distance_mm, Rx, Lx, optional run")
@@ -74,6 +108,16 @@ const bool kRegistered = RegisterCommand(
           ->capture_default_str();
       cmd->add_flag("--fix-datum", o->fix_datum, "do not fit the datum");
       cmd->add_option("--pwm-sigma-us", o->pwm_sigma_us, "prior sigma of one logged PWM [us]")->capture_default_str();
+      cmd->add_option("--distance-column", o->columns.distance,
+                      "header name of the TRUE distance (needed when several columns look like distances)");
+      cmd->add_option("--distance-unit", o->columns.distance_unit, "m, cm or mm (default: the column name's suffix)");
+      cmd->add_option("--rx-column", o->columns.rx, "header name of the right-eye pan PWM (default Rx, Rx_us, Rx_pwm)");
+      cmd->add_option("--lx-column", o->columns.lx, "header name of the left-eye pan PWM (default Lx, Lx_us, Lx_pwm)");
+      cmd->add_option("--run-column", o->columns.run, "header name of the run id (default run; absent = one run)");
+      cmd->add_option("--constants", o->constants,
+                      "robot file (data/robots/guide-owl.yaml form) of THIS robot: its Rx/Lx centres, deg_per_us, "
+                      "directions and IPD are the fixed-constant method compared with the fit")
+          ->check(CLI::ExistingFile);
       return [o] { return RunFitVergence(*o); };
     });
 

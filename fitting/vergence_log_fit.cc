@@ -25,11 +25,6 @@ constexpr double kDegToRad = M_PI / 180.0;
 
 std::vector<std::string> SplitCsv(const std::string& line) { return calib::SplitCsvLine(line, /*trim=*/true); }
 
-std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
 // Residual of one row: predicted minus logged PWM for both eyes, whitened.
 struct VergenceRowResidual {
   double distance_m, rx_us, lx_us, sigma_us;
@@ -163,31 +158,19 @@ double Median(std::vector<double> v) {
 
 }  // namespace
 
-std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path) {
+std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path,
+                                               const VergenceColumnRequest& request,
+                                               VergenceColumns* used) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open vergence log");
   std::string line;
   if (!std::getline(in, line)) throw std::runtime_error(path + ": empty file");
   // Strip a UTF-8 BOM.
   if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line.erase(0, 3);
-  const auto header = SplitCsv(line);
-  int c_run = -1, c_dist = -1, c_rx = -1, c_lx = -1;
-  double dist_scale = 1;
-  for (int i = 0; i < static_cast<int>(header.size()); ++i) {
-    const std::string h = Lower(header[i]);
-    if (h == "run") c_run = i;
-    if (h == "rx" || h == "rx_us") c_rx = i;
-    if (h == "lx" || h == "lx_us") c_lx = i;
-    if (c_dist < 0 && h.find("distance") != std::string::npos) {
-      c_dist = i;
-      if (h.ends_with("_cm")) dist_scale = 0.01;
-      else if (h.ends_with("_mm")) dist_scale = 0.001;
-      else if (h.ends_with("_m")) dist_scale = 1;
-      else throw std::runtime_error(path + ": distance column '" + header[i] + "' has no unit suffix (_m, _cm, _mm)");
-    }
-  }
-  if (c_dist < 0 || c_rx < 0 || c_lx < 0)
-    throw std::runtime_error(path + ": header needs a distance column (e.g. distance_cm), Rx and Lx; got '" + line + "'");
+  const VergenceColumns cols = ResolveVergenceColumns(SplitCsv(line), request, path);
+  if (used) *used = cols;
+  const int c_run = cols.run, c_dist = cols.distance, c_rx = cols.rx, c_lx = cols.lx;
+  const double dist_scale = cols.distance_scale_m;
   std::vector<VergenceLogRow> rows;
   int line_no = 1;
   while (std::getline(in, line)) {
@@ -199,17 +182,34 @@ std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path) {
     };
     VergenceLogRow r;
     r.run = c_run >= 0 ? static_cast<int>(get(c_run, "run")) : 1;
-    r.true_distance_m = get(c_dist, "distance") * dist_scale;
-    r.rx_us = get(c_rx, "Rx");
-    r.lx_us = get(c_lx, "Lx");
+    r.true_distance_m = get(c_dist, cols.distance_name.c_str()) * dist_scale;
+    r.rx_us = get(c_rx, cols.rx_name.c_str());
+    r.lx_us = get(c_lx, cols.lx_name.c_str());
     rows.push_back(r);
   }
   return rows;
 }
 
+FixedConstantVergence FixedConstantVergence::FromRobot(const models::RobotConfig& robot, double datum_offset_m,
+                                                       const std::string& source) {
+  FixedConstantVergence f;
+  const auto& rx = robot.servos[models::kRx];
+  const auto& lx = robot.servos[models::kLx];
+  f.rx_centre_us = rx.centre_us;
+  f.lx_centre_us = lx.centre_us;
+  f.rx_us_per_deg = 1.0 / rx.nominal_deg_per_us;
+  f.lx_us_per_deg = 1.0 / lx.nominal_deg_per_us;
+  f.rx_direction = rx.direction;
+  f.lx_direction = lx.direction;
+  f.ipd_m = robot.ipd_m;
+  f.datum_offset_m = datum_offset_m;
+  f.source = source;
+  return f;
+}
+
 std::optional<double> FixedConstantVergence::Distance(double rx_us, double lx_us) const {
-  const double tr = -(rx_us - rx_centre_us) / us_per_deg * kDegToRad;
-  const double tl = (lx_us - lx_centre_us) / us_per_deg * kDegToRad;
+  const double tr = -rx_direction * (rx_us - rx_centre_us) / rx_us_per_deg * kDegToRad;
+  const double tl = lx_direction * (lx_us - lx_centre_us) / lx_us_per_deg * kDegToRad;
   if (std::sin(tl + tr) <= 1e-12) return std::nullopt;
   const double ld = models::SineRuleLeftDistance(ipd_m, tl, tr);
   const double sq = ld * ld + ipd_m * ipd_m / 4 - ld * ipd_m * std::sin(tl);
@@ -359,11 +359,15 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
   return fit;
 }
 
-LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
-                       const VergenceFitOptions& options,
-                       const VergenceLogFit& full,
-                       const FixedConstantVergence& fixed) {
+namespace {
+
+LooSummary LeaveOneOutImpl(const std::vector<VergenceLogRow>& rows,
+                           const VergenceFitOptions& options,
+                           const VergenceLogFit& full,
+                           const FixedConstantVergence* fixed) {
   LooSummary out;
+  out.has_fixed = fixed != nullptr;
+  if (fixed) out.fixed_source = fixed->source;
   std::vector<double> fe, le;
   for (size_t i = 0; i < rows.size(); ++i) {
     std::vector<VergenceLogRow> rest;
@@ -377,7 +381,7 @@ LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
     LooRow r;
     r.row = static_cast<int>(i);
     r.true_m = rows[i].true_distance_m;
-    r.fixed_m = fixed.Distance(rows[i].rx_us, rows[i].lx_us);
+    if (fixed) r.fixed_m = fixed->Distance(rows[i].rx_us, rows[i].lx_us);
     r.loo_m = s.maps.Distance(rows[i].rx_us, rows[i].lx_us);
     auto rel = [&](const std::optional<double>& v, int* fails) {
       if (!v || *v <= 0) {
@@ -386,7 +390,7 @@ LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
       }
       return std::min(1.0, std::abs(*v - r.true_m) / r.true_m);
     };
-    fe.push_back(rel(r.fixed_m, &out.fixed_failures));
+    if (fixed) fe.push_back(rel(r.fixed_m, &out.fixed_failures));
     le.push_back(rel(r.loo_m, &out.loo_failures));
     out.rows.push_back(r);
   }
@@ -400,6 +404,21 @@ LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
   out.fixed_median_abs_rel = Median(fe);
   out.loo_median_abs_rel = Median(le);
   return out;
+}
+
+}  // namespace
+
+LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
+                       const VergenceFitOptions& options,
+                       const VergenceLogFit& full,
+                       const FixedConstantVergence& fixed) {
+  return LeaveOneOutImpl(rows, options, full, &fixed);
+}
+
+LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
+                       const VergenceFitOptions& options,
+                       const VergenceLogFit& full) {
+  return LeaveOneOutImpl(rows, options, full, nullptr);
 }
 
 std::string VergenceReportMarkdown(const std::vector<VergenceLogRow>& rows,
@@ -431,11 +450,17 @@ std::string VergenceReportMarkdown(const std::vector<VergenceLogRow>& rows,
        << FixedOrDash(d[i].residual_rx, 2) << " | " << FixedOrDash(d[i].residual_lx, 2) << " | " << FixedOrDash(100 * d[i].chi2 / total, 1)
        << " % | " << FixedOrDash(d[i].range_per_us_m * 100, 2) << " |\n";
   }
-  md << "\n## Leave-one-out range error vs the course's fixed-constant method\n\n"
-     << "| | mean abs error | median abs error | no fix |\n|---|---|---|---|\n"
-     << "| fixed constants | " << FixedOrDash(100 * loo.fixed_mean_abs_rel, 1) << " % | "
-     << FixedOrDash(100 * loo.fixed_median_abs_rel, 1) << " % | " << loo.fixed_failures << " |\n"
-     << "| fitted maps (leave-one-out) | " << FixedOrDash(100 * loo.loo_mean_abs_rel, 1) << " % | "
+  md << "\n## Leave-one-out range error" << (loo.has_fixed ? " vs a fixed-constant method" : "") << "\n\n";
+  if (loo.has_fixed)
+    md << "Fixed constants: " << loo.fixed_source << ".\n\n";
+  else
+    md << "No constants of this robot were given (--constants ROBOT-FILE), so there is no fixed-constant "
+          "comparison: another robot's constants say nothing about this one.\n\n";
+  md << "| | mean abs error | median abs error | no fix |\n|---|---|---|---|\n";
+  if (loo.has_fixed)
+    md << "| fixed constants | " << FixedOrDash(100 * loo.fixed_mean_abs_rel, 1) << " % | "
+       << FixedOrDash(100 * loo.fixed_median_abs_rel, 1) << " % | " << loo.fixed_failures << " |\n";
+  md << "| fitted maps (leave-one-out) | " << FixedOrDash(100 * loo.loo_mean_abs_rel, 1) << " % | "
      << FixedOrDash(100 * loo.loo_median_abs_rel, 1) << " % | " << loo.loo_failures << " |\n\n"
      << "(a row without a fix, or off by more than 100 %, counts as 100 %)\n";
   return md.str();

@@ -28,6 +28,8 @@
 #include <vector>
 
 #include "fitting/result.h"
+#include "fitting/vergence_log_columns.h"
+#include "models/robot_config.h"
 
 namespace owlcal::fitting {
 
@@ -38,20 +40,31 @@ struct VergenceLogRow {
   double lx_us = 0;            // left eye pan PWM
 };
 
-// Reads a CSV with a header naming the columns: "run" (optional), a distance column whose
-// suffix gives the unit (actual_distance_cm, distance_cm, distance_mm, distance_m), and
-// Rx / Rx_us, Lx / Lx_us. Extra columns are ignored. Throws naming the path, line and field.
-std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path);
+// Reads a CSV with a header naming the columns (fitting/vergence_log_columns.h: the true
+// distance column must be the only distance-like one or be named in `columns`; Rx, Lx, run).
+// Extra columns are ignored and listed in *used. Throws naming the path, line and field.
+std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path,
+                                               const VergenceColumnRequest& columns = {},
+                                               VergenceColumns* used = nullptr);
 
-// The course's fixed-constant method (noble2020 README): theta_R = -(Rx - RxC)/k deg,
-// theta_L = (Lx - LxC)/k deg, lDist = IPD cos(theta_R)/sin(theta_L + theta_R),
+// The course's fixed-constant method (noble2020 README), per eye:
+// theta_R = -dir_R (Rx - RxC)/k_R deg, theta_L = dir_L (Lx - LxC)/k_L deg (inward positive),
+// lDist = IPD cos(theta_R)/sin(theta_L + theta_R),
 // range = sqrt(lDist^2 + (IPD/2)^2 - lDist IPD sin(theta_L)) - offset.
+// The defaults are noble2020's sheet (ITS robot: RxC 1445, LxC 1430, 10.73 us/deg); for another
+// robot use FromRobot with that robot's file.
 struct FixedConstantVergence {
   double rx_centre_us = 1445;
   double lx_centre_us = 1430;
-  double us_per_deg = 10.73;
+  double rx_us_per_deg = 10.73;
+  double lx_us_per_deg = 10.73;
+  int rx_direction = 1, lx_direction = 1;  // +1: increasing PWM turns the eye to the robot's right
   double ipd_m = 0.065;
   double datum_offset_m = 0.030;
+  std::string source = "noble2020 sheet constants";
+  // From a robot file's Rx / Lx centres, deg_per_us and directions and its IPD.
+  static FixedConstantVergence FromRobot(const models::RobotConfig& robot, double datum_offset_m,
+                                         const std::string& source);
   // Distance from the datum [m]; nullopt when the rays do not converge.
   std::optional<double> Distance(double rx_us, double lx_us) const;
 };
@@ -117,6 +130,8 @@ struct LooRow {
 };
 struct LooSummary {
   std::vector<LooRow> rows;
+  bool has_fixed = false;          // a fixed-constant comparison was made
+  std::string fixed_source;        // whose constants
   // Mean / median absolute relative error; rows without a fix count as 100 %.
   double fixed_mean_abs_rel = 0, fixed_median_abs_rel = 0;
   double loo_mean_abs_rel = 0, loo_median_abs_rel = 0;
@@ -128,6 +143,10 @@ LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
                        const VergenceFitOptions& options,
                        const VergenceLogFit& full,
                        const FixedConstantVergence& fixed);
+// Without a fixed-constant comparison (no constants of THIS robot given).
+LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
+                       const VergenceFitOptions& options,
+                       const VergenceLogFit& full);
 
 // Markdown tables: parameters, dominant rows, leave-one-out.
 std::string VergenceReportMarkdown(const std::vector<VergenceLogRow>& rows,

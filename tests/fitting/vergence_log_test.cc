@@ -72,12 +72,23 @@ TEST(VergenceLogFit, FixedConstantMethodReproducesTheStudentsSheet) {
 
 TEST(VergenceLogFit, Noble2020LeaveOneOutBeatsFixedConstants) {
   const std::string path = SharedData() + "/owl-real/noble2020-vergence-range/vergence_runs.csv";
-  const auto rows = ReadVergenceLogCsv(path);
+  // Two distance-like columns (actual_distance_cm, sheet_estimate_cm): the true one is named.
+  VergenceColumnRequest columns;
+  columns.distance = "actual_distance_cm";
+  const auto rows = ReadVergenceLogCsv(path, columns);
   ASSERT_EQ(rows.size(), 30u);
   VergenceFitOptions o;
   const VergenceLogFit fit = FitVergenceLog(rows, o);
   ASSERT_TRUE(fit.summary.usable) << fit.summary.message;
-  const LooSummary loo = LeaveOneOut(rows, o, fit, FixedConstantVergence{});
+  // The comparison uses THIS robot's constants, from its robot file (the sheet's values).
+  models::RobotConfig robot = models::DefaultRobotConfig();
+  robot.servos[models::kRx].centre_us = 1445;
+  robot.servos[models::kLx].centre_us = 1430;
+  robot.servos[models::kRx].nominal_deg_per_us = robot.servos[models::kLx].nominal_deg_per_us = 1 / 10.73;
+  const FixedConstantVergence sheet = FixedConstantVergence::FromRobot(robot, 0.030, "noble2020 robot file");
+  EXPECT_NEAR(*sheet.Distance(1385, 1485) * 100, 31.647, 0.01);
+  const LooSummary loo = LeaveOneOut(rows, o, fit, sheet);
+  EXPECT_TRUE(loo.has_fixed);
   std::cout << VergenceReportMarkdown(rows, fit, loo) << "\n" << VergenceRowsCsv(rows, fit, loo);
   EXPECT_LT(loo.loo_mean_abs_rel, loo.fixed_mean_abs_rel);
   EXPECT_LT(loo.loo_median_abs_rel, loo.fixed_median_abs_rel);
@@ -86,6 +97,84 @@ TEST(VergenceLogFit, Noble2020LeaveOneOutBeatsFixedConstants) {
       EXPECT_TRUE(std::isfinite(p.sigma) && p.sigma > 0) << p.name;
     }
   }
+}
+
+std::string WriteTemp(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string ErrorOf(const std::string& path, const VergenceColumnRequest& columns = {}) {
+  try {
+    ReadVergenceLogCsv(path, columns);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// The trap of issue 13: a log with the sheet's own estimate, the program's output and the
+// true distance. Without --distance-column it is refused, naming all three and the option;
+// named, the true distance is read and the other two are listed as ignored.
+TEST(VergenceLogColumns, SeveralDistanceColumnsAreRefusedUnlessOneIsNamed) {
+  const std::string path = WriteTemp("trap_vergence.csv",
+                                     "run,sheet_calc_distance_mm,program_reported_distance_mm,actual_distance_mm,Rx,Lx\n"
+                                     "1,101,98,100,1310,1595\n1,195,210,200,1355,1520\n");
+  const std::string e = ErrorOf(path);
+  EXPECT_NE(e.find(path), std::string::npos) << e;
+  for (const char* c : {"sheet_calc_distance_mm", "program_reported_distance_mm", "actual_distance_mm", "--distance-column"})
+    EXPECT_NE(e.find(c), std::string::npos) << c << " not in: " << e;
+  VergenceColumnRequest req;
+  req.distance = "actual_distance_mm";
+  VergenceColumns used;
+  const auto rows = ReadVergenceLogCsv(path, req, &used);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(rows[0].true_distance_m, 0.100);
+  EXPECT_DOUBLE_EQ(rows[1].true_distance_m, 0.200);
+  EXPECT_EQ(used.distance_name, "actual_distance_mm");
+  EXPECT_EQ(used.distance_unit, "mm");
+  EXPECT_EQ(used.ignored, (std::vector<std::string>{"sheet_calc_distance_mm", "program_reported_distance_mm"}));
+  EXPECT_NE(used.Describe().find("ignored: sheet_calc_distance_mm"), std::string::npos) << used.Describe();
+  // The real noble2020 log has the same trap (actual_distance_cm, sheet_estimate_cm).
+  const std::string noble = SharedData() + "/owl-real/noble2020-vergence-range/vergence_runs.csv";
+  const std::string en = ErrorOf(noble);
+  EXPECT_NE(en.find("sheet_estimate_cm"), std::string::npos) << en;
+  EXPECT_NE(en.find("actual_distance_cm"), std::string::npos) << en;
+}
+
+TEST(VergenceLogColumns, ColumnsAreMappedExplicitly) {
+  const std::string path = WriteTemp("renamed_vergence.csv", "trial,target_mm,right_pan,left_pan\n3,250,1400,1455\n");
+  EXPECT_NE(ErrorOf(path).find("--rx-column"), std::string::npos) << ErrorOf(path);
+  VergenceColumnRequest req;
+  req.rx = "right_pan";
+  req.lx = "LEFT_PAN";  // case-insensitive
+  req.run = "trial";
+  VergenceColumns used;
+  const auto rows = ReadVergenceLogCsv(path, req, &used);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].run, 3);
+  EXPECT_DOUBLE_EQ(rows[0].true_distance_m, 0.25);
+  EXPECT_DOUBLE_EQ(rows[0].rx_us, 1400);
+  EXPECT_DOUBLE_EQ(rows[0].lx_us, 1455);
+  EXPECT_EQ(used.distance_name, "target_mm");  // the only distance-like column
+  req.distance = "no_such_column";
+  EXPECT_NE(ErrorOf(path, req).find("'no_such_column' is not a column"), std::string::npos) << ErrorOf(path, req);
+  // A distance column without a unit needs --distance-unit.
+  const std::string nounit = WriteTemp("nounit_vergence.csv", "distance,Rx,Lx\n25,1400,1455\n");
+  EXPECT_NE(ErrorOf(nounit).find("--distance-unit"), std::string::npos) << ErrorOf(nounit);
+  VergenceColumnRequest cm;
+  cm.distance_unit = "cm";
+  EXPECT_DOUBLE_EQ(ReadVergenceLogCsv(nounit, cm)[0].true_distance_m, 0.25);
+}
+
+// wilmot2019's logs have no header (estimate, true distance in mm) and no PWM at all.
+TEST(VergenceLogColumns, HeaderlessLogIsRefusedWithWhatToAdd) {
+  const std::string path =
+      SharedData() + "/owl-real/wilmot2019-range-csv/vergence/2019-03-25_vergence_distance_measurements_10mm_steps.csv";
+  const std::string e = ErrorOf(path);
+  EXPECT_NE(e.find("not a header"), std::string::npos) << e;
+  EXPECT_NE(e.find(path), std::string::npos) << e;
 }
 
 TEST(VergenceLogFit, ReaderNamesFileAndFieldOnBadInput) {
