@@ -19,6 +19,7 @@
 #include "apps/robot_options.h"
 #include "calib/observation.h"
 #include "calib/observation_io.h"
+#include "fitting/fit_points.h"
 #include "fitting/head_fit.h"
 #include "fitting/limits_eval.h"
 #include "fitting/ranging_eval.h"
@@ -33,7 +34,6 @@
 #include "protocols/robot_factory.h"
 #include "protocols/runner.h"
 #include "reports/exports.h"
-#include "reports/fit_points.h"
 #include "reports/report.h"
 #include "reports/report_data.h"
 #include "sim/virtual_owl.h"
@@ -164,17 +164,17 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
   return out;
 }
 
-std::vector<reports::StepTrace> ReadSteps(const std::string& dataset) {
-  std::vector<reports::StepTrace> out;
+std::vector<fitting::StepTrace> ReadSteps(const std::string& dataset) {
+  std::vector<fitting::StepTrace> out;
   const Csv t = ReadCsv(dataset + "/step_response.csv");
-  std::map<std::tuple<int, double, double, int>, reports::StepTrace> by;
+  std::map<std::tuple<int, double, double, int>, fitting::StepTrace> by;
   std::vector<std::tuple<int, double, double, int>> order;
   for (size_t r = 0; r < t.rows.size(); ++r) {
     const auto key = std::make_tuple(int(t.Num(r, "step_index")), t.Num(r, "gain"), t.Num(r, "amplitude_deg"),
                                      int(t.Num(r, "trial")));
     if (!by.count(key)) {
       order.push_back(key);
-      reports::StepTrace s;
+      fitting::StepTrace s;
       s.gain = std::get<1>(key);
       s.amplitude_deg = std::get<2>(key);
       s.trial = std::get<3>(key);
@@ -185,7 +185,7 @@ std::vector<reports::StepTrace> ReadSteps(const std::string& dataset) {
     by[key].y.push_back(t.Num(r, "offset_px"));  // converted below
   }
   for (const auto& key : order) {
-    reports::StepTrace s = by[key];
+    fitting::StepTrace s = by[key];
     if (s.y.size() < 3 || std::abs(s.y.front()) < 1e-6) continue;
     const double o0 = s.y.front();
     s.residual_px = std::abs(s.y.back());
@@ -326,7 +326,7 @@ int RunCalibrate(const CalibrateOptions& o) {
       stereo = fitting::FitStereo(l, r, so);
       if (stereo->ok) {
         fitting::AppendStereoToResult(*stereo, &d.result);
-        reports::AddFitPoints(*stereo, views, ViewName, &d);
+        fitting::AddFitPoints(*stereo, views, ViewName, &d);
         progress("  RMS " + reports::Fmt(stereo->rms_px[0], 3) + " / " + reports::Fmt(stereo->rms_px[1], 3) + " px");
       } else {
         d.result.warnings.push_back("stereo fit failed: " + stereo->message);
@@ -412,7 +412,7 @@ int RunCalibrate(const CalibrateOptions& o) {
   int delay = 3;
   if (dataset.count("latency"))
     if (auto lf = LatencyFrames(dataset["latency"], fps)) delay = *lf;
-  d.gains = reports::MakeGainStudy(delay, fps);
+  d.gains = fitting::MakeGainStudy(delay, fps);
   if (dataset.count("step_response")) {
     d.steps = ReadSteps(dataset["step_response"]);
     progress("step responses: " + std::to_string(d.steps.size()) + " trials; delay " + std::to_string(delay) +

@@ -9,10 +9,11 @@
 #include "calib/image_pairs.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
+#include "fitting/fit_points.h"
 #include "fitting/range_images_calib.h"
 #include "owlcal_version.h"
 #include "reports/exports.h"
-#include "reports/fit_points.h"
+#include "reports/image_set_tables.h"
 #include "reports/report.h"
 #include "reports/report_data.h"
 
@@ -66,7 +67,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   fs::create_directories(a.out);
   const fs::path out(a.out);
   calib::WriteObservationsCsv((out / "observations.csv").string(), set.observations);
-  const std::string md = fitting::ImageSetReportMarkdown(c, keys);
+  const std::string md = reports::ImageSetReportMarkdown(c, keys);
   {
     std::ofstream f(out / "calibration.md");
     if (!f) throw std::runtime_error((out / "calibration.md").string() + ": cannot write");
@@ -91,7 +92,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
                                   : key;
     return "pair " + key + " (" + fs::path(path).filename().string() + ")";
   };
-  reports::AddFitPoints(c.fit, views, name_of, &rd);
+  fitting::AddFitPoints(c.fit, views, name_of, &rd);
   reports::WriteReportData(rd, a.out);
   const reports::ExportSet ex = reports::WriteCalibrationFiles(rd, a.out);
   for (const auto& p : ex.written) written.push_back(fs::relative(p, out).string());

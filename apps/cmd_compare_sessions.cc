@@ -7,6 +7,7 @@
 
 #include "apps/command_registry.h"
 #include "fitting/session_compare.h"
+#include "reports/session_tables.h"
 
 namespace owlcal::apps {
 namespace {
@@ -32,11 +33,11 @@ int RunCompare(const CompareOptions& a) {
     s.push_back({name.empty() ? "session" + std::to_string(i + 1) : name, fitting::ReadResultJson(p.string())});
   }
   const auto c = fitting::CompareSessions(s, a.params, a.z);
-  const std::string md = "# Session comparison\n\n" + fitting::SessionComparisonMarkdown(c);
+  const std::string md = "# Session comparison\n\n" + reports::SessionComparisonMarkdown(c);
   if (!a.out.empty()) {
     fs::create_directories(a.out);
     std::ofstream(fs::path(a.out) / "sessions.md") << md;
-    std::ofstream(fs::path(a.out) / "sessions.csv") << fitting::SessionComparisonCsv(c);
+    std::ofstream(fs::path(a.out) / "sessions.csv") << reports::SessionComparisonCsv(c);
   }
   std::cout << md;
   return kExitOk;

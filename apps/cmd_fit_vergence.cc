@@ -7,6 +7,7 @@
 #include "apps/command_registry.h"
 #include "fitting/format.h"
 #include "fitting/vergence_log_fit.h"
+#include "reports/vergence_log_tables.h"
 #include "robot/robot_file.h"
 
 namespace owlcal::apps {
@@ -62,9 +63,9 @@ int RunFitVergence(const FitVergenceOptions& a) {
     loo = fitting::LeaveOneOut(rows, o, fit);
   }
   std::filesystem::create_directories(a.out);
-  const std::string md = "Columns used: " + cols.Describe() + ".\n\n" + fitting::VergenceReportMarkdown(rows, fit, loo);
+  const std::string md = "Columns used: " + cols.Describe() + ".\n\n" + reports::VergenceReportMarkdown(rows, fit, loo);
   WriteText(std::filesystem::path(a.out) / "vergence_fit.md", md);
-  WriteText(std::filesystem::path(a.out) / "vergence_rows.csv", fitting::VergenceRowsCsv(rows, fit, loo));
+  WriteText(std::filesystem::path(a.out) / "vergence_rows.csv", reports::VergenceRowsCsv(rows, fit, loo));
   fitting::CalibrationResult r;
   r.parameters = fit.parameters;
   r.summaries.push_back(fit.summary);

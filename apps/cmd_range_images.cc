@@ -12,6 +12,7 @@
 #include "fitting/format.h"
 #include "fitting/range_images_ranging.h"
 #include "reports/gnuplot_figure.h"
+#include "reports/image_set_tables.h"
 
 namespace owlcal::apps {
 namespace {
@@ -63,7 +64,7 @@ int RunRangeImages(const RangeImagesOptions& a) {
   const fitting::RangeSummary s = fitting::SummariseRanges(ms);
   fs::create_directories(a.out);
   const fs::path out(a.out);
-  std::string md = fitting::RangeTableMarkdown(ms, s, "Range from stereo images: " + a.dir);
+  std::string md = reports::RangeTableMarkdown(ms, s, "Range from stereo images: " + a.dir);
   md += "\nCalibration: " + rig.source + (rig.covariance.size() ? "" : " (no covariance: sigma is matching only)") +
         "; rectified f " + fitting::FixedOrDash(rect.focal_px, 2) + " px, baseline " +
         fitting::FixedOrDash(rect.baseline_m * 1000, 3) +
@@ -71,7 +72,7 @@ int RunRangeImages(const RangeImagesOptions& a) {
         fitting::FixedOrDash(a.datum_cm, 1) + " cm; truth sigma " + fitting::FixedOrDash(a.truth_sigma_cm, 1) +
         " cm (the uncertainty of the true distances themselves: datum and placement).\n";
   std::ofstream(out / "ranges.md") << md;
-  std::ofstream(out / "ranges.csv") << fitting::RangeTableCsv(ms);
+  std::ofstream(out / "ranges.csv") << reports::RangeTableCsv(ms);
   reports::Figure f;
   f.name = "range_error";
   f.title = "Stereo range error vs true distance";

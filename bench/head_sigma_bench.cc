@@ -16,6 +16,7 @@
 #include "fitting/head_fit.h"
 #include "fitting/head_synthetic.h"
 #include "fitting/monte_carlo.h"
+#include "fitting/servo_map_eval.h"
 #include "models/head_model.h"
 
 int main(int argc, char** argv) {

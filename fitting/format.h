@@ -1,5 +1,5 @@
 #pragma once
-// Number formatting shared by the fitting tables (Markdown/CSV written for students).
+// Fixed-decimal number formatting for the messages fitting/ writes and the tables reports/ renders.
 #include <cmath>
 #include <iomanip>
 #include <sstream>

@@ -967,14 +967,4 @@ models::HeadModel CanonicalHead(const models::HeadModel& head,
   return h;
 }
 
-double ServoMapRmsDeg(const double* a, const double* b, int direction, double lo_us, double hi_us) {
-  double sum = 0;
-  for (int i = 0; i <= 200; ++i) {
-    const double u = lo_us + (hi_us - lo_us) * i / 200.0;
-    const double diff = (ServoMap::JointAngle(a, direction, u, 0) - ServoMap::JointAngle(b, direction, u, 0)) * kRadToDeg;
-    sum += diff * diff;
-  }
-  return std::sqrt(sum / 201.0);
-}
-
 }  // namespace owlcal::fitting

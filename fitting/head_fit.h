@@ -125,7 +125,4 @@ models::HeadModel CanonicalHead(const models::HeadModel& head,
 // the cubic is re-expanded about the shifted centre).
 std::array<double, 5> ShiftServoMapAngle(const std::array<double, 5>& params, int direction, double delta_rad);
 
-// RMS difference [deg] of two servo maps over [lo_us, hi_us] (approach 0, 201 samples).
-double ServoMapRmsDeg(const double* a, const double* b, int direction, double lo_us, double hi_us);
-
 }  // namespace owlcal::fitting

@@ -78,4 +78,20 @@ double PhysicalLowerBoundS(double step_deg, double slew_deg_per_s, double latenc
   return std::abs(step_deg) / slew_deg_per_s + latency_s + 1.0 / fps;
 }
 
+GainStudy MakeGainStudy(int delay_frames, double fps) {
+  GainStudy g;
+  g.delay_frames = delay_frames;
+  g.fps = fps;
+  g.simulated = SettlingVersusGain(GainGrid(0.005, 0.6, 0.005), delay_frames, fps);
+  g.critical_gain = CriticalGain(delay_frames);
+  g.monotone_gain = MonotoneGain(delay_frames);
+  g.fastest = FastestStableGain(g.simulated);
+  for (double a : {2.0, 5.0, 10.0, 15.0, 20.0}) {
+    g.amplitudes_deg.push_back(a);
+    g.lower_bound_fast_s.push_back(PhysicalLowerBoundS(a, 400, 0.100, fps));
+    g.lower_bound_slow_s.push_back(PhysicalLowerBoundS(a, 300, 0.150, fps));
+  }
+  return g;
+}
+
 }  // namespace owlcal::fitting

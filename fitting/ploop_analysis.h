@@ -56,4 +56,20 @@ std::vector<double> GainGrid(double lo, double hi, double step);
 // t_min = step_deg / slew_deg_per_s + latency_s + 1 / fps [s].
 double PhysicalLowerBoundS(double step_deg, double slew_deg_per_s, double latency_s, double fps = 30.0);
 
+// What the loop model says about gain choice for one robot's latency.
+struct GainStudy {
+  int delay_frames = 3;
+  double fps = 30;
+  std::vector<GainSettling> simulated;  // the delayed P-loop over a gain grid
+  double critical_gain = 0, monotone_gain = 0;
+  std::optional<GainSettling> fastest;
+  // Physical lower bound per amplitude: slew at 400 deg/s + 100 ms (fast) and 300 deg/s +
+  // 150 ms (slow) + one frame.
+  std::vector<double> amplitudes_deg, lower_bound_fast_s, lower_bound_slow_s;
+};
+
+// The gain study for d frames of delay: gain grid 0.005 .. 0.6 in steps of 0.005, the limits
+// K_crit and K_mono, the fastest stable gain, and the lower bounds for 2, 5, 10, 15, 20 deg.
+GainStudy MakeGainStudy(int delay_frames, double fps = 30.0);
+
 }  // namespace owlcal::fitting

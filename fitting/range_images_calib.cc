@@ -144,39 +144,4 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
   return c;
 }
 
-std::string ImageSetReportMarkdown(const ImageSetCalibration& c, const std::vector<std::string>& keys) {
-  std::ostringstream md;
-  md << "# Stereo calibration from images\n\n";
-  if (c.verdict.empty()) {
-    md << "Verdict: the set determines every reported parameter.\n\n";
-  } else {
-    md << "Verdict: **poor set**. What it cannot determine:\n";
-    for (const auto& v : c.verdict) md << "- " << v << "\n";
-    md << "\n";
-  }
-  md << "Pairs used: " << c.fit.paired_frames.size() << "; RMS left " << FixedOrDash(c.fit.rms_px[0], 3) << " px, right "
-     << FixedOrDash(c.fit.rms_px[1], 3) << " px, joint " << FixedOrDash(c.fit.rms_joint_px, 3) << " px; rectified |dy| mean "
-     << FixedOrDash(c.fit.rectified_dy_mean_px, 3) << " px, max " << FixedOrDash(c.fit.rectified_dy_max_px, 3) << " px.\n\n";
-  md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
-  for (const auto& p : c.result.parameters)
-    md << "| " << p.name << " | " << FixedOrDash(p.value, 4) << " | " << (p.determined ? FixedOrDash(p.sigma, 4) : "not determined")
-       << " | " << p.unit << " | " << p.note << " |\n";
-  const char* eye_name[2] = {"left", "right"};
-  for (int e = 0; e < 2; ++e) {
-    const EyeCoverage& cov = c.coverage[e];
-    md << "\n## " << eye_name[e] << " eye: coverage " << FixedOrDash(100 * cov.grid_fraction, 0) << " % of cells, radius "
-       << FixedOrDash(100 * cov.max_radius_fraction, 0) << " %, tilt up to " << FixedOrDash(cov.max_tilt_deg, 1)
-       << " deg, orientation spread " << FixedOrDash(cov.spread_deg, 1) << " deg\n\n| frame | pair | RMS (px) | tilt (deg) |\n"
-       << "|---|---|---|---|\n";
-    const IntrinsicsFit& f = c.fit.per_eye[e];
-    for (size_t i = 0; i < f.frame_indices.size(); ++i) {
-      const int fr = f.frame_indices[i];
-      md << "| " << fr << " | " << (fr >= 0 && fr < static_cast<int>(keys.size()) ? keys[fr] : "") << " | "
-         << (i < f.view_rms_px.size() ? FixedOrDash(f.view_rms_px[i], 3) : "-") << " | "
-         << (i < cov.tilt_deg.size() ? FixedOrDash(cov.tilt_deg[i], 1) : "-") << " |\n";
-    }
-  }
-  return md.str();
-}
-
 }  // namespace owlcal::fitting

@@ -60,7 +60,4 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
 // Board tilt [deg] of each view of one eye of a fit (frame index -> tilt), from per_eye poses.
 std::vector<std::pair<int, double>> ViewTilts(const StereoFit& fit, int eye);
 
-// Markdown summary: verdict, key parameters, per-view residuals and coverage.
-std::string ImageSetReportMarkdown(const ImageSetCalibration& c, const std::vector<std::string>& pair_keys);
-
 }  // namespace owlcal::fitting

@@ -290,43 +290,4 @@ RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_
   return s;
 }
 
-std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
-  std::ostringstream c;
-  c << "name,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,z,disparity_px,"
-       "sigma_disparity_px,dy_px,ncc,second_ncc,ray_gap_mm,ok,message\n";
-  for (const auto& r : m) {
-    c << r.name << "," << FixedOrDash(r.true_m * 100, 2) << "," << (r.ok ? FixedOrDash(r.range_m * 100, 3) : "") << ","
-      << (r.ok ? FixedOrDash(r.error_m() * 100, 3) : "") << "," << (r.ok ? FixedOrDash(100 * r.error_m() / r.true_m, 3) : "") << ","
-      << (r.ok ? FixedOrDash(r.sigma_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_calib_m * 100, 3) : "") << ","
-      << (r.ok ? FixedOrDash(r.sigma_match_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "") << ","
-      << FixedOrDash(r.match.disparity_px, 3) << "," << FixedOrDash(r.match.sigma_disparity_px, 3) << ","
-      << FixedOrDash(r.match.dy_px, 2) << "," << FixedOrDash(r.match.ncc, 3) << "," << FixedOrDash(r.match.second_ncc, 3) << ","
-      << FixedOrDash(r.ray_gap_m * 1000, 2) << "," << (r.ok ? 1 : 0) << ",\"" << r.message << "\"\n";
-  }
-  return c.str();
-}
-
-std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const RangeSummary& s, const std::string& title) {
-  std::ostringstream md;
-  md << "# " << title << "\n\n"
-     << "| pair | true (cm) | range (cm) | error (%) | sigma (cm) | sigma calib / match (cm) | truth sigma (cm) | "
-        "error/sigma | disparity (px) | NCC |\n|---|---|---|---|---|---|---|---|---|---|\n";
-  for (const auto& r : m) {
-    if (!r.ok) {
-      md << "| " << r.name << " | " << FixedOrDash(r.true_m * 100, 1) << " | not ranged: " << r.message
-         << " | | | | | | | |\n";
-      continue;
-    }
-    md << "| " << r.name << " | " << FixedOrDash(r.true_m * 100, 1) << " | " << FixedOrDash(r.range_m * 100, 2) << " | "
-       << FixedOrDash(100 * r.error_m() / r.true_m, 2) << " | " << FixedOrDash(r.sigma_m * 100, 2) << " | "
-       << FixedOrDash(r.sigma_calib_m * 100, 2) << " / " << FixedOrDash(r.sigma_match_m * 100, 2) << " | "
-       << FixedOrDash(r.truth_sigma_m * 100, 2) << " | " << FixedOrDash(r.error_m() / r.error_sigma_m(), 2) << " | " << FixedOrDash(r.match.disparity_px, 2) << " | " << FixedOrDash(r.match.ncc, 3)
-       << " |\n";
-  }
-  md << "\nRanged " << s.num_ranged << "/" << s.num_rows << "; mean |error| " << FixedOrDash(100 * s.mean_abs_rel, 2)
-     << " %, max " << FixedOrDash(100 * s.max_abs_rel, 2) << " %; max |error|/sigma " << FixedOrDash(s.max_abs_z, 2) << "; "
-     << s.num_outside_3sigma << " outside +-3 sigma (error/sigma uses sqrt(sigma^2 + truth sigma^2)).\n";
-  return md.str();
-}
-
 }  // namespace owlcal::fitting

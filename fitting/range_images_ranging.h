@@ -136,8 +136,5 @@ struct RangeSummary {
   int num_outside_3sigma = 0;
 };
 RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_true_m = 0, double max_true_m = 1e9);
-// CSV: name,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,z,disparity_px,dy_px,ncc,...
-std::string RangeTableCsv(const std::vector<RangeMeasurement>& m);
-std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const RangeSummary& s, const std::string& title);
 
 }  // namespace owlcal::fitting

@@ -45,8 +45,4 @@ SessionComparison CompareSessions(const std::vector<NamedResult>& sessions,
                                   const std::vector<std::string>& names = {},
                                   double z_changed = 3.0);
 
-std::string SessionComparisonMarkdown(const SessionComparison& c);
-// Long CSV: parameter,unit,session,value,sigma then pair rows parameter,unit,a-b,diff,z.
-std::string SessionComparisonCsv(const SessionComparison& c);
-
 }  // namespace owlcal::fitting

@@ -55,6 +55,20 @@ StepInfo ComputeStepInfo(const std::vector<double>& t,
                          const std::vector<double>& y,
                          const StepInfoOptions& options = {});
 
+// One measured (or simulated) fixation step response: y is the fraction of the step done (0 at
+// rest, 1 on target), computed from the target's image offset.
+struct StepTrace {
+  double gain = 0;
+  double amplitude_deg = 0;
+  int trial = 0;
+  std::string eye_axis;            // "right pan"
+  std::vector<double> t_s;         // from the step command
+  std::vector<double> y;
+  double residual_px = 0;          // |target offset| after settling
+  StepInfo info;                   // of (t_s, y) with y_init 0, y_final 1
+  bool simulated = false;
+};
+
 // Unit-step response of an underdamped or overdamped second-order system
 // wn^2 / (s^2 + 2 zeta wn s + wn^2) at time t >= 0 (closed form), for tests and figures.
 double SecondOrderStep(double zeta, double wn, double t);

@@ -148,13 +148,4 @@ LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
                        const VergenceFitOptions& options,
                        const VergenceLogFit& full);
 
-// Markdown tables: parameters, dominant rows, leave-one-out.
-std::string VergenceReportMarkdown(const std::vector<VergenceLogRow>& rows,
-                                   const VergenceLogFit& fit,
-                                   const LooSummary& loo);
-// CSV: row,run,true_cm,Rx_us,Lx_us,fixed_cm,loo_cm,fit_cm,res_rx,res_lx,chi2,cm_per_us
-std::string VergenceRowsCsv(const std::vector<VergenceLogRow>& rows,
-                            const VergenceLogFit& fit,
-                            const LooSummary& loo);
-
 }  // namespace owlcal::fitting

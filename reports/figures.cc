@@ -5,7 +5,9 @@
 #include <map>
 #include <set>
 
+#include "fitting/distortion_field.h"
 #include "fitting/ranging_eval.h"
+#include "fitting/servo_map_eval.h"
 #include "reports/table.h"
 
 namespace owlcal::reports {
@@ -15,14 +17,11 @@ constexpr const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", 
 const char* Colour(size_t i) { return kColours[i % 8]; }
 std::string Lc(size_t i) { return std::string("lc rgb '") + Colour(i) + "'"; }
 
-double NominalDeg(const models::ServoConfig& c, double u) { return c.direction * c.nominal_deg_per_us * (u - c.centre_us); }
-
 }  // namespace
 
 std::vector<Figure> MakeServoFigures(const ReportData& d) {
   std::vector<Figure> out;
   if (!d.result.head) return out;
-  const models::HeadModel& h = *d.result.head;
   Figure all{"servo_maps", "Servo maps: joint angle vs pulse width", "pulse width [us]", "joint angle [deg]", {}, {},
              "outside right top vertical"};
   all.caption = "Fitted PWM-to-angle map of every servo over its configured range (solid); dashed: the truth of the "
@@ -38,13 +37,6 @@ std::vector<Figure> MakeServoFigures(const ReportData& d) {
     Series fit{sname + " fitted", "lines lw 2.5 " + Lc(s), "1:2", {"pwm_us", "angle_deg"}, {}};
     Series truth{truth_titled ? "" : "truth (dashed)", "lines lw 1.5 dt 2 lc rgb 'black'", "1:2", {"pwm_us", "angle_deg"}, {}};
     truth_titled = truth_titled || d.truth.has_value();
-    // Deviation figure with the sigma band (over the map parameters the data determined).
-    std::vector<std::string> names;
-    for (const char* f : {"centre_us", "deg_per_us", "quad_deg", "cubic_deg"}) {
-      const fitting::Parameter* p = d.result.Find("servo." + sname + "." + f);
-      if (p && p->determined) names.push_back("servo." + sname + "." + f);
-    }
-    const fitting::NamedCovariance cov = fitting::CovarianceFromResult(d.result, names);
     Figure dev{"servo_" + std::string(sname == "Neck" ? "neck" : sname) + "_deviation",
                sname + ": fitted map minus the course's nominal map (0.113 deg/us at the configured centre)",
                "pulse width [us]", "angle difference [deg]", {}, {"set bmargin 6"}, "outside bottom center horizontal"};
@@ -55,26 +47,14 @@ std::vector<Figure> MakeServoFigures(const ReportData& d) {
                 {"pwm_us", "lo_deg", "hi_deg"}, {}};
     Series dfit{"fitted - nominal", "lines lw 2.5 " + Lc(s), "1:2", {"pwm_us", "diff_deg"}, {}};
     Series dtruth{"truth - nominal", "lines lw 2 dt 2 lc rgb 'black'", "1:2", {"pwm_us", "diff_deg"}, {}};
-    for (int i = 0; i <= 100; ++i) {
-      const double u = c.min_us + (c.max_us - c.min_us) * i / 100.0;
-      const double a = h.ServoAngle(s, u) * 180 / M_PI;
-      fit.rows.push_back({u, a});
-      const double nominal = NominalDeg(c, u);
-      // sigma of the angle: gradient wrt the named params times their covariance.
-      Eigen::RowVectorXd g = Eigen::RowVectorXd::Zero(cov.names.size());
-      for (size_t k = 0; k < cov.names.size(); ++k) {
-        models::HeadModel hp = h;
-        const double step = cov.names[k].find("deg_per_us") != std::string::npos ? 1e-5 : 1e-3;
-        fitting::PerturbHead(cov.names[k], step, &hp);
-        g[k] = (hp.ServoAngle(s, u) - h.ServoAngle(s, u)) * 180 / M_PI / step;
-      }
-      const double sigma = cov.names.empty() ? 0.0 : std::sqrt(std::max(0.0, (g * cov.matrix * g.transpose())(0, 0)));
-      band.rows.push_back({u, a - nominal - 2 * sigma, a - nominal + 2 * sigma});
-      dfit.rows.push_back({u, a - nominal});
+    // The map with its sigma band over the parameters the data determined (fitting/servo_map_eval.h).
+    for (const fitting::ServoMapSample& m : fitting::SampleServoMap(d.result, c, s, d.truth ? &*d.truth : nullptr)) {
+      fit.rows.push_back({m.pwm_us, m.angle_deg});
+      band.rows.push_back({m.pwm_us, m.angle_deg - m.nominal_deg - 2 * m.sigma_deg, m.angle_deg - m.nominal_deg + 2 * m.sigma_deg});
+      dfit.rows.push_back({m.pwm_us, m.angle_deg - m.nominal_deg});
       if (d.truth) {
-        const double at = d.truth->ServoAngle(s, u) * 180 / M_PI;
-        truth.rows.push_back({u, at});
-        dtruth.rows.push_back({u, at - nominal});
+        truth.rows.push_back({m.pwm_us, m.truth_deg});
+        dtruth.rows.push_back({m.pwm_us, m.truth_deg - m.nominal_deg});
       }
     }
     all.series.push_back(fit);
@@ -136,20 +116,12 @@ std::vector<Figure> MakeDistortionFigures(const ReportData& d) {
                                                         : (d.result.head ? std::optional(d.result.head->intrinsics[e]) : std::nullopt);
     if (!cam) continue;
     const std::string eye = models::kEyeNames[e];
-    // Displacement of each pixel by the distortion: distorted minus the undistorted (pinhole) position.
+    // Displacement of each pixel by the distortion (fitting/distortion_field.h).
     std::vector<std::vector<double>> rows;
     double maxd = 0;
-    for (int gy = 0; gy <= 12; ++gy) {
-      for (int gx = 0; gx <= 16; ++gx) {
-        const double u = (cam->width - 1) * gx / 16.0, v = (cam->height - 1) * gy / 12.0;
-        double px[2] = {u, v}, ray[3];
-        if (!cam->Unproject(px, ray)) continue;
-        const double pin_u = cam->params[0] * ray[0] + cam->params[2];
-        const double pin_v = cam->params[1] * ray[1] + cam->params[3];
-        const double dx = u - pin_u, dy = v - pin_v;
-        maxd = std::max(maxd, std::hypot(dx, dy));
-        rows.push_back({pin_u, pin_v, dx, dy, std::hypot(dx, dy)});
-      }
+    for (const fitting::DistortionArrow& a : fitting::DistortionField(*cam)) {
+      maxd = std::max(maxd, a.norm_px);
+      rows.push_back({a.x_pinhole_px, a.y_pinhole_px, a.dx_px, a.dy_px, a.norm_px});
     }
     if (rows.empty()) continue;
     const double scale = maxd > 0 ? 40.0 / maxd : 1.0;  // longest arrow 40 px on the plot

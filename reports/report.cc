@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "fitting/servo_map_eval.h"
 #include "fitting/truth_compare.h"
 #include "owlcal_version.h"
 #include "reports/figures.h"
@@ -89,17 +90,9 @@ std::vector<Table> MakeTables(const ReportData& d) {
       const fitting::Parameter* p = d.result.Find("servo." + std::string(models::kServoNames[s]) + ".deg_per_us");
       if (!p || !p->determined) continue;
       const models::ServoConfig& c = d.config.servos[s];
-      double sum = 0, sum2 = 0, worst = 0;
-      const int n = 201;
-      for (int i = 0; i < n; ++i) {
-        const double u = c.min_us + (c.max_us - c.min_us) * i / (n - 1.0);
-        const double e = (d.result.head->ServoAngle(s, u) - d.truth->ServoAngle(s, u)) * 180 / M_PI;
-        sum += e;
-        sum2 += e * e;
-        worst = std::max(worst, std::abs(e));
-      }
+      const fitting::ServoMapError e = fitting::ServoMapErrorOverRange(*d.result.head, *d.truth, s, c.min_us, c.max_us);
       t.rows.push_back({models::kServoNames[s], std::to_string(c.min_us) + "-" + std::to_string(c.max_us),
-                        Fmt(std::sqrt(sum2 / n), 3), Fmt(worst, 3), Fmt(sum / n, 3)});
+                        Fmt(e.rms_deg, 3), Fmt(e.max_abs_deg, 3), Fmt(e.mean_deg, 3)});
     }
     if (!t.rows.empty()) out.push_back(t);
   }

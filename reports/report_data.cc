@@ -76,22 +76,6 @@ fitting::GainSettling GainFromJson(const json& j) {
 
 }  // namespace
 
-GainStudy MakeGainStudy(int delay_frames, double fps) {
-  GainStudy g;
-  g.delay_frames = delay_frames;
-  g.fps = fps;
-  g.simulated = fitting::SettlingVersusGain(fitting::GainGrid(0.005, 0.6, 0.005), delay_frames, fps);
-  g.critical_gain = fitting::CriticalGain(delay_frames);
-  g.monotone_gain = fitting::MonotoneGain(delay_frames);
-  g.fastest = fitting::FastestStableGain(g.simulated);
-  for (double a : {2.0, 5.0, 10.0, 15.0, 20.0}) {
-    g.amplitudes_deg.push_back(a);
-    g.lower_bound_fast_s.push_back(fitting::PhysicalLowerBoundS(a, 400, 0.100, fps));
-    g.lower_bound_slow_s.push_back(fitting::PhysicalLowerBoundS(a, 300, 0.150, fps));
-  }
-  return g;
-}
-
 json RobotConfigToJson(const models::RobotConfig& c) {
   json s = json::array();
   for (const auto& v : c.servos)

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "fitting/head_synthetic.h"
+#include "fitting/servo_map_eval.h"
 #include "models/head_model.h"
 
 namespace owlcal::fitting {

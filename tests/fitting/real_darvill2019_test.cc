@@ -9,6 +9,7 @@
 #include "fitting/range_images_calib.h"
 #include "fitting/session_compare.h"
 #include "owlcal_version.h"
+#include "reports/session_tables.h"
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
@@ -48,7 +49,7 @@ TEST(RealDarvill2019, ThreeSessionsComparedInOneTable) {
       sessions, {"left.fx", "left.fy", "left.cx", "left.cy", "right.fx", "right.fy", "right.cx", "right.cy",
                  "stereo.baseline_mm", "stereo.tx", "stereo.ty", "stereo.tz", "stereo.rx_deg", "stereo.ry_deg",
                  "stereo.rz_deg"});
-  std::cout << SessionComparisonMarkdown(cmp);
+  std::cout << reports::SessionComparisonMarkdown(cmp);
   ASSERT_EQ(cmp.pairs.size(), 3u);
   // Session 1 is parallel, sessions 2 and 3 toed in by about 3.7 deg (README): the rotation
   // about y must move by many sigma from session 1 to 2, and stay within noise from 2 to 3.

@@ -14,6 +14,7 @@
 #include "fitting/range_images_calib.h"
 #include "fitting/range_images_ranging.h"
 #include "owlcal_version.h"
+#include "reports/image_set_tables.h"
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
@@ -136,7 +137,7 @@ TEST(RealKit2020, DistanceTargetRangedWithin3PercentAndThreeSigma) {
     ms.push_back(m);
   }
   const RangeSummary s = SummariseRanges(ms, 0.30, 1.50);
-  std::cout << RangeTableMarkdown(ms, s, "kit2020-distance-target1 ranged with owlcal's kit2020-chessboard calibration");
+  std::cout << reports::RangeTableMarkdown(ms, s, "kit2020-distance-target1 ranged with owlcal's kit2020-chessboard calibration");
   EXPECT_EQ(s.num_ranged, 13);
   EXPECT_LE(s.mean_abs_rel, 0.03);
   EXPECT_EQ(s.num_outside_3sigma, 0);
@@ -161,7 +162,7 @@ TEST(RealKit2020, SetWithoutTiltedViewsSaysFocalLengthIsUndetermined) {
   std::cout << "\nkept " << kept.size() << " untilted pairs\n";
   ASSERT_GE(kept.size(), 3u);
   const ImageSetCalibration poor = CalibrateImageSet(flat, KitOptions());
-  std::cout << ImageSetReportMarkdown(poor, {});
+  std::cout << reports::ImageSetReportMarkdown(poor, {});
   EXPECT_TRUE(poor.poor);
   ASSERT_FALSE(poor.verdict.empty());
   bool names_focal = false;

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "reports/session_tables.h"
+
 namespace owlcal::fitting {
 namespace {
 
@@ -38,10 +40,10 @@ TEST(SessionCompare, DifferencesInSigmaUnitsFlagOnlyRealChanges) {
   EXPECT_TRUE(std::isnan(c.pairs[0].z[2])) << "k3 has no sigma: no verdict";
   ASSERT_EQ(c.changed.size(), 2u);  // baseline s1->s2 and s2->s3; s1->s3 is 0.45 sigma
   EXPECT_NE(c.changed[0].find("stereo.baseline_mm: s1 -> s2"), std::string::npos) << c.changed[0];
-  const std::string md = SessionComparisonMarkdown(c);
+  const std::string md = reports::SessionComparisonMarkdown(c);
   EXPECT_NE(md.find("**changed**"), std::string::npos);
   EXPECT_NE(md.find("no sigma"), std::string::npos);
-  EXPECT_NE(SessionComparisonCsv(c).find("s2-s1"), std::string::npos);
+  EXPECT_NE(reports::SessionComparisonCsv(c).find("s2-s1"), std::string::npos);
 }
 
 }  // namespace

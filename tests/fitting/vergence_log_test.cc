@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "owlcal_version.h"
+#include "reports/vergence_log_tables.h"
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
@@ -89,7 +90,7 @@ TEST(VergenceLogFit, Noble2020LeaveOneOutBeatsFixedConstants) {
   EXPECT_NEAR(*sheet.Distance(1385, 1485) * 100, 31.647, 0.01);
   const LooSummary loo = LeaveOneOut(rows, o, fit, sheet);
   EXPECT_TRUE(loo.has_fixed);
-  std::cout << VergenceReportMarkdown(rows, fit, loo) << "\n" << VergenceRowsCsv(rows, fit, loo);
+  std::cout << reports::VergenceReportMarkdown(rows, fit, loo) << "\n" << reports::VergenceRowsCsv(rows, fit, loo);
   EXPECT_LT(loo.loo_mean_abs_rel, loo.fixed_mean_abs_rel);
   EXPECT_LT(loo.loo_median_abs_rel, loo.fixed_median_abs_rel);
   for (const auto& p : fit.parameters) {

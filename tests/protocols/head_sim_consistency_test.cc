@@ -32,6 +32,7 @@
 #include "calib/observation.h"
 #include "calib/observation_io.h"
 #include "fitting/head_fit.h"
+#include "fitting/servo_map_eval.h"
 #include "protocols/dataset.h"
 #include "protocols/placement_views.h"
 #include "protocols/protocol.h"

@@ -95,7 +95,7 @@ ReportData DemoData() {
   for (double x = 0.2; x <= 2.0001; x += 0.05) theory.push_back(x);
   d.ranging = fitting::EvaluateRanging(
       est, fitting::CovarianceFromResult(d.result, fitting::RangingParameterNames()), d.config, fixations, {}, theory);
-  d.gains = MakeGainStudy(3);
+  d.gains = fitting::MakeGainStudy(3);
   for (double k : {0.05, 0.1, 0.2, 0.3}) {
     StepTrace t;
     t.gain = k;

@@ -1,17 +1,17 @@
-#include "reports/fit_points.h"
+#include "fitting/fit_points.h"
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 
-namespace owlcal::reports {
+namespace owlcal::fitting {
 
-void AddFitPoints(const fitting::StereoFit& fit,
+void AddFitPoints(const StereoFit& fit,
                   const std::vector<calib::View>& views,
                   const std::function<std::string(int frame, int eye)>& name_of,
-                  ReportData* d) {
+                  CalibrationRun* d) {
   for (int e = 0; e < 2; ++e) {
-    const fitting::IntrinsicsFit& f = fit.per_eye[e];
+    const IntrinsicsFit& f = fit.per_eye[e];
     std::map<int, size_t> pose_of;
     for (size_t i = 0; i < f.frame_indices.size(); ++i) pose_of[f.frame_indices[i]] = i;
     for (const auto& v : views) {
@@ -58,4 +58,4 @@ void AddFitPoints(const fitting::StereoFit& fit,
   }
 }
 
-}  // namespace owlcal::reports
+}  // namespace owlcal::fitting

@@ -9,15 +9,15 @@
 #include <vector>
 
 #include "calib/observation.h"
+#include "fitting/calibration_run.h"
 #include "fitting/stereo_fit.h"
-#include "reports/report_data.h"
 
-namespace owlcal::reports {
+namespace owlcal::fitting {
 
 // name_of(frame_index, eye): the view's name for the report (may be null: "frame N").
-void AddFitPoints(const fitting::StereoFit& fit,
+void AddFitPoints(const StereoFit& fit,
                   const std::vector<calib::View>& views,
                   const std::function<std::string(int frame, int eye)>& name_of,
-                  ReportData* data);
+                  CalibrationRun* data);
 
-}  // namespace owlcal::reports
+}  // namespace owlcal::fitting

@@ -1,0 +1,24 @@
+#pragma once
+// Tables of the image-folder commands (calibrate-images, range-images) for the lab report:
+//   ImageSetReportMarkdown  verdict, every parameter with its sigma, per-view RMS and tilt per eye
+//                           (pair_keys[frame] names each pair; may be empty)
+//   RangeTableCsv           name,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,
+//                           sigma_match_cm,z,disparity_px,sigma_disparity_px,dy_px,ncc,second_ncc,
+//                           ray_gap_mm,ok,message (one row per pair; empty cells when not ranged)
+//   RangeTableMarkdown      the same for reading, with the summary line below
+// Values the data did not determine print as "-" (fitting/format.h), never as "nan".
+#include <string>
+#include <vector>
+
+#include "fitting/range_images_calib.h"
+#include "fitting/range_images_ranging.h"
+
+namespace owlcal::reports {
+
+std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const std::vector<std::string>& pair_keys);
+std::string RangeTableCsv(const std::vector<fitting::RangeMeasurement>& m);
+std::string RangeTableMarkdown(const std::vector<fitting::RangeMeasurement>& m,
+                               const fitting::RangeSummary& s,
+                               const std::string& title);
+
+}  // namespace owlcal::reports
