@@ -131,15 +131,25 @@ std::string ViewName(int frame, int /*eye*/) {
 std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
                                              const models::RobotConfig& config,
                                              const std::optional<models::HeadModel>& truth,
-                                             const models::HeadModel& fitted) {
+                                             const models::HeadModel& fitted,
+                                             std::vector<std::string>* excluded) {
   std::vector<fitting::Fixation> out;
   const Csv t = ReadCsv(dataset + "/fixations.csv");
   const auto placements = fs::exists(dataset + "/placements.csv") ? protocols::ReadPlacementsCsv(dataset)
                                                                    : std::vector<protocols::PlacementRecord>{};
   const double cx = (config.image_width - 1) / 2.0, cy = (config.image_height - 1) / 2.0;
   for (size_t r = 0; r < t.rows.size(); ++r) {
-    if (t.Get(r, "outcome") != "converged") continue;
-    if (t.Get(r, "left_found") != "1" || t.Get(r, "right_found") != "1") continue;
+    // A fixation that cannot be ranged is named, never dropped silently.
+    const std::string where = "vergence fixation " + std::to_string(r) + " (fixations.csv row " + std::to_string(r + 2) + ")";
+    if (t.Get(r, "outcome") != "converged") {
+      excluded->push_back(where + " excluded: outcome " + t.Get(r, "outcome"));
+      continue;
+    }
+    if (t.Get(r, "left_found") != "1" || t.Get(r, "right_found") != "1") {
+      excluded->push_back(where + " excluded: target not found in the " +
+                          (t.Get(r, "left_found") != "1" ? std::string("left") : std::string("right")) + " image");
+      continue;
+    }
     fitting::Fixation f;
     f.index = int(r);
     for (int s = 0; s < models::kNumServos; ++s) {
@@ -160,6 +170,7 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
     for (const auto& p : placements)
       if (p.placement_index == pi) f.true_distance_m = (p.base_from_target.translation() - mid).norm();
     if (std::isfinite(f.true_distance_m)) out.push_back(f);
+    else excluded->push_back(where + " excluded: no true distance (no placement or distance_m)");
   }
   return out;
 }
@@ -397,8 +408,10 @@ int RunCalibrate(const CalibrateOptions& o) {
 
   // 5) Evaluations.
   if (dataset.count("vergence")) {
+    std::vector<std::string> excluded;
     const auto fixations = ReadFixations(dataset["vergence"], config,
-                                         truth ? std::optional(truth->HeadModel()) : std::nullopt, *d.result.head);
+                                         truth ? std::optional(truth->HeadModel()) : std::nullopt, *d.result.head, &excluded);
+    for (const auto& x : excluded) d.result.warnings.push_back(x);
     const fitting::NamedCovariance cov = fitting::CovarianceFromResult(d.result, fitting::RangingParameterNames());
     std::vector<double> theory;
     for (double x = 0.2; x <= 2.0001; x += 0.05) theory.push_back(x);

@@ -115,7 +115,7 @@ Eigen::MatrixXd IntrinsicsCovariance(const CalibrationResult& r, int eye, std::s
     const Parameter* p = r.Find(prefix + names[i]);
     if (p && p->determined && std::isfinite(p->sigma)) C(i, i) = p->sigma * p->sigma;
   }
-  if (source) *source = "parameter sigmas (no correlations)";
+  if (source) *source = "the parameters' \u03c3, no correlations: an upper bound";
   return C;
 }
 

@@ -8,6 +8,7 @@
 #include "fitting/distortion_field.h"
 #include "fitting/ranging_eval.h"
 #include "fitting/servo_map_eval.h"
+#include "reports/camera_figures.h"
 #include "reports/table.h"
 
 namespace owlcal::reports {
@@ -22,8 +23,8 @@ std::string Lc(size_t i) { return std::string("lc rgb '") + Colour(i) + "'"; }
 std::vector<Figure> MakeServoFigures(const ReportData& d) {
   std::vector<Figure> out;
   if (!d.result.head) return out;
-  Figure all{"servo_maps", "Servo maps: joint angle vs pulse width", "pulse width [us]", "joint angle [deg]", {}, {},
-             "outside right top vertical"};
+  Figure all{"servo_maps", "Servo maps: joint angle vs pulse width", "pulse width [\u00b5s]", "joint angle [deg]", {}, {"set bmargin 6"},
+             "outside bottom center horizontal"};
   all.caption = "Fitted PWM-to-angle map of every servo over its configured range (solid); dashed: the truth of the "
                 "virtual Owl (on top of the fit at this scale: the deviation figures show the difference).";
   bool truth_titled = false;
@@ -38,12 +39,12 @@ std::vector<Figure> MakeServoFigures(const ReportData& d) {
     Series truth{truth_titled ? "" : "truth (dashed)", "lines lw 1.5 dt 2 lc rgb 'black'", "1:2", {"pwm_us", "angle_deg"}, {}};
     truth_titled = truth_titled || d.truth.has_value();
     Figure dev{"servo_" + std::string(sname == "Neck" ? "neck" : sname) + "_deviation",
-               sname + ": fitted map minus the course's nominal map (0.113 deg/us at the configured centre)",
-               "pulse width [us]", "angle difference [deg]", {}, {"set bmargin 6"}, "outside bottom center horizontal"};
+               sname + ": fitted map minus the course's nominal map (0.113 deg/\u00b5s at the configured centre)",
+               "pulse width [\u00b5s]", "angle difference [deg]", {}, {"set bmargin 6"}, "outside bottom center horizontal"};
     for (auto& ch : dev.name) ch = std::tolower(ch);
-    dev.caption = sname + ": the fitted map minus the nominal course map, with its +-2 sigma band from the fit "
+    dev.caption = sname + ": the fitted map minus the nominal course map, with its \u00b12\u03c3 band from the fit "
                           "covariance (centre, scale, quadratic and cubic terms). On the virtual Owl the truth is dashed.";
-    Series band{"fit +-2 sigma", "filledcurves fs transparent solid 0.25 noborder " + Lc(s), "1:2:3",
+    Series band{"fit \u00b12\u03c3", "filledcurves fs transparent solid 0.25 noborder " + Lc(s), "1:2:3",
                 {"pwm_us", "lo_deg", "hi_deg"}, {}};
     Series dfit{"fitted - nominal", "lines lw 2.5 " + Lc(s), "1:2", {"pwm_us", "diff_deg"}, {}};
     Series dtruth{"truth - nominal", "lines lw 2 dt 2 lc rgb 'black'", "1:2", {"pwm_us", "diff_deg"}, {}};
@@ -65,48 +66,6 @@ std::vector<Figure> MakeServoFigures(const ReportData& d) {
   }
   if (!all.series.empty()) out.insert(out.begin(), all);
   return out;
-}
-
-std::optional<Figure> MakeResidualFigure(const ReportData& d) {
-  if (d.residuals.empty()) return std::nullopt;
-  Figure f{"reprojection_residuals", "Reprojection residuals of the calibration corners", "residual x [px]",
-           "residual y [px]", {}, {"set size ratio -1"}, "top right"};
-  f.caption = "Reprojected minus detected corner position for every corner used in the intrinsics fits; a round, "
-              "centred cloud means no systematic model error.";
-  double m = 0.1;
-  for (int e = 0; e < 2; ++e) {
-    Series s{std::string(models::kEyeNames[e]) + " eye", "points pt 7 ps 0.5 " + Lc(e), "1:2", {"dx_px", "dy_px"}, {}};
-    for (const auto& r : d.residuals)
-      if (r.eye == e) {
-        s.rows.push_back({r.dx, r.dy});
-        m = std::max({m, std::abs(r.dx), std::abs(r.dy)});
-      }
-    if (!s.rows.empty()) f.series.push_back(s);
-  }
-  m = std::min(m * 1.1, 5.0);
-  f.settings.push_back("set xrange [" + Fmt(-m, 3) + ":" + Fmt(m, 3) + "]");
-  f.settings.push_back("set yrange [" + Fmt(-m, 3) + ":" + Fmt(m, 3) + "]");
-  f.width_px = 800;
-  f.height_px = 760;
-  return f;
-}
-
-std::optional<Figure> MakeViewRmsFigure(const ReportData& d) {
-  const nlohmann::json& diag = d.result.diagnostics;
-  if (!diag.contains("intrinsics")) return std::nullopt;
-  Figure f{"view_rms", "RMS reprojection error per view", "view number", "RMS error [px]", {}, {"set yrange [0:*]", "set style fill solid 0.6"}, "top right"};
-  f.caption = "RMS reprojection error of each calibration view, per eye. A view far above the rest is worth inspecting.";
-  for (int e = 0; e < 2; ++e) {
-    const std::string eye = models::kEyeNames[e];
-    if (!diag["intrinsics"].contains(eye) || !diag["intrinsics"][eye].contains("view_rms_px")) continue;
-    const auto v = diag["intrinsics"][eye]["view_rms_px"].get<std::vector<double>>();
-    Series s{eye + " eye", "boxes " + Lc(e), "1:2", {"view", "rms_px"}, {}};
-    for (size_t i = 0; i < v.size(); ++i) s.rows.push_back({double(i) + (e ? 0.2 : -0.2), v[i]});
-    f.series.push_back(s);
-  }
-  if (f.series.empty()) return std::nullopt;
-  f.settings.push_back("set boxwidth 0.4");
-  return f;
 }
 
 std::vector<Figure> MakeDistortionFigures(const ReportData& d) {
@@ -134,7 +93,7 @@ std::vector<Figure> MakeDistortionFigures(const ReportData& d) {
              "x [px]", "y [px]", {}, {}, "off"};
     f.settings = {"set size ratio -1", "set xrange [-40:" + std::to_string(cam->width + 40) + "]",
                   "set yrange [" + std::to_string(cam->height + 40) + ":-40]", "set cblabel 'displacement [px]'",
-                  "set palette rgbformulae 33,13,10"};
+                  kViridis};
     f.series.push_back({"", "vectors head size 6,20 filled lw 2 lc palette", "1:2:6:7:5",
                         {"x_pinhole_px", "y_pinhole_px", "dx_px", "dy_px", "norm_px", "dx_plot", "dy_plot"}, rows});
     f.caption = "Where the " + eye + " lens moves each image point (pinhole position to distorted position), from the "
@@ -150,21 +109,24 @@ std::optional<Figure> MakeRangeErrorFigure(const ReportData& d) {
   if (!d.ranging) return std::nullopt;
   const auto& r = *d.ranging;
   Figure f{"range_error", "Vergence range error vs true distance", "true distance [m]", "range error [% of distance]", {}, {}, "top left"};
-  f.caption = "Range from the calibrated head (gaze rays through the settled target pixels) with +-2 sigma error bars "
-              "from the calibration covariance and pixel noise, the course's nominal method (0.113 deg/us, 65 mm, "
-              "sine rule), and the theory: +-1 us on one eye with the nominal formula, and the calibrated +-2 sigma band.";
-  Series band{"calibrated theory +-2 sigma", "filledcurves fs transparent solid 0.2 noborder " + Lc(0), "1:2:3",
+  f.height_px = 800;
+  f.caption = "Range from the calibrated head (gaze rays through the settled target pixels) with \u00b12\u03c3 error bars "
+              "from the calibration covariance and pixel noise, the course's nominal method (0.113 deg/\u00b5s, 65 mm, "
+              "sine rule), and the theory: \u00b11 \u00b5s on one eye with the nominal formula, and the calibrated "
+              "\u00b12\u03c3 band. The axis shows the calibrated result; points beyond it sit on its edge (open "
+              "triangles) and the ranging table lists their values.";
+  Series band{"calibrated theory \u00b12\u03c3", "filledcurves fs transparent solid 0.2 noborder " + Lc(0), "1:2:3",
               {"distance_m", "lo_pct", "hi_pct"}, {}};
-  Series q_hi{"nominal formula, 1 us on one eye", "lines lw 1.5 dt 3 lc rgb '#555555'", "1:2", {"distance_m", "pct"}, {}};
+  Series q_hi{"nominal formula, 1 \u00b5s on one eye", "lines lw 1.5 dt 3 lc rgb '#555555'", "1:2", {"distance_m", "pct"}, {}};
   Series q_lo{"", "lines lw 1.5 dt 3 lc rgb '#555555'", "1:2", {"distance_m", "pct"}, {}};
   for (const auto& t : r.theory) {
     band.rows.push_back({t.distance_m, -200 * t.calibrated_sigma_rel, 200 * t.calibrated_sigma_rel});
     q_hi.rows.push_back({t.distance_m, 100 * t.nominal_1us_rel});
     q_lo.rows.push_back({t.distance_m, -100 * t.nominal_1us_rel});
   }
-  Series cal{"calibrated (+-2 sigma)", "yerrorbars pt 7 ps 1.3 lw 1.5 " + Lc(0), "1:2:3", {"true_m", "err_pct", "two_sigma_pct"}, {}};
+  Series cal{"calibrated (\u00b12\u03c3)", "yerrorbars pt 7 ps 1.3 lw 1.5 " + Lc(0), "1:2:3", {"true_m", "err_pct", "two_sigma_pct"}, {}};
   Series nom{"course nominal method", "points pt 9 ps 1.5 " + Lc(1), "1:2", {"true_m", "err_pct"}, {}};
-  double ymax = 1;
+  double ymax = 0;
   for (const auto& x : r.rows) {
     if (x.ok) {
       cal.rows.push_back({x.true_m, 100 * x.rel_error, 200 * x.sigma_m / x.true_m});
@@ -179,13 +141,24 @@ std::optional<Figure> MakeRangeErrorFigure(const ReportData& d) {
   }
   f.series.push_back(cal);
   f.settings.push_back("set xzeroaxis lt -1 lw 1");
-  double nmax = 0;
-  for (const auto& x : nom.rows) nmax = std::max(nmax, std::abs(x[1]));
-  const double lim = std::min(std::max(ymax * 1.5, std::min(nmax * 1.1, 60.0)), 60.0);
+  // The axis is scaled to the useful data: the calibrated errors with their 2 sigma bars and the
+  // calibrated theory band over the measured distances (at least +-0.5 %). Anything beyond
+  // (the course method's errors are often tens or hundreds of %) is drawn at the edge.
+  double dmin = 1e9, dmax = 0;
+  for (const auto& x : r.rows) {
+    dmin = std::min(dmin, x.true_m);
+    dmax = std::max(dmax, x.true_m);
+  }
+  double band_max = 0;
+  for (const auto& t : r.theory)
+    if (t.distance_m >= dmin - 0.05 && t.distance_m <= dmax + 0.05) band_max = std::max(band_max, 200 * t.calibrated_sigma_rel);
+  const double lim = std::max({0.5, 1.3 * ymax, 1.3 * band_max});
   f.settings.push_back("set yrange [" + Fmt(-lim, 3) + ":" + Fmt(lim, 3) + "]");
+  f.settings.push_back("set xrange [" + Fmt(std::max(0.0, dmin - 0.1), 3) + ":" + Fmt(dmax + 0.1, 3) + "]");
   // Nominal-method points beyond the axis are drawn at its edge as open triangles pointing the
   // way they left, and the legend says how far they went (the table has every value).
   Series nom_in = nom, nom_off{"", "points pt 8 ps 1.5 " + Lc(1), "1:2", {"true_m", "edge_pct"}, {}};
+  Series nom_off_lo{"", "points pt 10 ps 1.5 " + Lc(1), "1:2", {"true_m", "edge_pct"}, {}};
   nom_in.rows.clear();
   double off_max = 0;
   bool any_negative = false;
@@ -194,23 +167,36 @@ std::optional<Figure> MakeRangeErrorFigure(const ReportData& d) {
     if (std::abs(x[1]) <= lim) {
       nom_in.rows.push_back(x);
     } else {
-      nom_off.rows.push_back({x[0], (x[1] > 0 ? 0.93 : -0.93) * lim});
+      (x[1] > 0 ? nom_off : nom_off_lo).rows.push_back({x[0], (x[1] > 0 ? 0.93 : -0.93) * lim});
       off_max = std::max(off_max, std::abs(x[1]));
     }
   }
-  if (!nom_off.rows.empty()) nom_off.title = "course nominal, off scale (max " + std::to_string(int(std::lround(off_max))) + " %)";
+  const size_t num_off = nom_off.rows.size() + nom_off_lo.rows.size();
+  if (num_off > 0)
+    (nom_off.rows.empty() ? nom_off_lo : nom_off).title = "course nominal, off scale: " + std::to_string(num_off) +
+                                                           " points up to " + std::to_string(int(std::lround(off_max))) +
+                                                           " % (table)";
+  // Fixations the calibrated head could not range: crosses on the bottom edge.
+  Series cal_none{"calibrated: no range", "points pt 2 ps 2 lw 2 " + Lc(0), "1:2", {"true_m", "edge_pct"}, {}};
+  for (const auto& x : r.rows)
+    if (!x.ok) cal_none.rows.push_back({x.true_m, -0.93 * lim});
   // Fixations the course method cannot range at all (its gaze rays diverge): open squares at
   // the top edge at their true distance.
   Series nom_none{"course nominal: no range (rays diverge)", "points pt 4 ps 1.5 " + Lc(1), "1:2",
                   {"true_m", "edge_pct"}, {}};
   for (const auto& x : r.rows)
     if (x.ok && !x.nominal_m) nom_none.rows.push_back({x.true_m, 0.93 * lim});
-  // The key goes where the nominal points are not (they lie above the axis when the course
-  // constants over-read).
-  f.key = any_negative ? "top left" : "bottom left";
+  // The key below the plot: it hides no point.
+  (void)any_negative;
+  f.key = "outside bottom center horizontal maxcols 2";
   if (!nom_in.rows.empty()) f.series.push_back(nom_in);
   if (!nom_off.rows.empty()) f.series.push_back(nom_off);
+  if (!nom_off_lo.rows.empty()) f.series.push_back(nom_off_lo);
+  if (!cal_none.rows.empty()) f.series.push_back(cal_none);
   if (!nom_none.rows.empty()) f.series.push_back(nom_none);
+  int titled = 0;
+  for (const auto& x : f.series) titled += !x.title.empty();
+  f.settings.push_back("set bmargin " + std::to_string(5 + titled));
   return f;
 }
 
@@ -245,8 +231,9 @@ std::optional<Figure> MakeStepResponseFigure(const ReportData& d) {
 std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
   if (!d.gains) return std::nullopt;
   const GainStudy& g = *d.gains;
-  Figure f{"settling_vs_gain", "2 % settling time vs proportional gain", "gain K [-]", "settling time [s]", {}, {},
-           "top right"};
+  Figure f{"settling_vs_gain", "2 % settling time vs proportional gain", "gain K [-]", "settling time [s]", {},
+           {"set bmargin 8"}, "outside bottom center horizontal maxrows 3"};
+  f.height_px = 720;
   f.caption = "Settling time of the course's incremental P loop with " + std::to_string(g.delay_frames) +
               " frames of delay at " + Fmt(g.fps, 3) + " fps (model), the measured trials, the stability limit K_crit = " +
               Fmt(g.critical_gain, 3) + " and the physical lower bound for a 10 deg step (slew + latency + one frame).";
@@ -268,12 +255,12 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
     f.series.push_back({"model fastest: K = " + Fmt(g.fastest->gain, 3) + ", " + Fmt(g.fastest->settling_time_s, 3) + " s",
                         "points pt 5 ps 2 lc rgb 'black'", "1:2", {"gain", "settling_s"},
                         {{g.fastest->gain, g.fastest->settling_time_s}}});
-  const double xmax = std::max(0.75, g.critical_gain * 2.1);  // room for the key right of K_crit
+  const double xmax = std::max(0.6, g.critical_gain * 1.4);
   for (size_t i = 0; i < g.amplitudes_deg.size(); ++i) {
     if (g.amplitudes_deg[i] != 10.0) continue;
-    f.series.push_back({"bound, 10 deg: 400 deg/s + 100 ms", "lines lw 2 dt 4 " + Lc(2), "1:2",
+    f.series.push_back({"bound, 10°: 400 °/s + 100 ms", "lines lw 2 dt 4 " + Lc(2), "1:2",
                         {"gain", "s"}, {{0, g.lower_bound_fast_s[i]}, {xmax, g.lower_bound_fast_s[i]}}});
-    f.series.push_back({"bound, 10 deg: 300 deg/s + 150 ms", "lines lw 2 dt 5 " + Lc(3), "1:2",
+    f.series.push_back({"bound, 10°: 300 °/s + 150 ms", "lines lw 2 dt 5 " + Lc(3), "1:2",
                         {"gain", "s"}, {{0, g.lower_bound_slow_s[i]}, {xmax, g.lower_bound_slow_s[i]}}});
   }
   f.series.push_back({"K_crit = " + Fmt(g.critical_gain, 3), "lines lw 2 lc rgb '#888888'", "1:2", {"gain", "s"},
@@ -285,7 +272,7 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
 
 std::optional<Figure> MakeLimitsFigure(const ReportData& d) {
   if (!d.limits) return std::nullopt;
-  Figure f{"limits", "Servo limits: configured vs measured", "pulse width [us]", "", {}, {}, "outside bottom center horizontal"};
+  Figure f{"limits", "Servo limits: configured vs measured", "pulse width [\u00b5s]", "", {}, {}, "outside bottom center horizontal"};
   f.caption = "For each servo: the configured range (robot file, grey), the measured range (colour) and what ended it "
               "(end-stop, socket rim, or the configured limit).";
   Series cfg{"configured", "vectors nohead lw 12 lc rgb '#bbbbbb'", "1:2:3:4", {"from_us", "y", "dx_us", "dy"}, {}};
@@ -340,8 +327,7 @@ std::vector<Figure> MakeAllFigures(const ReportData& d) {
     if (f) all.push_back(std::move(*f));
   };
   for (auto& f : MakeServoFigures(d)) all.push_back(f);
-  add(MakeResidualFigure(d));
-  add(MakeViewRmsFigure(d));
+  for (auto& f : MakeCameraFigures(d)) all.push_back(f);
   for (auto& f : MakeDistortionFigures(d)) all.push_back(f);
   add(MakeCoverageFigure(d));
   add(MakeRangeErrorFigure(d));

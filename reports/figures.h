@@ -5,8 +5,8 @@
 //   servo_maps                 joint angle [deg] vs pulse width [us], every fitted servo (+ truth)
 //   servo_<S>_deviation        fitted map minus the course's nominal map [deg] with the +-2 sigma
 //                              band from the covariance, the truth (virtual Owl)
-//   reprojection_residuals     corner residual dx vs dy [px] per eye
-//   view_rms                   RMS reprojection error per view [px] per eye
+//   view_rms, residual_field_<eye>, residual_hist_<eye>, uncertainty_<eye>, poses_3d
+//                              the calibration views and corners: reports/camera_figures.h
 //   distortion_<eye>           lens distortion displacement field [px]
 //   range_error                relative range error [%] vs true distance [m]: calibrated with
 //                              +-2 sigma bars, the course's nominal method, theory curves
@@ -24,8 +24,6 @@
 namespace owlcal::reports {
 
 std::vector<Figure> MakeServoFigures(const ReportData& d);
-std::optional<Figure> MakeResidualFigure(const ReportData& d);
-std::optional<Figure> MakeViewRmsFigure(const ReportData& d);
 std::vector<Figure> MakeDistortionFigures(const ReportData& d);
 std::optional<Figure> MakeRangeErrorFigure(const ReportData& d);
 std::optional<Figure> MakeStepResponseFigure(const ReportData& d);

@@ -1,10 +1,14 @@
 #pragma once
 // Figures drawn by gnuplot (Debian gnuplot-nox) as a subprocess. Each figure is written as
-//   <name>.csv  its data: one block per series, "# <series title>" and "# <column names>"
+//   <name>.dat  gnuplot's data: one block per series, "# <series title>" and "# <column names>"
 //               comment lines, blocks separated by two blank lines (gnuplot's `index`);
-//   <name>.gp   a self-contained gnuplot script that reads the CSV and draws
-//   <name>.png  (pngcairo when the gnuplot has it, else png) and <name>.svg.
+//   <name>.csv  the same data as a tidy CSV for a spreadsheet: one header row
+//               (series, then every column name), one observation per row;
+//   <name>.gp   a self-contained gnuplot script that reads the .dat and draws
+//   <name>.png  (pngcairo when the gnuplot has it, else png), <name>.svg and, with pdfcairo,
+//   <name>.pdf  (for pdflatex).
 // A student can edit the .gp and run `gnuplot <name>.gp` in that folder to restyle.
+// Colour maps are perceptual (kViridis), never a rainbow.
 //
 // Usage:
 //   Figure f{"range_error", "Range error", "true distance [m]", "error [%]"};
@@ -35,10 +39,14 @@ struct Figure {
   std::string key = "top left";      // legend placement ("off" hides it)
   int width_px = 1000, height_px = 640;
   std::string caption = "";          // for the report
+  bool splot = false;                // 3D (gnuplot splot) instead of plot
 };
 
+// gnuplot palette lines for viridis (perceptually uniform, colour-blind safe).
+extern const char* const kViridis;
+
 struct FigureFiles {
-  std::string csv, gp, png, svg;     // paths (png/svg exist only when drawn)
+  std::string dat, csv, gp, png, svg, pdf;  // paths (png/svg/pdf exist only when drawn; pdf with pdfcairo)
   bool drawn = false;
   std::string message;               // gnuplot's complaint when not drawn
 };
@@ -49,8 +57,10 @@ bool GnuplotAvailable(std::string* png_terminal = nullptr, std::string* version 
 // Writes the CSV and .gp into `dir` and runs gnuplot there (unless draw is false).
 FigureFiles WriteFigure(const Figure& figure, const std::string& dir, bool draw = true);
 
-// The .gp text of a figure (for tests).
-std::string GnuplotScript(const Figure& figure, const std::string& png_terminal);
-std::string FigureCsv(const Figure& figure);
+// The .gp text of a figure (for tests). pdf: also draw <name>.pdf with pdfcairo.
+std::string GnuplotScript(const Figure& figure, const std::string& png_terminal, bool pdf = false);
+std::string FigureData(const Figure& figure);
+std::string GnuplotQuote(const std::string& text);  // a double-quoted gnuplot string  // the .dat (gnuplot blocks)
+std::string FigureCsv(const Figure& figure);   // the tidy .csv
 
 }  // namespace owlcal::reports

@@ -18,6 +18,10 @@ namespace owlcal::reports {
 // step_metrics, gain_study, limits -- each only when it has data.
 std::vector<Table> MakeTables(const ReportData& d);
 
+// The part of a step not done at the end of a trial: 1 - mean(y) over the last 10 % of the
+// samples (at least 3), as a fraction of the step (0.05 = 5 % short); NaN with < 3 samples.
+double SteadyStateError(const StepTrace& s);
+
 struct ReportOptions {
   bool draw = true;              // run gnuplot (false: write .csv/.gp only)
   std::string title = "owlcal calibration report";

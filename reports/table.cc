@@ -1,7 +1,11 @@
 #include "reports/table.h"
 
 #include <cmath>
+#include <cctype>
 #include <cstdio>
+#include <cstdlib>
+#include <utility>
+#include <vector>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -11,9 +15,25 @@ namespace owlcal::reports {
 
 std::string Fmt(double v, int significant) {
   if (!std::isfinite(v)) return "";
+  if (std::abs(v) < 1e-12) return "0";
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.*g", significant, v);
   return buf;
+}
+
+std::string DisplayUnit(const std::string& unit) {
+  std::string o;
+  for (size_t i = 0; i < unit.size(); ++i) {
+    const bool word_start = i == 0 || !std::isalpha(static_cast<unsigned char>(unit[i - 1]));
+    const bool word_end = i + 2 >= unit.size() || !std::isalpha(static_cast<unsigned char>(unit[i + 2]));
+    if (word_start && word_end && unit.compare(i, 2, "us") == 0) {
+      o += "\u00b5s";
+      ++i;
+    } else {
+      o += unit[i];
+    }
+  }
+  return o;
 }
 
 std::string FmtWithSigma(double v, double sigma) {
@@ -42,7 +62,24 @@ std::string HtmlEscape(const std::string& s) {
 
 std::string LatexEscape(const std::string& s) {
   std::string o;
-  for (char c : s) {
+  for (size_t i = 0; i < s.size(); ++i) {
+    const char c = s[i];
+    // UTF-8 symbols the report uses.
+    static const std::pair<const char*, const char*> kUtf8[] = {
+        {"\u00b5", "\\textmu{}"}, {"\u03c3", "$\\sigma$"}, {"\u00b1", "$\\pm$"},     {"\u00b0", "\\textdegree{}"},
+        {"\u2013", "--"},         {"\u2014", "---"},          {"\u2264", "$\\le$"}, {"\u2265", "$\\ge$"},
+        {"\u00d7", "$\\times$"}};
+    bool done = false;
+    for (const auto& [u, l] : kUtf8) {
+      const size_t n = std::char_traits<char>::length(u);
+      if (s.compare(i, n, u) == 0) {
+        o += l;
+        i += n - 1;
+        done = true;
+        break;
+      }
+    }
+    if (done) continue;
     switch (c) {
       case '_': o += "\\_"; break;
       case '%': o += "\\%"; break;
@@ -54,6 +91,9 @@ std::string LatexEscape(const std::string& s) {
       case '~': o += "\\textasciitilde{}"; break;
       case '^': o += "\\textasciicircum{}"; break;
       case '\\': o += "\\textbackslash{}"; break;
+      case '|': o += "\\textbar{}"; break;
+      case '<': o += "\\textless{}"; break;
+      case '>': o += "\\textgreater{}"; break;
       default: o += c;
     }
   }
@@ -80,6 +120,27 @@ std::string MdCell(const std::string& s) {
   return o;
 }
 }  // namespace
+
+namespace {
+// A plain number as Fmt/FmtWithSigma write them: [-]digits[.digits][e[+-]digits].
+bool IsNumber(const std::string& s) {
+  if (s.empty()) return false;
+  char* end = nullptr;
+  std::strtod(s.c_str(), &end);
+  return end == s.c_str() + s.size() && s.find_first_of("0123456789") != std::string::npos &&
+         s.find_first_not_of("0123456789.eE+-") == std::string::npos;
+}
+}  // namespace
+
+bool IsNumericColumn(const Table& t, size_t col) {
+  bool any = false;
+  for (const auto& r : t.rows) {
+    if (col >= r.size() || r[col].empty()) continue;
+    if (!IsNumber(r[col])) return false;
+    any = true;
+  }
+  return any;
+}
 
 std::string ToCsv(const Table& t) {
   std::ostringstream o;
@@ -110,35 +171,51 @@ std::string ToMarkdown(const Table& t) {
 
 std::string ToLatex(const Table& t) {
   std::ostringstream o;
-  o << "% needs \\usepackage{booktabs}\n\\begin{table}[htbp]\n\\centering\n";
-  if (!t.caption.empty()) o << "\\caption{" << LatexEscape(t.caption) << "}\n";
-  o << "\\label{tab:" << t.name << "}\n\\begin{tabular}{l";
-  for (size_t i = 1; i < t.header.size(); ++i) o << "r";
-  o << "}\n\\toprule\n";
-  auto line = [&](const std::vector<std::string>& r) {
-    for (size_t i = 0; i < t.header.size(); ++i) o << (i ? " & " : "") << (i < r.size() ? LatexEscape(r[i]) : "");
-    o << " \\\\\n";
+  const size_t n = t.header.size();
+  std::vector<bool> num(n);
+  for (size_t i = 0; i < n; ++i) num[i] = IsNumericColumn(t, i);
+  o << "% owlcal table " << t.name << ". Needs \\usepackage{booktabs,longtable,siunitx} (and \\usepackage{textcomp}\n"
+    << "% for \\textmu with old LaTeX). Numbers are \\num{...}; a long table breaks across pages.\n"
+    << "\\begin{longtable}{";
+  for (size_t i = 0; i < n; ++i) o << (num[i] ? "r" : "l");
+  o << "}\n";
+  if (!t.caption.empty()) o << "\\caption{" << LatexEscape(t.caption) << "}\\label{tab:" << t.name << "}\\\\\n";
+  auto header = [&] {
+    o << "\\toprule\n";
+    for (size_t i = 0; i < n; ++i) o << (i ? " & " : "") << LatexEscape(t.header[i]);
+    o << " \\\\\n\\midrule\n";
   };
-  line(t.header);
-  o << "\\midrule\n";
-  for (const auto& r : t.rows) line(r);
-  o << "\\bottomrule\n\\end{tabular}\n\\end{table}\n";
+  header();
+  o << "\\endfirsthead\n";
+  header();
+  o << "\\endhead\n\\bottomrule\n\\endlastfoot\n";
+  for (const auto& r : t.rows) {
+    for (size_t i = 0; i < n; ++i) {
+      const std::string cell = i < r.size() ? r[i] : "";
+      o << (i ? " & " : "") << (num[i] && IsNumber(cell) ? "\\num{" + cell + "}" : LatexEscape(cell));
+    }
+    o << " \\\\\n";
+  }
+  o << "\\end{longtable}\n";
   return o.str();
 }
 
 std::string ToHtml(const Table& t) {
   std::ostringstream o;
+  std::vector<bool> num(t.header.size());
+  for (size_t i = 0; i < num.size(); ++i) num[i] = IsNumericColumn(t, i);
   o << "<table id=\"tab-" << HtmlEscape(t.name) << "\">\n";
   if (!t.caption.empty()) o << "<caption>" << HtmlEscape(t.caption) << "</caption>\n";
-  o << "<tr>";
-  for (const auto& h : t.header) o << "<th>" << HtmlEscape(h) << "</th>";
-  o << "</tr>\n";
+  o << "<thead><tr>";
+  for (size_t i = 0; i < t.header.size(); ++i) o << "<th" << (num[i] ? " class=\"num\"" : "") << ">" << HtmlEscape(t.header[i]) << "</th>";
+  o << "</tr></thead>\n<tbody>\n";
   for (const auto& r : t.rows) {
     o << "<tr>";
-    for (size_t i = 0; i < t.header.size(); ++i) o << "<td>" << (i < r.size() ? HtmlEscape(r[i]) : "") << "</td>";
+    for (size_t i = 0; i < t.header.size(); ++i)
+      o << "<td" << (num[i] ? " class=\"num\"" : "") << ">" << (i < r.size() ? HtmlEscape(r[i]) : "") << "</td>";
     o << "</tr>\n";
   }
-  o << "</table>\n";
+  o << "</tbody></table>\n";
   return o.str();
 }
 

@@ -12,6 +12,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -181,6 +183,18 @@ TEST_F(OwlcalCliTest, CalibrateImagesWritesTheCourseFilesInMillimetresAndEveryEx
                         "exports/left.cameramodel", "exports/right.cameramodel", "report/index.html"})
     EXPECT_TRUE(fs::exists(dir / f)) << f << "\n" << r.output;
   EXPECT_FALSE(fs::exists(dir / "report" / "report")) << "the report belongs in OUT/report/index.html";
+  {
+    std::ifstream f(dir / "report" / "index.html");
+    const std::string html((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos) << "figures are embedded";
+    EXPECT_EQ(html.find("src=\"../"), std::string::npos) << "no figure is a relative file";
+    for (const char* absent : {"Vergence ranging", "Step response", "Servo limits", "Ground-truth", "guide-owl"})
+      EXPECT_EQ(html.find(absent), std::string::npos) << absent << ": no robot was involved";
+    for (const char* link : {"../results.json", "../calibration.yaml", "../intrinsics.xml", "../exports/"})
+      if (html.find(link) != std::string::npos) {
+        EXPECT_TRUE(fs::exists(dir / "report" / link)) << "broken link " << link;
+      }
+  }
   // No servo maps from images: owl-pwm.h is not written, and the output says why.
   EXPECT_FALSE(fs::exists(dir / "exports" / "owl-pwm.h"));
   EXPECT_NE(r.output.find("owl-pwm.h: no servo map was fitted"), std::string::npos) << r.output;

@@ -13,6 +13,7 @@
 #include "fitting/truth_compare.h"
 #include "reports/figures.h"
 #include "reports/gnuplot_figure.h"
+#include "reports/table.h"
 
 namespace owlcal::reports {
 namespace {
@@ -72,6 +73,8 @@ ReportData DemoData() {
   d.result.Set(neck);
   d.result.Set(P("head.ipd_mm", 65.2, 0.3, "mm"));
   d.result.Set(P("left.fx", 580.4, 0.5, "px"));
+  d.result.Set(P("right.fx", 580.1, 0.5, "px"));
+  d.result.Set(P("right.cx", 321.0, 0.7, "px"));
   d.result.warnings.push_back("k3 not determined: all views fronto-parallel");
   d.result.summaries.push_back({"head", "CONVERGENCE", "ok", 100, 10, 12, 1.5, 0.15, 2000, 3, true});
   d.result.diagnostics["intrinsics"]["left"]["view_rms_px"] = {0.12, 0.15, 0.11, 0.3};
@@ -128,7 +131,45 @@ ReportData DemoData() {
     d.residuals.push_back({eye, k / 20, x, y, 0.15 * n01(rng), 0.15 * n01(rng)});
     d.coverage.push_back({eye, x, y});
   }
+  // Views with names and board outlines (the 3D pose view); one view much worse than the rest.
+  for (int e = 0; e < 2; ++e)
+    for (int k = 0; k < 12; ++k) {
+      d.views.push_back({e, k, "intrinsics frame " + std::to_string(k), (e == 0 && k == 7) ? 0.9 : 0.12 + 0.01 * (k % 3), 54, 0});
+      BoardOutline b;
+      b.eye = e;
+      b.frame = k;
+      const Eigen::Vector3d c(-0.1 + 0.02 * k, -0.05, 0.4 + 0.05 * k);
+      b.corners_in_cam = {c, c + Eigen::Vector3d(0.2, 0, 0.02), c + Eigen::Vector3d(0.2, 0.13, 0.02), c + Eigen::Vector3d(0, 0.13, 0)};
+      d.boards.push_back(b);
+    }
+  fitting::StereoEstimate st;
+  st.right_from_left.translation = Eigen::Vector3d(-0.065, 0, 0);
+  d.result.stereo = st;
   d.settings = {{"command", "owlcal calibrate --out test"}, {"seed", 1}};
+  return d;
+}
+
+// What calibrate-images has: cameras, stereo, residuals, views; no robot, servo maps, ranging,
+// steps, gains, limits or truth.
+ReportData ImagesOnlyData() {
+  const ReportData full = DemoData();
+  ReportData d;
+  d.result.software_version = "test";
+  d.result.cameras[0] = full.result.cameras[0];
+  d.result.cameras[1] = full.result.cameras[1];
+  d.result.stereo = full.result.stereo;
+  for (const auto& p : full.result.parameters)
+    if (p.name.rfind("left.", 0) == 0) {
+      fitting::Parameter q = p;
+      q.truth.reset();
+      d.result.Set(q);
+    }
+  d.residuals = full.residuals;
+  d.coverage = full.coverage;
+  d.views = full.views;
+  d.boards = full.boards;
+  d.config.name = "none (calibration from images)";
+  d.settings = {{"command", "owlcal calibrate-images"}, {"images", "kit"}, {"robot", "none"}};
   return d;
 }
 
@@ -149,6 +190,10 @@ TEST(Report, EvaluationJsonRoundTrips) {
   EXPECT_DOUBLE_EQ(back.truth->servo_params[models::kRx][0], 1540);
   EXPECT_EQ(back.residuals.size(), 400u);
   EXPECT_EQ(back.config.servos[models::kLy].direction, -1);
+  ASSERT_EQ(back.views.size(), d.views.size());
+  EXPECT_EQ(back.views[7].name, "intrinsics frame 7");
+  ASSERT_EQ(back.boards.size(), d.boards.size());
+  EXPECT_DOUBLE_EQ(back.boards[3].corners_in_cam[2].z(), d.boards[3].corners_in_cam[2].z());
 }
 
 TEST(Report, TablesCarryValuesSigmasAndTruth) {
@@ -175,10 +220,11 @@ TEST(Report, TablesCarryValuesSigmasAndTruth) {
   }
   EXPECT_TRUE(servos_seen.count("Rx") && servos_seen.count("Ry")) << ToCsv(by["servo_map_truth"]);
   const std::string md = ToMarkdown(by["parameters"]);
-  EXPECT_NE(md.find("| servo.Rx.centre_us | 1540.30 | 0.4 | us | yes | 1540 | 0.3 | 0.75 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| servo.Rx.centre_us | 1540.30 | 0.4 | \u00b5s | yes | 1540 | 0.3 | 0.75 |"), std::string::npos) << md;
   const std::string tex = ToLatex(by["parameters"]);
   EXPECT_NE(tex.find("servo.Rx.centre\\_us"), std::string::npos);
   EXPECT_NE(tex.find("\\toprule"), std::string::npos);
+  EXPECT_NE(tex.find("\\num{1540.30}"), std::string::npos);
   const std::string und = ToCsv(by["undetermined"]);
   EXPECT_NE(und.find("servo.Neck.centre_us,held at the robot file's centre (gauge)"), std::string::npos) << und;
   // The d = 3 control facts appear in the gain table.
@@ -187,45 +233,152 @@ TEST(Report, TablesCarryValuesSigmasAndTruth) {
   EXPECT_NE(gains.find("fastest stable gain,0.13"), std::string::npos) << gains;
 }
 
-TEST(Report, WritesFiguresTablesAndHtml) {
+TEST(Report, WritesASelfContainedPageWithEveryFigure) {
   std::string term;
   const bool have_gnuplot = GnuplotAvailable(&term);
   const ReportData d = DemoData();
   const std::string dir = TempDir("full");
   const ReportOutput out = WriteReport(d, dir);
   for (const auto& w : out.warnings) ADD_FAILURE() << w;
-  const std::vector<std::string> expected = {"servo_maps", "servo_rx_deviation", "reprojection_residuals", "view_rms",
-                                             "distortion_left", "coverage", "range_error", "step_responses",
-                                             "settling_vs_gain", "limits"};
+  // Every figure the lab report needs.
+  const std::vector<std::string> expected = {
+      "view_rms",          "residual_field_left", "residual_field_right", "residual_hist_left", "residual_hist_right",
+      "uncertainty_left",  "uncertainty_right",   "poses_3d",             "distortion_left",    "coverage",
+      "servo_maps",        "servo_rx_deviation",  "range_error",          "step_responses",     "settling_vs_gain",
+      "limits"};
+  const std::string html = Slurp(out.index_html);
   for (const auto& name : expected) {
     EXPECT_TRUE(std::find(out.figures.begin(), out.figures.end(), name) != out.figures.end()) << name;
-    EXPECT_TRUE(std::filesystem::exists(dir + "/figures/" + name + ".csv")) << name;
-    EXPECT_TRUE(std::filesystem::exists(dir + "/figures/" + name + ".gp")) << name;
+    for (const char* ext : {".csv", ".dat", ".gp"})
+      EXPECT_TRUE(std::filesystem::exists(dir + "/figures/" + name + ext)) << name << ext;
+    // The tidy CSV: one header row starting with "series", then one observation per row.
+    const std::string csv = Slurp(dir + "/figures/" + name + ".csv");
+    EXPECT_EQ(csv.rfind("series,", 0), 0u) << name;
+    EXPECT_EQ(csv.find('#'), std::string::npos) << name;
+    EXPECT_EQ(csv.find("\n\n"), std::string::npos) << name;
     if (have_gnuplot) {
       EXPECT_GT(std::filesystem::file_size(dir + "/figures/" + name + ".png"), 5000u) << name;
-      const std::string svg = Slurp(dir + "/figures/" + name + ".svg");
-      EXPECT_NE(svg.find("<svg"), std::string::npos) << name;
+      EXPECT_NE(Slurp(dir + "/figures/" + name + ".svg").find("<svg"), std::string::npos) << name;
+      EXPECT_EQ(Slurp(dir + "/figures/" + name + ".pdf").rfind("%PDF", 0), 0u) << name;
+      // Embedded: the page alone shows it.
+      const size_t at = html.find("<figure id=\"fig-" + name + "\">");
+      ASSERT_NE(at, std::string::npos) << name;
+      EXPECT_EQ(html.compare(html.find("<img", at), 32, "<img src=\"data:image/png;base64,"), 0) << name;
     }
   }
-  const std::string gp = Slurp(dir + "/figures/range_error.gp");
-  EXPECT_NE(gp.find("set xlabel \"true distance [m]\""), std::string::npos);
-  EXPECT_NE(gp.find("'range_error.csv' index"), std::string::npos);
-  const std::string html = Slurp(out.index_html);
-  for (const auto& name : expected) EXPECT_NE(html.find("../figures/" + name + ".png"), std::string::npos) << name;
-  EXPECT_NE(html.find("Ground-truth comparison"), std::string::npos);
-  EXPECT_NE(html.find("tab-truth_comparison"), std::string::npos);
+  // Self-contained: no image, script or stylesheet comes from a file.
+  EXPECT_EQ(html.find("src=\"../"), std::string::npos);
+  EXPECT_EQ(html.find("<link"), std::string::npos);
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  // A one-screen summary first, then the lab-report sections; a print stylesheet.
+  const size_t summary = html.find("class=\"summary\""), method = html.find("id=\"method\""),
+               results = html.find("id=\"results\""), discussion = html.find("id=\"discussion\"");
+  ASSERT_NE(summary, std::string::npos);
+  EXPECT_LT(summary, method);
+  EXPECT_LT(method, results);
+  EXPECT_LT(results, discussion);
+  EXPECT_NE(html.find("class=\"verdict"), std::string::npos);
+  EXPECT_NE(html.find("What to do next"), std::string::npos);
+  EXPECT_NE(html.find("intrinsics frame 7"), std::string::npos) << "the worst view is named";
+  EXPECT_NE(html.find("@media print"), std::string::npos);
+  EXPECT_NE(html.find("thead{display:table-header-group}"), std::string::npos);
+  for (const char* sec : {"Vergence ranging", "Step response and gain", "Servo limits", "Ground-truth comparison"})
+    EXPECT_NE(html.find(sec), std::string::npos) << sec;
   EXPECT_NE(html.find("servo.Neck.centre_us"), std::string::npos);
   EXPECT_NE(html.find("owlcal calibrate --out test"), std::string::npos);
+  // No raw JSON dump, units a reader expects, no numerical noise printed as a value.
+  EXPECT_EQ(html.find("<pre>"), std::string::npos);
+  EXPECT_EQ(html.find("+-"), std::string::npos);
+  EXPECT_EQ(html.find(" sigma"), std::string::npos);
+  EXPECT_NE(html.find("\u00b5s"), std::string::npos);
+  EXPECT_NE(html.find("\u00b12\u03c3"), std::string::npos);
+  EXPECT_EQ(html.find("e-17"), std::string::npos);
+  // Text columns left, numbers right.
+  EXPECT_NE(html.find("<td>servo.Rx.centre_us</td><td class=\"num\">1540.30</td>"), std::string::npos);
   for (const char* ext : {".csv", ".md", ".tex"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/tables/ranging" + std::string(ext)));
+}
+
+TEST(Report, ImagesOnlyReportShowsOnlySectionsWithData) {
+  const ReportData d = ImagesOnlyData();
+  const std::string dir = TempDir("images");
+  const ReportOutput out = WriteReport(d, dir);
+  EXPECT_EQ(out.index_html, dir + "/report/index.html");
+  const std::string html = Slurp(out.index_html);
+  for (const char* absent : {"Vergence ranging", "Step response", "Servo limits", "Ground-truth", "Servo maps and head",
+                             "robot file", "guide-owl"})
+    EXPECT_EQ(html.find(absent), std::string::npos) << absent;
+  EXPECT_NE(html.find("No robot"), std::string::npos);
+  EXPECT_NE(html.find("Camera intrinsics"), std::string::npos);
+  EXPECT_NE(html.find("fig-view_rms"), std::string::npos);
+  EXPECT_NE(html.find("fig-poses_3d"), std::string::npos);
+  for (const auto& f : out.figures) {
+    EXPECT_EQ(f.rfind("servo", 0), std::string::npos) << f;
+    EXPECT_NE(f, "range_error");
+    EXPECT_NE(f, "settling_vs_gain");
+  }
+}
+
+TEST(Report, SteadyStateErrorIsWhatTheTrialLeftUndone) {
+  StepTrace t;
+  for (int k = 0; k < 60; ++k) {
+    t.t_s.push_back(k / 30.0);
+    t.y.push_back(k < 20 ? k / 20.0 * 0.9 : 0.9);  // stops 10 % short: not settled
+  }
+  fitting::StepInfoOptions o;
+  o.y_init = 0.0;
+  o.y_final = 1.0;
+  t.info = fitting::ComputeStepInfo(t.t_s, t.y, o);
+  EXPECT_FALSE(t.info.settled);
+  EXPECT_NEAR(SteadyStateError(t), 0.1, 1e-12);
+  ReportData d;
+  d.steps.push_back(t);
+  for (const auto& tab : MakeTables(d))
+    if (tab.name == "step_metrics") {
+      EXPECT_EQ(tab.rows[0][9], "10") << ToCsv(tab);
+    }
+}
+
+TEST(Report, LatexTablesCompile) {
+  const ReportData d = DemoData();
+  const std::string dir = TempDir("latex");
+  WriteReport(d, dir, {false, "test"});
+  std::ostringstream doc;
+  doc << "\\documentclass{article}\n\\usepackage[T1]{fontenc}\n\\usepackage[utf8]{inputenc}\n"
+         "\\usepackage{textcomp,booktabs,longtable,siunitx}\n\\usepackage[a4paper,landscape,margin=1cm]{geometry}\n"
+         "\\begin{document}\n\\scriptsize\n";
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/tables"))
+    if (e.path().extension() == ".tex") {
+      const std::string tex = Slurp(e.path().string());
+      EXPECT_NE(tex.find("\\begin{longtable}"), std::string::npos) << e.path();
+      EXPECT_NE(tex.find("\\endhead"), std::string::npos) << e.path();
+      doc << "\\input{" << e.path().filename().string() << "}\n";
+      ++n;
+    }
+  doc << "\\end{document}\n";
+  EXPECT_GE(n, 8);
+  // Escaping: |relative error| and units survive as text.
+  const std::string ranging = Slurp(dir + "/tables/ranging_summary.tex");
+  EXPECT_NE(ranging.find("\\textbar{}relative error\\textbar{}"), std::string::npos) << ranging;
+  EXPECT_NE(Slurp(dir + "/tables/limits.tex").find("\\textmu{}s"), std::string::npos);
+  EXPECT_NE(Slurp(dir + "/tables/parameters.tex").find("\\num{"), std::string::npos);
+  WriteTextFile(dir + "/tables/all.tex", doc.str());
+  int st = std::system("command -v pdflatex >/dev/null 2>&1");
+  if (st != 0) GTEST_SKIP() << "no TeX engine (pdflatex) installed: the LaTeX tables were written but not compiled";
+  st = std::system(("cd " + dir + "/tables && pdflatex -interaction=nonstopmode -halt-on-error all.tex >latex.log 2>&1").c_str());
+  EXPECT_EQ(st, 0) << Slurp(dir + "/tables/latex.log").substr(0, 4000);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/tables/all.pdf"));
 }
 
 TEST(Report, FigureCsvHasOneBlockPerSeries) {
   Figure f{"demo", "Demo", "x [m]", "y [%]", {}, {}, "top left"};
   f.series.push_back({"a", "lines", "1:2", {"x", "y"}, {{1, 2}, {3, NAN}}});
   f.series.push_back({"b", "points", "1:2", {"x", "y"}, {}});
-  const std::string csv = FigureCsv(f);
-  EXPECT_NE(csv.find("# series 0: a\n# x,y\n1,2\n3,NaN\n\n\n# series 1: b"), std::string::npos) << csv;
+  const std::string dat = FigureData(f);
+  EXPECT_NE(dat.find("# series 0: a\n# x,y\n1,2\n3,NaN\n\n\n# series 1: b"), std::string::npos) << dat;
+  f.series.push_back({"c, quoted", "lines", "1:2", {"x", "z"}, {{5, 6}}});
+  EXPECT_EQ(FigureCsv(f), "series,x,y,z\na,1,2,\na,3,,\n\"c, quoted\",5,,6\n");
   const std::string gp = GnuplotScript(f, "png");
   EXPECT_NE(gp.find("index 1 using 1:2 with points title \"b\""), std::string::npos) << gp;
   EXPECT_THROW(WriteFigure(Figure{"Bad Name", "", "", "", {}, {}, ""}, "/tmp", false), std::invalid_argument);

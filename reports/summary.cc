@@ -1,0 +1,168 @@
+#include "reports/summary.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "fitting/projection_uncertainty.h"
+#include "fitting/truth_compare.h"
+#include "reports/camera_figures.h"
+#include "reports/table.h"
+
+namespace owlcal::reports {
+namespace {
+
+std::string PlusMinus(const fitting::Parameter& p) {
+  if (!p.determined || !std::isfinite(p.sigma)) return FmtWithSigma(p.value, NAN) + " (not determined)";
+  return FmtWithSigma(p.value, p.sigma) + " \u00b1 " + Fmt(p.sigma, 2);
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+}  // namespace
+
+Summary MakeSummary(const ReportData& d) {
+  Summary s;
+  const fitting::CalibrationResult& r = d.result;
+  const nlohmann::json& diag = r.diagnostics;
+
+  // Headline numbers.
+  auto add = [&](const std::string& q, const std::string& name, const std::string& note = "") {
+    if (const fitting::Parameter* p = r.Find(name)) s.headlines.push_back({q, PlusMinus(*p), DisplayUnit(p->unit), note});
+  };
+  if (diag.contains("stereo") && diag["stereo"].contains("rms_px")) {
+    const auto& rms = diag["stereo"]["rms_px"];
+    s.headlines.push_back({"reprojection RMS, left / right", Fmt(rms.value("left", NAN), 3) + " / " + Fmt(rms.value("right", NAN), 3),
+                           "px", "per corner, joint stereo fit"});
+  }
+  for (const char* eye : {"left", "right"}) {
+    add(std::string(eye) + " focal length fx", std::string(eye) + ".fx");
+    add(std::string(eye) + " principal point cx", std::string(eye) + ".cx");
+  }
+  add("stereo baseline", "stereo.baseline_mm");
+  add("inter-pupillary distance (head fit)", "head.ipd_mm");
+  {
+    std::string scales;
+    int fitted = 0;
+    for (int k = 0; k < models::kNumServos; ++k) {
+      const fitting::Parameter* p = r.Find(std::string("servo.") + models::kServoNames[k] + ".deg_per_us");
+      if (!p || !p->determined) continue;
+      ++fitted;
+      scales += (scales.empty() ? "" : ", ") + std::string(models::kServoNames[k]) + " " + PlusMinus(*p);
+    }
+    if (fitted) s.headlines.push_back({"servo scales (" + std::to_string(fitted) + " maps fitted)", scales, "deg/\u00b5s", ""});
+  }
+  if (d.ranging) {
+    std::vector<double> e;
+    int failed = 0;
+    for (const auto& x : d.ranging->rows) {
+      if (x.ok) e.push_back(100 * std::abs(x.rel_error));
+      else ++failed;
+    }
+    s.headlines.push_back({"vergence range error, median |error|", Fmt(Median(e), 3), "%",
+                           std::to_string(e.size()) + " fixations ranged, " + std::to_string(failed) + " failed"});
+  }
+  if (d.gains && d.gains->fastest)
+    s.headlines.push_back({"fastest stable P gain (model, d = " + std::to_string(d.gains->delay_frames) + " frames)",
+                           Fmt(d.gains->fastest->gain, 3), "", "2 % settling " + Fmt(d.gains->fastest->settling_time_s, 3) + " s"});
+  if (std::any_of(r.parameters.begin(), r.parameters.end(), [](const auto& p) { return p.truth.has_value(); })) {
+    const fitting::TruthComparison c = fitting::CompareWithTruth(r);
+    s.headlines.push_back({"virtual Owl: parameters within \u00b12\u03c3 of the truth", Fmt(100 * c.fraction_within_2sigma, 3), "%",
+                           std::to_string(c.num_with_sigma) + " compared, worst " + c.worst + " (z = " + Fmt(c.worst_z, 3) + ")"});
+  }
+
+  // Verdict: one a fit wrote (diagnostics.verdict: a string, or {status, reasons}), else from
+  // the solver summaries, undetermined parameters and warnings.
+  int undetermined = 0;
+  // A parameter fixed by a gauge (the note says so) is a convention, not a gap in the data.
+  for (const auto& p : r.parameters) undetermined += !p.determined && p.note.find("gauge") == std::string::npos;
+  bool failed = r.summaries.empty() && !r.cameras[0] && !r.cameras[1];
+  for (const auto& sum : r.summaries)
+    if (!sum.usable && sum.problem.find("initialisation") == std::string::npos) {
+      failed = true;
+      s.reasons.push_back("the " + sum.problem + " fit is not usable: " + sum.message);
+    }
+  const bool poor = diag.contains("image_set") && diag["image_set"].value("poor", false);
+  if (diag.contains("verdict")) {
+    const auto& v = diag["verdict"];
+    if (v.is_string()) {
+      s.verdict = v.get<std::string>();
+    } else {
+      s.verdict = v.value("status", std::string("see the reasons"));
+      if (v.contains("reasons"))
+        for (const auto& x : v["reasons"]) s.reasons.push_back(x.is_string() ? x.get<std::string>() : x.dump());
+    }
+    const std::string low = [&] {
+      std::string t = s.verdict;
+      for (auto& ch : t) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+      return t;
+    }();
+    s.level = low.find("fail") != std::string::npos || low.find("not usable") != std::string::npos ? "bad"
+              : low.find("ok") == 0 || low.find("pass") == 0 || low.find("usable") == 0 ? "ok" : "warn";
+  } else if (failed) {
+    s.verdict = "Not usable: a fit failed";
+    s.level = "bad";
+  } else if (poor || undetermined > 0) {
+    s.verdict = "Usable with care: " + std::to_string(undetermined) + " parameters could not be determined";
+    s.level = "warn";
+  } else {
+    s.verdict = r.warnings.empty() ? "Usable: every fit converged and every parameter was determined"
+                                   : "Usable, with " + std::to_string(r.warnings.size()) + " warnings to read";
+    s.level = r.warnings.empty() ? "ok" : "warn";
+  }
+  for (size_t i = 0; i < r.warnings.size() && i < 6; ++i) s.warnings.push_back(r.warnings[i]);
+  if (r.warnings.size() > 6) s.warnings.push_back(std::to_string(r.warnings.size() - 6) + " more in the Discussion section");
+
+  // What to do next.
+  const auto worst = WorstViews(d, 5);
+  if (!worst.empty()) {
+    std::string names;
+    for (const auto& w : worst) names += (names.empty() ? "" : ", ") + w.view.name;
+    s.next_steps.push_back("Look at the worst calibration views (" + names +
+                           "): retake or drop any with a blurred, moved or partly hidden board.");
+  }
+  if (poor && diag["image_set"].contains("verdict"))
+    for (const auto& v : diag["image_set"]["verdict"]) s.next_steps.push_back("Image set: " + v.get<std::string>() + ".");
+  if (undetermined > 0 && !poor)
+    s.next_steps.push_back("Add views that determine the " + std::to_string(undetermined) +
+                           " undetermined parameters (listed in the Discussion): boards tilted by 30\u201345\u00b0, near "
+                           "the image corners and at several distances.");
+  for (int e = 0; e < 2; ++e) {
+    std::vector<fitting::CornerResidual> res;
+    double s2 = 0;
+    for (const auto& p : d.residuals)
+      if (p.eye == e) {
+        res.push_back({p.x, p.y, p.dx, p.dy});
+        s2 += p.dx * p.dx + p.dy * p.dy;
+      }
+    const models::CameraIntrinsics* cam = r.cameras[e] ? &*r.cameras[e] : (r.head ? &r.head->intrinsics[e] : nullptr);
+    if (!cam || res.empty()) continue;
+    const auto v = fitting::ComputeValidIntrinsicsRegion(*cam, fitting::IntrinsicsCovariance(r, e), res,
+                                                         std::sqrt(s2 / (2.0 * res.size())));
+    if (v.valid_fraction < 0.6)
+      s.next_steps.push_back(std::string("The ") + models::kEyeNames[e] + " model is trusted over " +
+                             Fmt(100 * v.valid_fraction, 2) + " % of the image only (valid-intrinsics region): add "
+                             "views whose board reaches the edges and corners.");
+  }
+  if (d.limits)
+    for (const auto& l : d.limits->servos)
+      if (l.recommended_min_us != l.configured_min_us || l.recommended_max_us != l.configured_max_us)
+        s.next_steps.push_back("Update the robot file's " + l.name + " limits to " + std::to_string(l.recommended_min_us) +
+                               "\u2013" + std::to_string(l.recommended_max_us) + " \u00b5s (measured; configured " +
+                               std::to_string(l.configured_min_us) + "\u2013" + std::to_string(l.configured_max_us) + ").");
+  if (d.ranging) {
+    int failed_r = 0;
+    for (const auto& x : d.ranging->rows) failed_r += !x.ok;
+    if (failed_r) s.next_steps.push_back("Repeat the " + std::to_string(failed_r) + " fixations that could not be ranged.");
+  }
+  if (s.level != "bad")
+    s.next_steps.push_back("Use calibration.yaml (OpenCV, metres) or intrinsics.xml/extrinsics.xml (the course's files, "
+                           "mm) in your programs; exports/ holds ROS, Kalibr and mrcal files" +
+                           std::string(r.head ? " and owl-pwm.h for the servo maps." : "."));
+  return s;
+}
+
+}  // namespace owlcal::reports
