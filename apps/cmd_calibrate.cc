@@ -17,6 +17,7 @@
 
 #include "apps/command_registry.h"
 #include "apps/robot_options.h"
+#include "calib/csv.h"
 #include "calib/observation.h"
 #include "calib/observation_io.h"
 #include "fitting/fit_points.h"
@@ -85,7 +86,7 @@ Csv ReadCsv(const std::string& path) {
   while (std::getline(f, line)) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
-    auto cells = protocols::SplitCsv(line);
+    auto cells = calib::SplitCsvLine(line);
     if (first) t.header = cells;
     else t.rows.push_back(cells);
     first = false;

@@ -2,11 +2,9 @@
 
 #include "calib/csv.h"
 
-#include <charconv>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 #include <stdexcept>
 
 namespace owlcal::calib {
@@ -40,56 +38,35 @@ void WriteRows(std::ostream& f, const std::vector<CornerObservation>& obs) {
 }
 
 
-template <typename T>
-bool ParseNum(const std::string& s, T* v) {
-  if constexpr (std::is_floating_point_v<T>) {
-    if (s.empty()) return false;
-    char* end = nullptr;
-    *v = std::strtod(s.c_str(), &end);
-    return end == s.c_str() + s.size();
-  } else {
-    const auto r = std::from_chars(s.data(), s.data() + s.size(), *v);
-    return !s.empty() && r.ec == std::errc() && r.ptr == s.data() + s.size();
-  }
-}
+// Bounds of the numeric columns: pixels within +-1e5 px (a Ceres residual squares them), board
+// points within +-1 km, pulse widths four digits, ids that fit an int.
+constexpr double kMaxAbsPixel = 1e5;
+constexpr double kMaxAbsPoint_m = 1e3;
 
-// Parses one row; on failure returns the index of the bad field (or -1 for a wrong count).
-bool ParseRow(const std::vector<std::string>& f, CornerObservation* o, int* bad_field) {
-  *bad_field = -1;
-  if (int(f.size()) != kNumFields) return false;
-  auto fail = [&](int i) {
-    *bad_field = i;
-    return false;
-  };
-  if (!ParseNum(f[0], &o->frame_index)) return fail(0);
-  if (f[1] == "left" || f[1] == "0") {
-    o->eye = 0;
-  } else if (f[1] == "right" || f[1] == "1") {
-    o->eye = 1;
+CornerObservation ParseRow(const CsvTable& t, size_t r) {
+  CornerObservation o;
+  o.frame_index = t.Int(r, "frame_index", 0, INT32_MAX);
+  const std::string& eye = t.Text(r, "eye");
+  if (eye == "left" || eye == "0") {
+    o.eye = 0;
+  } else if (eye == "right" || eye == "1") {
+    o.eye = 1;
   } else {
-    return fail(1);
+    throw std::runtime_error(t.Where(r) + ": column eye = '" + io::Printable(eye) + "' is not left or right");
   }
-  if (f[2].empty()) return fail(2);
-  o->target_id = f[2];
-  if (!ParseNum(f[3], &o->corner_id)) return fail(3);
-  double d[5];
-  for (int i = 0; i < 5; ++i)
-    if (!ParseNum(f[4 + i], &d[i])) return fail(4 + i);
-  o->pixel = Eigen::Vector2d(d[0], d[1]);
-  // point_in_target: fields 6..8
-  double p[3];
-  for (int i = 0; i < 3; ++i)
-    if (!ParseNum(f[6 + i], &p[i])) return fail(6 + i);
-  o->point_in_target = Eigen::Vector3d(p[0], p[1], p[2]);
-  for (int i = 0; i < 5; ++i)
-    if (!ParseNum(f[9 + i], &o->pwm_us[i])) return fail(9 + i);
-  for (int i = 0; i < 5; ++i) {
-    int a = 0;
-    if (!ParseNum(f[14 + i], &a) || a < -1 || a > 1) return fail(14 + i);
-    o->approach[i] = int8_t(a);
+  o.target_id = t.Text(r, "target_id");
+  if (o.target_id.empty()) throw std::runtime_error(t.Where(r) + ": column target_id is empty");
+  o.corner_id = t.Int(r, "corner_id", 0, INT32_MAX);
+  o.pixel = Eigen::Vector2d(t.Number(r, "u_px", -kMaxAbsPixel, kMaxAbsPixel), t.Number(r, "v_px", -kMaxAbsPixel, kMaxAbsPixel));
+  o.point_in_target = Eigen::Vector3d(t.Number(r, "x_m", -kMaxAbsPoint_m, kMaxAbsPoint_m),
+                                      t.Number(r, "y_m", -kMaxAbsPoint_m, kMaxAbsPoint_m),
+                                      t.Number(r, "z_m", -kMaxAbsPoint_m, kMaxAbsPoint_m));
+  for (int i = 0; i < models::kNumServos; ++i) {
+    o.pwm_us[i] = t.Int(r, kFieldNames[9 + i], 0, 9999);
+    o.approach[i] = static_cast<int8_t>(t.Int(r, kFieldNames[14 + i], -1, 1));
   }
-  if (!ParseNum(f[19], &o->stamp_ns)) return fail(19);
-  return true;
+  o.stamp_ns = t.Integer(r, "stamp_ns", INT64_MIN, INT64_MAX);
+  return o;
 }
 
 }  // namespace
@@ -116,50 +93,20 @@ void AppendObservationsCsv(const std::string& path, const std::vector<CornerObse
 }
 
 std::vector<CornerObservation> ReadObservationsCsv(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw std::runtime_error("cannot open observation file " + path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const std::string text = ss.str();
-  std::vector<std::string> lines;
-  size_t start = 0;
-  while (start < text.size()) {
-    size_t nl = text.find('\n', start);
-    if (nl == std::string::npos) {
-      lines.push_back(text.substr(start));
-      start = text.size();
-    } else {
-      lines.push_back(text.substr(start, nl - start));
-      start = nl + 1;
+  const CsvTable t = CsvTable::Read(path, {.allow_partial_tail = true});
+  for (const char* name : kFieldNames) t.Column(name);
+  if (t.Header().size() != kNumFields) {
+    for (const std::string& h : t.Header()) {
+      bool known = false;
+      for (const char* name : kFieldNames) known = known || h == name;
+      if (!known) throw std::runtime_error(path + ":1: unknown column '" + io::Printable(h) + "' (header: " + kHeader + ")");
     }
   }
-  const bool ends_with_newline = !text.empty() && text.back() == '\n';
-  if (lines.empty()) throw std::runtime_error(path + ":1: empty observation file (no header row)");
-  std::string header = lines[0];
-  if (!header.empty() && header.back() == '\r') header.pop_back();
-  if (header != kHeader) throw std::runtime_error(path + ":1: header: expected '" + std::string(kHeader) + "'");
+  if (t.DroppedPartialTail())
+    std::cerr << "warning: " << path << ": truncated last line (no line break, incomplete) dropped\n";
   std::vector<CornerObservation> out;
-  for (size_t i = 1; i < lines.size(); ++i) {
-    const std::string& line = lines[i];
-    if (line.empty() || line == "\r") continue;
-    CornerObservation o;
-    int bad = -1;
-    const std::vector<std::string> fields = SplitCsvLine(line);
-    if (ParseRow(fields, &o, &bad)) {
-      out.push_back(o);
-      continue;
-    }
-    const bool last = i + 1 == lines.size();
-    if (last && !ends_with_newline) {
-      std::cerr << "warning: " << path << ":" << i + 1 << ": truncated last line dropped\n";
-      break;
-    }
-    const std::string where = path + ":" + std::to_string(i + 1) + ": ";
-    if (bad < 0)
-      throw std::runtime_error(where + "expected " + std::to_string(kNumFields) + " fields, got " +
-                               std::to_string(fields.size()));
-    throw std::runtime_error(where + kFieldNames[bad] + ": bad value '" + fields[bad] + "'");
-  }
+  out.reserve(t.NumRows());
+  for (size_t r = 0; r < t.NumRows(); ++r) out.push_back(ParseRow(t, r));
   return out;
 }
 

@@ -6,8 +6,11 @@
 // eye is "left" or "right" (0/1 are accepted on reading). Pixels in OpenCV's convention.
 // Doubles are written with 17 significant digits (exact round trip).
 //
-// Reading: a truncated LAST line (a recording cut short) is dropped with a warning on stderr;
-// any other malformed line throws std::runtime_error naming file:line:field and the value.
+// Reading (calib/csv.h): every column above must be present (any order, no others); numbers are
+// strict and bounded: |u_px|, |v_px| <= 1e5, |x_m|, |y_m|, |z_m| <= 1000, pulse widths 0..9999,
+// approach -1/0/1, ids >= 0. A truncated LAST line (a recording cut short) is dropped with a
+// warning on stderr; any other malformed line throws std::runtime_error naming file:line, the
+// column and the value.
 #include <string>
 #include <vector>
 

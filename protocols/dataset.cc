@@ -1,11 +1,14 @@
 #include "protocols/dataset.h"
 
 #include "calib/csv.h"
+#include "io/strict_number.h"
 
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <chrono>
 #include <cinttypes>
 #include <cstring>
@@ -81,28 +84,19 @@ std::vector<std::string> ReadLines(const std::string& path, bool* partial_tail, 
   return lines;
 }
 
-int64_t ParseInt(const std::string& s, const std::string& where) {
-  if (s.empty()) throw std::runtime_error(where + ": empty");
-  size_t used = 0;
+// An integer within [min, max] (default: any int64).
+int64_t ParseInt(const std::string& s, const std::string& where, int64_t min = INT64_MIN, int64_t max = INT64_MAX) {
   int64_t v = 0;
-  try {
-    v = std::stoll(s, &used, 10);
-  } catch (const std::exception&) {
-    throw std::runtime_error(where + ": '" + s + "' is not an integer");
-  }
-  if (used != s.size()) throw std::runtime_error(where + ": '" + s + "' is not an integer");
+  const std::string why = io::CheckInteger(s, min, max, &v);
+  if (!why.empty()) throw std::runtime_error(where + " " + why);
   return v;
 }
 
-double ParseDouble(const std::string& s, const std::string& where) {
-  size_t used = 0;
+// A finite number within [min, max].
+double ParseDouble(const std::string& s, const std::string& where, double min = -1e6, double max = 1e6) {
   double v = 0;
-  try {
-    v = std::stod(s, &used);
-  } catch (const std::exception&) {
-    throw std::runtime_error(where + ": '" + s + "' is not a number");
-  }
-  if (used != s.size()) throw std::runtime_error(where + ": '" + s + "' is not a number");
+  const std::string why = io::CheckNumber(s, min, max, &v);
+  if (!why.empty()) throw std::runtime_error(where + " " + why);
   return v;
 }
 
@@ -113,7 +107,7 @@ std::string Fmt(double v) {
 }
 
 FrameRecord ParseFrameLine(const std::string& line, const std::string& where) {
-  const std::vector<std::string> f = SplitCsv(line);
+  const std::vector<std::string> f = calib::SplitCsvLine(line, false, where);
   if (static_cast<int>(f.size()) != kFramesCsvFields)
     throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
                              std::to_string(kFramesCsvFields));
@@ -123,26 +117,20 @@ FrameRecord ParseFrameLine(const std::string& line, const std::string& where) {
       "placement_index", "jpeg_bytes", "jpeg_crc32"};
   auto w = [&](int i) { return where + " field " + names[i]; };
   FrameRecord r;
-  r.frame_index = ParseInt(f[0], w(0));
+  r.frame_index = ParseInt(f[0], w(0), 0);
   r.seq = ParseInt(f[1], w(1));
   r.stamp_ns = ParseInt(f[2], w(2));
-  for (int i = 0; i < models::kNumServos; ++i) r.pwm_us[i] = static_cast<int>(ParseInt(f[3 + i], w(3 + i)));
-  for (int i = 0; i < models::kNumServos; ++i) {
-    const int64_t a = ParseInt(f[8 + i], w(8 + i));
-    if (a < -1 || a > 1) throw std::runtime_error(w(8 + i) + ": '" + f[8 + i] + "' is not -1, 0 or 1");
-    r.approach[i] = static_cast<int8_t>(a);
-  }
-  r.step_index = static_cast<int>(ParseInt(f[13], w(13)));
+  for (int i = 0; i < models::kNumServos; ++i) r.pwm_us[i] = static_cast<int>(ParseInt(f[3 + i], w(3 + i), 0, 9999));
+  for (int i = 0; i < models::kNumServos; ++i) r.approach[i] = static_cast<int8_t>(ParseInt(f[8 + i], w(8 + i), -1, 1));
+  r.step_index = static_cast<int>(ParseInt(f[13], w(13), -1, INT32_MAX));
   r.step_name = f[14];
-  r.placement_index = static_cast<int>(ParseInt(f[15], w(15)));
-  r.jpeg_bytes = ParseInt(f[16], w(16));
-  try {
-    size_t used = 0;
-    r.jpeg_crc32 = static_cast<uint32_t>(std::stoul(f[17], &used, 16));
-    if (used != f[17].size()) throw std::invalid_argument("x");
-  } catch (const std::exception&) {
-    throw std::runtime_error(w(17) + ": '" + f[17] + "' is not a hex CRC");
-  }
+  r.placement_index = static_cast<int>(ParseInt(f[15], w(15), -1, INT32_MAX));
+  r.jpeg_bytes = ParseInt(f[16], w(16), 0);
+  const std::string& crc = f[17];
+  const auto end = crc.data() + crc.size();
+  const auto parsed = std::from_chars(crc.data(), end, r.jpeg_crc32, 16);
+  if (crc.empty() || crc.size() > 8 || parsed.ec != std::errc() || parsed.ptr != end)
+    throw std::runtime_error(w(17) + " = '" + io::Printable(crc) + "' is not a hex CRC-32");
   return r;
 }
 
@@ -170,19 +158,21 @@ std::string PlacementLine(const PlacementRecord& p) {
 }
 
 PlacementRecord ParsePlacementLine(const std::string& line, const std::string& where) {
-  const std::vector<std::string> f = SplitCsv(line);
+  const std::vector<std::string> f = calib::SplitCsvLine(line, false, where);
   if (static_cast<int>(f.size()) != kPlacementsCsvFields)
     throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
                              std::to_string(kPlacementsCsvFields));
   PlacementRecord p;
-  p.placement_index = static_cast<int>(ParseInt(f[0], where + " field placement_index"));
-  p.step_index = static_cast<int>(ParseInt(f[1], where + " field step_index"));
+  p.placement_index = static_cast<int>(ParseInt(f[0], where + " field placement_index", 0, INT32_MAX));
+  p.step_index = static_cast<int>(ParseInt(f[1], where + " field step_index", -1, INT32_MAX));
   p.target = f[2];
-  p.distance_m = ParseDouble(f[3], where + " field distance_m");
+  p.distance_m = ParseDouble(f[3], where + " field distance_m", 0, 1e3);
   Eigen::Vector3d t(ParseDouble(f[4], where + " field tx_m"), ParseDouble(f[5], where + " field ty_m"),
                     ParseDouble(f[6], where + " field tz_m"));
   Eigen::Quaterniond q(ParseDouble(f[10], where + " field qw"), ParseDouble(f[7], where + " field qx"),
                        ParseDouble(f[8], where + " field qy"), ParseDouble(f[9], where + " field qz"));
+  if (std::abs(q.norm() - 1) > 1e-6)
+    throw std::runtime_error(where + " fields qx..qw: norm " + io::FormatNumber(q.norm()) + " is not a unit quaternion");
   p.base_from_target = Eigen::Isometry3d::Identity();
   p.base_from_target.linear() = q.normalized().toRotationMatrix();
   p.base_from_target.translation() = t;
@@ -200,18 +190,18 @@ std::string StepLine(const StepRecord& s) {
 }
 
 StepRecord ParseStepLine(const std::string& line, const std::string& where) {
-  const std::vector<std::string> f = SplitCsv(line);
+  const std::vector<std::string> f = calib::SplitCsvLine(line, false, where);
   if (static_cast<int>(f.size()) != kStepsCsvFields)
     throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
                              std::to_string(kStepsCsvFields));
   StepRecord s;
-  s.step_index = static_cast<int>(ParseInt(f[0], where + " field step_index"));
+  s.step_index = static_cast<int>(ParseInt(f[0], where + " field step_index", 0, INT32_MAX));
   s.step_name = f[1];
   s.kind = f[2];
   s.status = f[3];
   s.start_ns = ParseInt(f[4], where + " field start_ns");
   s.end_ns = ParseInt(f[5], where + " field end_ns");
-  s.num_frames = ParseInt(f[6], where + " field num_frames");
+  s.num_frames = ParseInt(f[6], where + " field num_frames", 0);
   return s;
 }
 
@@ -250,8 +240,6 @@ std::string FramePath(const std::string& dir, int64_t frame_index) {
   std::snprintf(name, sizeof(name), "%06" PRId64 ".jpg", frame_index);
   return (fs::path(dir) / "frames" / name).string();
 }
-
-std::vector<std::string> SplitCsv(const std::string& line) { return calib::SplitCsvLine(line); }
 
 std::string CsvSafe(std::string text) {
   for (char& c : text)
@@ -328,14 +316,14 @@ int64_t DatasetWriter::SupersedeFrom(int first_step, int64_t stamp_ns) {
     if (name == "frames.csv" || name == "placements.csv" || name == "steps.csv") continue;
     const std::vector<std::string> t = ReadLines(path.string(), &partial, &bytes);
     if (t.empty()) continue;
-    const std::vector<std::string> header = SplitCsv(t[0]);
+    const std::vector<std::string> header = calib::SplitCsvLine(t[0], false, path.string() + ":1");
     const bool by_step = !header.empty() && header[0] == "step_index";
     const bool by_frame = !header.empty() && header[0] == "frame_index";
     if (!by_step && !by_frame) continue;
     std::string keep = t[0] + "\n", gone;
     for (size_t i = 1; i < t.size(); ++i) {
-      const std::vector<std::string> f = SplitCsv(t[i]);
       const std::string where = path.string() + ":" + std::to_string(i + 1) + " field " + header[0];
+      const std::vector<std::string> f = calib::SplitCsvLine(t[i], false, where);
       const int64_t key = f.empty() ? -1 : ParseInt(f[0], where);
       const bool drop = by_step ? key >= first_step : superseded.count(key) > 0;
       (drop ? gone : keep) += t[i] + "\n";

@@ -191,9 +191,6 @@ std::vector<StepRecord> ReadStepsCsv(const std::string& dir);
 // Reads frame `frame_index`'s JPEG bytes.
 std::vector<uint8_t> ReadFrameJpeg(const std::string& dir, int64_t frame_index);
 
-// Splits a CSV line on commas (no quoting: fields never contain commas; the writer replaces
-// commas in free text with ';').
-std::vector<std::string> SplitCsv(const std::string& line);
 // Replaces commas and newlines in free text so it fits one CSV field.
 std::string CsvSafe(std::string text);
 

@@ -2,8 +2,11 @@
 
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 
 #include <gtest/gtest.h>
+
+#include "calib/csv.h"
 
 namespace owlcal::calib {
 namespace {
@@ -89,6 +92,63 @@ TEST(ObservationCsv, BadLineNamesFileLineAndField) {
   }
   std::filesystem::remove(p);
   EXPECT_THROW(ReadObservationsCsv(p), std::runtime_error);  // missing file
+}
+
+// Issue table "Crashes": a nan, inf or 1e300 pixel reached Ceres and aborted `fit` with a CHECK.
+// Each hostile cell is refused by the reader, naming the file, line and column.
+TEST(ObservationCsv, RejectsNonFiniteHugeAndHexNumbers) {
+  const std::string good = "13,left,owl-kit,4,101.5,202.5,0,0,0,1545,1530,1545,1580,1530,0,0,0,0,0,7";
+  struct Case {
+    int field;
+    const char* value;
+    const char* column;
+  };
+  for (const Case& c : {Case{4, "nan", "u_px"}, Case{4, "inf", "u_px"}, Case{5, "1e300", "v_px"}, Case{5, "-nan", "v_px"},
+                        Case{6, "0x10", "x_m"}, Case{8, "", "z_m"}, Case{9, "1e3", "Rx_us"}, Case{13, "99999", "Neck_us"},
+                        Case{14, "2", "approach_Rx"}, Case{0, "-1", "frame_index"}, Case{3, "4294967296", "corner_id"},
+                        Case{19, "1.5", "stamp_ns"}}) {
+    std::vector<std::string> cells = SplitCsvLine(good);
+    cells[c.field] = c.value;
+    std::string line;
+    for (const std::string& cell : cells) line += (line.empty() ? "" : ",") + cell;
+    const std::string p = TempPath("hostile.csv");
+    WriteObservationsCsv(p, Sample());
+    std::ofstream(p, std::ios::app) << line << "\n";
+    try {
+      ReadObservationsCsv(p);
+      ADD_FAILURE() << c.column << " = '" << c.value << "' was accepted";
+    } catch (const std::runtime_error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(p + ":5: column " + c.column), std::string::npos) << m;
+    }
+    std::filesystem::remove(p);
+  }
+}
+
+TEST(ObservationCsv, HeaderMustNameEveryColumnOnce) {
+  const std::string p = TempPath("header.csv");
+  WriteObservationsCsv(p, Sample());
+  std::string text;
+  {
+    std::ifstream in(p);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::string header = text.substr(0, text.find('\n'));
+  for (const auto& [from, to, expect] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"v_px", "w_px", "missing column 'v_px'"},
+           {"stamp_ns", "stamp_ns,extra", "unknown column 'extra'"},
+           {"x_m", "u_px", "column 'u_px' appears twice"}}) {
+    std::string h = header;
+    h.replace(h.find(from), from.size(), to);
+    std::ofstream(p, std::ios::trunc) << h << "\n";
+    try {
+      ReadObservationsCsv(p);
+      ADD_FAILURE() << h;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(p + ":1: " + expect), std::string::npos) << e.what();
+    }
+  }
+  std::filesystem::remove(p);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "calib/csv.h"
 #include "protocols/dataset.h"
 #include "protocols/image_motion.h"
 #include "protocols/protocol.h"
@@ -102,7 +103,7 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name) {
   std::getline(in, line);
   int rows = 0;
   while (std::getline(in, line)) {
-    const auto f = SplitCsv(line);
+    const auto f = calib::SplitCsvLine(line);
     const int servo = ServoIndexFromName(f[1]);
     const int d = f[2] == "max" ? 1 : -1;
     const int measured = std::stoi(f[4]);

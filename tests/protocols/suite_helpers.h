@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "calib/csv.h"
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
@@ -30,7 +31,7 @@ inline std::vector<std::vector<std::string>> ReadTableRows(const std::string& pa
       header = false;
       continue;
     }
-    rows.push_back(SplitCsv(line));
+    rows.push_back(calib::SplitCsvLine(line));
   }
   return rows;
 }
