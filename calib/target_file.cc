@@ -1,93 +1,69 @@
 #include "calib/target_file.h"
 
 #include <fstream>
-#include <set>
+#include <initializer_list>
 #include <sstream>
 #include <stdexcept>
 
 #include <yaml-cpp/yaml.h>
 
+#include "io/strict_number.h"
+#include "io/yaml_fields.h"
+
 namespace owlcal::calib {
 namespace {
 
-[[noreturn]] void Fail(const std::string& source, const std::string& key, const std::string& what) {
-  throw std::runtime_error("target file " + source + ": " + key + ": " + what);
-}
-
-template <typename T>
-T Get(const YAML::Node& root, const std::string& source, const std::string& key) {
-  if (!root[key]) Fail(source, key, "missing");
-  try {
-    return root[key].as<T>();
-  } catch (const YAML::Exception&) {
-    Fail(source, key, "bad value '" + YAML::Dump(root[key]) + "'");
+// The value of whichever spelling is present (Kalibr's or owlcal's); both at once is an error.
+std::string OneSpelling(const io::YamlFields& f, std::initializer_list<const char*> keys) {
+  std::string found;
+  for (const char* k : keys) {
+    if (!f.Has(k)) continue;
+    if (!found.empty()) f.Fail(k, "says the same as " + found + "; give one of them");
+    found = k;
   }
-}
-
-template <typename T>
-T GetOr(const YAML::Node& root, const std::string& source, const std::string& key, T dflt) {
-  if (!root[key]) return dflt;
-  return Get<T>(root, source, key);
+  return found;
 }
 
 }  // namespace
 
 TargetFile ParseTargetYaml(const std::string& yaml_text, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error("target file " + source + ": not valid YAML: " + e.what());
-  }
-  if (!root.IsMap()) throw std::runtime_error("target file " + source + ": expected a map of keys");
+  io::YamlFields f(io::LoadYamlText(yaml_text, source), source);
   TargetFile out;
   TargetDefinition& t = out.target;
-  const std::string type = Get<std::string>(root, source, "target_type");
-  t.id = GetOr<std::string>(root, source, "id", "board");
-  out.unit = GetOr<std::string>(root, source, "unit", "m");
-  std::set<std::string> known = {"target_type", "id", "unit"};
+  const std::string type = f.String("target_type");
+  t.id = f.String("id", "board");
+  if (t.id.empty()) f.Fail("id", "must not be empty");
+  out.unit = f.String("unit", "m");
+  if (out.unit.empty()) f.Fail("unit", "must not be empty");
+  // Sizes in the file's unit: positive and below 1000 units (a board is not a kilometre wide).
+  constexpr double kMaxSize = 1e3;
   if (type == "chessboard" || type == "checkerboard") {
     t.kind = TargetKind::kChessboard;
     // Kalibr spells them targetCols/targetRows/rowSpacingMeters; accept both spellings.
-    t.cols = root["cols"] ? Get<int>(root, source, "cols") : Get<int>(root, source, "targetCols");
-    t.rows = root["rows"] ? Get<int>(root, source, "rows") : Get<int>(root, source, "targetRows");
-    if (root["square_size_m"]) {
-      t.square_m = Get<double>(root, source, "square_size_m");
-    } else if (root["square_size"]) {
-      t.square_m = Get<double>(root, source, "square_size");
-    } else if (root["rowSpacingMeters"]) {
-      t.square_m = Get<double>(root, source, "rowSpacingMeters");
-    } else {
-      Fail(source, "square_size_m", "missing (give square_size_m, or square_size with unit)");
-    }
-    known.insert({"cols", "rows", "targetCols", "targetRows", "square_size_m", "square_size", "rowSpacingMeters",
-                  "colSpacingMeters"});
-    if (t.cols < 2 || t.cols > 100) Fail(source, "cols", "must be 2..100 inner corners, got " + std::to_string(t.cols));
-    if (t.rows < 2 || t.rows > 100) Fail(source, "rows", "must be 2..100 inner corners, got " + std::to_string(t.rows));
-    if (!(t.square_m > 0)) Fail(source, "square_size_m", "must be > 0, got " + std::to_string(t.square_m));
+    const std::string cols = OneSpelling(f, {"cols", "targetCols"});
+    const std::string rows = OneSpelling(f, {"rows", "targetRows"});
+    t.cols = f.Int(cols.empty() ? "cols" : cols, 2, 100);
+    t.rows = f.Int(rows.empty() ? "rows" : rows, 2, 100);
+    const std::string square = OneSpelling(f, {"square_size_m", "square_size", "rowSpacingMeters"});
+    if (square.empty()) f.Fail("square_size_m", "missing (give square_size_m, or square_size with unit)");
+    t.square_m = f.Number(square, 1e-9, kMaxSize);
+    if (f.Has("colSpacingMeters") && f.Number("colSpacingMeters", 1e-9, kMaxSize) != t.square_m)
+      f.Fail("colSpacingMeters", "differs from the row spacing (owlcal's chessboards have square cells)");
   } else if (type == "aprilgrid") {
     t.kind = TargetKind::kAprilGrid;
-    t.tag_cols = Get<int>(root, source, "tagCols");
-    t.tag_rows = Get<int>(root, source, "tagRows");
-    t.tag_size_m = Get<double>(root, source, "tagSize");
-    t.tag_spacing = Get<double>(root, source, "tagSpacing");
-    t.first_id = GetOr<int>(root, source, "first_id", 0);
-    t.family = GetOr<std::string>(root, source, "family", "tag36h11");
-    known.insert({"tagCols", "tagRows", "tagSize", "tagSpacing", "first_id", "family", "codeOffset"});
-    if (t.tag_cols < 1 || t.tag_cols > 100) Fail(source, "tagCols", "must be 1..100, got " + std::to_string(t.tag_cols));
-    if (t.tag_rows < 1 || t.tag_rows > 100) Fail(source, "tagRows", "must be 1..100, got " + std::to_string(t.tag_rows));
-    if (!(t.tag_size_m > 0)) Fail(source, "tagSize", "must be > 0, got " + std::to_string(t.tag_size_m));
-    if (!(t.tag_spacing >= 0)) Fail(source, "tagSpacing", "must be >= 0, got " + std::to_string(t.tag_spacing));
-    if (t.first_id < 0) Fail(source, "first_id", "must be >= 0, got " + std::to_string(t.first_id));
+    t.tag_cols = f.Int("tagCols", 1, 100);
+    t.tag_rows = f.Int("tagRows", 1, 100);
+    t.tag_size_m = f.Number("tagSize", 1e-9, kMaxSize);
+    t.tag_spacing = f.Number("tagSpacing", 0, 10);
+    t.first_id = f.Int("first_id", 0, 0, 100000);
+    t.family = f.String("family", "tag36h11");
     if (t.family != "tag36h11" && t.family != "tag25h9" && t.family != "tag16h5")
-      Fail(source, "family", "unsupported '" + t.family + "' (tag36h11, tag25h9, tag16h5)");
+      f.Fail("family", "= '" + io::Printable(t.family) + "' is not supported (tag36h11, tag25h9, tag16h5)");
+    if (f.Has("codeOffset")) f.Int("codeOffset", 0, 100000);  // Kalibr's, not used
   } else {
-    Fail(source, "target_type", "unknown '" + type + "' (chessboard or aprilgrid)");
+    f.Fail("target_type", "= '" + io::Printable(type) + "' is unknown (chessboard or aprilgrid)");
   }
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    if (!known.count(key)) Fail(source, key, "unknown key");
-  }
+  f.RejectUnknown();
   return out;
 }
 

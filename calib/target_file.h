@@ -17,7 +17,9 @@
 //   unit: m                        # optional length unit of the sizes; "m" (default) or any other
 //                                  # name, e.g. "square" for OpenCV's sample set with square = 1.
 //
-// Unknown keys and bad values throw std::runtime_error naming the file, the key and the value.
+// Unknown or repeated keys, a key in both spellings, non-finite or out-of-range numbers (cols/rows
+// 2..100, tag counts 1..100, sizes in (0, 1000] units) throw std::runtime_error naming the file,
+// line, key and value (io/yaml_fields.h).
 #include <string>
 
 #include "calib/target.h"

@@ -3,70 +3,16 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <set>
 #include <sstream>
 #include <stdexcept>
+
+#include "io/yaml_fields.h"
 
 namespace owlcal::robot {
 namespace {
 
 [[noreturn]] void Fail(const std::string& source, const std::string& message) {
   throw std::runtime_error(source + ": " + message);
-}
-
-std::string Scalar(const YAML::Node& n) { return n.IsScalar() ? n.Scalar() : std::string("(not a scalar)"); }
-
-void CheckKeys(const YAML::Node& map, const std::set<std::string>& allowed, const std::string& source,
-               const std::string& where) {
-  if (!map.IsMap()) Fail(source, (where.empty() ? "the file" : where) + " must be a map of key: value");
-  for (const auto& kv : map) {
-    const std::string key = kv.first.as<std::string>();
-    if (!allowed.count(key)) {
-      std::string list;
-      for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      Fail(source, "unknown field '" + (where.empty() ? key : where + "." + key) + "' (expected one of: " + list + ")");
-    }
-  }
-}
-
-int ReadInt(const YAML::Node& map, const std::string& key, const std::string& source, const std::string& where) {
-  const YAML::Node n = map[key];
-  if (!n) Fail(source, "missing field " + where + "." + key);
-  const std::string text = Scalar(n);
-  size_t used = 0;
-  long value = 0;
-  try {
-    value = std::stol(text, &used);
-  } catch (...) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || value < -1000000 || value > 1000000) {
-    Fail(source, where + "." + key + " = '" + text + "' is not an integer");
-  }
-  return static_cast<int>(value);
-}
-
-double ReadDouble(const YAML::Node& n, const std::string& field, const std::string& source) {
-  const std::string text = Scalar(n);
-  size_t used = 0;
-  double value = NAN;
-  try {
-    value = std::stod(text, &used);
-  } catch (...) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(value)) {
-    Fail(source, field + " = '" + text + "' is not a number");
-  }
-  return value;
-}
-
-bool ReadBool(const YAML::Node& n, const std::string& field, const std::string& source) {
-  bool b = false;
-  if (!n.IsScalar() || !YAML::convert<bool>::decode(n, b)) {
-    Fail(source, field + " = '" + Scalar(n) + "' is not true or false");
-  }
-  return b;
 }
 
 std::string FormatDouble(double v) {
@@ -108,57 +54,58 @@ std::string ValidateRobotConfig(const models::RobotConfig& config) {
   if (!(config.ipd_m > 0) || !std::isfinite(config.ipd_m) || config.ipd_m > 1.0) {
     return "ipd_mm = " + FormatDouble(config.ipd_m * 1000) + " is not in (0, 1000] mm";
   }
-  if (config.image_width <= 0) return "image.width = " + std::to_string(config.image_width) + " is not positive";
-  if (config.image_height <= 0) return "image.height = " + std::to_string(config.image_height) + " is not positive";
+  if (config.image_width < kMinImageSide || config.image_width > kMaxImageSide) {
+    return "image.width = " + std::to_string(config.image_width) + " is not in " + std::to_string(kMinImageSide) + ".." +
+           std::to_string(kMaxImageSide) + " px";
+  }
+  if (config.image_height < kMinImageSide || config.image_height > kMaxImageSide) {
+    return "image.height = " + std::to_string(config.image_height) + " is not in " + std::to_string(kMinImageSide) +
+           ".." + std::to_string(kMaxImageSide) + " px";
+  }
   return "";
 }
 
 models::RobotConfig RobotConfigFromYaml(const YAML::Node& root, const std::string& source) {
   if (!root || root.IsNull()) Fail(source, "the file is empty");
-  CheckKeys(root, {"name", "ipd_mm", "image", "servos"}, source, "");
+  io::YamlFields f(root, source);
+  f.ExpectOnly({"name", "ipd_mm", "image", "servos"});
   models::RobotConfig config;
-  config.name = root["name"] ? Scalar(root["name"]) : std::filesystem::path(source).stem().string();
-  if (root["ipd_mm"]) config.ipd_m = ReadDouble(root["ipd_mm"], "ipd_mm", source) / 1000.0;
-  if (const YAML::Node image = root["image"]) {
-    CheckKeys(image, {"width", "height", "swap_eyes", "mirror"}, source, "image");
-    if (image["width"]) config.image_width = ReadInt(image, "width", source, "image");
-    if (image["height"]) config.image_height = ReadInt(image, "height", source, "image");
-    if (image["swap_eyes"]) config.swap_eyes = ReadBool(image["swap_eyes"], "image.swap_eyes", source);
-    if (image["mirror"]) config.mirror_stream = ReadBool(image["mirror"], "image.mirror", source);
+  // Integers are read over a wide range here; ValidateRobotConfig says what is wrong with them.
+  constexpr int kWide = 1000000;
+  config.name = f.String("name", std::filesystem::path(source).stem().string());
+  config.ipd_m = f.Number("ipd_mm", config.ipd_m * 1000, -1e6, 1e6) / 1000.0;
+  if (auto image = f.OptionalMap("image")) {
+    config.image_width = image->Int("width", config.image_width, -kWide, kWide);
+    config.image_height = image->Int("height", config.image_height, -kWide, kWide);
+    config.swap_eyes = image->Bool("swap_eyes", config.swap_eyes);
+    config.mirror_stream = image->Bool("mirror", config.mirror_stream);
+    image->RejectUnknown();
   }
-  const YAML::Node servos = root["servos"];
-  if (!servos) Fail(source, "missing field servos (Rx, Ry, Lx, Ly, Neck)");
-  CheckKeys(servos, {"Rx", "Ry", "Lx", "Ly", "Neck"}, source, "servos");
+  if (!f.Has("servos")) Fail(source, "missing field servos (Rx, Ry, Lx, Ly, Neck)");
+  io::YamlFields servos = f.Map("servos");
+  servos.ExpectOnly({"Rx", "Ry", "Lx", "Ly", "Neck"});
   for (int i = 0; i < models::kNumServos; ++i) {
-    const std::string where = std::string("servos.") + models::kServoNames[i];
-    const YAML::Node s = servos[models::kServoNames[i]];
-    if (!s) Fail(source, "missing field " + where);
-    CheckKeys(s, {"min_us", "max_us", "centre_us", "direction", "deg_per_us"}, source, where);
+    const std::string name = models::kServoNames[i];
+    if (!servos.Has(name)) Fail(source, "missing field servos." + name);
+    io::YamlFields s = servos.Map(name);
     models::ServoConfig& c = config.servos[i];
-    c.name = models::kServoNames[i];
-    c.min_us = ReadInt(s, "min_us", source, where);
-    c.max_us = ReadInt(s, "max_us", source, where);
-    c.centre_us = ReadInt(s, "centre_us", source, where);
-    c.direction = ReadInt(s, "direction", source, where);
-    c.nominal_deg_per_us =
-        s["deg_per_us"] ? ReadDouble(s["deg_per_us"], where + ".deg_per_us", source) : 0.113;
+    c.name = name;
+    c.min_us = s.Int("min_us", -kWide, kWide);
+    c.max_us = s.Int("max_us", -kWide, kWide);
+    c.centre_us = s.Int("centre_us", -kWide, kWide);
+    c.direction = s.Int("direction", -kWide, kWide);
+    c.nominal_deg_per_us = s.Number("deg_per_us", 0.113, -1e6, 1e6);
+    s.RejectUnknown();
   }
+  servos.RejectUnknown();
+  f.RejectUnknown();
   const std::string why = ValidateRobotConfig(config);
   if (!why.empty()) Fail(source, why);
   return config;
 }
 
 models::RobotConfig LoadRobotFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open robot file");
-  YAML::Node root;
-  try {
-    root = YAML::Load(in);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error(path + ": YAML error at line " + std::to_string(e.mark.line + 1) + ", column " +
-                             std::to_string(e.mark.column + 1) + ": " + e.msg);
-  }
-  return RobotConfigFromYaml(root, path);
+  return RobotConfigFromYaml(io::LoadYamlFile(path, "robot file"), path);
 }
 
 std::string RobotConfigToYaml(const models::RobotConfig& config) {

@@ -21,7 +21,12 @@
 // Validation, each error naming the file, field and value, e.g.
 //   "robots/x.yaml: servos.Rx.min_us = 2100 is above max_us 1890"
 // checks: min_us < centre_us < max_us, every pulse width four digits, direction +1 or -1,
-// deg_per_us > 0, ipd_mm > 0, image sizes > 0. Errors throw std::runtime_error.
+// deg_per_us > 0, ipd_mm > 0, image width and height each in 16..8192 px (one eye; the
+// stream is twice as wide). Values are strict numbers (io/strict_number.h: no nan, inf or
+// hex); a key given twice, a list where a value belongs and unknown keys are errors naming
+// the file, line and field (io/yaml_fields.h), e.g.
+//   "robots/x.yaml:7: servos.Neck.min_us = 'abc' is not an integer".
+// Errors throw std::runtime_error.
 #include <string>
 
 #include <yaml-cpp/yaml.h>
@@ -29,6 +34,11 @@
 #include "models/robot_config.h"
 
 namespace owlcal::robot {
+
+// Bounds of one eye's image in a robot file [px]. Frames are checked against the robot file's
+// size before they are decoded (robot/mjpeg_client.h), so these also bound decoding memory.
+inline constexpr int kMinImageSide = 16;
+inline constexpr int kMaxImageSide = 8192;
 
 // Reads and validates a robot file. Throws std::runtime_error naming the path on any error.
 models::RobotConfig LoadRobotFile(const std::string& path);

@@ -7,6 +7,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "io/strict_number.h"
+#include "io/yaml_fields.h"
+#include "robot/robot_file.h"
+
 namespace owlcal::sim {
 namespace {
 
@@ -25,26 +29,6 @@ models::Rigid3d CamFromEye(const Eigen::Vector3d& cam_in_eye_m, const Eigen::Vec
       w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized())) : Eigen::Quaterniond::Identity();
   const models::Rigid3d eye_from_cam(eye_from_cam_q, cam_in_eye_m);
   return eye_from_cam.Inverse();
-}
-
-template <typename T>
-void Read(const YAML::Node& n, const char* key, T* out, const std::string& where) {
-  if (!n || !n[key]) return;
-  try {
-    *out = n[key].as<T>();
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error(where + "." + key + ": cannot read '" + YAML::Dump(n[key]) + "' (" + e.what() + ")");
-  }
-}
-
-std::vector<double> ReadVector(const YAML::Node& n, const char* key, size_t size, const std::string& where) {
-  std::vector<double> v;
-  Read(n, key, &v, where);
-  if (!v.empty() && size != 0 && v.size() != size) {
-    throw std::runtime_error(where + "." + key + ": expected " + std::to_string(size) + " values, got " +
-                             std::to_string(v.size()));
-  }
-  return v;
 }
 
 }  // namespace
@@ -80,6 +64,9 @@ void RobotTruth::Validate(const std::string& origin) const {
     s << origin << ": " << field << " = " << value << ": " << why;
     throw std::invalid_argument(s.str());
   };
+  // The robot section is a robot file in another spelling: the same checks.
+  const std::string robot_why = robot::ValidateRobotConfig(robot);
+  if (!robot_why.empty()) throw std::invalid_argument(origin + ": robot section (checked as a robot file): " + robot_why);
   for (int i = 0; i < kNumServos; ++i) {
     const ServoTruth& s = servos[i];
     const std::string f = std::string("servos.") + kServoNames[i];
@@ -150,103 +137,115 @@ RobotTruth DefaultRobotTruth() {
 }
 
 RobotTruth LoadRobotTruth(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error(path + ": cannot read robot-truth file: " + e.what());
-  }
+  // Every key is required: a truth file describes a whole robot, so a missing key (a file cut
+  // short, a typo) is an error rather than a silent fall-back to the built-in robot. Numbers are
+  // bounded here to physical ranges; Validate() then checks how they relate.
+  io::YamlFields f(io::LoadYamlFile(path, "robot-truth file"), path);
   RobotTruth t = DefaultRobotTruth();
-  const std::string w = path;
-  Read(root, "name", &t.name, w);
-  if (const YAML::Node r = root["robot"]) {
-    const std::string wr = w + ": robot";
-    Read(r, "name", &t.robot.name, wr);
-    Read(r, "ipd_m", &t.robot.ipd_m, wr);
-    Read(r, "image_width", &t.robot.image_width, wr);
-    Read(r, "image_height", &t.robot.image_height, wr);
-    Read(r, "swap_eyes", &t.robot.swap_eyes, wr);
-    Read(r, "mirror_stream", &t.robot.mirror_stream, wr);
+  constexpr int kWide = 1000000;
+  t.name = f.String("name");
+  {
+    io::YamlFields r = f.Map("robot");
+    t.robot.name = r.String("name");
+    t.robot.ipd_m = r.Number("ipd_m", -1e3, 1e3);
+    t.robot.image_width = r.Int("image_width", -kWide, kWide);
+    t.robot.image_height = r.Int("image_height", -kWide, kWide);
+    t.robot.swap_eyes = r.Bool("swap_eyes");
+    t.robot.mirror_stream = r.Bool("mirror_stream");
+    io::YamlFields servos = r.Map("servos");
     for (int i = 0; i < kNumServos; ++i) {
-      const YAML::Node s = r["servos"] ? r["servos"][kServoNames[i]] : YAML::Node();
-      if (!s) continue;
+      io::YamlFields s = servos.Map(kServoNames[i]);
       models::ServoConfig& c = t.robot.servos[i];
-      const std::string ws = wr + ".servos." + kServoNames[i];
-      Read(s, "min_us", &c.min_us, ws);
-      Read(s, "max_us", &c.max_us, ws);
-      Read(s, "centre_us", &c.centre_us, ws);
-      Read(s, "direction", &c.direction, ws);
-      Read(s, "nominal_deg_per_us", &c.nominal_deg_per_us, ws);
+      c.min_us = s.Int("min_us", -kWide, kWide);
+      c.max_us = s.Int("max_us", -kWide, kWide);
+      c.centre_us = s.Int("centre_us", -kWide, kWide);
+      c.direction = s.Int("direction", -kWide, kWide);
+      c.nominal_deg_per_us = s.Number("nominal_deg_per_us", -1e3, 1e3);
+      s.RejectUnknown();
     }
+    servos.RejectUnknown();
+    r.RejectUnknown();
   }
-  for (int i = 0; i < kNumServos; ++i) {
-    const YAML::Node s = root["servos"] ? root["servos"][kServoNames[i]] : YAML::Node();
-    if (!s) continue;
-    ServoTruth& v = t.servos[i];
-    const std::string ws = w + ": servos." + kServoNames[i];
-    Read(s, "direction", &v.direction, ws);
-    Read(s, "centre_us", &v.centre_us, ws);
-    Read(s, "deg_per_us", &v.deg_per_us, ws);
-    Read(s, "quad_deg", &v.quad_deg, ws);
-    Read(s, "cubic_deg", &v.cubic_deg, ws);
-    Read(s, "hysteresis_us", &v.hysteresis_us, ws);
-    Read(s, "dead_band_us", &v.dead_band_us, ws);
-    Read(s, "quantum_us", &v.quantum_us, ws);
-    Read(s, "slew_deg_per_s", &v.slew_deg_per_s, ws);
-    Read(s, "lag_s", &v.lag_s, ws);
-    Read(s, "endstop_lo_us", &v.endstop_lo_us, ws);
-    Read(s, "endstop_hi_us", &v.endstop_hi_us, ws);
-  }
-  for (int e = 0; e < 2; ++e) {
-    const char* eye = models::kEyeNames[e];
-    if (const YAML::Node g = root["geometry"] ? root["geometry"][eye] : YAML::Node()) {
-      const std::string wg = w + ": geometry." + eye;
-      const auto c = ReadVector(g, "centre_in_head_m", 3, wg);
-      if (!c.empty()) t.geometry.centre_in_head[e] = Eigen::Vector3d(c[0], c[1], c[2]);
-      if (const YAML::Node p = g["cam_from_eye"]) {
-        const auto q = ReadVector(p, "q_xyzw", 4, wg + ".cam_from_eye");
-        const auto tr = ReadVector(p, "t_m", 3, wg + ".cam_from_eye");
-        if (!q.empty()) {
-          t.geometry.cam_from_eye[e].rotation = Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized();
-        }
-        if (!tr.empty()) t.geometry.cam_from_eye[e].translation = Eigen::Vector3d(tr[0], tr[1], tr[2]);
-      }
+  {
+    io::YamlFields servos = f.Map("servos");
+    for (int i = 0; i < kNumServos; ++i) {
+      io::YamlFields s = servos.Map(kServoNames[i]);
+      ServoTruth& v = t.servos[i];
+      v.direction = s.Int("direction", -1, 1);
+      v.centre_us = s.Number("centre_us", 0, 9999);
+      v.deg_per_us = s.Number("deg_per_us", 0, 1);
+      v.quad_deg = s.Number("quad_deg", -90, 90);
+      v.cubic_deg = s.Number("cubic_deg", -90, 90);
+      v.hysteresis_us = s.Number("hysteresis_us", 0, 1000);
+      v.dead_band_us = s.Number("dead_band_us", 0, 1000);
+      v.quantum_us = s.Int("quantum_us", 1, 100);
+      v.slew_deg_per_s = s.Number("slew_deg_per_s", 0, 1e5);
+      v.lag_s = s.Number("lag_s", 0, 10);
+      v.endstop_lo_us = s.Number("endstop_lo_us", 0, 9999);
+      v.endstop_hi_us = s.Number("endstop_hi_us", 0, 9999);
+      s.RejectUnknown();
     }
-    if (const YAML::Node k = root["cameras"] ? root["cameras"][eye] : YAML::Node()) {
-      const std::string wk = w + ": cameras." + eye;
-      std::string model;
-      Read(k, "model", &model, wk);
-      if (model == "opencv5") t.intrinsics[e].model = models::DistortionModel::kOpenCv5;
-      else if (model == "opencv8") t.intrinsics[e].model = models::DistortionModel::kOpenCv8;
-      else if (!model.empty()) throw std::runtime_error(wk + ".model: '" + model + "' is not opencv5 or opencv8");
-      Read(k, "width", &t.intrinsics[e].width, wk);
-      Read(k, "height", &t.intrinsics[e].height, wk);
-      const auto p = ReadVector(k, "params", 4 + t.intrinsics[e].NumDistortion(), wk);
-      if (!p.empty()) t.intrinsics[e].params = p;
-      if (int(t.intrinsics[e].params.size()) != 4 + t.intrinsics[e].NumDistortion()) {
-        throw std::runtime_error(wk + ".params: " + std::to_string(t.intrinsics[e].params.size()) +
-                                 " values do not fit model " + (model.empty() ? "opencv5" : model));
-      }
+    servos.RejectUnknown();
+  }
+  {
+    io::YamlFields geometry = f.Map("geometry");
+    for (int e = 0; e < 2; ++e) {
+      io::YamlFields g = geometry.Map(models::kEyeNames[e]);
+      const auto c = g.Numbers("centre_in_head_m", 3, -1, 1);
+      t.geometry.centre_in_head[e] = Eigen::Vector3d(c[0], c[1], c[2]);
+      io::YamlFields p = g.Map("cam_from_eye");
+      const auto q = p.Numbers("q_xyzw", 4, -1, 1);
+      const Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]);
+      if (std::abs(quat.norm() - 1) > 1e-3) p.Fail("q_xyzw", "has norm " + io::FormatNumber(quat.norm()) + ", not 1");
+      t.geometry.cam_from_eye[e].rotation = quat.normalized();
+      const auto tr = p.Numbers("t_m", 3, -1, 1);
+      t.geometry.cam_from_eye[e].translation = Eigen::Vector3d(tr[0], tr[1], tr[2]);
+      p.RejectUnknown();
+      g.RejectUnknown();
     }
+    geometry.RejectUnknown();
   }
-  if (const YAML::Node s = root["socket"]) {
-    const std::string ws = w + ": socket";
-    Read(s, "rim_half_angle_deg", &t.socket.rim_half_angle_deg, ws);
-    Read(s, "rim_softness_deg", &t.socket.rim_softness_deg, ws);
-    Read(s, "rim_floor", &t.socket.rim_floor, ws);
+  {
+    io::YamlFields cameras = f.Map("cameras");
+    for (int e = 0; e < 2; ++e) {
+      io::YamlFields k = cameras.Map(models::kEyeNames[e]);
+      models::CameraIntrinsics& c = t.intrinsics[e];
+      const std::string model = k.String("model");
+      if (model == "opencv5") c.model = models::DistortionModel::kOpenCv5;
+      else if (model == "opencv8") c.model = models::DistortionModel::kOpenCv8;
+      else k.Fail("model", "= '" + io::Printable(model) + "' is not opencv5 or opencv8");
+      c.width = k.Int("width", robot::kMinImageSide, robot::kMaxImageSide);
+      c.height = k.Int("height", robot::kMinImageSide, robot::kMaxImageSide);
+      c.params = k.Numbers("params", 4 + c.NumDistortion(), -1e5, 1e5);
+      for (int j = 0; j < 2; ++j)
+        if (!(c.params[j] > 0)) k.Fail("params", "[" + std::to_string(j) + "] (focal length) = " + io::FormatNumber(c.params[j]) + " must be > 0");
+      for (int j = 4; j < static_cast<int>(c.params.size()); ++j)
+        if (std::abs(c.params[j]) > 1e3) k.Fail("params", "[" + std::to_string(j) + "] (distortion) = " + io::FormatNumber(c.params[j]) + " is outside [-1000, 1000]");
+      k.RejectUnknown();
+    }
+    cameras.RejectUnknown();
   }
-  if (const YAML::Node s = root["stream"]) {
-    const std::string ws = w + ": stream";
-    Read(s, "fps", &t.stream.fps, ws);
-    Read(s, "latency_ms", &t.stream.latency_ms, ws);
-    Read(s, "eye_offset_ms", &t.stream.eye_offset_ms, ws);
-    Read(s, "jpeg_quality", &t.stream.jpeg_quality, ws);
-    Read(s, "noise_sigma", &t.stream.noise_sigma, ws);
-    Read(s, "drop_probability", &t.stream.drop_probability, ws);
-    Read(s, "servo_reply_ms", &t.stream.servo_reply_ms, ws);
-    Read(s, "lens_shading", &t.stream.lens_shading, ws);
-    Read(s, "blur_px", &t.stream.blur_px, ws);
+  {
+    io::YamlFields s = f.Map("socket");
+    t.socket.rim_half_angle_deg = s.Number("rim_half_angle_deg", 0, 90);
+    t.socket.rim_softness_deg = s.Number("rim_softness_deg", 0, 90);
+    t.socket.rim_floor = s.Number("rim_floor", 0, 1);
+    s.RejectUnknown();
   }
+  {
+    io::YamlFields s = f.Map("stream");
+    t.stream.fps = s.Number("fps", 0, 240);
+    t.stream.latency_ms = s.Number("latency_ms", 0, 10000);
+    t.stream.eye_offset_ms = s.Number("eye_offset_ms", -1000, 1000);
+    t.stream.jpeg_quality = s.Int("jpeg_quality", 1, 100);
+    t.stream.noise_sigma = s.Number("noise_sigma", 0, 255);
+    t.stream.drop_probability = s.Number("drop_probability", 0, 1);
+    t.stream.servo_reply_ms = s.Number("servo_reply_ms", 0, 10000);
+    t.stream.lens_shading = s.Number("lens_shading", 0, 1);
+    t.stream.blur_px = s.Number("blur_px", 1, 8);
+    s.RejectUnknown();
+  }
+  f.RejectUnknown();
   t.Validate(path);
   return t;
 }

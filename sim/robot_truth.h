@@ -8,7 +8,10 @@
 // plus what only a simulator needs: servo dynamics (dead band, PWM quantum, slew, lag,
 // physical end-stops), the eye-socket rim, and the stream (fps, latency, JPEG, noise, drops).
 //
-// File format (YAML; every key optional, missing keys keep the built-in default robot):
+// File format (YAML; every key below is required, so a file cut short or with a misspelt key is an
+// error naming the file, line and field rather than a silent fall-back to the built-in robot;
+// unknown and repeated keys, non-finite and out-of-range numbers are errors too, io/yaml_fields.h;
+// the robot section gets the robot file's checks, robot/robot_file.h):
 //   name: owl-default
 //   robot:            # the robot file the course server was configured with (clamp limits)
 //     name, ipd_m, image_width, image_height, swap_eyes, mirror_stream
@@ -97,13 +100,15 @@ struct RobotTruth {
 
   // The static truth as a models::HeadModel (servo maps, geometry, intrinsics).
   models::HeadModel HeadModel() const;
-  // Throws std::invalid_argument naming the field and value when something is unphysical.
+  // Throws std::invalid_argument naming the field and value when something is unphysical or the
+  // robot section fails robot::ValidateRobotConfig.
   void Validate(const std::string& origin) const;
 };
 
 // The built-in default robot (same as data/sim/owl_default_truth.yaml).
 RobotTruth DefaultRobotTruth();
-// Reads a truth file over the defaults. Throws std::runtime_error naming the path and field.
+// Reads a complete truth file. Throws std::runtime_error (std::invalid_argument from Validate)
+// naming the path, line and field.
 RobotTruth LoadRobotTruth(const std::string& path);
 // YAML text of the whole truth (loadable by LoadRobotTruth) and its JSON form.
 std::string RobotTruthYaml(const RobotTruth& truth);

@@ -6,6 +6,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "io/strict_number.h"
+#include "io/yaml_fields.h"
+
 namespace owlcal::sim {
 namespace {
 
@@ -159,82 +162,65 @@ nlohmann::json SceneJson(const SceneDescription& scene) {
 }
 
 SceneDescription LoadScene(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error(path + ": cannot read scene file: " + e.what());
-  }
+  io::YamlFields f(io::LoadYamlFile(path, "scene file"), path);
   SceneDescription s;
-  auto get = [&](const YAML::Node& n, const char* key, auto* out, const std::string& where) {
-    if (!n[key]) return;
-    try {
-      *out = n[key].as<std::decay_t<decltype(*out)>>();
-    } catch (const YAML::Exception& e) {
-      throw std::runtime_error(path + ": " + where + "." + key + ": cannot read '" + YAML::Dump(n[key]) + "'");
-    }
-  };
-  if (const YAML::Node b = root["background"]) {
-    get(b, "distance_m", &s.background.distance_m, "background");
-    get(b, "texel_m", &s.background.texel_m, "background");
-    get(b, "contrast", &s.background.contrast, "background");
-    get(b, "grey", &s.background.grey, "background");
-    get(b, "seed", &s.background.seed, "background");
+  if (auto b = f.OptionalMap("background")) {
+    Background& g = s.background;
+    g.distance_m = b->Number("distance_m", g.distance_m, 0.2, 1e3);
+    g.texel_m = b->Number("texel_m", g.texel_m, 1e-5, 1);
+    g.contrast = b->Number("contrast", g.contrast, 0, 1);
+    g.grey = b->Number("grey", g.grey, 0, 1);
+    g.seed = static_cast<uint64_t>(b->Int("seed", static_cast<int>(g.seed), 0, INT32_MAX));
+    b->RejectUnknown();
   }
-  if (!(s.background.distance_m > 0.2)) {
-    throw std::runtime_error(path + ": background.distance_m = " + std::to_string(s.background.distance_m) + " must be > 0.2");
-  }
-  if (!(s.background.texel_m > 0)) throw std::runtime_error(path + ": background.texel_m must be > 0");
   std::set<std::string> names;
-  int index = 0;
-  for (const YAML::Node& n : root["targets"]) {
-    const std::string where = "targets[" + std::to_string(index++) + "]";
+  const YAML::Node list = f.Get("targets");
+  if (list.IsDefined() && !list.IsSequence()) f.Fail("targets", "must be a list of targets");
+  f.RejectUnknown();
+  for (size_t index = 0; list.IsDefined() && index < list.size(); ++index) {
+    io::YamlFields n(list[index], path, "targets[" + std::to_string(index) + "]");
     SceneTarget t;
     calib::TargetDefinition& d = t.definition;
-    get(n, "name", &d.id, where);
-    if (d.id.empty() || !names.insert(d.id).second) {
-      throw std::runtime_error(path + ": " + where + ".name: '" + d.id + "' is empty or not unique");
-    }
-    std::string kind = "chessboard";
-    get(n, "kind", &kind, where);
+    d.id = n.String("name");
+    if (d.id.empty() || !names.insert(d.id).second) n.Fail("name", "= '" + io::Printable(d.id) + "' is empty or not unique");
+    const std::string kind = n.String("kind", "chessboard");
     if (kind == "chessboard") d.kind = calib::TargetKind::kChessboard;
     else if (kind == "aprilgrid") d.kind = calib::TargetKind::kAprilGrid;
     else if (kind == "fixation") d.kind = calib::TargetKind::kFixation;
-    else throw std::runtime_error(path + ": " + where + ".kind: '" + kind + "' is not chessboard, aprilgrid or fixation");
-    get(n, "cols", &d.cols, where);
-    get(n, "rows", &d.rows, where);
-    get(n, "square_m", &d.square_m, where);
-    get(n, "tag_cols", &d.tag_cols, where);
-    get(n, "tag_rows", &d.tag_rows, where);
-    get(n, "tag_size_m", &d.tag_size_m, where);
-    get(n, "tag_spacing", &d.tag_spacing, where);
-    get(n, "first_id", &d.first_id, where);
-    get(n, "family", &d.family, where);
-    get(n, "fixation_radius_m", &d.fixation_radius_m, where);
-    get(n, "visible", &t.visible, where);
-    if (d.family != "tag36h11") throw std::runtime_error(path + ": " + where + ".family: '" + d.family + "' (only tag36h11)");
-    if (d.cols < 2 || d.rows < 2 || d.square_m <= 0 || d.tag_cols < 1 || d.tag_rows < 1 || d.tag_size_m <= 0 ||
-        d.tag_spacing < 0.125 || d.fixation_radius_m <= 0) {
-      throw std::runtime_error(path + ": " + where + ": a size is out of range (cols/rows >= 2, sizes > 0, tag_spacing >= 0.125)");
-    }
-    if (const YAML::Node p = n["pose"]; p && p["centre_m"]) {
-      // The board's centre and its turn (FacingPose).
-      std::vector<double> c, r = {0, 0, 0};
-      get(p, "centre_m", &c, where + ".pose");
-      get(p, "rpy_deg", &r, where + ".pose");
-      if (c.size() != 3 || r.size() != 3) throw std::runtime_error(path + ": " + where + ".pose: centre_m and rpy_deg need 3 numbers");
-      t.base_from_target = FacingPose(d, Eigen::Vector3d(c[0], c[1], c[2]), r[2], r[1], r[0]);
-    } else if (const YAML::Node p = n["pose"]) {
-      nlohmann::json j;
-      for (const char* key : {"t_m", "q_xyzw", "rpy_deg"}) {
-        if (p[key]) j[key] = p[key].as<std::vector<double>>();
+    else n.Fail("kind", "= '" + io::Printable(kind) + "' is not chessboard, aprilgrid or fixation");
+    d.cols = n.Int("cols", d.cols, 2, 100);
+    d.rows = n.Int("rows", d.rows, 2, 100);
+    d.square_m = n.Number("square_m", d.square_m, 1e-4, 10);
+    d.tag_cols = n.Int("tag_cols", d.tag_cols, 1, 100);
+    d.tag_rows = n.Int("tag_rows", d.tag_rows, 1, 100);
+    d.tag_size_m = n.Number("tag_size_m", d.tag_size_m, 1e-4, 10);
+    d.tag_spacing = n.Number("tag_spacing", d.tag_spacing, 0.125, 10);
+    d.first_id = n.Int("first_id", d.first_id, 0, 100000);
+    d.family = n.String("family", d.family);
+    if (d.family != "tag36h11") n.Fail("family", "= '" + io::Printable(d.family) + "' is not supported (only tag36h11)");
+    d.fixation_radius_m = n.Number("fixation_radius_m", d.fixation_radius_m, 1e-4, 10);
+    t.visible = n.Bool("visible", t.visible);
+    if (auto p = n.OptionalMap("pose")) {
+      // Positions within 1 km of the head, angles within one turn.
+      if (p->Has("centre_m")) {
+        // The board's centre and its turn (FacingPose).
+        const auto c = p->Numbers("centre_m", 3, -1e3, 1e3);
+        const auto r = p->Has("rpy_deg") ? p->Numbers("rpy_deg", 3, -360, 360) : std::vector<double>{0, 0, 0};
+        t.base_from_target = FacingPose(d, Eigen::Vector3d(c[0], c[1], c[2]), r[2], r[1], r[0]);
+      } else {
+        nlohmann::json j;
+        j["t_m"] = p->Numbers("t_m", 3, -1e3, 1e3);
+        if (p->Has("q_xyzw")) j["q_xyzw"] = p->Numbers("q_xyzw", 4, -1, 1);
+        if (p->Has("rpy_deg")) j["rpy_deg"] = p->Numbers("rpy_deg", 3, -360, 360);
+        try {
+          t.base_from_target = PoseFromJson(j);
+        } catch (const std::exception& e) {
+          p->Fail("q_xyzw", std::string("gives no pose: ") + e.what());
+        }
       }
-      try {
-        t.base_from_target = PoseFromJson(j);
-      } catch (const std::exception& e) {
-        throw std::runtime_error(path + ": " + where + "." + e.what());
-      }
+      p->RejectUnknown();
     }
+    n.RejectUnknown();
     s.targets.push_back(t);
   }
   return s;

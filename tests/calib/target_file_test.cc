@@ -66,5 +66,28 @@ TEST(TargetFile, ErrorsNameKeyAndValue) {
   EXPECT_THROW(LoadTargetFile("/nonexistent/t.yaml"), std::runtime_error);
 }
 
+TEST(TargetFile, RefusesRepeatedKeysBothSpellingsAndNonFiniteSizes) {
+  auto msg = [](const std::string& yaml) {
+    try {
+      ParseTargetYaml(yaml, "t.yaml");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(msg("target_type: chessboard\ncols: 9\nrows: 6\nsquare_size_m: 0.02\ncols: 7\n"),
+            "t.yaml:5: key 'cols' given twice (first on line 2)");
+  EXPECT_EQ(msg("target_type: chessboard\ncols: 9\ntargetCols: 7\nrows: 6\nsquare_size_m: 0.02\n"),
+            "t.yaml:3: targetCols says the same as cols; give one of them");
+  EXPECT_EQ(msg("target_type: chessboard\ncols: 9\nrows: 6\nsquare_size_m: .inf\n"),
+            "t.yaml:4: square_size_m = '.inf' is not a finite decimal number");
+  EXPECT_EQ(msg("target_type: chessboard\ncols: 9\nrows: 6\nsquare_size_m: -0.02\n"),
+            "t.yaml:4: square_size_m = -0.02 is outside [1e-09, 1000]");
+  EXPECT_EQ(msg("target_type: aprilgrid\ntagCols: 1000000000\ntagRows: 6\ntagSize: 0.02\ntagSpacing: 0.3\n"),
+            "t.yaml:2: tagCols = 1000000000 is outside [1, 100]");
+  EXPECT_EQ(msg("[target_type, chessboard]: 1\n"), "t.yaml:1: a key of the file is a list, not a name");
+  EXPECT_EQ(msg(""), "t.yaml: the file is empty");
+}
+
 }  // namespace
 }  // namespace owlcal::calib

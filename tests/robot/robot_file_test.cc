@@ -107,15 +107,15 @@ TEST(RobotFile, ErrorsNameTheFileFieldAndValue) {
             "robots/x.yaml: servos.Ly.direction = 2 is not 1 or -1");
   EXPECT_EQ(ErrorOf(Edited("direction: -1, deg_per_us: 0.113}\n  Neck", "direction: -1, deg_per_us: 0}\n  Neck")),
             "robots/x.yaml: servos.Ly.deg_per_us = 0 is not positive");
-  EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: abc")), "robots/x.yaml: servos.Neck.min_us = 'abc' is not an integer");
+  EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: abc")), "robots/x.yaml:9: servos.Neck.min_us = 'abc' is not an integer");
   EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: 1100.5")),
-            "robots/x.yaml: servos.Neck.min_us = '1100.5' is not an integer");
+            "robots/x.yaml:9: servos.Neck.min_us = '1100.5' is not an integer");
   EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0", "ipd_mm: -3")), "robots/x.yaml: ipd_mm = -3 is not in (0, 1000] mm");
   EXPECT_EQ(ErrorOf(Edited("swap_eyes: false", "swap_eyes: maybe")),
-            "robots/x.yaml: image.swap_eyes = 'maybe' is not true or false");
+            "robots/x.yaml:3: image.swap_eyes = 'maybe' is not true or false");
   EXPECT_NE(ErrorOf(Edited("  Neck: {", "  Nek: {")).find("unknown field 'servos.Nek'"), std::string::npos);
   EXPECT_EQ(ErrorOf(Edited("centre_us: 1530, direction: -1", "centre_us: 1530")),
-            "robots/x.yaml: missing field servos.Neck.direction");
+            "robots/x.yaml:9: missing field servos.Neck.direction");
   EXPECT_EQ(ErrorOf(""), "robots/x.yaml: the file is empty");
   EXPECT_EQ(ErrorOf(kGuide), "");
 }
@@ -133,9 +133,31 @@ TEST(RobotFile, MissingOrBrokenFilesNameThePath) {
     LoadRobotFile(path);
     FAIL();
   } catch (const std::runtime_error& e) {
-    EXPECT_EQ(std::string(e.what()).rfind(path + ": YAML error at line", 0), 0u) << e.what();
+    EXPECT_EQ(std::string(e.what()).rfind(path + ":2:1: not valid YAML", 0), 0u) << e.what();
   }
   std::filesystem::remove(path);
+}
+
+// Issue table "Smaller": robot files accepted a 10^6 x 10^6 image and duplicate keys, and a YAML
+// list as a key gave "bad conversion" with no file named.
+TEST(RobotFile, RefusesAbsurdImagesRepeatedKeysAndListsWhereNamesBelong) {
+  EXPECT_EQ(ErrorOf(Edited("width: 640, height: 480", "width: 1000000, height: 1000000")),
+            "robots/x.yaml: image.width = 1000000 is not in 16..8192 px");
+  EXPECT_EQ(ErrorOf(Edited("height: 480", "height: 0")), "robots/x.yaml: image.height = 0 is not in 16..8192 px");
+  EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0\n", "ipd_mm: 65.0\nipd_mm: 58\n")),
+            "robots/x.yaml:3: key 'ipd_mm' given twice (first on line 2)");
+  EXPECT_EQ(ErrorOf(Edited("min_us: 1200, max_us: 1890", "min_us: 1200, min_us: 1100, max_us: 1890")),
+            "robots/x.yaml:5: key 'servos.Rx.min_us' given twice (first on line 5)");
+  EXPECT_EQ(ErrorOf(Edited("  Lx:   {", "  [Lx, Rx]:   {")), "robots/x.yaml:7: a key of 'servos' is a list, not a name");
+  EXPECT_EQ(ErrorOf(Edited("centre_us: 1545, direction: 1,  deg_per_us: 0.113}\n  Ry",
+                           "centre_us: [1545], direction: 1,  deg_per_us: 0.113}\n  Ry")),
+            "robots/x.yaml:5: servos.Rx.centre_us must be a single value, not a list");
+  EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0", "ipd_mm: .nan")), "robots/x.yaml:2: ipd_mm = '.nan' is not a finite decimal number");
+  EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0", "ipd_mm: 1e400")), "robots/x.yaml:2: ipd_mm = '1e400' is not a finite decimal number");
+  EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: 0x44c")), "robots/x.yaml:9: servos.Neck.min_us = '0x44c' is not an integer");
+  EXPECT_EQ(ErrorOf(Edited("image: {", "colour: red\nimage: {")),
+            "robots/x.yaml:3: unknown field 'colour' (expected one of: name, ipd_mm, image, servos)");
+  EXPECT_EQ(ErrorOf("- just\n- a list\n"), "robots/x.yaml:1: the file must be a map of key: value");
 }
 
 TEST(RobotFile, SaveRefusesAnInvalidConfig) {

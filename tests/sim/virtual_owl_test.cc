@@ -186,14 +186,64 @@ TEST(RobotTruth, ShippedFilesLoadAndBadValuesNameTheField) {
     EXPECT_TRUE(file_scene.targets[i].base_from_target.isApprox(built_in.targets[i].base_from_target, 1e-12));
     EXPECT_EQ(file_scene.targets[i].definition.NumCorners(), built_in.targets[i].definition.NumCorners());
   }
-  const std::string path = (std::filesystem::temp_directory_path() / "owlcal_sim_bad_truth.yaml").string();
-  std::ofstream(path) << "servos:\n  Ly: {deg_per_us: -0.2}\n";
+}
+
+std::string DefaultTruthText() {
+  std::ifstream in(std::filesystem::path(OWLCAL_SOURCE_DIR) / "data" / "sim" / "owl_default_truth.yaml");
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// The error LoadRobotTruth gives for `text` ("" if none); `path` names the file.
+std::string TruthErrorOf(const std::string& text, const std::string& path) {
+  std::ofstream(path, std::ios::trunc) << text;
   try {
     LoadRobotTruth(path);
-    ADD_FAILURE() << "no exception";
   } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("servos.Ly.deg_per_us"), std::string::npos) << e.what();
+    return e.what();
   }
+  return "";
+}
+
+std::string Replaced(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return at == std::string::npos ? text : text.replace(at, from.size(), to);
+}
+
+// Issue table "Silent wrong results (3)": an empty, truncated or misspelt truth file fell back to
+// the built-in robot while the manifest named the file; NaN ran to "complete"; the robot section
+// skipped the robot-file checks. Each is now an error naming the file (and line and field).
+TEST(RobotTruth, BrokenFilesAreErrorsNamingTheFileNeverTheBuiltInRobot) {
+  const std::string path = (std::filesystem::temp_directory_path() / ("owlcal_bad_truth_" + std::to_string(::getpid()) + ".yaml")).string();
+  const std::string good = DefaultTruthText();
+  EXPECT_EQ(TruthErrorOf(good, path), "");
+  EXPECT_EQ(TruthErrorOf("", path), path + ": the file is empty");
+  EXPECT_EQ(TruthErrorOf("# only a comment\n", path), path + ": the file is empty");
+  // Cut short after the cameras: socket and stream are missing.
+  const std::string cut = good.substr(0, good.find("socket:"));
+  EXPECT_NE(TruthErrorOf(cut, path).find(path + ":"), std::string::npos);
+  EXPECT_NE(TruthErrorOf(cut, path).find("missing field socket"), std::string::npos) << TruthErrorOf(cut, path);
+  // Cut in the middle of a flow map: not valid YAML.
+  const std::string torn = good.substr(0, good.find("dead_band_us: 1, quantum_us"));
+  EXPECT_NE(TruthErrorOf(torn, path).find("not valid YAML"), std::string::npos) << TruthErrorOf(torn, path);
+  EXPECT_EQ(TruthErrorOf(Replaced(good, "  fps: 30", "  fsp: 30"), path).find(path + ":"), 0u);
+  EXPECT_NE(TruthErrorOf(Replaced(good, "  fps: 30", "  fsp: 30"), path).find("stream.fps"), std::string::npos);
+  const std::string nan = TruthErrorOf(Replaced(good, "lag_s: 0.025", "lag_s: .nan"), path);
+  EXPECT_NE(nan.find("servos.Rx.lag_s = '.nan' is not a finite decimal number"), std::string::npos) << nan;
+  const std::string neg = TruthErrorOf(Replaced(good, "Ly: {direction: -1, centre_us: 1617, deg_per_us: 0.121",
+                                                 "Ly: {direction: -1, centre_us: 1617, deg_per_us: -0.2"), path);
+  EXPECT_NE(neg.find("servos.Ly.deg_per_us = -0.2 is outside [0, 1]"), std::string::npos) << neg;
+  const std::string twice = TruthErrorOf(Replaced(good, "  latency_ms: 100", "  latency_ms: 100\n  latency_ms: 300"), path);
+  EXPECT_NE(twice.find("key 'stream.latency_ms' given twice"), std::string::npos) << twice;
+  const std::string unknown = TruthErrorOf(good + "extra: 1\n", path);
+  EXPECT_NE(unknown.find("unknown field 'extra'"), std::string::npos) << unknown;
+  // The robot section gets the robot file's checks: a 10^6 x 10^6 image, min above max.
+  const std::string huge = TruthErrorOf(Replaced(Replaced(good, "image_width: 640", "image_width: 1000000"),
+                                                 "  image_height: 480", "  image_height: 1000000"), path);
+  EXPECT_NE(huge.find("image.width = 1000000 is not in 16..8192 px"), std::string::npos) << huge;
+  const std::string minmax = TruthErrorOf(Replaced(good, "Rx: {min_us: 1200", "Rx: {min_us: 1950"), path);
+  EXPECT_NE(minmax.find("robot section (checked as a robot file): servos.Rx.min_us = 1950 is above max_us 1890"),
+            std::string::npos) << minmax;
   std::filesystem::remove(path);
 }
 
