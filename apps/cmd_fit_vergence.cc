@@ -46,8 +46,8 @@ int RunFitVergence(const FitVergenceOptions& a) {
   fitting::VergenceColumns cols;
   const auto rows = fitting::ReadVergenceLogCsv(a.csv, a.columns, &cols);
   const auto fit = fitting::FitVergenceLog(rows, o);
-  fitting::LooSummary loo;
-  if (!a.constants.empty()) {
+  fitting::LooSummary loo;  // leave-one-out refits only make sense around a usable fit
+  if (fit.summary.usable && !a.constants.empty()) {
     const auto robot = robot::LoadRobotFile(a.constants);
     loo = fitting::LeaveOneOut(rows, o, fit,
                                fitting::FixedConstantVergence::FromRobot(
@@ -59,7 +59,7 @@ int RunFitVergence(const FitVergenceOptions& a) {
                                        fitting::FixedOrDash(1 / robot.servos[models::kLx].nominal_deg_per_us, 2) +
                                        " us/deg, IPD " + fitting::FixedOrDash(robot.ipd_m * 1000, 1) + " mm, datum " +
                                        fitting::FixedOrDash(a.datum_mm, 0) + " mm)"));
-  } else {
+  } else if (fit.summary.usable) {
     loo = fitting::LeaveOneOut(rows, o, fit);
   }
   std::filesystem::create_directories(a.out);
@@ -88,7 +88,13 @@ int RunFitVergence(const FitVergenceOptions& a) {
   }
   fitting::WriteResultJson(r, (std::filesystem::path(a.out) / "results.json").string());
   std::cout << md << "\nwrote " << a.out << "/{vergence_fit.md, vergence_rows.csv, results.json}\n";
-  return fit.summary.usable ? kExitOk : kExitFailed;
+  if (!fit.summary.usable) {
+    std::cerr << "fit-vergence: the fit is NOT usable (" << fit.summary.termination << ")";
+    for (const std::string& n : fit.notes) std::cerr << "; " << n;
+    std::cerr << "\n";
+    return kExitFailed;
+  }
+  return kExitOk;
 }
 
 const bool kRegistered = RegisterCommand(

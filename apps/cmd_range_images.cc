@@ -38,10 +38,16 @@ int RunRangeImages(const RangeImagesOptions& a) {
   o.match.template_width = a.template_w;
   o.match.template_height = a.template_h;
   o.match.max_disparity = a.max_disparity;
+  // A template ROI must lie inside the left rectified image: refused, never clipped or moved.
   if (!a.roi.empty()) {
     if (a.roi.size() != 4) throw UsageError("--roi needs 4 numbers: x y w h");
     o.match.template_roi = cv::Rect(a.roi[0], a.roi[1], a.roi[2], a.roi[3]);
+    if (!fitting::RoiInsideImage(o.match.template_roi, rect.size))
+      throw UsageError("--roi " + std::to_string(a.roi[0]) + " " + std::to_string(a.roi[1]) + " " + std::to_string(a.roi[2]) +
+                       " " + std::to_string(a.roi[3]) + " is not a template (w, h >= 5) inside the " +
+                       std::to_string(rect.size.width) + "x" + std::to_string(rect.size.height) + " rectified image");
   }
+  fitting::CheckRangeTruthRois(truth, rect.size);
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
   std::vector<fitting::RangeMeasurement> ms;

@@ -188,11 +188,8 @@ CsvTable CsvTable::Parse(const std::string& text_in, const std::string& source, 
     }
     if (options.skip_blank_lines && r.blank) continue;
     if (!have_header) {
-      for (size_t c = 0; c < r.cells.size(); ++c) {
-        if (r.cells[c].empty()) Throw(where, "header cell " + std::to_string(c + 1) + " is empty");
-        for (size_t d = 0; d < c; ++d)
-          if (r.cells[d] == r.cells[c]) Throw(where, "column '" + io::Printable(r.cells[c]) + "' appears twice in the header");
-      }
+      // Empty or repeated header cells are allowed (spreadsheets leave them); looking up a
+      // repeated name is an error (Column()).
       t.header_ = std::move(r.cells);
       have_header = true;
       continue;
@@ -219,6 +216,8 @@ int CsvTable::FindColumn(const std::string& name) const {
 int CsvTable::Column(const std::string& name) const {
   const int c = FindColumn(name);
   if (c < 0) Throw(source_ + ":1", "missing column '" + name + "' (header: " + HeaderList(header_) + ")");
+  for (size_t i = c + 1; i < header_.size(); ++i)
+    if (header_[i] == name) Throw(source_ + ":1", "column '" + io::Printable(name) + "' appears twice in the header");
   return c;
 }
 

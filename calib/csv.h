@@ -73,7 +73,9 @@ class CsvTable {
   size_t NumRows() const { return rows_.size(); }
   bool DroppedPartialTail() const { return dropped_partial_tail_; }
 
-  // Column index by exact name: -1 (Find) or throws "SOURCE:1: missing column 'name' (header: ...)".
+  // Column index by exact name: -1 (Find) or throws "SOURCE:1: missing column 'name' (header: ...)"
+  // or, for a name the header repeats, "SOURCE:1: column 'name' appears twice in the header".
+  // Empty and repeated header cells are allowed as long as nothing looks them up.
   int FindColumn(const std::string& name) const;
   int Column(const std::string& name) const;
   bool HasColumn(const std::string& name) const { return FindColumn(name) >= 0; }

@@ -30,7 +30,6 @@ cv::Mat DistCoeffs(const models::CameraIntrinsics& c) {
   return cv::Mat(d, true).reshape(1, 1);
 }
 
-std::vector<std::string> SplitCsv(const std::string& line) { return calib::SplitCsvLine(line, /*trim=*/true); }
 
 }  // namespace
 
@@ -225,50 +224,58 @@ RangeMeasurement RangePair(const cv::Mat& left_raw,
 }
 
 std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open truth CSV");
-  std::string line;
-  if (!std::getline(in, line)) throw std::runtime_error(path + ": empty file");
-  if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line.erase(0, 3);
-  const auto header = SplitCsv(line);
-  int cl = -1, cr = -1, cd = -1, rx = -1, ry = -1, rw = -1, rh = -1;
+  const calib::CsvTable t = calib::CsvTable::Read(path, {.trim = true});
+  t.RequireColumns({"left", "right"});
+  std::string dist;
   double scale = 1;
-  for (int i = 0; i < static_cast<int>(header.size()); ++i) {
-    const std::string& h = header[i];
-    if (h == "left") cl = i;
-    if (h == "right") cr = i;
-    if (h == "roi_x") rx = i;
-    if (h == "roi_y") ry = i;
-    if (h == "roi_w") rw = i;
-    if (h == "roi_h") rh = i;
-    if (h == "distance_cm") cd = i, scale = 0.01;
-    if (h == "distance_mm") cd = i, scale = 0.001;
-    if (h == "distance_m") cd = i, scale = 1;
+  for (const auto& [name, s] : {std::pair<const char*, double>{"distance_cm", 0.01}, {"distance_mm", 0.001}, {"distance_m", 1}}) {
+    if (!t.HasColumn(name)) continue;
+    if (!dist.empty()) throw std::runtime_error(path + ":1: two distance columns, " + dist + " and " + name);
+    dist = name;
+    scale = s;
   }
-  if (cl < 0 || cr < 0 || cd < 0)
-    throw std::runtime_error(path + ": header needs left, right and distance_cm|distance_mm|distance_m; got '" + line +
-                             "'");
+  if (dist.empty()) throw std::runtime_error(path + ":1: header needs a distance column: distance_cm, distance_mm or distance_m");
+  const char* kRoi[] = {"roi_x", "roi_y", "roi_w", "roi_h"};
+  int num_roi_columns = 0;
+  for (const char* c : kRoi) num_roi_columns += t.HasColumn(c);
+  if (num_roi_columns != 0 && num_roi_columns != 4)
+    throw std::runtime_error(path + ":1: give all four of roi_x, roi_y, roi_w, roi_h or none");
   std::vector<RangeTruthRow> rows;
-  int ln = 1;
-  while (std::getline(in, line)) {
-    ++ln;
-    if (line.find_first_not_of(" \r\t,") == std::string::npos) continue;
-    const auto c = SplitCsv(line);
-    auto num = [&](int col, const std::string& field) {
-      return calib::CsvNumber(c, col, path + ":" + std::to_string(ln), field);
-    };
-    RangeTruthRow r;
-    if (std::max(cl, cr) >= static_cast<int>(c.size()))
-      throw std::runtime_error(path + ":" + std::to_string(ln) + ": missing field left/right");
-    r.left = c[cl];
-    r.right = c[cr];
-    r.distance_m = num(cd, header[cd]) * scale;
-    if (rx >= 0 && ry >= 0 && rw >= 0 && rh >= 0 && rx < static_cast<int>(c.size()) && !c[rx].empty())
-      r.roi = cv::Rect(static_cast<int>(num(rx, "roi_x")), static_cast<int>(num(ry, "roi_y")),
-                       static_cast<int>(num(rw, "roi_w")), static_cast<int>(num(rh, "roi_h")));
-    rows.push_back(r);
+  for (size_t r = 0; r < t.NumRows(); ++r) {
+    RangeTruthRow row;
+    row.where = t.Where(r);
+    row.left = t.Text(r, "left");
+    row.right = t.Text(r, "right");
+    if (row.left.empty() || row.right.empty()) throw std::runtime_error(row.where + ": left and right must name image files");
+    // A true distance is a positive length; 1 km is far beyond what a stereo head ranges.
+    row.distance_m = t.PositiveNumber(r, dist, 1e3 / scale) * scale;
+    const bool roi_given = num_roi_columns == 4 && !(t.Text(r, "roi_x").empty() && t.Text(r, "roi_y").empty() &&
+                                                     t.Text(r, "roi_w").empty() && t.Text(r, "roi_h").empty());
+    if (roi_given) {
+      constexpr int kMaxPx = 100000;
+      const int x = t.Int(r, "roi_x", 0, kMaxPx), y = t.Int(r, "roi_y", 0, kMaxPx);  // in column order
+      const int w = t.Int(r, "roi_w", 5, kMaxPx), h = t.Int(r, "roi_h", 5, kMaxPx);
+      row.roi = cv::Rect(x, y, w, h);
+    }
+    rows.push_back(row);
   }
   return rows;
+}
+
+bool RoiInsideImage(const cv::Rect& roi, const cv::Size& size) {
+  // Written without x + width, which could overflow for hostile values.
+  return roi.x >= 0 && roi.y >= 0 && roi.width >= 5 && roi.height >= 5 && roi.width <= size.width &&
+         roi.height <= size.height && roi.x <= size.width - roi.width && roi.y <= size.height - roi.height;
+}
+
+void CheckRangeTruthRois(const std::vector<RangeTruthRow>& rows, const cv::Size& rectified_size) {
+  for (const RangeTruthRow& r : rows) {
+    if (r.roi.area() == 0 || RoiInsideImage(r.roi, rectified_size)) continue;
+    throw std::runtime_error(r.where + ": roi " + std::to_string(r.roi.x) + " " + std::to_string(r.roi.y) + " " +
+                             std::to_string(r.roi.width) + " " + std::to_string(r.roi.height) + " is not inside the " +
+                             std::to_string(rectified_size.width) + "x" + std::to_string(rectified_size.height) +
+                             " rectified image (refused, not clipped)");
+  }
 }
 
 RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_true_m, double max_true_m) {

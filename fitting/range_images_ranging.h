@@ -118,15 +118,23 @@ std::optional<double> TriangulateDepth(const StereoRig& rig,
 // The parameter vector of a rig in the covariance layout.
 std::vector<double> RigParameters(const StereoRig& rig);
 
-// Truth file: CSV with header; columns left, right (file names relative to the CSV's folder
-// or the image folder) and distance_cm | distance_mm | distance_m; optional roi_x, roi_y,
-// roi_w, roi_h (template in the left rectified image). Throws naming file, line, field.
+// Truth file: CSV with header (calib/csv.h); columns left, right (file names relative to the
+// CSV's folder or the image folder) and one of distance_cm | distance_mm | distance_m (a
+// positive finite length up to 1 km); optional roi_x, roi_y, roi_w, roi_h (all four or none;
+// integers, x, y >= 0, w, h >= 5: the template in the left rectified image; a row may leave
+// all four empty to use the default). Throws naming file, line and column.
 struct RangeTruthRow {
+  std::string where;  // "path:line" of the row, for messages
   std::string left, right;
   double distance_m = 0;
   cv::Rect roi;  // empty = options' default
 };
 std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path);
+// True if `roi` is a template (w, h >= 5) wholly inside an image of `size`.
+bool RoiInsideImage(const cv::Rect& roi, const cv::Size& size);
+// Refuses (throws std::runtime_error naming the row's path:line) a row ROI that is not inside the
+// rectified image: an ROI is never clipped or moved to fit.
+void CheckRangeTruthRois(const std::vector<RangeTruthRow>& rows, const cv::Size& rectified_size);
 
 struct RangeSummary {
   int num_rows = 0, num_ranged = 0;

@@ -23,7 +23,6 @@ namespace {
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kDegToRad = M_PI / 180.0;
 
-std::vector<std::string> SplitCsv(const std::string& line) { return calib::SplitCsvLine(line, /*trim=*/true); }
 
 // Residual of one row: predicted minus logged PWM for both eyes, whitened.
 struct VergenceRowResidual {
@@ -94,7 +93,7 @@ SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
   }
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = 200;
+  so.max_num_iterations = o.max_iterations;
   so.function_tolerance = 1e-12;
   so.parameter_tolerance = 1e-12;
   ceres::Solve(so, &problem, &out.summary);
@@ -113,10 +112,13 @@ SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
   if (!ipd_free) ++out.dof;
   if (!datum_free) ++out.dof;
 
-  if (!want_covariance) return out;
+  // No covariance after a failed solve: it would describe a point that is not a minimum (and
+  // Ceres evaluates the Jacobian there, which may not even be defined).
+  if (!want_covariance || out.summary.termination_type != ceres::CONVERGENCE) return out;
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
-  co.null_space_rank = -1;  // report failure instead of a pseudo-inverse
+  co.null_space_rank = 0;  // a rank-deficient problem fails (-1 would return a pseudo-inverse:
+                           // tiny sigmas for parameters the data cannot determine)
   co.min_reciprocal_condition_number = 1e-12;
   ceres::Covariance cov(co);
   std::vector<std::pair<const double*, const double*>> blocks = {{rx, rx}, {lx, lx}};
@@ -161,31 +163,18 @@ double Median(std::vector<double> v) {
 std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path,
                                                const VergenceColumnRequest& request,
                                                VergenceColumns* used) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open vergence log");
-  std::string line;
-  if (!std::getline(in, line)) throw std::runtime_error(path + ": empty file");
-  // Strip a UTF-8 BOM.
-  if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line.erase(0, 3);
-  const VergenceColumns cols = ResolveVergenceColumns(SplitCsv(line), request, path);
+  const calib::CsvTable t = calib::CsvTable::Read(path, {.trim = true});
+  const VergenceColumns cols = ResolveVergenceColumns(t.Header(), request, path);
   if (used) *used = cols;
-  const int c_run = cols.run, c_dist = cols.distance, c_rx = cols.rx, c_lx = cols.lx;
-  const double dist_scale = cols.distance_scale_m;
   std::vector<VergenceLogRow> rows;
-  int line_no = 1;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (line.find_first_not_of(" \r\t,") == std::string::npos) continue;
-    const auto cells = SplitCsv(line);
-    auto get = [&](int c, const char* what) {
-      return calib::CsvNumber(cells, c, path + ":" + std::to_string(line_no), what);
-    };
-    VergenceLogRow r;
-    r.run = c_run >= 0 ? static_cast<int>(get(c_run, "run")) : 1;
-    r.true_distance_m = get(c_dist, cols.distance_name.c_str()) * dist_scale;
-    r.rx_us = get(c_rx, cols.rx_name.c_str());
-    r.lx_us = get(c_lx, cols.lx_name.c_str());
-    rows.push_back(r);
+  for (size_t r = 0; r < t.NumRows(); ++r) {
+    VergenceLogRow row;
+    row.run = cols.run >= 0 ? t.Int(r, cols.run_name, 0, 1000000) : 1;
+    // A true distance is a positive length (up to 1 km); pulse widths are four-digit microseconds.
+    row.true_distance_m = t.PositiveNumber(r, cols.distance_name, 1e3 / cols.distance_scale_m) * cols.distance_scale_m;
+    row.rx_us = t.Number(r, cols.rx_name, 0, 9999);
+    row.lx_us = t.Number(r, cols.lx_name, 0, 9999);
+    rows.push_back(row);
   }
   return rows;
 }
@@ -244,6 +233,7 @@ bool VergenceFitOptions::Check(std::string* why) const {
   if (!(ipd_m > 0.02 && ipd_m < 0.2)) return fail("ipd_m = " + std::to_string(ipd_m) + " outside 0.02-0.2 m");
   if (!(ipd_sigma_threshold_m > 0)) return fail("ipd_sigma_threshold_m must be > 0");
   if (!(initial.rx_us_per_deg > 0 && initial.lx_us_per_deg > 0)) return fail("initial us_per_deg must be > 0");
+  if (max_iterations < 1) return fail("max_iterations = " + std::to_string(max_iterations) + " must be >= 1");
   return true;
 }
 
@@ -251,8 +241,26 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument("VergenceFitOptions: " + why);
   if (rows.size() < 4) throw std::invalid_argument("vergence log has " + std::to_string(rows.size()) + " rows; need >= 4");
+  std::vector<double> distances;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const VergenceLogRow& r = rows[i];
+    if (!(std::isfinite(r.true_distance_m) && r.true_distance_m > 0) || !std::isfinite(r.rx_us) || !std::isfinite(r.lx_us))
+      throw std::invalid_argument("vergence log row " + std::to_string(i) + ": distance " + FixedOrDash(r.true_distance_m, 4) +
+                                  " m, Rx " + FixedOrDash(r.rx_us, 1) + ", Lx " + FixedOrDash(r.lx_us, 1) +
+                                  ": distances must be positive and every value finite");
+    distances.push_back(r.true_distance_m);
+  }
+  std::sort(distances.begin(), distances.end());
+  const size_t num_distances = std::unique(distances.begin(), distances.end()) - distances.begin();
   const auto t0 = std::chrono::steady_clock::now();
   VergenceLogFit fit;
+  if (num_distances < 2) {
+    // Each eye's Rx = centre - scale * angle(D): one distance gives one equation per eye for two
+    // unknowns, however many rows repeat it.
+    fit.notes.push_back("all " + std::to_string(rows.size()) + " rows are at one distance (" +
+                        FixedOrDash(distances[0] * 100, 1) + " cm): a centre and a us/deg scale cannot both be determined "
+                        "from one distance; log at least two (better five or more, near and far)");
+  }
   bool ipd_free = false;
   bool datum_free = options.fit_datum;
   // IPD fixed first: it trades against both scales, and a free start can slide into the
@@ -316,15 +324,18 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     p.note = note;
     fit.parameters.push_back(p);
   };
-  const bool ok = s.covariance_ok;
-  const std::string nocov = ok ? "" : "covariance rank-deficient";
+  const bool converged = s.summary.termination_type == ceres::CONVERGENCE;
+  const bool ok = s.covariance_ok && num_distances >= 2;
+  const std::string nocov = ok ? "" : !converged ? "solver did not converge"
+                                    : num_distances < 2 ? "not determined: one distance only"
+                                                        : "not determined: the covariance is rank-deficient";
   add("servo.Rx.centre_us", s.maps.rx_centre_us, sig("rx.centre", 1), "us", ok, nocov);
   add("servo.Rx.us_per_deg", s.maps.rx_us_per_deg, sig("rx.scale", 1), "us/deg", ok, nocov);
   add("servo.Lx.centre_us", s.maps.lx_centre_us, sig("lx.centre", 1), "us", ok, nocov);
   add("servo.Lx.us_per_deg", s.maps.lx_us_per_deg, sig("lx.scale", 1), "us/deg", ok, nocov);
-  add("head.ipd_mm", s.maps.ipd_m * 1000, ipd_free ? sig("ipd", 1000) : nan, "mm", ipd_free,
+  add("head.ipd_mm", s.maps.ipd_m * 1000, ipd_free ? sig("ipd", 1000) : nan, "mm", ipd_free && ok,
       ipd_free ? "" : "fixed: not determined by a vergence log");
-  add("vergence.datum_mm", s.maps.datum_offset_m * 1000, datum_free ? sig("datum", 1000) : nan, "mm", datum_free,
+  add("vergence.datum_mm", s.maps.datum_offset_m * 1000, datum_free ? sig("datum", 1000) : nan, "mm", datum_free && ok,
       datum_free ? "eye-centre baseline to the distance datum" : "fixed");
   for (size_t k = 1; k < s.runs.size() && options.per_run_bearing; ++k)
     add("vergence.run" + std::to_string(s.runs[k]) + ".bearing_deg", s.maps.run_bearing_rad[k] * kRadToDeg,
@@ -338,7 +349,8 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
   fit.summary.iterations = static_cast<int>(s.summary.iterations.size());
   fit.summary.num_residuals = s.summary.num_residuals;
   fit.summary.rms_px = fit.residual_sigma_us;  // in us here
-  fit.summary.usable = s.summary.IsSolutionUsable() && ok;
+  // NO_CONVERGENCE is "usable" to Ceres, but its values are not a fit: refuse them too.
+  fit.summary.usable = converged && ok;
   fit.summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   for (size_t i = 0; i < rows.size(); ++i) {

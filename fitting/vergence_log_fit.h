@@ -40,9 +40,10 @@ struct VergenceLogRow {
   double lx_us = 0;            // left eye pan PWM
 };
 
-// Reads a CSV with a header naming the columns (fitting/vergence_log_columns.h: the true
-// distance column must be the only distance-like one or be named in `columns`; Rx, Lx, run).
-// Extra columns are ignored and listed in *used. Throws naming the path, line and field.
+// Reads a CSV (calib/csv.h) with a header naming the columns (fitting/vergence_log_columns.h:
+// the true distance column must be the only distance-like one or be named in `columns`; Rx, Lx,
+// run). Extra columns are ignored and listed in *used. Distances must be positive (up to 1 km),
+// PWMs within 0..9999, all numbers finite. Throws naming the path, line and column.
 std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path,
                                                const VergenceColumnRequest& columns = {},
                                                VergenceColumns* used = nullptr);
@@ -95,6 +96,7 @@ struct VergenceFitOptions {
   double datum_offset_m = 0.030;
   double datum_sigma_threshold_m = 0.05;  // above this the datum is fixed with a note
   bool per_run_bearing = true; // one bearing per run after the first
+  int max_iterations = 200;    // solver iterations; a fit that needs more is NO_CONVERGENCE, not usable
   VergenceMaps initial;        // starting centres and scales
   bool Check(std::string* why) const;
 };
@@ -106,6 +108,10 @@ struct VergenceRowDiagnostic {
   double range_per_us_m = 0;    // |d distance / d PWM| for 1 us on either eye (RSS) [m/us]
 };
 
+// summary.usable is true only when the solver converged and the covariance has full rank; then
+// every parameter marked determined has a finite sigma. A failed solve reports no sigma and the
+// Markdown report prints no value; data that cannot determine a parameter (one distance only,
+// identical rows) leave it "not determined" with a note saying why.
 struct VergenceLogFit {
   VergenceMaps maps;
   std::vector<int> runs;                 // run ids, order of maps.run_bearing_rad
@@ -118,7 +124,8 @@ struct VergenceLogFit {
   bool datum_free = false;
 };
 
-// Fits the maps; throws std::invalid_argument when options fail Check or rows are too few.
+// Fits the maps; throws std::invalid_argument when options fail Check, rows are too few, or a
+// row has a non-positive or non-finite distance or a non-finite PWM.
 VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const VergenceFitOptions& options);
 
 // Leave-one-out comparison on the same rows.

@@ -127,7 +127,7 @@ TEST(RangeImages, TruthCsvReadsRoisAndNamesBadFields) {
     ReadRangeTruthCsv(path);
     FAIL() << "no throw";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find(":3: field distance_mm = '4x0'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(":3: column distance_mm = '4x0'"), std::string::npos) << e.what();
   }
   {
     std::ofstream f(path);
@@ -138,6 +138,38 @@ TEST(RangeImages, TruthCsvReadsRoisAndNamesBadFields) {
   EXPECT_NEAR(rows[0].distance_m, 0.3, 1e-12);
   EXPECT_EQ(rows[0].roi, cv::Rect(10, 20, 30, 40));
   EXPECT_EQ(rows[1].roi.area(), 0);
+}
+
+// Issue table "Silent wrong results (6)": range-images accepted nan or negative true distances and
+// silently adjusted an out-of-image ROI. The reader refuses the distances and half-given ROIs; an
+// ROI outside the rectified image is refused, naming the row.
+TEST(RangeImages, TruthRefusesNanNegativeDistancesAndRoisOutsideTheImage) {
+  const std::string path = ::testing::TempDir() + "/truth_hostile.csv";
+  auto error = [&](const std::string& text) {
+    std::ofstream(path, std::ios::trunc) << text;
+    try {
+      CheckRangeTruthRois(ReadRangeTruthCsv(path), cv::Size(640, 480));
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string head = "left,right,distance_cm,roi_x,roi_y,roi_w,roi_h\n";
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,nan,,,,\n"), path + ":2: column distance_cm = 'nan' is not a finite decimal number");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,-30,,,,\n"), path + ":2: column distance_cm = -30 is not positive");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,30,10,20,,\n"), path + ":2: column roi_w = '' is not an integer");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,30,-5,20,30,40\n"), path + ":2: column roi_x = -5 is outside [0, 100000]");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,30,10,20,3,40\n"), path + ":2: column roi_w = 3 is outside [5, 100000]");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,30,620,20,30,40\n"),
+            path + ":2: roi 620 20 30 40 is not inside the 640x480 rectified image (refused, not clipped)");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,30,2147483640,20,30,40\n"), path + ":2: column roi_x = 2147483640 is outside [0, 100000]");
+  EXPECT_EQ(error("left,right,distance_cm,roi_x\nl.jpg,r.jpg,30,5\n"),
+            path + ":1: give all four of roi_x, roi_y, roi_w, roi_h or none");
+  EXPECT_EQ(error("left,right,distance_cm,distance_mm\nl.jpg,r.jpg,30,300\n"),
+            path + ":1: two distance columns, distance_cm and distance_mm");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,30,600,400,40,80\n"), "");
+  EXPECT_TRUE(RoiInsideImage(cv::Rect(600, 400, 40, 80), cv::Size(640, 480)));
+  EXPECT_FALSE(RoiInsideImage(cv::Rect(601, 400, 40, 80), cv::Size(640, 480)));
 }
 
 }  // namespace

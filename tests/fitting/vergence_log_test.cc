@@ -1,5 +1,6 @@
 #include "fitting/vergence_log_fit.h"
 
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -191,6 +192,82 @@ TEST(VergenceLogFit, ReaderNamesFileAndFieldOnBadInput) {
     EXPECT_NE(std::string(e.what()).find("Rx"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
   }
+}
+
+std::string ReaderError(const std::string& text) {
+  const std::string path = ::testing::TempDir() + "/hostile_vergence.csv";
+  std::ofstream(path, std::ios::trunc) << text;
+  try {
+    ReadVergenceLogCsv(path);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Issue table "Crashes": a nan cell or a negative distance made fit-vergence segfault. The reader
+// refuses each, naming the file, line and column.
+TEST(VergenceLogFit, ReaderRefusesNanNegativeAndHugeValues) {
+  const std::string path = ::testing::TempDir() + "/hostile_vergence.csv";
+  const std::string head = "run,distance_cm,Rx,Lx\n1,10,1310,1595\n";
+  EXPECT_EQ(ReaderError(head + "1,nan,1355,1520\n"), path + ":3: column distance_cm = 'nan' is not a finite decimal number");
+  EXPECT_EQ(ReaderError(head + "1,-20,1355,1520\n"), path + ":3: column distance_cm = -20 is not positive");
+  EXPECT_EQ(ReaderError(head + "1,0,1355,1520\n"), path + ":3: column distance_cm = 0 is not positive");
+  EXPECT_EQ(ReaderError(head + "1,20,inf,1520\n"), path + ":3: column Rx = 'inf' is not a finite decimal number");
+  EXPECT_EQ(ReaderError(head + "1,20,1355,1e300\n"), path + ":3: column Lx = 1e+300 is outside [0, 9999]");
+  EXPECT_EQ(ReaderError(head + "1,20,1355\n"), path + ":3: 3 cells, the header has 4");
+  EXPECT_EQ(ReaderError(head + "\"1\",\"20\",\"1355\",\"1520\"\n"), "");  // quoted cells are fine
+}
+
+TEST(VergenceLogFit, RefusesNonFiniteOrNonPositiveDistancesWithoutCrashing) {
+  std::vector<VergenceLogRow> rows = SyntheticLog(VergenceMaps{}, 1, 3);
+  for (double bad : {std::nan(""), -0.2, 0.0, HUGE_VAL}) {
+    std::vector<VergenceLogRow> r = rows;
+    r[4].true_distance_m = bad;
+    EXPECT_THROW(FitVergenceLog(r, VergenceFitOptions{}), std::invalid_argument) << bad;
+  }
+  std::vector<VergenceLogRow> r = rows;
+  r[2].lx_us = std::nan("");
+  EXPECT_THROW(FitVergenceLog(r, VergenceFitOptions{}), std::invalid_argument);
+}
+
+// Issue table "Silent wrong results (5)": 30 identical rows gave +- 0.009 us (a pseudo-inverse
+// covariance) and exit 0. One distance cannot separate a centre from a scale: not determined.
+TEST(VergenceLogFit, IdenticalRowsDetermineNothingAndTheFitIsNotUsable) {
+  const std::vector<VergenceLogRow> rows(30, VergenceLogRow{1, 0.30, 1400, 1480});
+  const VergenceLogFit fit = FitVergenceLog(rows, VergenceFitOptions{});
+  EXPECT_FALSE(fit.summary.usable);
+  for (const Parameter& p : fit.parameters) {
+    EXPECT_FALSE(p.determined) << p.name << " = " << p.value << " +- " << p.sigma;
+    EXPECT_FALSE(std::isfinite(p.sigma)) << p.name;
+  }
+  bool said = false;
+  for (const std::string& n : fit.notes) said = said || n.find("one distance") != std::string::npos;
+  EXPECT_TRUE(said);
+  // Two distances, still repeated: the centres and scales are determined again.
+  std::vector<VergenceLogRow> two = rows;
+  for (size_t i = 0; i < two.size(); i += 2) two[i] = {1, 0.80, 1430, 1452};
+  VergenceFitOptions o;
+  o.fit_datum = false;
+  o.ipd_mode = IpdMode::kFixed;
+  const VergenceLogFit fit2 = FitVergenceLog(two, o);
+  EXPECT_TRUE(fit2.summary.usable) << fit2.summary.message;
+}
+
+// Issue table "Silent wrong results (5)": NO_CONVERGENCE exited 0. It is not usable now, has no
+// sigma, and the report prints no parameter value.
+TEST(VergenceLogFit, NoConvergenceIsNotUsableAndReportsNoValues) {
+  const std::vector<VergenceLogRow> rows = SyntheticLog(VergenceMaps{}, 2, 5);
+  VergenceFitOptions o;
+  o.max_iterations = 1;
+  o.initial.rx_centre_us = 1700;  // far from the truth: one iteration cannot converge
+  const VergenceLogFit fit = FitVergenceLog(rows, o);
+  EXPECT_EQ(fit.summary.termination, "NO_CONVERGENCE");
+  EXPECT_FALSE(fit.summary.usable);
+  for (const Parameter& p : fit.parameters) EXPECT_FALSE(p.determined) << p.name;
+  const std::string md = reports::VergenceReportMarkdown(rows, fit, LooSummary{});
+  EXPECT_NE(md.find("no parameter is reported"), std::string::npos) << md;
+  EXPECT_EQ(md.find("| servo.Rx.centre_us |"), std::string::npos) << md;
 }
 
 }  // namespace
