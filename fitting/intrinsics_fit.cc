@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -14,8 +15,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
-#include "fitting/covariance_marginal.h"
 #include "fitting/intrinsics_residual.h"
+#include "fitting/observability.h"
 
 namespace owlcal::fitting {
 namespace {
@@ -109,6 +110,7 @@ bool IntrinsicsFitOptions::Check(std::string* why) const {
   if (max_iterations < 1) return fail("max_iterations must be >= 1, got " + std::to_string(max_iterations));
   if (!(max_sigma_px > 0)) return fail("max_sigma_px must be > 0, got " + Fmt(max_sigma_px));
   if (!(max_sigma_distortion > 0)) return fail("max_sigma_distortion must be > 0, got " + Fmt(max_sigma_distortion));
+  if (!(rank_tolerance > 0 && rank_tolerance < 1)) return fail("rank_tolerance must be in (0, 1), got " + Fmt(rank_tolerance));
   return true;
 }
 
@@ -122,49 +124,43 @@ std::string IntrinsicParamUnit(const std::string& name) {
   return (name == "fx" || name == "fy" || name == "cx" || name == "cy") ? "px" : "";
 }
 
-IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
-                            int width,
-                            int height,
-                            const IntrinsicsFitOptions& options) {
-  const auto t_start = std::chrono::steady_clock::now();
-  IntrinsicsFit fit;
-  fit.camera.model = options.model;
-  fit.camera.width = width;
-  fit.camera.height = height;
-  fit.param_names = IntrinsicParamNames(options.model);
-  const int np = 4 + fit.camera.NumDistortion();
-  fit.summary.problem = "intrinsics";
-  std::string why;
-  if (!options.Check(&why)) {
-    fit.message = why;
-    return fit;
-  }
-  if (width <= 0 || height <= 0) {
-    fit.message = "image size " + std::to_string(width) + "x" + std::to_string(height) + " is not valid";
-    return fit;
-  }
-  const std::string all_params = "fx, fy, cx, cy and the distortion";
+namespace {
 
-  // 1. Views with enough corners.
+// What the initialisation gives the solver: the views it could place, one board pose per view.
+struct IntrinsicsStart {
+  std::vector<double> params;                  // fx fy cx cy dist... (models/camera_model.h)
+  std::vector<std::array<double, 7>> poses;    // cam_from_target per used view
+  std::vector<calib::View> used;
+  int num_orientations = 0;                    // board orientations more than 3 deg apart
+};
+
+// Per-corner pixel errors (projected - measured) per used view.
+using CornerErrors = std::vector<std::vector<Eigen::Vector2d>>;
+
+// The views with at least min_corners_per_view corners; the others are named in the fit.
+std::vector<calib::View> SelectViews(const std::vector<calib::View>& views_in,
+                                     const IntrinsicsFitOptions& options,
+                                     IntrinsicsFit* fit) {
   std::vector<calib::View> views;
   for (const calib::View& v : views_in) {
-    if (int(v.pixels.size()) < options.min_corners_per_view) {
-      fit.dropped_views.push_back("frame " + std::to_string(v.frame_index) + ": " + std::to_string(v.pixels.size()) +
-                                  " corners < min_corners_per_view " + std::to_string(options.min_corners_per_view));
+    if (int(v.pixels.size()) >= options.min_corners_per_view) {
+      views.push_back(v);
       continue;
     }
-    views.push_back(v);
+    fit->dropped_views.push_back("frame " + std::to_string(v.frame_index) + ": " + std::to_string(v.pixels.size()) +
+                                 " corners < min_corners_per_view " + std::to_string(options.min_corners_per_view));
   }
-  if (views.empty()) {
-    fit.message = all_params + " cannot be determined: no view with at least " +
-                  std::to_string(options.min_corners_per_view) + " corners (" + std::to_string(views_in.size()) +
-                  " views given)";
-    for (const auto& n : fit.param_names) fit.undetermined.push_back(n + ": no usable views");
-    return fit;
-  }
+  return views;
+}
 
-  // 2. Initialisation: Zhang (cv::initCameraMatrix2D, principal point at the centre), then
-  // one solvePnP per view with no distortion.
+// Zhang's closed form (cv::initCameraMatrix2D, principal point at the image centre), then one
+// solvePnP per view without distortion. nullopt (with the fit's message and undetermined list)
+// when no view can be placed or the board shows one orientation only.
+std::optional<IntrinsicsStart> Initialise(const std::vector<calib::View>& views,
+                                          const IntrinsicsFitOptions& options,
+                                          IntrinsicsFit* fit) {
+  const int width = fit->camera.width, height = fit->camera.height;
+  const std::string all_params = "fx, fy, cx, cy and the distortion";
   std::vector<std::vector<cv::Point3f>> object_points;
   std::vector<std::vector<cv::Point2f>> image_points;
   for (const calib::View& v : views) {
@@ -177,137 +173,135 @@ IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
     object_points.push_back(op);
     image_points.push_back(ip);
   }
-  cv::Mat K;
+  cv::Mat k;
   try {
-    K = cv::initCameraMatrix2D(object_points, image_points, cv::Size(width, height), options.fix_aspect_ratio ? 1.0 : 0.0);
+    k = cv::initCameraMatrix2D(object_points, image_points, cv::Size(width, height), options.fix_aspect_ratio ? 1.0 : 0.0);
   } catch (const cv::Exception& e) {
-    fit.message = all_params + " cannot be determined: initialisation failed (" + e.what() + ")";
-    return fit;
+    fit->message = all_params + " cannot be determined: initialisation failed (" + e.what() + ")";
+    return std::nullopt;
   }
-  double fx0 = K.at<double>(0, 0), fy0 = K.at<double>(1, 1);
+  double fx0 = k.at<double>(0, 0), fy0 = k.at<double>(1, 1);
   if (!(fx0 > 0 && fy0 > 0 && std::isfinite(fx0) && std::isfinite(fy0))) {
     fx0 = fy0 = 0.8 * std::max(width, height);  // homographies degenerate; a generic guess
   }
-  std::vector<double> params(np, 0.0);
-  params[0] = fx0;
-  params[1] = options.fix_aspect_ratio ? fx0 : fy0;
-  params[2] = (width - 1) / 2.0;
-  params[3] = (height - 1) / 2.0;
-  cv::Mat K0 = (cv::Mat_<double>(3, 3) << params[0], 0, params[2], 0, params[1], params[3], 0, 0, 1);
-  std::vector<std::array<double, 7>> poses;
-  std::vector<calib::View> used;
-  std::vector<models::Rigid3d> init_poses;
+  IntrinsicsStart st;
+  st.params.assign(4 + fit->camera.NumDistortion(), 0.0);
+  st.params[0] = fx0;
+  st.params[1] = options.fix_aspect_ratio ? fx0 : fy0;
+  st.params[2] = (width - 1) / 2.0;
+  st.params[3] = (height - 1) / 2.0;
+  const cv::Mat k0 =
+      (cv::Mat_<double>(3, 3) << st.params[0], 0, st.params[2], 0, st.params[1], st.params[3], 0, 0, 1);
+  std::vector<models::Rigid3d> distinct;  // orientations more than 3 degrees apart
   for (size_t i = 0; i < views.size(); ++i) {
     cv::Mat rvec, tvec;
     bool ok = false;
     try {
-      ok = cv::solvePnP(object_points[i], image_points[i], K0, cv::noArray(), rvec, tvec);
+      ok = cv::solvePnP(object_points[i], image_points[i], k0, cv::noArray(), rvec, tvec);
     } catch (const cv::Exception&) {
       ok = false;
     }
     if (!ok || tvec.at<double>(2) <= 0) {
-      fit.dropped_views.push_back("frame " + std::to_string(views[i].frame_index) + ": initial pose not found");
+      fit->dropped_views.push_back("frame " + std::to_string(views[i].frame_index) + ": initial pose not found");
       continue;
     }
     const models::Rigid3d pose = PoseFromRvecTvec(rvec, tvec);
     std::array<double, 7> a;
     pose.ToArray(a.data());
-    poses.push_back(a);
-    init_poses.push_back(pose);
-    used.push_back(views[i]);
+    st.poses.push_back(a);
+    st.used.push_back(views[i]);
+    if (std::none_of(distinct.begin(), distinct.end(),
+                     [&](const models::Rigid3d& q) { return AngleBetween(pose, q) < 3.0 * M_PI / 180; }))
+      distinct.push_back(pose);
   }
-  // Board orientations that differ by more than 3 degrees.
-  std::vector<models::Rigid3d> distinct;
-  for (const auto& p : init_poses) {
-    bool is_new = true;
-    for (const auto& q : distinct)
-      if (AngleBetween(p, q) < 3.0 * M_PI / 180) is_new = false;
-    if (is_new) distinct.push_back(p);
-  }
-  if (used.empty() || distinct.size() < 2) {
-    fit.message = all_params + " cannot be determined: " +
-                  (used.empty() ? std::string("no view could be initialised")
-                                : std::to_string(used.size()) + " view(s) but all show the board in ONE orientation "
-                                                                "(one pose only, or the board never moved); tilt the "
-                                                                "board (or move the camera) between views");
-    for (const auto& n : fit.param_names) fit.undetermined.push_back(n + ": board seen in one orientation only");
-    return fit;
-  }
+  st.num_orientations = int(distinct.size());
+  if (!st.used.empty() && distinct.size() >= 2) return st;
+  fit->message = all_params + " cannot be determined: " +
+                 (st.used.empty() ? std::string("no view could be initialised")
+                                  : std::to_string(st.used.size()) + " view(s) but all show the board in ONE orientation "
+                                                                     "(one pose only, or the board never moved); tilt "
+                                                                     "the board (or move the camera) between views");
+  for (const auto& n : fit->param_names) fit->undetermined.push_back(n + ": board seen in one orientation only");
+  return std::nullopt;
+}
 
+// One Ceres solve over the inlier corners, whitened by sigma_px, with the robust loss when
+// asked; with want_observability, the analysis of fitting/observability.h (poses eliminated).
+Observability Solve(const IntrinsicsFitOptions& options,
+                    double sigma_px,
+                    bool robust,
+                    const std::vector<std::vector<bool>>& inlier,
+                    bool want_observability,
+                    const std::vector<std::string>& param_names,
+                    IntrinsicsStart* st,
+                    ceres::Solver::Summary* summary) {
+  const int np = int(st->params.size());
   const std::vector<int> fixed = internal::FixedIntrinsicIndices(options);
-  auto solve = [&](double sigma, bool robust, const std::vector<std::vector<bool>>& inlier,
-                   ceres::Solver::Summary* summary, bool want_covariance) {
-    ceres::Problem::Options po;
-    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    ceres::Problem problem(po);
-    PoseManifold pose_manifold;
-    std::unique_ptr<ceres::SubsetManifold> subset;
-    problem.AddParameterBlock(params.data(), np);
-    if (!fixed.empty()) {
-      subset = std::make_unique<ceres::SubsetManifold>(np, fixed);
-      problem.SetManifold(params.data(), subset.get());
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  PoseManifold pose_manifold;
+  std::unique_ptr<ceres::SubsetManifold> subset;
+  problem.AddParameterBlock(st->params.data(), np);
+  if (!fixed.empty()) {
+    subset = std::make_unique<ceres::SubsetManifold>(np, fixed);
+    problem.SetManifold(st->params.data(), subset.get());
+  }
+  for (size_t v = 0; v < st->used.size(); ++v) {
+    problem.AddParameterBlock(st->poses[v].data(), 7, &pose_manifold);
+    for (size_t i = 0; i < st->used[v].pixels.size(); ++i) {
+      if (!inlier[v][i]) continue;
+      ceres::CostFunction* cost = models::VisitCameraModel(options.model, [&]<typename Cam>() {
+        return internal::CornerResidual<Cam>::Create(st->used[v].pixels[i], st->used[v].points_in_target[i],
+                                                     1.0 / sigma_px, options.fix_aspect_ratio);
+      });
+      ceres::LossFunction* loss = nullptr;
+      if (robust && options.loss == RobustLoss::kCauchy) loss = new ceres::CauchyLoss(options.loss_scale_sigma);
+      if (robust && options.loss == RobustLoss::kHuber) loss = new ceres::HuberLoss(options.loss_scale_sigma);
+      problem.AddResidualBlock(cost, loss, st->params.data(), st->poses[v].data());
     }
-    for (size_t v = 0; v < used.size(); ++v) {
-      problem.AddParameterBlock(poses[v].data(), 7, &pose_manifold);
-      for (size_t i = 0; i < used[v].pixels.size(); ++i) {
-        if (!inlier[v][i]) continue;
-        ceres::CostFunction* cost = models::VisitCameraModel(options.model, [&]<typename Cam>() {
-          return internal::CornerResidual<Cam>::Create(used[v].pixels[i], used[v].points_in_target[i], 1.0 / sigma,
-                                                       options.fix_aspect_ratio);
-        });
-        ceres::LossFunction* loss = nullptr;
-        if (robust) {
-          if (options.loss == RobustLoss::kCauchy) {
-            loss = new ceres::CauchyLoss(options.loss_scale_sigma);
-          } else {
-            loss = new ceres::HuberLoss(options.loss_scale_sigma);
-          }
-        }
-        problem.AddResidualBlock(cost, loss, params.data(), poses[v].data());
-      }
-    }
-    ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_SCHUR;
-    so.max_num_iterations = options.max_iterations;
-    so.function_tolerance = 1e-12;
-    so.parameter_tolerance = 1e-12;
-    so.gradient_tolerance = 1e-12;
-    so.num_threads = 1;
-    ceres::Solve(so, &problem, summary);
-    MarginalCovariance mc;
-    if (want_covariance) {
-      std::vector<double*> locals;
-      for (auto& p : poses) locals.push_back(p.data());
-      mc = ComputeMarginalCovariance(&problem, {params.data()}, locals);
-    }
-    return mc;
-  };
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_SCHUR;
+  so.max_num_iterations = options.max_iterations;
+  so.function_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-12;
+  so.num_threads = 1;
+  ceres::Solve(so, &problem, summary);
+  if (!want_observability) return {};
+  std::vector<double*> locals;
+  for (auto& p : st->poses) locals.push_back(p.data());
+  std::vector<std::string> free_names;
+  for (int i = 0; i < np; ++i)
+    if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) free_names.push_back(param_names[i]);
+  return AnalyseObservability(&problem, {st->params.data()}, locals, free_names, options.rank_tolerance);
+}
 
-  // Residual (pixel error) of every corner at the current estimate.
-  auto residuals = [&]() {
-    std::vector<std::vector<Eigen::Vector2d>> r(used.size());
-    for (size_t v = 0; v < used.size(); ++v) {
-      const models::Rigid3d pose = models::Rigid3d::Map(poses[v].data());
-      models::CameraIntrinsics cam = fit.camera;
-      cam.params = params;
-      if (options.fix_aspect_ratio) cam.params[1] = cam.params[0];
-      for (size_t i = 0; i < used[v].pixels.size(); ++i) {
-        const Eigen::Vector3d p = pose * used[v].points_in_target[i];
-        double px[2] = {kNaN, kNaN};
-        cam.Project(p.data(), px);
-        r[v].push_back(Eigen::Vector2d(px[0], px[1]) - used[v].pixels[i]);
-      }
+CornerErrors Residuals(const models::CameraIntrinsics& camera, const IntrinsicsStart& st, bool fix_aspect_ratio) {
+  CornerErrors r(st.used.size());
+  models::CameraIntrinsics cam = camera;
+  cam.params = st.params;
+  if (fix_aspect_ratio) cam.params[1] = cam.params[0];
+  for (size_t v = 0; v < st.used.size(); ++v) {
+    const models::Rigid3d pose = models::Rigid3d::Map(st.poses[v].data());
+    for (size_t i = 0; i < st.used[v].pixels.size(); ++i) {
+      const Eigen::Vector3d p = pose * st.used[v].points_in_target[i];
+      double px[2] = {kNaN, kNaN};
+      cam.Project(p.data(), px);
+      r[v].push_back(Eigen::Vector2d(px[0], px[1]) - st.used[v].pixels[i]);
     }
-    return r;
-  };
+  }
+  return r;
+}
 
-  // 3. First solve: no/huber loss, unit whitening.
-  std::vector<std::vector<bool>> inlier(used.size());
-  for (size_t v = 0; v < used.size(); ++v) inlier[v].assign(used[v].pixels.size(), true);
-  ceres::Solver::Summary s1;
-  solve(1.0, options.loss != RobustLoss::kNone, inlier, &s1, false);
-  // 4. Robust noise estimate and outlier rejection.
-  auto r = residuals();
+// The corner sigma (given, or 1.4826 x the median absolute residual component) and the corners
+// beyond outlier_threshold_sigma of it, marked and recorded as rejected.
+double RejectOutliers(const CornerErrors& r,
+                      const IntrinsicsStart& st,
+                      const IntrinsicsFitOptions& options,
+                      std::vector<std::vector<bool>>* inlier,
+                      IntrinsicsFit* fit) {
   std::vector<double> comps;
   for (const auto& rv : r)
     for (const auto& e : rv) {
@@ -317,28 +311,27 @@ IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
   std::nth_element(comps.begin(), comps.begin() + comps.size() / 2, comps.end());
   const double sigma_mad = std::max(1e-4, 1.4826 * comps[comps.size() / 2]);
   const double sigma_used = options.corner_sigma_px > 0 ? options.corner_sigma_px : sigma_mad;
-  if (options.outlier_threshold_sigma > 0) {
-    for (size_t v = 0; v < used.size(); ++v)
-      for (size_t i = 0; i < r[v].size(); ++i) {
-        const double e = r[v][i].norm();
-        if (!std::isfinite(e) || e > options.outlier_threshold_sigma * sigma_used) {
-          inlier[v][i] = false;
-          fit.rejected.push_back({used[v].frame_index, used[v].eye, used[v].corner_ids[i], e});
-        }
-      }
-  }
-  // 5. Final solve, whitened by the corner sigma.
-  ceres::Solver::Summary s2;
-  MarginalCovariance mc = solve(sigma_used, options.loss != RobustLoss::kNone, inlier, &s2, true);
-  fit.summary = internal::ToSolveSummary("intrinsics", &s2);
-  if (options.fix_aspect_ratio) params[1] = params[0];
-  fit.camera.params = params;
+  if (options.outlier_threshold_sigma <= 0) return sigma_used;
+  for (size_t v = 0; v < st.used.size(); ++v)
+    for (size_t i = 0; i < r[v].size(); ++i) {
+      const double e = r[v][i].norm();
+      if (std::isfinite(e) && e <= options.outlier_threshold_sigma * sigma_used) continue;
+      (*inlier)[v][i] = false;
+      fit->rejected.push_back({st.used[v].frame_index, st.used[v].eye, st.used[v].corner_ids[i], e});
+    }
+  return sigma_used;
+}
 
-  // 6. RMS (OpenCV's definition: sqrt(sum |e|^2 / corners)) over inliers, per view and overall.
-  r = residuals();
+// RMS (OpenCV's definition: sqrt(sum |e|^2 / corners)) over inliers, per view and overall; the
+// views' frames and poses. Returns the sum of squared errors and counts the corners.
+double MeasureRms(const CornerErrors& r,
+                  const std::vector<std::vector<bool>>& inlier,
+                  const IntrinsicsStart& st,
+                  int* num_corners,
+                  IntrinsicsFit* fit) {
   double sum_sq = 0;
   int n = 0;
-  for (size_t v = 0; v < used.size(); ++v) {
+  for (size_t v = 0; v < st.used.size(); ++v) {
     double sv = 0;
     int nv = 0;
     for (size_t i = 0; i < r[v].size(); ++i) {
@@ -346,121 +339,139 @@ IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
       sv += r[v][i].squaredNorm();
       ++nv;
     }
-    fit.view_rms_px.push_back(nv ? std::sqrt(sv / nv) : kNaN);
-    fit.frame_indices.push_back(used[v].frame_index);
-    fit.cam_from_target.push_back(models::Rigid3d::Map(poses[v].data()));
+    fit->view_rms_px.push_back(nv ? std::sqrt(sv / nv) : kNaN);
+    fit->frame_indices.push_back(st.used[v].frame_index);
+    fit->cam_from_target.push_back(models::Rigid3d::Map(st.poses[v].data()));
     sum_sq += sv;
     n += nv;
   }
-  fit.rms_px = std::sqrt(sum_sq / std::max(1, n));
-  fit.summary.rms_px = fit.rms_px;
-  fit.summary.num_outliers = int(fit.rejected.size());
-  const int num_free = np - int(fixed.size()) + 6 * int(used.size());
-  const int dof = 2 * n - num_free;
-  double sigma_hat = sigma_used;
-  if (options.corner_sigma_px <= 0) {
-    sigma_hat = dof > 0 ? std::sqrt(sum_sq / dof) : kNaN;
-  }
-  fit.corner_sigma_px = sigma_hat;
+  fit->rms_px = std::sqrt(sum_sq / std::max(1, n));
+  *num_corners = n;
+  return sum_sq;
+}
 
-  // 7. Covariance in full parameter space; observability.
-  fit.covariance = Eigen::MatrixXd::Zero(np, np);
-  fit.sigmas.assign(np, kNaN);
-  fit.determined.assign(np, false);
+// Covariance in the full parameter space (scaled by (sigma_hat / sigma_used)^2), sigmas, and
+// what is not determined: held by an option, rejected by the observability rule, or with a
+// sigma too large to mean anything.
+void ReportCovariance(const Observability& obs,
+                      double scale,
+                      int dof,
+                      const IntrinsicsFitOptions& options,
+                      IntrinsicsFit* fit) {
+  const int np = int(fit->param_names.size());
+  const std::vector<int> fixed = internal::FixedIntrinsicIndices(options);
+  fit->covariance = Eigen::MatrixXd::Zero(np, np);
+  fit->sigmas.assign(np, kNaN);
+  fit->determined.assign(np, false);
   std::vector<int> free_idx;
   for (int i = 0; i < np; ++i)
     if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) free_idx.push_back(i);
-  const double scale = (sigma_hat / sigma_used) * (sigma_hat / sigma_used);
   std::vector<std::string> reasons(np);
-  if (!mc.ok || dof <= 0 || !std::isfinite(scale)) {
-    for (int i : free_idx)
-      reasons[i] = dof <= 0 ? "more parameters than measurements" : "covariance failed: " + mc.message;
+  if (!obs.ok || dof <= 0 || !std::isfinite(scale)) {
+    for (int i : free_idx) reasons[i] = dof <= 0 ? "more parameters than measurements" : "covariance failed: " + obs.message;
   } else {
     for (size_t a = 0; a < free_idx.size(); ++a) {
       for (size_t b = 0; b < free_idx.size(); ++b)
-        fit.covariance(free_idx[a], free_idx[b]) = mc.covariance(a, b) * scale;
-      if (!mc.determined[a]) reasons[free_idx[a]] = mc.reasons[a];
+        fit->covariance(free_idx[a], free_idx[b]) = obs.covariance(a, b) * scale;
+      if (!obs.determined[a]) reasons[free_idx[a]] = obs.reasons[a];
     }
   }
   if (options.fix_aspect_ratio) {  // fy = fx
-    fit.covariance.row(1) = fit.covariance.row(0);
-    fit.covariance.col(1) = fit.covariance.col(0);
+    fit->covariance.row(1) = fit->covariance.row(0);
+    fit->covariance.col(1) = fit->covariance.col(0);
     reasons[1] = reasons[0];
   }
   for (int i = 0; i < np; ++i) {
-    const std::string& name = fit.param_names[i];
+    const std::string& name = fit->param_names[i];
     const std::string fixed_reason = internal::FixedReason(name, options);
-    if (!fixed_reason.empty() && !(name == "fy" && options.fix_aspect_ratio)) {
-      fit.undetermined.push_back(name + ": " + fixed_reason);
-      fit.sigmas[i] = kNaN;
-      fit.covariance.row(i).setZero();
-      fit.covariance.col(i).setZero();
-      continue;
-    }
-    const double s = std::sqrt(fit.covariance(i, i));
+    if (!fixed_reason.empty() && !(name == "fy" && options.fix_aspect_ratio)) reasons[i] = fixed_reason;
+    const double s = std::sqrt(fit->covariance(i, i));
     if (reasons[i].empty()) reasons[i] = internal::SigmaTooLarge(name, s, options);
     if (!reasons[i].empty()) {
-      fit.undetermined.push_back(name + ": " + reasons[i]);
-      fit.covariance.row(i).setZero();
-      fit.covariance.col(i).setZero();
+      fit->undetermined.push_back(name + ": " + reasons[i]);
+      fit->covariance.row(i).setZero();
+      fit->covariance.col(i).setZero();
       continue;
     }
-    fit.sigmas[i] = s;
-    fit.determined[i] = true;
+    fit->sigmas[i] = s;
+    fit->determined[i] = true;
   }
+}
+
+}  // namespace
+
+IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
+                            int width,
+                            int height,
+                            const IntrinsicsFitOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
+  IntrinsicsFit fit;
+  fit.camera.model = options.model;
+  fit.camera.width = width;
+  fit.camera.height = height;
+  fit.param_names = IntrinsicParamNames(options.model);
+  fit.summary.problem = "intrinsics";
+  std::string why;
+  if (!options.Check(&why)) {
+    fit.message = why;
+    return fit;
+  }
+  if (width <= 0 || height <= 0) {
+    fit.message = "image size " + std::to_string(width) + "x" + std::to_string(height) + " is not valid";
+    return fit;
+  }
+
+  // 1. Build and initialise.
+  const std::vector<calib::View> views = SelectViews(views_in, options, &fit);
+  if (views.empty()) {
+    fit.message = "fx, fy, cx, cy and the distortion cannot be determined: no view with at least " +
+                  std::to_string(options.min_corners_per_view) + " corners (" + std::to_string(views_in.size()) +
+                  " views given)";
+    for (const auto& n : fit.param_names) fit.undetermined.push_back(n + ": no usable views");
+    return fit;
+  }
+  std::optional<IntrinsicsStart> st = Initialise(views, options, &fit);
+  if (!st) return fit;
+
+  // 2. Solve: unit whitening (robust loss if asked), outlier rejection, final solve whitened by
+  // the corner sigma.
+  std::vector<std::vector<bool>> inlier(st->used.size());
+  for (size_t v = 0; v < st->used.size(); ++v) inlier[v].assign(st->used[v].pixels.size(), true);
+  const bool robust = options.loss != RobustLoss::kNone;
+  ceres::Solver::Summary s1, s2;
+  Solve(options, 1.0, robust, inlier, false, fit.param_names, &*st, &s1);
+  const double sigma_used =
+      RejectOutliers(Residuals(fit.camera, *st, options.fix_aspect_ratio), *st, options, &inlier, &fit);
+  // 3. Observability (in the final solve).
+  const Observability obs = Solve(options, sigma_used, robust, inlier, true, fit.param_names, &*st, &s2);
+  fit.summary = internal::ToSolveSummary("intrinsics", &s2);
+  if (options.fix_aspect_ratio) st->params[1] = st->params[0];
+  fit.camera.params = st->params;
+
+  // 4. Outputs.
+  int n = 0;
+  const double sum_sq = MeasureRms(Residuals(fit.camera, *st, options.fix_aspect_ratio), inlier, *st, &n, &fit);
+  fit.summary.rms_px = fit.rms_px;
+  fit.summary.num_outliers = int(fit.rejected.size());
+  const int num_free = int(fit.param_names.size()) - int(internal::FixedIntrinsicIndices(options).size()) +
+                       6 * int(st->used.size());
+  const int dof = 2 * n - num_free;
+  const double sigma_hat = options.corner_sigma_px > 0 ? sigma_used : (dof > 0 ? std::sqrt(sum_sq / dof) : kNaN);
+  fit.corner_sigma_px = sigma_hat;
+  ReportCovariance(obs, (sigma_hat / sigma_used) * (sigma_hat / sigma_used), dof, options, &fit);
   fit.ok = true;
   const bool core_ok = fit.determined[0] && fit.determined[1] && fit.determined[2] && fit.determined[3];
   fit.summary.usable = fit.summary.usable && core_ok;
   std::ostringstream msg;
-  msg << used.size() << " views (" << distinct.size() << " orientations), " << n << " corners, RMS " << Fmt(fit.rms_px)
-      << " px, corner sigma " << Fmt(sigma_hat) << " px";
+  msg << st->used.size() << " views (" << st->num_orientations << " orientations), " << n << " corners, RMS "
+      << Fmt(fit.rms_px) << " px, corner sigma " << Fmt(sigma_hat) << " px";
   if (!fit.rejected.empty()) msg << ", " << fit.rejected.size() << " outliers rejected";
   if (!core_ok) msg << "; focal length / principal point NOT determined";
-  if (distinct.size() < 3) msg << "; WARNING: only " << distinct.size() << " board orientations (use 10 or more)";
+  if (st->num_orientations < 3) msg << "; WARNING: only " << st->num_orientations << " board orientations (use 10 or more)";
   fit.message = msg.str();
   fit.summary.message = fit.message + " | " + fit.summary.message;
   fit.summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return fit;
-}
-
-void AppendIntrinsicsToResult(const IntrinsicsFit& fit, const std::string& eye_name, CalibrationResult* result) {
-  SolveSummary s = fit.summary;
-  s.problem = "intrinsics." + eye_name;
-  result->summaries.push_back(s);
-  if (!fit.ok) {
-    result->warnings.push_back(eye_name + " intrinsics: " + fit.message);
-    for (const auto& u : fit.undetermined) {
-      const std::string name = u.substr(0, u.find(':'));
-      Parameter p{eye_name + "." + name, kNaN, kNaN, IntrinsicParamUnit(name), std::nullopt, false, u.substr(u.find(':') + 2)};
-      result->Set(p);
-    }
-    return;
-  }
-  const int eye = eye_name == "right" ? 1 : 0;
-  result->cameras[eye] = fit.camera;
-  for (size_t i = 0; i < fit.param_names.size(); ++i) {
-    Parameter p;
-    p.name = eye_name + "." + fit.param_names[i];
-    p.value = fit.camera.params[i];
-    p.sigma = fit.sigmas[i];
-    p.unit = IntrinsicParamUnit(fit.param_names[i]);
-    p.determined = fit.determined[i];
-    for (const auto& u : fit.undetermined)
-      if (u.rfind(fit.param_names[i] + ":", 0) == 0) p.note = u.substr(fit.param_names[i].size() + 2);
-    result->Set(p);
-  }
-  for (const auto& u : fit.undetermined) result->warnings.push_back(eye_name + "." + u);
-  nlohmann::json d;
-  d["rms_px"] = fit.rms_px;
-  d["corner_sigma_px"] = fit.corner_sigma_px;
-  d["frames"] = fit.frame_indices;
-  d["view_rms_px"] = fit.view_rms_px;
-  d["dropped_views"] = fit.dropped_views;
-  nlohmann::json rej = nlohmann::json::array();
-  for (const auto& r : fit.rejected)
-    rej.push_back({{"frame", r.frame_index}, {"corner", r.corner_id}, {"residual_px", r.residual_px}});
-  d["rejected"] = rej;
-  result->diagnostics["intrinsics"][eye_name] = d;
 }
 
 }  // namespace owlcal::fitting

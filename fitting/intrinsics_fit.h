@@ -7,11 +7,11 @@
 // (2) Ceres, autodiff through models::OpenCvCamera<N>, board poses cam_from_target as 7-blocks
 // [qx qy qz qw tx ty tz] on ProductManifold(EigenQuaternionManifold, EuclideanManifold<3>),
 // residuals whitened by the corner sigma; optional robust loss; (3) outlier rejection at
-// outlier_threshold_sigma and a re-solve; (4) covariance of the intrinsic parameters (board
-// poses marginalised by a Schur complement), scaled by the corner noise measured from the
-// residuals when corner_sigma_px == 0; (5) observability: parameters that are fixed, in the
-// null space of the information matrix, or with a sigma too large to mean anything are listed
-// in `undetermined` with the reason, and never reported as determined.
+// outlier_threshold_sigma and a re-solve; (4) observability and covariance of the intrinsic
+// parameters by the one rule of fitting/observability.h (board poses eliminated), scaled by the
+// corner noise measured from the residuals when corner_sigma_px == 0; parameters that are fixed,
+// not determined by that rule, or with a sigma too large to mean anything are listed in
+// `undetermined` with the reason, and never reported as determined; (5) outputs.
 //
 // Degenerate input (fewer than 3 distinct board orientations, views with fewer than
 // min_corners_per_view corners, no views) returns ok = false with a message naming what cannot
@@ -25,6 +25,7 @@
 #include <Eigen/Core>
 
 #include "calib/observation.h"
+#include "fitting/observability.h"
 #include "fitting/result.h"
 #include "models/camera_model.h"
 #include "models/rigid3.h"
@@ -48,6 +49,8 @@ struct IntrinsicsFitOptions {
   // A parameter is "undetermined" when sigma exceeds these: pixels params, distortion coeffs.
   double max_sigma_px = 50.0;
   double max_sigma_distortion = 5.0;
+  // Null-space threshold of the observability rule (fitting/observability.h, rule 4).
+  double rank_tolerance = kDefaultRankTolerance;
 
   bool Check(std::string* why) const;
 };

@@ -6,8 +6,9 @@
 //
 // Steps: FitIntrinsics per eye (initialisation + per-eye outlier rejection), right_from_left
 // initialised from the median over pairs, then one Ceres problem (residuals whitened by each
-// camera's corner sigma), covariance of [left params, right params, rotation vector (rad),
-// T (target unit)] with board poses marginalised, rectification with cv::stereoRectify
+// camera's corner sigma), observability and covariance of [left params, right params, rotation
+// vector (rad), T (target unit)] by the rule of fitting/observability.h (board poses
+// eliminated), rectification with cv::stereoRectify
 // (CALIB_ZERO_DISPARITY, alpha) and the rectified epipolar error: |y_left - y_right| of the
 // same corner after cv::undistortPoints with R1/P1 and R2/P2, over every corner seen by both.
 //

@@ -15,6 +15,7 @@
 #include <ceres/ceres.h>
 
 #include "fitting/format.h"
+#include "fitting/observability.h"
 #include "models/vergence.h"
 
 namespace owlcal::fitting {
@@ -49,8 +50,14 @@ struct SolveOutput {
   std::vector<int> runs;
   ceres::Solver::Summary summary;
   bool covariance_ok = false;
-  // sigma (unscaled, i.e. in units of the prior) per named parameter
+  // sigma (unscaled, i.e. in units of the prior) per determined parameter; the others with why
   std::map<std::string, double> sigma;
+  std::map<std::string, std::string> undetermined;
+  // sigma of `name`, or infinity when it has none.
+  double SigmaOrInfinity(const std::string& name) const {
+    const auto it = sigma.find(name);
+    return covariance_ok && it != sigma.end() ? it->second : std::numeric_limits<double>::infinity();
+  }
   double chi2 = 0;
   int dof = 0;
 };
@@ -115,38 +122,32 @@ SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
   // No covariance after a failed solve: it would describe a point that is not a minimum (and
   // Ceres evaluates the Jacobian there, which may not even be defined).
   if (!want_covariance || out.summary.termination_type != ceres::CONVERGENCE) return out;
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::DENSE_SVD;
-  co.null_space_rank = 0;  // a rank-deficient problem fails (-1 would return a pseudo-inverse:
-                           // tiny sigmas for parameters the data cannot determine)
-  co.min_reciprocal_condition_number = 1e-12;
-  ceres::Covariance cov(co);
-  std::vector<std::pair<const double*, const double*>> blocks = {{rx, rx}, {lx, lx}};
-  if (ipd_free) blocks.push_back({&ipd, &ipd});
-  if (datum_free) blocks.push_back({&datum, &datum});
-  for (size_t k = 0; k < bearing.size(); ++k)
-    if (!problem.IsParameterBlockConstant(&bearing[k])) blocks.push_back({&bearing[k], &bearing[k]});
-  out.covariance_ok = cov.Compute(blocks, &problem);
-  if (!out.covariance_ok) return out;
-  double c2[4], c1;
-  cov.GetCovarianceBlock(rx, rx, c2);
-  out.sigma["rx.centre"] = std::sqrt(c2[0]);
-  out.sigma["rx.scale"] = std::sqrt(c2[3]);
-  cov.GetCovarianceBlock(lx, lx, c2);
-  out.sigma["lx.centre"] = std::sqrt(c2[0]);
-  out.sigma["lx.scale"] = std::sqrt(c2[3]);
+  // Observability and covariance by the one rule of fitting/observability.h (no local blocks):
+  // a direction the data cannot see is "not determined", never a pseudo-inverse's tiny sigma.
+  std::vector<double*> globals = {rx, lx};
+  std::vector<std::string> names = {"rx.centre", "rx.scale", "lx.centre", "lx.scale"};
   if (ipd_free) {
-    cov.GetCovarianceBlock(&ipd, &ipd, &c1);
-    out.sigma["ipd"] = std::sqrt(c1);
+    globals.push_back(&ipd);
+    names.push_back("ipd");
   }
   if (datum_free) {
-    cov.GetCovarianceBlock(&datum, &datum, &c1);
-    out.sigma["datum"] = std::sqrt(c1);
+    globals.push_back(&datum);
+    names.push_back("datum");
   }
   for (size_t k = 0; k < bearing.size(); ++k) {
     if (problem.IsParameterBlockConstant(&bearing[k])) continue;
-    cov.GetCovarianceBlock(&bearing[k], &bearing[k], &c1);
-    out.sigma["bearing" + std::to_string(k)] = std::sqrt(c1);
+    globals.push_back(&bearing[k]);
+    names.push_back("bearing" + std::to_string(k));
+  }
+  const Observability obs = AnalyseObservability(&problem, globals, {}, names, kDefaultRankTolerance);
+  out.covariance_ok = obs.ok;
+  if (!obs.ok) return out;
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (obs.determined[i]) {
+      out.sigma[names[i]] = std::sqrt(obs.covariance(i, i));
+    } else {
+      out.undetermined[names[i]] = obs.reasons[i];
+    }
   }
   return out;
 }
@@ -273,7 +274,7 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     o2.datum_offset_m = s.maps.datum_offset_m;
     SolveOutput f = Solve(rows, o2, true, datum_free, true);
     const double scale = std::max(1.0, std::sqrt(f.chi2 / std::max(1, f.dof)));
-    const double sig = f.covariance_ok ? f.sigma["ipd"] * scale : std::numeric_limits<double>::infinity();
+    const double sig = f.SigmaOrInfinity("ipd") * scale;
     const bool on_bound = f.maps.ipd_m < 0.021 || f.maps.ipd_m > 0.199;
     // Freeing IPD must also lower chi2 by more than 9 (3 sigma, in units of the residual
     // variance): in the valley the local covariance can look tight while chi2 is flat.
@@ -289,8 +290,7 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     }
   }
   if (datum_free) {
-    const double sig = s.covariance_ok ? s.sigma["datum"] * std::max(1.0, std::sqrt(s.chi2 / std::max(1, s.dof)))
-                                       : std::numeric_limits<double>::infinity();
+    const double sig = s.SigmaOrInfinity("datum") * std::max(1.0, std::sqrt(s.chi2 / std::max(1, s.dof)));
     if (!(sig < options.datum_sigma_threshold_m)) {
       fit.notes.push_back("distance datum not determined (sigma " + FixedOrDash(sig * 1000, 0) + " mm); fixed at " +
                           FixedOrDash(options.datum_offset_m * 1000, 0) + " mm in front of the eye centres");
@@ -318,29 +318,39 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     Parameter p;
     p.name = name;
     p.value = v;
-    p.sigma = sigma;
+    p.sigma = det ? sigma : nan;  // a parameter that is not determined has no sigma
     p.unit = unit;
     p.determined = det;
     p.note = note;
     fit.parameters.push_back(p);
   };
+  // Determined by the observability rule, else the rule's reason; nothing is determined by a
+  // solve that did not converge or by one distance.
   const bool converged = s.summary.termination_type == ceres::CONVERGENCE;
-  const bool ok = s.covariance_ok && num_distances >= 2;
-  const std::string nocov = ok ? "" : !converged ? "solver did not converge"
-                                    : num_distances < 2 ? "not determined: one distance only"
-                                                        : "not determined: the covariance is rank-deficient";
-  add("servo.Rx.centre_us", s.maps.rx_centre_us, sig("rx.centre", 1), "us", ok, nocov);
-  add("servo.Rx.us_per_deg", s.maps.rx_us_per_deg, sig("rx.scale", 1), "us/deg", ok, nocov);
-  add("servo.Lx.centre_us", s.maps.lx_centre_us, sig("lx.centre", 1), "us", ok, nocov);
-  add("servo.Lx.us_per_deg", s.maps.lx_us_per_deg, sig("lx.scale", 1), "us/deg", ok, nocov);
-  add("head.ipd_mm", s.maps.ipd_m * 1000, ipd_free ? sig("ipd", 1000) : nan, "mm", ipd_free && ok,
-      ipd_free ? "" : "fixed: not determined by a vergence log");
-  add("vergence.datum_mm", s.maps.datum_offset_m * 1000, datum_free ? sig("datum", 1000) : nan, "mm", datum_free && ok,
-      datum_free ? "eye-centre baseline to the distance datum" : "fixed");
-  for (size_t k = 1; k < s.runs.size() && options.per_run_bearing; ++k)
+  const std::string blocked = !converged              ? "solver did not converge"
+                              : num_distances < 2     ? "not determined: one distance only"
+                              : !s.covariance_ok      ? "not determined: the covariance failed"
+                                                      : "";
+  auto det = [&](const std::string& k) { return blocked.empty() && s.sigma.count(k) > 0; };
+  auto note_of = [&](const std::string& k, const std::string& note) {
+    if (!blocked.empty()) return blocked;
+    const auto it = s.undetermined.find(k);
+    return it != s.undetermined.end() ? "not determined: " + it->second : note;
+  };
+  add("servo.Rx.centre_us", s.maps.rx_centre_us, sig("rx.centre", 1), "us", det("rx.centre"), note_of("rx.centre", ""));
+  add("servo.Rx.us_per_deg", s.maps.rx_us_per_deg, sig("rx.scale", 1), "us/deg", det("rx.scale"), note_of("rx.scale", ""));
+  add("servo.Lx.centre_us", s.maps.lx_centre_us, sig("lx.centre", 1), "us", det("lx.centre"), note_of("lx.centre", ""));
+  add("servo.Lx.us_per_deg", s.maps.lx_us_per_deg, sig("lx.scale", 1), "us/deg", det("lx.scale"), note_of("lx.scale", ""));
+  add("head.ipd_mm", s.maps.ipd_m * 1000, ipd_free ? sig("ipd", 1000) : nan, "mm", ipd_free && det("ipd"),
+      ipd_free ? note_of("ipd", "") : "fixed: not determined by a vergence log");
+  add("vergence.datum_mm", s.maps.datum_offset_m * 1000, datum_free ? sig("datum", 1000) : nan, "mm",
+      datum_free && det("datum"), datum_free ? note_of("datum", "eye-centre baseline to the distance datum") : "fixed");
+  for (size_t k = 1; k < s.runs.size() && options.per_run_bearing; ++k) {
+    const std::string b = "bearing" + std::to_string(k);
     add("vergence.run" + std::to_string(s.runs[k]) + ".bearing_deg", s.maps.run_bearing_rad[k] * kRadToDeg,
-        sig("bearing" + std::to_string(k), kRadToDeg), "deg", ok, "relative to run " + std::to_string(s.runs[0]));
-
+        sig(b, kRadToDeg), "deg", det(b), note_of(b, "relative to run " + std::to_string(s.runs[0])));
+  }
+  const bool ok = s.covariance_ok && det("rx.centre") && det("rx.scale") && det("lx.centre") && det("lx.scale");
   fit.summary.problem = "vergence_log";
   fit.summary.termination = ceres::TerminationTypeToString(s.summary.termination_type);
   fit.summary.message = s.summary.message;

@@ -1,0 +1,144 @@
+#pragma once
+// The head fit's parameter blocks and Ceres problem (internal to fitting/head_fit.cc; see
+// fitting/head_fit.h for what is estimated and fitting/head_gauge.h for what is held).
+//
+// Blocks (values in SI inside, `scale` converts to the result's unit):
+//   servo[i]   models::ServoMap params of servo i (wire order)
+//   mount[e]   fitting/head_residuals.h MountParams: roll, yaw [rad], x, y, z [m]
+//   centres    head_residuals.h CentresParams: left x, y, z, right x, y [m] (right z = left z)
+//   camera[e]  intrinsics of eye e (models/camera_model.h order)
+//   boards     base_from_target of each target, 7-block [qx qy qz qw tx ty tz]
+// An entry is held (SubsetManifold, or the whole block constant) when `fixed`, with the reason
+// in `fixed_note`.
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include "calib/observation.h"
+#include "fitting/head_fit.h"
+#include "fitting/head_residuals.h"
+#include "fitting/observability.h"
+#include "models/rigid3.h"
+#include "models/robot_config.h"
+
+namespace owlcal::fitting::internal {
+
+// One Ceres parameter block and how its entries are reported.
+struct Block {
+  std::vector<double> values;
+  std::vector<std::string> names;   // report names per ambient entry (tangent names for poses)
+  std::vector<double> scale;        // internal -> report unit
+  std::vector<std::string> units;
+  std::vector<bool> fixed;
+  std::vector<std::string> fixed_note;
+  bool is_pose = false;
+  bool in_problem = false;
+
+  double* data() { return values.data(); }
+  const double* data() const { return values.data(); }
+  int size() const { return static_cast<int>(values.size()); }
+  bool AllFixed() const;
+  // Free (tangent) entries: 6 for a pose, else the entries not fixed.
+  int TangentSize() const;
+  // Ambient index of tangent index k (Euclidean blocks), -1 when out of range.
+  int AmbientOfTangent(int k) const;
+  // Holds entry i with `note`; the first (most specific) reason is kept.
+  void Fix(int i, const std::string& note);
+  void FixAll(const std::string& note);
+};
+
+Block MakeBlock(const std::vector<double>& values,
+                const std::vector<std::string>& names,
+                const std::vector<double>& scale,
+                const std::vector<std::string>& units);
+
+// A view prepared for the residual: the data that survived filtering.
+struct PreparedView {
+  int index = 0;  // into the input views
+  HeadViewCommand command;
+  std::string target_id;
+  std::vector<int> corner_ids;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<bool> inlier;
+};
+
+struct HeadState {
+  std::array<Block, models::kNumServos> servo;
+  std::array<Block, 2> mount;
+  Block centres;
+  std::array<Block, 2> camera;
+  std::map<std::string, Block> boards;
+  models::DistortionModel camera_model[2];
+
+  // The blocks in the order of the observability analysis and the covariance: servos, mounts,
+  // centres, cameras (`head_blocks`), then the boards.
+  std::vector<Block*> HeadBlocks();
+  std::vector<Block*> BoardBlocks();
+};
+
+HeadViewCommand CommandOf(const calib::View& v, const models::RobotConfig& robot);
+models::Rigid3d CamFromBase(const HeadState& s, const HeadViewCommand& c);
+// Per-corner reprojection error |projected - measured| [px] at the current state; NaN where the
+// point does not project.
+std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v);
+
+// Adds one residual block per view over its inlier corners (every `stride`-th when
+// max_corners_per_view > 0), the intrinsics priors, and the manifolds / constant blocks of
+// what is held; sets Block::in_problem. Returns the number of corners used.
+int BuildHeadProblem(HeadState* s,
+                     const std::vector<PreparedView>& views,
+                     double sigma_px,
+                     double huber_k,
+                     const HeadFitOptions& options,
+                     int max_corners_per_view,
+                     ceres::Problem* problem);
+
+ceres::Solver::Summary SolveHeadProblem(ceres::Problem* problem, const HeadFitOptions& options, double tolerance);
+
+// Set-up phases of FitHead (fitting/head_fit_setup.cc).
+// Views with a valid eye, matching pixels/points and enough corners; the others are named in
+// `warnings`.
+std::vector<PreparedView> PrepareViews(const std::vector<calib::View>& views,
+                                       const models::RobotConfig& robot,
+                                       const HeadFitOptions& options,
+                                       std::vector<std::string>* warnings);
+// Blocks from `initial`; neck centre from the robot file.
+HeadState InitialState(const models::HeadModel& initial, const models::RobotConfig& robot);
+// Holds, with the reason, what the data cannot determine before the solve (eyes without views,
+// servos with too few distinct pulse widths or one approach, the gauge of fitting/head_gauge.h,
+// options). Returns whether the neck moved.
+bool HoldWhatTheDataCannotDetermine(const std::vector<calib::View>& views,
+                                    const std::vector<PreparedView>& prepared,
+                                    const models::RobotConfig& robot,
+                                    const HeadFitOptions& options,
+                                    HeadState* s);
+// One base_from_target per target: PnP on its view with the most corners, chained through the
+// initial head. Views of targets whose PnP fails are removed and named in `warnings`.
+void InitialiseBoards(const std::vector<calib::View>& views,
+                      std::vector<PreparedView>* prepared,
+                      HeadState* s,
+                      std::vector<std::string>* warnings);
+
+// The observability analysis of the free head blocks (boards eliminated).
+struct HeadCovariance {
+  Observability analysis;  // over the tangent coordinates below (ok = false: nothing free)
+  std::map<std::pair<const Block*, int>, int> tangent_of;  // (block, ambient index) -> tangent index
+};
+
+// Outputs of FitHead (fitting/head_fit_output.cc): the head model, every parameter with sigma
+// or its reason, the IPD, the covariance of the determined parameters, the undetermined list,
+// grouped warnings and the diagnostics.
+void WriteHeadOutputs(const models::HeadModel& initial,
+                      const models::RobotConfig& robot,
+                      const HeadFitOptions& options,
+                      const HeadState& s,
+                      const HeadCovariance& cov,
+                      size_t num_views_given,
+                      HeadFit* fit);
+
+}  // namespace owlcal::fitting::internal
