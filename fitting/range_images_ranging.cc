@@ -160,6 +160,54 @@ std::optional<double> TriangulateDepth(const StereoRig& rig,
   return fix->point.dot(axis);
 }
 
+RectifiedTriangulation TriangulateRectified(const StereoRig& rig,
+                                            const Rectification& rect,
+                                            const cv::Point2d& left_rect_px,
+                                            const cv::Point2d& right_rect_px) {
+  RectifiedTriangulation t;
+  // Rectified pixel -> raw pixel of each eye: ray in the rectified frame, rotated back by
+  // R^T, projected through the calibrated camera.
+  auto to_raw = [&](const cv::Point2d& u, const cv::Matx34d& P, const cv::Matx33d& Rr, int eye,
+                    Eigen::Vector2d* raw) {
+    const cv::Vec3d ray_rect((u.x - P(0, 2)) / P(0, 0), (u.y - P(1, 2)) / P(1, 1), 1.0);
+    const cv::Vec3d ray = Rr.t() * ray_rect;
+    double pt[3] = {ray[0], ray[1], ray[2]};
+    return rig.cameras[eye].Project(pt, raw->data());
+  };
+  if (!to_raw(left_rect_px, rect.P1, rect.R1, 0, &t.raw_px[0]) ||
+      !to_raw(right_rect_px, rect.P2, rect.R2, 1, &t.raw_px[1])) {
+    t.message = "match maps outside the cameras' field";
+    return t;
+  }
+  const cv::Vec3d ax = rect.R1.t() * cv::Vec3d(0, 0, 1);
+  const Eigen::Vector3d axis(ax[0], ax[1], ax[2]);
+  const std::vector<double> p0 = RigParameters(rig);
+  const auto z0 = TriangulateDepth(rig, p0, t.raw_px[0], t.raw_px[1], axis, &t.ray_gap_m);
+  if (!z0) {
+    t.message = "rays do not meet in front of the cameras";
+    return t;
+  }
+  t.depth_m = *z0;
+  const int n = rig.NumParams();
+  if (rig.covariance.rows() == n && rig.covariance.cols() == n) {
+    Eigen::VectorXd J = Eigen::VectorXd::Zero(n);
+    for (int i = 0; i < n; ++i) {
+      const double var = rig.covariance(i, i);
+      if (!(var > 0)) continue;
+      const double h = 0.01 * std::sqrt(var);
+      std::vector<double> pp = p0, pm = p0;
+      pp[i] += h;
+      pm[i] -= h;
+      const auto zp = TriangulateDepth(rig, pp, t.raw_px[0], t.raw_px[1], axis);
+      const auto zm = TriangulateDepth(rig, pm, t.raw_px[0], t.raw_px[1], axis);
+      if (zp && zm) J[i] = (*zp - *zm) / (2 * h);
+    }
+    t.sigma_calib_m = std::sqrt(std::max(0.0, J.dot(rig.covariance * J)));
+  }
+  t.ok = true;
+  return t;
+}
+
 RangeMeasurement RangePair(const cv::Mat& left_raw,
                            const cv::Mat& right_raw,
                            const StereoRig& rig,
@@ -174,51 +222,19 @@ RangeMeasurement RangePair(const cv::Mat& left_raw,
     m.message = "no match: " + m.match.message;
     return m;
   }
-  // Rectified pixel -> raw pixel of each eye: ray in the rectified frame, rotated back by
-  // R^T, projected through the calibrated camera.
-  auto to_raw = [&](const cv::Point2d& u, const cv::Matx34d& P, const cv::Matx33d& Rr, int eye,
-                    Eigen::Vector2d* raw) {
-    const cv::Vec3d ray_rect((u.x - P(0, 2)) / P(0, 0), (u.y - P(1, 2)) / P(1, 1), 1.0);
-    const cv::Vec3d ray = Rr.t() * ray_rect;
-    double pt[3] = {ray[0], ray[1], ray[2]};
-    return rig.cameras[eye].Project(pt, raw->data());
-  };
-  if (!to_raw(m.match.left_px, rect.P1, rect.R1, 0, &m.raw_px[0]) ||
-      !to_raw(m.match.right_px, rect.P2, rect.R2, 1, &m.raw_px[1])) {
-    m.message = "match maps outside the cameras' field";
+  const RectifiedTriangulation tri = TriangulateRectified(rig, rect, m.match.left_px, m.match.right_px);
+  if (!tri.ok) {
+    m.message = tri.message;
     return m;
   }
-  const cv::Vec3d ax = rect.R1.t() * cv::Vec3d(0, 0, 1);
-  const Eigen::Vector3d axis(ax[0], ax[1], ax[2]);
-  const std::vector<double> p0 = RigParameters(rig);
-  const auto z0 = TriangulateDepth(rig, p0, m.raw_px[0], m.raw_px[1], axis, &m.ray_gap_m);
-  if (!z0) {
-    m.message = "rays do not meet in front of the cameras";
-    return m;
-  }
-  m.range_m = *z0 + options.datum_offset_m;
-  m.sigma_match_m = m.match.disparity_px > 0 ? *z0 / m.match.disparity_px * m.match.sigma_disparity_px
+  m.raw_px[0] = tri.raw_px[0];
+  m.raw_px[1] = tri.raw_px[1];
+  m.ray_gap_m = tri.ray_gap_m;
+  m.range_m = tri.depth_m + options.datum_offset_m;
+  m.sigma_match_m = m.match.disparity_px > 0 ? tri.depth_m / m.match.disparity_px * m.match.sigma_disparity_px
                                              : std::numeric_limits<double>::infinity();
-  const int n = rig.NumParams();
-  if (rig.covariance.rows() == n && rig.covariance.cols() == n) {
-    Eigen::VectorXd J = Eigen::VectorXd::Zero(n);
-    for (int i = 0; i < n; ++i) {
-      const double var = rig.covariance(i, i);
-      if (!(var > 0)) continue;
-      const double h = 0.01 * std::sqrt(var);
-      std::vector<double> pp = p0, pm = p0;
-      pp[i] += h;
-      pm[i] -= h;
-      const auto zp = TriangulateDepth(rig, pp, m.raw_px[0], m.raw_px[1], axis);
-      const auto zm = TriangulateDepth(rig, pm, m.raw_px[0], m.raw_px[1], axis);
-      if (zp && zm) J[i] = (*zp - *zm) / (2 * h);
-    }
-    m.sigma_calib_m = std::sqrt(std::max(0.0, J.dot(rig.covariance * J)));
-    m.sigma_m = std::hypot(m.sigma_calib_m, m.sigma_match_m);
-  } else {
-    m.sigma_calib_m = std::numeric_limits<double>::quiet_NaN();
-    m.sigma_m = m.sigma_match_m;
-  }
+  m.sigma_calib_m = tri.sigma_calib_m;
+  m.sigma_m = std::isfinite(tri.sigma_calib_m) ? std::hypot(m.sigma_calib_m, m.sigma_match_m) : m.sigma_match_m;
   m.ok = true;
   return m;
 }

@@ -99,6 +99,22 @@ struct RangeMeasurement {
   double error_m() const { return range_m - true_m; }
 };
 
+// A pair of rectified pixels (same scene point in the left and right rectified images) mapped
+// back to raw pixels and triangulated through the calibrated cameras; sigma_calib_m = sqrt(J C
+// J^T) over the rig's covariance (see above), NaN when the rig has none.
+struct RectifiedTriangulation {
+  bool ok = false;
+  std::string message;                // why not
+  Eigen::Vector2d raw_px[2];
+  double depth_m = 0;                 // along the rectified z axis, from the optical centres
+  double ray_gap_m = 0;
+  double sigma_calib_m = std::numeric_limits<double>::quiet_NaN();
+};
+RectifiedTriangulation TriangulateRectified(const StereoRig& rig,
+                                            const Rectification& rect,
+                                            const cv::Point2d& left_rect_px,
+                                            const cv::Point2d& right_rect_px);
+
 // Ranges one raw pair. Never throws for "target not found" (ok = false, message).
 RangeMeasurement RangePair(const cv::Mat& left_raw,
                            const cv::Mat& right_raw,

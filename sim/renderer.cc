@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -273,7 +274,8 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
                          const SceneDescription& scene,
                          const std::vector<const TargetTexture*>& textures,
                          const TargetTexture& background,
-                         cv::Mat* grey) const {
+                         cv::Mat* grey,
+                         cv::Mat* depth_z_m) const {
   struct Plane {
     float m[9];                  // ray (x, y, 1) -> (u q2, v q2, q2) in level-0 texels
     float x0, x1, y0, y1;        // bounding box in normalised ray coordinates
@@ -388,10 +390,12 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
   const float rim_floor = float(socket.rim_floor);
 
   grey->create(height_, width_, CV_8U);
+  if (depth_z_m) depth_z_m->create(height_, width_, CV_32F);
   std::vector<int> active;
   active.reserve(planes.size());
   for (int y = 0; y < height_; ++y) {
     uint8_t* out = grey->ptr<uint8_t>(y);
+    float* depth_out = depth_z_m ? depth_z_m->ptr<float>(y) : nullptr;
     const size_t row = size_t(y) * width_;
     // Planes whose bounding box meets this row's range of rays.
     active.clear();
@@ -418,6 +422,8 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
         bu = u;
         bv = v;
       }
+      // The hit point is lambda * (rx, ry, 1) with lambda = 1 / q2: its camera z is 1 / q2.
+      if (depth_out) depth_out[x] = best >= 0 && inv_norm_[k] > 0 ? 1.f / best_q2 : std::numeric_limits<float>::quiet_NaN();
       float t = 0.5f;
       if (best >= 0) {
         const Plane& p = planes[best];

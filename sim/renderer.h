@@ -66,13 +66,17 @@ class EyeRenderer {
   EyeRenderer(const models::CameraIntrinsics& intrinsics, double lens_shading, double blur_px);
   // Renders one 8-bit grey image (no noise). cam_from_base: this eye's camera pose.
   // rim_axis_in_cam: the head's forward axis (socket axis) in the camera frame.
+  // depth_z_m (optional): the truth depth of the surface each pixel sees, CV_32F, as the z
+  // coordinate [m] in this camera's frame (not the distance along the ray); NaN where the
+  // lens model has no ray. The socket rim darkens the image but does not hide the surface.
   void Render(const models::Rigid3d& cam_from_base,
               const Eigen::Vector3d& rim_axis_in_cam,
               const SocketTruth& socket,
               const SceneDescription& scene,
               const std::vector<const TargetTexture*>& textures,  // per scene target
               const TargetTexture& background,
-              cv::Mat* grey) const;
+              cv::Mat* grey,
+              cv::Mat* depth_z_m = nullptr) const;
   int width() const { return width_; }
   int height() const { return height_; }
 

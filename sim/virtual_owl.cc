@@ -262,7 +262,7 @@ robot::StereoFrame VirtualOwl::RenderFrame(int64_t seq) const {
   return Compose(seq, ft, scene);
 }
 
-cv::Mat VirtualOwl::RenderEyeGrey(models::Eye eye, const models::JointAngles& angles) const {
+cv::Mat VirtualOwl::RenderEyeGrey(models::Eye eye, const models::JointAngles& angles, cv::Mat* depth_z_m) const {
   std::unique_lock<std::mutex> lock(mutex_);
   const SceneDescription scene = scene_;
   lock.unlock();
@@ -272,7 +272,7 @@ cv::Mat VirtualOwl::RenderEyeGrey(models::Eye eye, const models::JointAngles& an
   const models::Rigid3d cam_from_head = cam_from_base * models::HeadFromBase(angles.neck_rad).Inverse();
   cv::Mat grey;
   renderers_[eye]->Render(cam_from_base, cam_from_head.rotation * Eigen::Vector3d::UnitZ(), truth_.socket, scene, tex,
-                          background_, &grey);
+                          background_, &grey, depth_z_m);
   return grey;
 }
 

@@ -121,8 +121,9 @@ class VirtualOwl : public robot::RobotInterface, public robot::SceneControl {
   FrameTruth TruthForFrame(int64_t seq) const;
   // Renders frame `seq` as the stream would deliver it (the clock does not move).
   robot::StereoFrame RenderFrame(int64_t seq) const;
-  // Renders one eye's noise-free grey image at given joint angles (tests, benchmarks).
-  cv::Mat RenderEyeGrey(models::Eye eye, const models::JointAngles& angles) const;
+  // Renders one eye's noise-free grey image at given joint angles (tests, benchmarks), and
+  // optionally the truth depth image (EyeRenderer::Render: camera z [m], CV_32F).
+  cv::Mat RenderEyeGrey(models::Eye eye, const models::JointAngles& angles, cv::Mat* depth_z_m = nullptr) const;
 
  private:
   int64_t NowLocked() const;
