@@ -1,5 +1,6 @@
 #include "fitting/monte_carlo.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -18,7 +19,45 @@ void SigmaCoverage::Add(const std::vector<Parameter>& parameters) {
     if (z <= 1.0) ++pp.within1;
     if (z <= 3.0) ++pp.within3;
     pp.sum_z2 += z * z;
+    Group& g = groups_[ParameterGroup(p.name)];
+    ++g.count;
+    if (z <= 1.0) ++g.within1;
+    if (z <= 3.0) ++g.within3;
+    g.sum_z2 += z * z;
+    if (z > g.worst_z) {
+      g.worst_z = z;
+      g.worst = (label_.empty() ? "" : label_ + " ") + p.name;
+    }
   }
+}
+
+std::string ParameterGroup(const std::string& name) {
+  auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
+  if (starts("left.") || starts("right.")) return "lens";
+  if (starts("stereo.")) return "stereo";
+  if (starts("servo.")) return "servo maps";
+  if (starts("head.")) {
+    const std::string last = name.substr(name.rfind('.') + 1);
+    static const char* kLens[] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"};
+    for (const char* l : kLens)
+      if (last == l) return "lens";
+    return "head geometry";
+  }
+  return "other";
+}
+
+std::string SigmaCoverage::GroupTable(double tol1, double min3) const {
+  std::string out = "| group | n | within 1 sigma | within 3 sigma | RMS(z) | worst | verdict |\n|---|---|---|---|---|---|---|\n";
+  char line[512];
+  for (const auto& [name, g] : groups_) {
+    const double f1 = 100.0 * g.within1 / std::max(1, g.count), f3 = 100.0 * g.within3 / std::max(1, g.count);
+    const bool ok = std::abs(f1 - 68.27) <= tol1 && f3 >= min3;
+    std::snprintf(line, sizeof(line), "| %s | %d | %.1f %% | %.2f %% | %.2f | %s (z = %.1f) | %s |\n", name.c_str(), g.count, f1,
+                  f3, std::sqrt(g.sum_z2 / std::max(1, g.count)), g.worst.c_str(), g.worst_z,
+                  ok ? "ok" : "OUT OF TARGET");
+    out += line;
+  }
+  return out;
 }
 
 void SigmaCoverage::AddFailure(const std::string& why) {

@@ -40,6 +40,21 @@ class SigmaCoverage {
     double sum_z2 = 0;
   };
   const std::map<std::string, PerParameter>& per_parameter() const { return per_; }
+  // Per group (ParameterGroup): count and fractions within 1 and 3 sigma, RMS(z).
+  struct Group {
+    int count = 0;
+    int within1 = 0;
+    int within3 = 0;
+    double sum_z2 = 0;
+    double worst_z = 0;
+    std::string worst;   // "robot 7 servo.Rx.centre_us"
+  };
+  const std::map<std::string, Group>& per_group() const { return groups_; }
+  // Label of the next Add() (e.g. "robot 7"), used to name the worst parameter of each group.
+  void SetLabel(const std::string& label) { label_ = label; }
+  // group | n | within 1 sigma | within 3 sigma | RMS(z) | worst, and a verdict per group
+  // against 68 +- tol1 % within 1 sigma and >= min3 % within 3 sigma (Markdown).
+  std::string GroupTable(double tol1 = 5.0, double min3 = 99.0) const;
   // A table: overall fractions, then every parameter's count, within-1/3 sigma and RMS(z).
   std::string Report() const;
 
@@ -48,8 +63,15 @@ class SigmaCoverage {
   int total_ = 0;
   std::vector<double> abs_z_;
   std::map<std::string, PerParameter> per_;
+  std::map<std::string, Group> groups_;
+  std::string label_;
   std::vector<std::string> failures_;
 };
+
+// The group a result parameter belongs to: "lens" (left.*, right.* and the head fit's refined
+// head.<eye>.fx ... k3), "stereo" (stereo.*), "servo maps" (servo.*), "head geometry" (other
+// head.*), else "other".
+std::string ParameterGroup(const std::string& name);
 
 // Runs fit_one(seed) for seeds first_seed .. first_seed + num_seeds - 1. fit_one returns the
 // parameters with truth set, or throws std::runtime_error (counted as a failure).

@@ -15,9 +15,6 @@
 namespace owlcal::sim {
 namespace {
 
-constexpr float kBlack = 25.f;
-constexpr float kWhite = 215.f;
-
 inline uint64_t SplitMix64(uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
@@ -227,8 +224,15 @@ TargetTexture MakeBackgroundTexture(const Background& bg) {
   return t;
 }
 
-EyeRenderer::EyeRenderer(const models::CameraIntrinsics& k, double lens_shading, double blur_px)
-    : width_(k.width), height_(k.height), fx_(k.params[0]), fy_(k.params[1]), blur_px_(std::max(1.0, blur_px)) {
+EyeRenderer::EyeRenderer(const models::CameraIntrinsics& k, const StreamTruth& stream)
+    : width_(k.width),
+      height_(k.height),
+      fx_(k.params[0]),
+      fy_(k.params[1]),
+      blur_px_(std::max(1.0, stream.blur_px)),
+      black_(float(stream.black_level)),
+      white_(float(stream.white_level)) {
+  const double lens_shading = stream.lens_shading;
   const size_t n = size_t(width_) * height_;
   ray_x_.resize(n);
   ray_y_.resize(n);
@@ -275,7 +279,8 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
                          const std::vector<const TargetTexture*>& textures,
                          const TargetTexture& background,
                          cv::Mat* grey,
-                         cv::Mat* depth_z_m) const {
+                         cv::Mat* depth_z_m,
+                         const RowTiming& timing) const {
   struct Plane {
     float m[9];                  // ray (x, y, 1) -> (u q2, v q2, q2) in level-0 texels
     float x0, x1, y0, y1;        // bounding box in normalised ray coordinates
@@ -283,10 +288,15 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
     float lod;
     bool wrap;
     const MipTexture* tex;
+    // Board warp (SceneTarget::warp_m): ray direction in the target frame (rows of R^T), and
+    // the parabola's centre, half spans [texels] and deflections [texels].
+    bool warped = false;
+    float rt[9];
+    float uc, vc, hu, hv, kx, ky;
   };
   std::vector<Plane> planes;
   auto add_plane = [&](const Eigen::Isometry3d& base_from_target, const TargetTexture& tt, bool wrap,
-                       const Eigen::Vector4d* extent) {
+                       const Eigen::Vector4d* extent, const SceneTarget* target = nullptr) {
     // cam_from_target = [R | t]; a target point (a, b, 0) is on ray lambda * (x, y, 1) with
     // (x, y, 1) ~ G (a, b, 1), G = [r1 r2 t]. Texture coords (u, v) = s * ((a, b) - origin).
     const Eigen::Matrix4d ct = cam_from_base.Matrix() * base_from_target.matrix();
@@ -354,20 +364,47 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
       if (std::isfinite(tpp) && tpp > 1.0) lod = float(std::log2(tpp));
     }
     p.lod = std::min(lod, float(tt.texture.num_levels() - 1));
+    if (target && (target->warp_m.x() != 0 || target->warp_m.y() != 0)) {
+      const Eigen::Vector4d span = target->WarpSpan();
+      p.warped = true;
+      const Eigen::Matrix3d rt = ct.block<3, 3>(0, 0).transpose();
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) p.rt[3 * r + c] = float(rt(r, c));
+      const double s_t = tt.texels_per_m;
+      p.uc = float(s_t * ((span[0] + span[1]) / 2 - tt.origin_m.x()));
+      p.vc = float(s_t * ((span[2] + span[3]) / 2 - tt.origin_m.y()));
+      p.hu = float(std::max(1e-9, s_t * (span[1] - span[0]) / 2));
+      p.hv = float(std::max(1e-9, s_t * (span[3] - span[2]) / 2));
+      p.kx = float(s_t * target->warp_m.x());
+      p.ky = float(s_t * target->warp_m.y());
+    }
     planes.push_back(p);
   };
+  // Still targets once; moving ones (rolling shutter) per row below.
+  struct Moving {
+    const SceneTarget* target;
+    const TargetTexture* texture;
+    Eigen::Vector4d extent;
+  };
+  std::vector<Moving> moving;
   for (size_t i = 0; i < scene.targets.size(); ++i) {
     const SceneTarget& t = scene.targets[i];
     if (!t.visible || !textures[i]) continue;
     const TargetTexture& tt = *textures[i];
     const Eigen::Vector4d extent(tt.origin_m.x(), tt.origin_m.x() + tt.texture.width() / tt.texels_per_m,
                                  tt.origin_m.y(), tt.origin_m.y() + tt.texture.height() / tt.texels_per_m);
-    add_plane(t.base_from_target, tt, false, &extent);
+    if (t.motion.Still()) {
+      add_plane(t.base_from_target, tt, false, &extent, &t);
+    } else {
+      moving.push_back({&t, &tt, extent});
+    }
   }
+
   // The background wall: facing the robot at z = distance, texture x along base x, y down.
   Eigen::Isometry3d base_from_wall = Eigen::Isometry3d::Identity();
   base_from_wall.translation() = Eigen::Vector3d(0, 0, scene.background.distance_m);
   add_plane(base_from_wall, background, true, nullptr);
+  const size_t num_still = planes.size();
 
   // Socket rim: darkening once the ray's angle from the socket axis exceeds
   // half_angle - softness; skipped when no image border ray reaches it.
@@ -397,6 +434,11 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
     uint8_t* out = grey->ptr<uint8_t>(y);
     float* depth_out = depth_z_m ? depth_z_m->ptr<float>(y) : nullptr;
     const size_t row = size_t(y) * width_;
+    if (!moving.empty()) {
+      planes.resize(num_still);
+      const int64_t t_row = timing.exposure_ns + int64_t(std::llround(y * timing.row_ns));
+      for (const Moving& m : moving) add_plane(m.target->PoseAt(t_row), *m.texture, false, &m.extent, m.target);
+    }
     // Planes whose bounding box meets this row's range of rays.
     active.clear();
     for (int i = 0; i < int(planes.size()); ++i)
@@ -427,9 +469,23 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
       float t = 0.5f;
       if (best >= 0) {
         const Plane& p = planes[best];
+        if (p.warped) {
+          // The surface z = -(kx (1 - un^2) + ky (1 - vn^2)) (towards the camera for k > 0):
+          // the ray meets it s = z / d_z further along, (u, v) moves by s (d_x, d_y) (first
+          // order in the deflection; a second-order error below 0.01 px at millimetre warps).
+          const float dx = p.rt[0] * rx + p.rt[1] * ry + p.rt[2];
+          const float dy = p.rt[3] * rx + p.rt[4] * ry + p.rt[5];
+          const float dz = p.rt[6] * rx + p.rt[7] * ry + p.rt[8];
+          if (dz > 1e-6f) {
+            const float un = (bu - p.uc) / p.hu, vn = (bv - p.vc) / p.hv;
+            const float z = -(p.kx * (1.f - un * un) + p.ky * (1.f - vn * vn));
+            bu += z / dz * dx;
+            bv += z / dz * dy;
+          }
+        }
         t = p.wrap ? p.tex->Sample(bu, bv, int(p.lod + 0.5f)) : p.tex->SampleLod(bu, bv, p.lod);
       }
-      float value = (kBlack + (kWhite - kBlack) * t) * gain_[k];
+      float value = (black_ + (white_ - black_) * t) * gain_[k];
       if (rim_active) {
         const float c = (rax * rx + ray_ * ry + raz) * inv_norm_[k];
         if (c < cos_start) {

@@ -9,7 +9,13 @@
 // sampled from a mip-mapped, area-averaged texture (trilinear), so edges are antialiased
 // and chessboard corners (which sit on texel boundaries at every used level) stay exact.
 //
-// Pixel values: 0..255 grey, black ink ~25, white paper ~215, before noise.
+// Pixel values: 0..255 grey, before noise: a texture value t in [0, 1] (0 ink, 1 paper) becomes
+// black_level + (white_level - black_level) * t, times the lens shading and the socket rim.
+//
+// Rolling shutter: row y is exposed at exposure_ns + y * row_ns (RowTiming). A moving target
+// (SceneTarget::motion) is drawn at its pose at each row's time, so a held board is sheared
+// and stretched as a real rolling-shutter sensor sees it; still targets and the camera pose
+// are those of the frame.
 #include <cstdint>
 #include <vector>
 
@@ -60,15 +66,24 @@ TargetTexture MakeTargetTexture(const calib::TargetDefinition& def);
 // The background wall's periodic random texture.
 TargetTexture MakeBackgroundTexture(const Background& background);
 
+// When each image row is exposed (rolling shutter): the top row at exposure_ns, row y at
+// exposure_ns + y * row_ns. row_ns = 0: a global shutter.
+struct RowTiming {
+  int64_t exposure_ns = 0;
+  double row_ns = 0;
+};
+
 class EyeRenderer {
  public:
-  // blur_px: width of the optical blur (texture filter footprint) in pixels, >= 1.
-  EyeRenderer(const models::CameraIntrinsics& intrinsics, double lens_shading, double blur_px);
+  // Photometry from the stream truth: lens_shading, blur_px (width of the optical blur, the
+  // texture filter footprint, >= 1 px), white_level and black_level.
+  EyeRenderer(const models::CameraIntrinsics& intrinsics, const StreamTruth& stream);
   // Renders one 8-bit grey image (no noise). cam_from_base: this eye's camera pose.
   // rim_axis_in_cam: the head's forward axis (socket axis) in the camera frame.
   // depth_z_m (optional): the truth depth of the surface each pixel sees, CV_32F, as the z
   // coordinate [m] in this camera's frame (not the distance along the ray); NaN where the
   // lens model has no ray. The socket rim darkens the image but does not hide the surface.
+  // Moving targets are drawn at their pose at each row's exposure time (`timing`).
   void Render(const models::Rigid3d& cam_from_base,
               const Eigen::Vector3d& rim_axis_in_cam,
               const SocketTruth& socket,
@@ -76,7 +91,8 @@ class EyeRenderer {
               const std::vector<const TargetTexture*>& textures,  // per scene target
               const TargetTexture& background,
               cv::Mat* grey,
-              cv::Mat* depth_z_m = nullptr) const;
+              cv::Mat* depth_z_m = nullptr,
+              const RowTiming& timing = {}) const;
   int width() const { return width_; }
   int height() const { return height_; }
 
@@ -84,6 +100,7 @@ class EyeRenderer {
   int width_, height_;
   double fx_, fy_;
   double blur_px_;
+  float black_, white_;
   std::vector<float> ray_x_, ray_y_, inv_norm_, gain_;
   std::vector<float> row_ray_y_min_, row_ray_y_max_;  // per image row
 };

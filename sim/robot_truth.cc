@@ -21,17 +21,15 @@ using models::kServoNames;
 
 constexpr double kDeg = M_PI / 180.0;
 
-// cam_from_eye from the camera's optical centre in the eye frame and a small rotation
-// (rotation vector, degrees) of the camera axes relative to the eye axes.
-models::Rigid3d CamFromEye(const Eigen::Vector3d& cam_in_eye_m, const Eigen::Vector3d& rotvec_deg) {
+}  // namespace
+
+models::Rigid3d CamFromEyeMounting(const Eigen::Vector3d& cam_in_eye_m, const Eigen::Vector3d& rotvec_deg) {
   const Eigen::Vector3d w = rotvec_deg * kDeg;
   const Eigen::Quaterniond eye_from_cam_q =
       w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized())) : Eigen::Quaterniond::Identity();
   const models::Rigid3d eye_from_cam(eye_from_cam_q, cam_in_eye_m);
   return eye_from_cam.Inverse();
 }
-
-}  // namespace
 
 double ServoTruth::StopLoRad() const {
   const auto p = MapParams();
@@ -105,9 +103,27 @@ void RobotTruth::Validate(const std::string& origin) const {
   }
   if (std::abs(stream.eye_offset_ms) * 1e-3 * stream.fps >= 1) fail("stream.eye_offset_ms", stream.eye_offset_ms, "must be below one frame period");
   if (!(stream.blur_px >= 1 && stream.blur_px <= 8)) fail("stream.blur_px", stream.blur_px, "must be in [1, 8]");
+  if (!(stream.black_level >= 0 && stream.black_level < stream.white_level && stream.white_level <= 255)) {
+    fail("stream.white_level", stream.white_level, "must satisfy 0 <= black_level < white_level <= 255");
+  }
+  if (!(stream.rolling_shutter_ms >= 0 && stream.rolling_shutter_ms * 1e-3 * stream.fps <= 1)) {
+    fail("stream.rolling_shutter_ms", stream.rolling_shutter_ms, "must be in [0, one frame period]");
+  }
   if (!(socket.rim_half_angle_deg > 0 && socket.rim_half_angle_deg < 90)) {
     fail("socket.rim_half_angle_deg", socket.rim_half_angle_deg, "must be in (0, 90)");
   }
+}
+
+StreamTruth MeasuredOwlStream() {
+  StreamTruth s;
+  s.jpeg_quality = 95;
+  s.noise_sigma = 1.0;
+  s.lens_shading = 0.05;
+  s.blur_px = 1.0;
+  s.white_level = 160;
+  s.black_level = 60;
+  s.rolling_shutter_ms = 30;
+  return s;
 }
 
 RobotTruth DefaultRobotTruth() {
@@ -128,8 +144,8 @@ RobotTruth DefaultRobotTruth() {
   t.geometry.centre_in_head[kLeftEye] = Eigen::Vector3d(-0.0321, 0.0004, 0.0300);
   t.geometry.centre_in_head[kRightEye] = Eigen::Vector3d(0.0321, -0.0003, 0.0306);
   // Camera optical centres ~1.5 cm ahead of the rotation centres, rotated 0.5-1 deg.
-  t.geometry.cam_from_eye[kLeftEye] = CamFromEye({0.0011, -0.0006, 0.0148}, {0.45, -0.60, 0.80});
-  t.geometry.cam_from_eye[kRightEye] = CamFromEye({-0.0008, 0.0009, 0.0162}, {-0.55, 0.35, -0.65});
+  t.geometry.cam_from_eye[kLeftEye] = CamFromEyeMounting({0.0011, -0.0006, 0.0148}, {0.45, -0.60, 0.80});
+  t.geometry.cam_from_eye[kRightEye] = CamFromEyeMounting({-0.0008, 0.0009, 0.0162}, {-0.55, 0.35, -0.65});
   // Intrinsics near the measured real Owls (578-591 px), moderate barrel distortion.
   t.intrinsics[kLeftEye].params = {583.2, 582.4, 322.8, 236.1, -0.118, 0.092, 0.0008, -0.0005, -0.021};
   t.intrinsics[kRightEye].params = {587.9, 587.1, 317.4, 243.6, -0.104, 0.071, -0.0006, 0.0004, -0.016};
@@ -243,6 +259,11 @@ RobotTruth LoadRobotTruth(const std::string& path) {
     t.stream.servo_reply_ms = s.Number("servo_reply_ms", 0, 10000);
     t.stream.lens_shading = s.Number("lens_shading", 0, 1);
     t.stream.blur_px = s.Number("blur_px", 1, 8);
+    // Image levels and the rolling shutter came later: files written before them keep the
+    // defaults of StreamTruth (a clean, evenly exposed global shutter).
+    t.stream.white_level = s.Number("white_level", t.stream.white_level, 1, 255);
+    t.stream.black_level = s.Number("black_level", t.stream.black_level, 0, 254);
+    t.stream.rolling_shutter_ms = s.Number("rolling_shutter_ms", t.stream.rolling_shutter_ms, 0, 1000);
     s.RejectUnknown();
   }
   f.RejectUnknown();
@@ -329,6 +350,9 @@ std::string RobotTruthYaml(const RobotTruth& t) {
   y << YAML::Key << "servo_reply_ms" << YAML::Value << t.stream.servo_reply_ms;
   y << YAML::Key << "lens_shading" << YAML::Value << t.stream.lens_shading;
   y << YAML::Key << "blur_px" << YAML::Value << t.stream.blur_px;
+  y << YAML::Key << "white_level" << YAML::Value << t.stream.white_level;
+  y << YAML::Key << "black_level" << YAML::Value << t.stream.black_level;
+  y << YAML::Key << "rolling_shutter_ms" << YAML::Value << t.stream.rolling_shutter_ms;
   y << YAML::EndMap;
   y << YAML::EndMap;
   return std::string(y.c_str()) + "\n";
@@ -387,7 +411,10 @@ nlohmann::json RobotTruthJson(const RobotTruth& t) {
                  {"drop_probability", t.stream.drop_probability},
                  {"servo_reply_ms", t.stream.servo_reply_ms},
                  {"lens_shading", t.stream.lens_shading},
-                 {"blur_px", t.stream.blur_px}};
+                 {"blur_px", t.stream.blur_px},
+                 {"white_level", t.stream.white_level},
+                 {"black_level", t.stream.black_level},
+                 {"rolling_shutter_ms", t.stream.rolling_shutter_ms}};
   return j;
 }
 

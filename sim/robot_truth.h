@@ -27,7 +27,7 @@
 //     right: {...}
 //   socket: {rim_half_angle_deg, rim_softness_deg, rim_floor}
 //   stream: {fps, latency_ms, eye_offset_ms, jpeg_quality, noise_sigma, drop_probability,
-//            servo_reply_ms, lens_shading, blur_px}
+//            servo_reply_ms, lens_shading, blur_px, white_level, black_level, rolling_shutter_ms}
 // Units as the suffixes say; angles in files are degrees, inside radians.
 //
 // Servo end-stops are given as the pulse width (approach 0) at which the joint meets its
@@ -77,16 +77,20 @@ struct SocketTruth {
   double rim_floor = 0.08;         // brightness factor fully inside the rim
 };
 
+// Stream and image formation.
 struct StreamTruth {
   double fps = 30;
   double latency_ms = 100;         // exposure -> frame received by the host
   double eye_offset_ms = 4;        // right eye exposes this much after the left
   int jpeg_quality = 85;
-  double noise_sigma = 1.5;        // Gaussian sensor noise [grey levels of 255]
+  double noise_sigma = 1.5;        // Gaussian sensor noise before JPEG [grey levels of 255]
   double drop_probability = 0;
   double servo_reply_ms = 1;       // round trip of one servo packet ("ok")
   double lens_shading = 0.2;       // relative brightness loss at the image corner
   double blur_px = 1.8;            // optical blur: footprint of the texture filter [px], >= 1
+  double white_level = 215;        // grey level of white paper at the image centre (exposure)
+  double black_level = 25;         // grey level of black ink
+  double rolling_shutter_ms = 0;   // readout time from the top row to the bottom row
 };
 
 struct RobotTruth {
@@ -104,6 +108,20 @@ struct RobotTruth {
   // robot section fails robot::ValidateRobotConfig.
   void Validate(const std::string& origin) const;
 };
+
+// cam_from_eye from the camera's optical centre in the eye frame [m] and a small rotation of the
+// camera axes relative to the eye axes (rotation vector [deg]).
+models::Rigid3d CamFromEyeMounting(const Eigen::Vector3d& cam_in_eye_m, const Eigen::Vector3d& rotvec_deg);
+
+// Image formation of a typical real Owl, measured on the course's real sets (kit2020-chessboard,
+// darvill2019 sessions 1-3; bench/sim_real_bench.cc prints the comparison): paper white ~160
+// and ink ~60 grey levels, noise ~0.9 grey levels after JPEG, edges as sharp as a 0.53 px
+// Gaussian, no visible lens shading (the Pi's ISP corrects it), JPEG blocks like quality 95, a
+// rolling shutter read out over 30 ms. The rest of the stream as the defaults.
+StreamTruth MeasuredOwlStream();
+// The course's kit-box board bows about 0.9 mm towards the camera along its long side
+// (sim/scene.h SceneTarget::warp_m; fitted on the same sets, 0.84-1.0 mm).
+inline constexpr double kCourseBoardWarpM = 0.9e-3;
 
 // The built-in default robot (same as data/sim/owl_default_truth.yaml).
 RobotTruth DefaultRobotTruth();

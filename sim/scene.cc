@@ -1,5 +1,6 @@
 #include "sim/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -34,6 +35,67 @@ const char* KindName(calib::TargetKind k) {
 }
 
 }  // namespace
+
+Eigen::Isometry3d TargetMotion::Offset(int64_t t_ns) const {
+  Eigen::Isometry3d m = Eigen::Isometry3d::Identity();
+  if (Still()) return m;
+  static constexpr double kHz[4] = {0.7, 1.6, 3.1, 8.7};
+  static constexpr double kShare[4] = {0.4, 0.3, 0.2, 0.1};
+  const double t = double(t_ns) * 1e-9;
+  uint64_t state = seed * 0x9E3779B97F4A7C15ull + 0x51ED27ull;
+  auto phase = [&] {
+    state += 0x9E3779B97F4A7C15ull;
+    uint64_t z = state;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return double((z ^ (z >> 31)) >> 11) * 0x1.0p-53 * 2 * M_PI;
+  };
+  // Per axis: speed_axis^2 = speed^2 / 3; component k has speed variance share_k; a sinusoid of
+  // amplitude A at angular frequency w has RMS speed A w / sqrt(2).
+  Eigen::Vector3d p = Eigen::Vector3d::Zero(), r = Eigen::Vector3d::Zero();
+  for (int axis = 0; axis < 3; ++axis)
+    for (int k = 0; k < 4; ++k) {
+      const double w = 2 * M_PI * kHz[k];
+      const double a = std::sqrt(2 * kShare[k] / 3.0) / w;
+      p[axis] += speed_m_s * a * std::sin(w * t + phase());
+      r[axis] += angular_speed_deg_s * kDeg * a * std::sin(w * t + phase());
+    }
+  m.linear() = (r.norm() > 0 ? Eigen::AngleAxisd(r.norm(), r.normalized()) : Eigen::AngleAxisd::Identity()).toRotationMatrix();
+  m.translation() = p;
+  return m;
+}
+
+Eigen::Isometry3d SceneTarget::PoseAt(int64_t t_ns) const {
+  return motion.Still() ? base_from_target : base_from_target * motion.Offset(t_ns);
+}
+
+Eigen::Vector4d SceneTarget::WarpSpan() const {
+  Eigen::Vector4d span(1e30, -1e30, 1e30, -1e30);
+  for (const auto& [id, p] : definition.Corners()) {
+    span[0] = std::min(span[0], p.x());
+    span[1] = std::max(span[1], p.x());
+    span[2] = std::min(span[2], p.y());
+    span[3] = std::max(span[3], p.y());
+  }
+  return span;
+}
+
+Eigen::Vector3d SceneTarget::WarpedPoint(const Eigen::Vector3d& p) const {
+  if (warp_m.x() == 0 && warp_m.y() == 0) return p;
+  const Eigen::Vector4d s = WarpSpan();
+  const double u = (p.x() - (s[0] + s[1]) / 2) / std::max(1e-12, (s[1] - s[0]) / 2);
+  const double v = (p.y() - (s[2] + s[3]) / 2) / std::max(1e-12, (s[3] - s[2]) / 2);
+  return Eigen::Vector3d(p.x(), p.y(), p.z() - (warp_m.x() * (1 - u * u) + warp_m.y() * (1 - v * v)));
+}
+
+SceneDescription SceneDescription::At(int64_t t_ns) const {
+  SceneDescription s = *this;
+  for (SceneTarget& t : s.targets) {
+    t.base_from_target = t.PoseAt(t_ns);
+    t.motion = TargetMotion();
+  }
+  return s;
+}
 
 SceneTarget* SceneDescription::Find(const std::string& name) {
   for (SceneTarget& t : targets)
@@ -142,6 +204,12 @@ nlohmann::json SceneJson(const SceneDescription& scene) {
     const calib::TargetDefinition& d = t.definition;
     nlohmann::json o = {{"name", d.id}, {"kind", KindName(d.kind)}, {"visible", t.visible},
                         {"pose", PoseJson(t.base_from_target)}};
+    if (t.warp_m.x() != 0 || t.warp_m.y() != 0) o["warp_m"] = {t.warp_m.x(), t.warp_m.y()};
+    if (!t.motion.Still()) {
+      o["motion"] = {{"speed_m_s", t.motion.speed_m_s},
+                     {"angular_speed_deg_s", t.motion.angular_speed_deg_s},
+                     {"seed", t.motion.seed}};
+    }
     if (d.kind == calib::TargetKind::kChessboard) {
       o["cols"] = d.cols;
       o["rows"] = d.rows;
@@ -200,6 +268,17 @@ SceneDescription LoadScene(const std::string& path) {
     if (d.family != "tag36h11") n.Fail("family", "= '" + io::Printable(d.family) + "' is not supported (only tag36h11)");
     d.fixation_radius_m = n.Number("fixation_radius_m", d.fixation_radius_m, 1e-4, 10);
     t.visible = n.Bool("visible", t.visible);
+    if (n.Has("warp_m")) {
+      // Bow of the board towards the camera along x and y (SceneTarget::warp_m), within 5 cm.
+      const auto w = n.Numbers("warp_m", 2, -0.05, 0.05);
+      t.warp_m = Eigen::Vector2d(w[0], w[1]);
+    }
+    if (auto m = n.OptionalMap("motion")) {
+      t.motion.speed_m_s = m->Number("speed_m_s", 0, 2);
+      t.motion.angular_speed_deg_s = m->Number("angular_speed_deg_s", 0, 360);
+      t.motion.seed = static_cast<uint64_t>(m->Int("seed", 0, 0, 1 << 30));
+      m->RejectUnknown();
+    }
     if (auto p = n.OptionalMap("pose")) {
       // Positions within 1 km of the head, angles within one turn.
       if (p->Has("centre_m")) {

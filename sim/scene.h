@@ -14,6 +14,8 @@
 //       pose: {t_m: [x, y, z], rpy_deg: [roll, pitch, yaw]}  # or q_xyzw: [..4]
 //       pose: {centre_m: [x, y, z], rpy_deg: [...]}   # or: where the pattern's CENTRE is (FacingPose)
 //       visible: true
+//       motion: {speed_m_s: 0.01, angular_speed_deg_s: 1.0, seed: 3}   # held by a person
+//       warp_m: [0.001, 0]            # board bow (SceneTarget::warp_m)
 // The pose is base_from_target (calib/target.h target frame: origin at the first corner, x
 // along the columns, y down the rows, z into the board). rpy_deg = [roll, pitch, yaw]:
 // R = Ry(yaw) Rx(pitch) Rz(roll) with the base axes (y down, x right, z forward): yaw turns the
@@ -32,11 +34,37 @@
 
 namespace owlcal::sim {
 
+// How a target moves about its placed pose: still (propped on a stand, the default) or held by
+// a person. A held target sways and trembles: each axis of its translation and rotation (in the
+// target frame) is a sum of sinusoids at hand frequencies (0.7, 1.6, 3.1 and 8.7 Hz, carrying
+// 40/30/20/10 % of the speed variance) with phases drawn from `seed`, scaled so the RMS speeds
+// are speed_m_s and angular_speed_deg_s. Bounded: the RMS excursion is about speed / 6 Hz.
+struct TargetMotion {
+  double speed_m_s = 0;
+  double angular_speed_deg_s = 0;
+  uint64_t seed = 0;
+  bool Still() const { return speed_m_s <= 0 && angular_speed_deg_s <= 0; }
+  // target_from_moved at time t_ns (identity when still).
+  Eigen::Isometry3d Offset(int64_t t_ns) const;
+};
+
 struct SceneTarget {
   calib::TargetDefinition definition;      // definition.id is the target's name
-  Eigen::Isometry3d base_from_target = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d base_from_target = Eigen::Isometry3d::Identity();  // placed (nominal) pose
   bool visible = true;
+  TargetMotion motion;
+  // Board warp, mrcal's 2-parameter model: the surface lies at target z = -(warp_m.x (1 - u^2) +
+  // warp_m.y (1 - v^2)), u and v running from -1 to 1 across the corner grid (WarpSpan) along
+  // target x and y; positive values bow the middle towards the camera. Zero = flat. A real
+  // course board bows by about 1 mm along its long side (fitted on kit2020 and darvill2019).
+  Eigen::Vector2d warp_m = Eigen::Vector2d::Zero();
   const std::string& name() const { return definition.id; }
+  // min/max x, y of the corners in the target frame (the warp's span).
+  Eigen::Vector4d WarpSpan() const;
+  // A corner's true position on the warped board (points_in_target of the flat board + the warp).
+  Eigen::Vector3d WarpedPoint(const Eigen::Vector3d& point_in_target) const;
+  // Where the target is at time t_ns: base_from_target * motion.Offset(t_ns).
+  Eigen::Isometry3d PoseAt(int64_t t_ns) const;
 };
 
 struct Background {
@@ -53,6 +81,8 @@ struct SceneDescription {
 
   SceneTarget* Find(const std::string& name);
   const SceneTarget* Find(const std::string& name) const;
+  // The scene frozen at time t_ns: every moving target at its pose then, motion removed.
+  SceneDescription At(int64_t t_ns) const;
 };
 
 // The built-in scene: a 9x6 chessboard (26 mm) 0.6 m ahead, a 6x6 AprilGrid to the right,

@@ -65,7 +65,7 @@ VirtualOwl::VirtualOwl(const VirtualOwlOptions& options)
                          : (options.scene_file.empty() ? DefaultScene() : LoadScene(options.scene_file));
   for (const SceneTarget& t : scene_.targets) textures_.push_back(std::make_unique<TargetTexture>(MakeTargetTexture(t.definition)));
   background_ = MakeBackgroundTexture(scene_.background);
-  for (int e = 0; e < 2; ++e) renderers_[e] = std::make_unique<EyeRenderer>(truth_.intrinsics[e], truth_.stream.lens_shading, truth_.stream.blur_px);
+  for (int e = 0; e < 2; ++e) renderers_[e] = std::make_unique<EyeRenderer>(truth_.intrinsics[e], truth_.stream);
   // Power on: every servo at rest at the robot file's centre.
   for (int i = 0; i < kNumServos; ++i) servos_.emplace_back(truth_.servos[i], truth_.robot.servos[i].centre_us, 0);
   last_command_ = truth_.robot.Centre();
@@ -229,7 +229,11 @@ robot::StereoFrame VirtualOwl::Compose(int64_t seq, const FrameTruth& ft, const 
     // The socket axis is the head's forward axis: in the camera frame via cam_from_head.
     const models::Rigid3d cam_from_head = ft.cam_from_base[e] * models::HeadFromBase(ft.angles[e].neck_rad).Inverse();
     const Eigen::Vector3d axis = cam_from_head.rotation * Eigen::Vector3d::UnitZ();
-    renderers_[e]->Render(ft.cam_from_base[e], axis, truth_.socket, scene, tex, background_, &grey[e]);
+    // A held target is where it was when each row of this eye was exposed (the eyes expose
+    // eye_offset_ms apart; rows rolling_shutter_ms from top to bottom).
+    const RowTiming timing{ft.exposure_ns[e], truth_.stream.rolling_shutter_ms * 1e6 / h};
+    renderers_[e]->Render(ft.cam_from_base[e], axis, truth_.socket, scene, tex, background_, &grey[e], nullptr,
+                          timing);
     AddSensorNoise(&grey[e], truth_.stream.noise_sigma, seed_, uint64_t(seq) * 2 + e);
   }
   cv::Mat side(h, 2 * w, CV_8UC3);
@@ -290,6 +294,16 @@ void VirtualOwl::SetTargetPose(const std::string& name, const Eigen::Isometry3d&
     for (int c = 0; c < 4; ++c)
       if (!std::isfinite(base_from_target.matrix()(r, c))) throw std::invalid_argument("virtual Owl: pose of '" + name + "' is not finite");
   t->base_from_target = base_from_target;
+  cached_frame_.reset();
+}
+
+void VirtualOwl::SetTargetMotion(const std::string& name, const TargetMotion& motion) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  SceneTarget* t = scene_.Find(name);
+  if (!t) throw std::invalid_argument("virtual Owl: no scene target named '" + name + "'");
+  if (!(motion.speed_m_s >= 0 && motion.speed_m_s < 2 && motion.angular_speed_deg_s >= 0 && motion.angular_speed_deg_s < 360))
+    throw std::invalid_argument("virtual Owl: motion of '" + name + "' out of range");
+  t->motion = motion;
   cached_frame_.reset();
 }
 

@@ -99,6 +99,9 @@ class VirtualOwl : public robot::RobotInterface, public robot::SceneControl {
   std::string TruthJson() const override;
   // Shows or hides a target (a person taking a board away). Throws on an unknown name.
   void SetTargetVisible(const std::string& name, bool visible);
+  // Makes a target still (default) or held by a person (sim/scene.h TargetMotion). Throws on an
+  // unknown name or speeds out of range.
+  void SetTargetMotion(const std::string& name, const TargetMotion& motion);
 
   // Truth.
   models::HeadModel TruthHeadModel() const { return head_; }
