@@ -36,47 +36,51 @@ double Median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// Least-squares fit of m + a * erf((d - d0) / (sqrt(2) sigma)) to a profile; returns sigma
-// (NaN when the step is too weak to fit). Grid search over (sigma, d0), closed form for (m, a).
+// Least-squares fit of m + a * erf((d - d0) / (sqrt(2) sigma)) to a profile by Levenberg-
+// Marquardt from the plateaus' step; returns sigma (NaN when the step is too weak to mean
+// anything or the fit does not settle inside the profile).
 double FitErfSigma(const std::vector<double>& d, const std::vector<double>& v) {
   const int n = int(d.size());
-  auto cost_at = [&](double sigma, double d0, double* step) {
-    double se = 0, see = 0, sv = 0, sev = 0;
-    for (int i = 0; i < n; ++i) {
-      const double e = std::erf((d[i] - d0) / (std::sqrt(2.0) * sigma));
-      se += e;
-      see += e * e;
-      sv += v[i];
-      sev += e * v[i];
-    }
-    const double det = n * see - se * se;
-    if (std::abs(det) < 1e-12) return std::numeric_limits<double>::infinity();
-    const double a = (n * sev - se * sv) / det;
-    const double m = (sv - a * se) / n;
+  if (n < 8) return std::numeric_limits<double>::quiet_NaN();
+  Eigen::Vector4d x(0.5 * (v.front() + v.back()), 0.5 * (v.back() - v.front()), 0.0, 0.6);  // m, a, d0, sigma
+  if (std::abs(x(1)) < 10) return std::numeric_limits<double>::quiet_NaN();  // too little contrast
+  auto cost = [&](const Eigen::Vector4d& p) {
     double c = 0;
     for (int i = 0; i < n; ++i) {
-      const double r = v[i] - m - a * std::erf((d[i] - d0) / (std::sqrt(2.0) * sigma));
+      const double r = v[i] - p(0) - p(1) * std::erf((d[i] - p(2)) / (std::sqrt(2.0) * p(3)));
       c += r * r;
     }
-    if (step) *step = 2 * std::abs(a);
     return c;
   };
-  double best = std::numeric_limits<double>::infinity(), bs = 1, bd = 0;
-  for (double s = 0.2; s <= 4.0001; s += 0.15)
-    for (double d0 = -1.5; d0 <= 1.5001; d0 += 0.15) {
-      const double c = cost_at(s, d0, nullptr);
-      if (c < best) best = c, bs = s, bd = d0;
+  double c = cost(x), lambda = 1e-3;
+  for (int it = 0; it < 60; ++it) {
+    Eigen::Matrix4d jtj = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d jtr = Eigen::Vector4d::Zero();
+    for (int i = 0; i < n; ++i) {
+      const double z = (d[i] - x(2)) / (std::sqrt(2.0) * x(3));
+      const double e = std::erf(z), g = 2 / std::sqrt(M_PI) * std::exp(-z * z);
+      const Eigen::Vector4d j(1, e, -x(1) * g / (std::sqrt(2.0) * x(3)), -x(1) * g * z / x(3));
+      const double r = v[i] - x(0) - x(1) * e;
+      jtj += j * j.transpose();
+      jtr += j * r;
     }
-  const double s0 = bs, d00 = bd;
-  for (double s = std::max(0.1, s0 - 0.15); s <= s0 + 0.15001; s += 0.01)
-    for (double d0 = d00 - 0.15; d0 <= d00 + 0.15001; d0 += 0.015) {
-      const double c = cost_at(s, d0, nullptr);
-      if (c < best) best = c, bs = s, bd = d0;
+    Eigen::Matrix4d a = jtj;
+    a.diagonal() *= 1 + lambda;
+    const Eigen::Vector4d step = a.ldlt().solve(jtr);
+    Eigen::Vector4d y = x + step;
+    y(3) = std::max(0.05, y(3));
+    const double cy = cost(y);
+    if (cy < c) {
+      const bool done = c - cy < 1e-10 * (1 + c);
+      x = y, c = cy, lambda = std::max(1e-9, lambda / 4);
+      if (done) break;
+    } else {
+      lambda *= 8;
+      if (lambda > 1e8) break;
     }
-  double step = 0;
-  cost_at(bs, bd, &step);
-  if (step < 20) return std::numeric_limits<double>::quiet_NaN();  // too little contrast to mean anything
-  return bs;
+  }
+  if (!(x(3) > 0.05 && x(3) < 4 && std::abs(x(2)) < 2)) return std::numeric_limits<double>::quiet_NaN();
+  return x(3);
 }
 
 }  // namespace
