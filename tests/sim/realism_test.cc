@@ -3,6 +3,7 @@
 // cv::projectPoints (not the renderer's own code).
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -215,6 +216,80 @@ TEST(HandHeldCapture, WritesPairsWithTheBoardInBothEyes) {
   EXPECT_FALSE(ho.Check(&why));
   EXPECT_NE(why.find("num_pairs"), std::string::npos);
   EXPECT_THROW(CaptureHandHeldSet(&owl, dir, ho), std::invalid_argument);
+}
+
+
+TEST(SceneFile, WarpAndMotionRoundTripAndBadValuesNameTheField) {
+  SceneDescription scene = DefaultScene();
+  SceneTarget* board = scene.Find("chessboard");
+  board->warp_m = Eigen::Vector2d(0.9e-3, -0.2e-3);
+  board->motion.speed_m_s = 0.02;
+  board->motion.angular_speed_deg_s = 1.5;
+  board->motion.seed = 12;
+  const std::string dir = (std::filesystem::temp_directory_path() / "owlcal_scene_file_test").string();
+  std::filesystem::create_directories(dir);
+  const std::string path = dir + "/scene.yaml";
+  std::ofstream(path) << SceneJson(scene).dump(2);
+  const SceneDescription back = LoadScene(path);
+  const SceneTarget* b = back.Find("chessboard");
+  ASSERT_NE(b, nullptr);
+  EXPECT_DOUBLE_EQ(b->warp_m.x(), 0.9e-3);
+  EXPECT_DOUBLE_EQ(b->warp_m.y(), -0.2e-3);
+  EXPECT_DOUBLE_EQ(b->motion.speed_m_s, 0.02);
+  EXPECT_DOUBLE_EQ(b->motion.angular_speed_deg_s, 1.5);
+  EXPECT_EQ(b->motion.seed, 12u);
+  EXPECT_TRUE(b->PoseAt(2'000'000'000).isApprox(board->PoseAt(2'000'000'000)));
+  EXPECT_TRUE(back.Find("aprilgrid")->motion.Still());
+  // A board thrown at 3 m/s, a bow of 10 cm: errors naming the field.
+  auto expect_error = [&](const std::string& text, const std::string& field) {
+    std::ofstream(path) << text;
+    try {
+      LoadScene(path);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  const std::string head = "targets:\n  - name: chessboard\n    kind: chessboard\n";
+  expect_error(head + "    motion: {speed_m_s: 3.0, angular_speed_deg_s: 1, seed: 1}\n", "speed_m_s");
+  expect_error(head + "    motion: {speed_m_s: 0.1, angular_speed_deg_s: 1, seed: 1, jitter: 2}\n", "jitter");
+  expect_error(head + "    warp_m: [0.1, 0]\n", "warp_m");
+  expect_error(head + "    warp_m: [0.001]\n", "warp_m");
+  std::filesystem::remove_all(dir);
+}
+
+
+TEST(RobotTruthFile, MeasuredStreamRoundTripsAndOlderFilesKeepTheCleanDefaults) {
+  RobotTruth t = DefaultRobotTruth();
+  t.stream = MeasuredOwlStream();
+  const std::string path = (std::filesystem::temp_directory_path() / "owlcal_realism_truth.yaml").string();
+  SaveRobotTruth(t, path);
+  const RobotTruth u = LoadRobotTruth(path);
+  EXPECT_EQ(u.stream.white_level, 160);
+  EXPECT_EQ(u.stream.black_level, 60);
+  EXPECT_EQ(u.stream.rolling_shutter_ms, 30);
+  EXPECT_EQ(RobotTruthYaml(t), RobotTruthYaml(u));
+  // A file written before the levels and the rolling shutter existed.
+  std::string text = RobotTruthYaml(t);
+  for (const char* key : {"white_level", "black_level", "rolling_shutter_ms"}) {
+    const size_t at = text.find(std::string(key) + ":");
+    ASSERT_NE(at, std::string::npos) << key;
+    text.erase(at, text.find('\n', at) + 1 - at);
+  }
+  std::ofstream(path) << text;
+  const RobotTruth old = LoadRobotTruth(path);
+  EXPECT_EQ(old.stream.white_level, StreamTruth().white_level);
+  EXPECT_EQ(old.stream.rolling_shutter_ms, 0);
+  // Levels that cannot be: ink brighter than paper.
+  t.stream.black_level = 200;
+  std::ofstream(path) << RobotTruthYaml(t);
+  try {
+    LoadRobotTruth(path);
+    ADD_FAILURE() << "ink brighter than paper accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("white_level"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(path);
 }
 
 }  // namespace
