@@ -367,11 +367,20 @@ int RunCalibrate(const CalibrateOptions& o) {
     // 0.15 deg of both pan maps (virtual Owl: Rx/Lx 0.17/0.18 deg RMS held; refined, the
     // report's servo_map_truth table shows them, 0.03-0.04 deg).
     ho.fit_intrinsics = true;
-    // Whitening: the assumed corner sigma (0.15 px, HeadFitOptions), not the stereo fit's a
-    // posteriori 0.025 px. On the virtual Owl the smaller value leaves 4 of 58 head parameters
-    // at 3.3-3.7 sigma (errors of 0.07 us, 0.1 px: systematic detector bias that more views
-    // do not average away; a cluster-robust covariance over views did not cover it either),
-    // and on a real robot it would print servo centres to +-0.02 us. 0.15 px is conservative.
+    // Whitening: the noise the data shows, per eye (HeadFitOptions::estimate_corner_sigma),
+    // not an assumed 0.15 px, which made the servo and head sigmas 3-7 x too large on the
+    // virtual Owl (measured 0.021 px per axis on the default robot, 0.034-0.064 on rougher
+    // ones). The measured sigma is then doubled for the detector's corner bias, which is nearly
+    // the same on neighbouring views of a board and does not average away: sigma is widened
+    // for it, not modelled. Factor 2 from calibrations of the default robot and variant A
+    // (bench/robot_prior_mc_bench.cc shipped): whitened with the measured sigma alone, 44-52 % of
+    // the head parameters lay within 1 sigma and up to 12 % beyond 3; doubled, 76-81 % within 1
+    // and 97-100 % within 3 (slightly conservative, to cover the rougher robots' larger bias).
+    // Hysteresis is floored at 0.01 us: frames exposed before a servo fully settled read as
+    // extra backlash (+0.001-0.006 us on every servo of a slow robot), and lag is not modelled.
+    ho.estimate_corner_sigma = true;
+    ho.measured_sigma_factor = 2.0;
+    ho.hysteresis_sigma_floor_us = 0.01;
     const fitting::HeadFit h = fitting::FitHead(views, config, initial, ho);
     if (h.ok) {
       MergeHead(h, &d.result);

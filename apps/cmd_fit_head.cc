@@ -25,14 +25,23 @@ struct FitHeadArgs {
   std::string out;
   std::string robot_file;
   std::string intrinsics_json;
-  double sigma_px = 0.15;
+  double sigma_px = 0;          // 0: measured from the residuals (HeadFitOptions::estimate_corner_sigma)
+  double min_sigma_px = 0.0;
+  double bias_factor = 2.0;     // measured sigma x this for the detector bias (as owlcal calibrate)
   bool fit_intrinsics = false;
   bool linear = false;
 };
 
 int RunFitHead(const FitHeadArgs& a) {
   fitting::HeadFitOptions o;
-  o.corner_sigma_px = a.sigma_px;
+  if (a.sigma_px < 0) throw UsageError("--sigma-px must be >= 0 (0: measure it from the residuals)");
+  o.estimate_corner_sigma = a.sigma_px == 0;
+  if (a.sigma_px > 0) o.corner_sigma_px = a.sigma_px;
+  o.min_corner_sigma_px = a.min_sigma_px;
+  if (o.estimate_corner_sigma) {
+    o.measured_sigma_factor = a.bias_factor;
+    o.hysteresis_sigma_floor_us = 0.01;  // servo lag is not modelled (see owlcal calibrate)
+  }
   o.fit_intrinsics = a.fit_intrinsics;
   o.fit_nonlinear = !a.linear;
   std::string why;
@@ -84,7 +93,13 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--robot", o->robot_file, "robot file (default: the guide's robot)")->check(CLI::ExistingFile);
       cmd->add_option("--intrinsics", o->intrinsics_json, "result JSON with both cameras (held fixed)")
           ->check(CLI::ExistingFile);
-      cmd->add_option("--sigma-px", o->sigma_px, "corner noise used to whiten [px]")->capture_default_str();
+      cmd->add_option("--sigma-px", o->sigma_px, "corner noise used to whiten [px]; 0 = measured per eye from the residuals")
+          ->capture_default_str();
+      cmd->add_option("--min-sigma-px", o->min_sigma_px, "floor of the measured corner noise (detector bias) [px]")
+          ->capture_default_str();
+      cmd->add_option("--bias-factor", o->bias_factor,
+                      "with --sigma-px 0: the measured noise is multiplied by this for the detector's bias")
+          ->capture_default_str();
       cmd->add_flag("--fit-intrinsics", o->fit_intrinsics, "fit the intrinsics jointly");
       cmd->add_flag("--linear", o->linear, "hold the servo maps' quadratic and cubic terms at 0");
       return [o] { return RunFitHead(*o); };

@@ -7,6 +7,10 @@
 // Run it under `nice -n 19`: about a minute of CPU per robot.
 //
 // Usage: robot_prior_mc_bench [num_robots=30] [first_seed=1] [protocol ...]
+//        robot_prior_mc_bench shipped [seeds_per_robot=1] [first_seed=1] [protocol ...]
+// `shipped`: the three robots in data/sim (default, variant a, variant b) instead of drawn ones.
+// OWLCAL_MC_KEEP=1 keeps each robot's observations (not the frames) under the temp folder, for
+// refits; OWLCAL_MC_PER_PARAMETER=1 adds the per-parameter table.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -18,16 +22,24 @@
 
 #include "fitting/monte_carlo.h"
 #include "fitting/result.h"
+#include "owlcal_version.h"
 #include "sim/robot_prior.h"
 
 namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
   using namespace owlcal;
-  const int num_robots = argc > 1 ? std::atoi(argv[1]) : 30;
-  const uint64_t first_seed = argc > 2 ? std::strtoull(argv[2], nullptr, 10) : 1;
+  const bool shipped = argc > 1 && std::string(argv[1]) == "shipped";
+  const char* const kShipped[3] = {"owl_default_truth.yaml", "owl_variant_a_truth.yaml", "owl_variant_b_truth.yaml"};
+  const int per_robot = shipped ? (argc > 2 ? std::atoi(argv[2]) : 1) : 1;
+  const int num_robots = shipped ? 3 * per_robot : (argc > 1 ? std::atoi(argv[1]) : 30);
+  const uint64_t first_seed = argc > 2 + shipped ? std::strtoull(argv[2 + shipped], nullptr, 10) : 1;
+  if (num_robots < 1) {
+    std::fprintf(stderr, "robot_prior_mc_bench: need at least one robot\n");
+    return 2;
+  }
   std::vector<std::string> protocols;
-  for (int i = 3; i < argc; ++i) protocols.push_back(argv[i]);
+  for (int i = 3 + shipped; i < argc; ++i) protocols.push_back(argv[i]);
   if (protocols.empty()) protocols = {"intrinsics", "stereo", "servo_sweep"};
   const fs::path root = fs::temp_directory_path() / ("owlcal_prior_mc_" + std::to_string(first_seed));
   fs::remove_all(root);
@@ -35,10 +47,16 @@ int main(int argc, char** argv) {
 
   fitting::SigmaCoverage coverage;
   for (int i = 0; i < num_robots; ++i) {
-    const uint64_t seed = first_seed + uint64_t(i);
+    const uint64_t seed = first_seed + uint64_t(shipped ? i % per_robot : i);
     std::mt19937_64 rng(seed * 7919 + 17);
-    const std::string name = "prior-" + std::to_string(seed);
-    const sim::DrawnRobot robot = sim::DrawRobot(&rng, name);
+    std::string name = "prior-" + std::to_string(seed);
+    sim::DrawnRobot robot = sim::DrawRobot(&rng, name);
+    if (shipped) {
+      const std::string file = kShipped[i / per_robot];
+      robot.truth = sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/data/sim/" + file);
+      robot.scene = sim::DefaultScene();
+      name = file.substr(0, file.find("_truth")) + "-seed" + std::to_string(seed);
+    }
     const fs::path dir = root / name;
     fs::create_directories(dir);
     sim::SaveRobotTruth(robot.truth, (dir / "truth.yaml").string());
@@ -74,10 +92,17 @@ int main(int argc, char** argv) {
                 t.servos[0].dead_band_us, t.stream.noise_sigma, t.stream.jpeg_quality,
                 1000 * robot.scene.Find("chessboard")->warp_m.x(), n, n ? std::sqrt(sum / n) : NAN, worst_name.c_str(), worst);
     std::fflush(stdout);
-    fs::remove_all(dir / "cal" / "datasets");  // keep results.json and the log, not the frames
+    // Keep results.json and the log, not the frames (OWLCAL_MC_KEEP: the observations too).
+    if (std::getenv("OWLCAL_MC_KEEP")) {
+      for (const auto& e : fs::recursive_directory_iterator(dir / "cal" / "datasets"))
+        if (e.is_regular_file() && e.path().extension() != ".csv") fs::remove(e.path());
+    } else {
+      fs::remove_all(dir / "cal" / "datasets");
+    }
   }
-  std::printf("\n== robot_prior_mc_bench: %d robots from the prior (seeds %llu..%llu), protocols", num_robots,
-              (unsigned long long)first_seed, (unsigned long long)(first_seed + num_robots - 1));
+  std::printf("\n== robot_prior_mc_bench: %d %s (seeds %llu..%llu), protocols", num_robots,
+              shipped ? "runs of the shipped robots" : "robots from the prior", (unsigned long long)first_seed,
+              (unsigned long long)(first_seed + (shipped ? per_robot : num_robots) - 1));
   for (const auto& p : protocols) std::printf(" %s", p.c_str());
   std::printf(" ==\n%s\n", coverage.GroupTable().c_str());
   std::printf("overall: %d scored, %.1f %% within 1 sigma, %.2f %% within 3 sigma, %d failed runs\n", coverage.num_scored(),

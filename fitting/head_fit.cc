@@ -1,9 +1,13 @@
 #include "fitting/head_fit.h"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
+#include <sstream>
 #include <string>
 
 #include <ceres/ceres.h>
@@ -44,22 +48,80 @@ struct SolveOutcome {
   double initial_cost = 0;
 };
 
+// Corners with finite errors per eye: sum of squares and count.
+void SumSquaresPerEye(const HeadState& s, const std::vector<PreparedView>& prepared, std::array<double, 2>* ssq,
+                      std::array<int, 2>* count) {
+  *ssq = {0, 0};
+  *count = {0, 0};
+  for (const PreparedView& p : prepared) {
+    const std::vector<double> err = internal::CornerErrorsPx(s, p);
+    for (size_t i = 0; i < err.size(); ++i) {
+      if (!p.inlier[i] || !std::isfinite(err[i])) continue;
+      (*ssq)[p.command.eye] += err[i] * err[i];
+      ++(*count)[p.command.eye];
+    }
+  }
+}
+
+// Whole views the model does not explain: a servo still moving when the frame was exposed, an
+// eye held at its end-stop while the command moved on. Their corners agree with each other, so
+// no single corner is an outlier, yet they pull every parameter (on variant A one such view pair
+// at 10 x the typical RMS moved both camera mounts by 1.5 mm). Dropped and named.
+void DropViewsTheModelDoesNotExplain(const std::vector<calib::View>& views,
+                                     const HeadFitOptions& options,
+                                     const HeadState& s,
+                                     std::vector<PreparedView>* prepared,
+                                     HeadFit* fit) {
+  std::vector<double> view_rms(prepared->size(), 0.0);
+  for (size_t k = 0; k < prepared->size(); ++k) {
+    const std::vector<double> err = internal::CornerErrorsPx(s, (*prepared)[k]);
+    double ss = 0;
+    int n = 0;
+    for (size_t i = 0; i < err.size(); ++i)
+      if ((*prepared)[k].inlier[i] && std::isfinite(err[i])) ss += err[i] * err[i], ++n;
+    view_rms[k] = n ? std::sqrt(ss / n) : 0.0;
+  }
+  std::vector<double> sorted = view_rms;
+  std::sort(sorted.begin(), sorted.end());
+  const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
+  for (size_t k = 0; k < prepared->size(); ++k) {
+    if (!(median > 0) || view_rms[k] <= options.view_outlier_factor * median) continue;
+    PreparedView& p = (*prepared)[k];
+    const calib::View& v = views[p.index];
+    const std::vector<double> err = internal::CornerErrorsPx(s, p);
+    for (size_t i = 0; i < err.size(); ++i) {
+      if (!p.inlier[i]) continue;
+      p.inlier[i] = false;
+      fit->outliers.push_back({v.frame_index, v.eye, v.target_id, p.corner_ids[i], err[i]});
+    }
+    std::ostringstream w;
+    w.precision(3);
+    w << "frame " << v.frame_index << " (" << models::kEyeNames[v.eye] << ", " << v.target_id << "): RMS " << view_rms[k]
+      << " px, " << view_rms[k] / median
+      << " x the median view's; the model does not explain it (a servo still moving, an eye at its end-stop?): dropped";
+    fit->result.warnings.push_back(w.str());
+  }
+}
+
 // Stage 1: robust solve on a spread subset of corners; rejection of corners beyond
-// outlier_threshold_sigma; stage 2: plain solve on every inlier (its Jacobian is the one the
-// observability analysis reads). Blocks no residual involves are marked not determined.
+// outlier_threshold_sigma and of whole views the model does not explain; stage 2: plain solve on
+// every inlier (its Jacobian is the one the observability analysis reads), whitened again with
+// the measured noise when options.estimate_corner_sigma. Blocks no residual involves are marked
+// not determined.
 SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
                                        const HeadFitOptions& options,
                                        std::vector<PreparedView>* prepared,
                                        HeadState* s,
-                                       ceres::Problem* problem,
+                                       std::unique_ptr<ceres::Problem>* problem,
                                        HeadFit* fit,
                                        StageTimer* timer) {
   const double sigma = options.corner_sigma_px;
+  std::array<double, 2> eye_sigma = {sigma, sigma};
   SolveOutcome out;
   {
     ceres::Problem robust;
     // Every corner is not needed to reach the basin: a spread subset per view is 3-5 x faster.
-    internal::BuildHeadProblem(s, *prepared, sigma, options.huber_sigma, options, 12, &robust);
+    internal::BuildHeadProblem(s, *prepared, eye_sigma, options.huber_sigma, options, 12, &robust);
     // Loose tolerance: this stage only has to find the basin and the outliers.
     const ceres::Solver::Summary s1 = internal::SolveHeadProblem(&robust, options, 1e-7);
     out.iterations += static_cast<int>(s1.iterations.size());
@@ -77,10 +139,44 @@ SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
       }
     }
   }
-  fit->num_corners_used = internal::BuildHeadProblem(s, *prepared, sigma, 0.0, options, 0, problem);
-  out.final_summary = internal::SolveHeadProblem(problem, options, 1e-12);
+  if (options.view_outlier_factor > 0) DropViewsTheModelDoesNotExplain(views, options, *s, prepared, fit);
+  *problem = std::make_unique<ceres::Problem>();
+  fit->num_corners_used = internal::BuildHeadProblem(s, *prepared, eye_sigma, 0.0, options, 0, problem->get());
+  out.final_summary = internal::SolveHeadProblem(problem->get(), options, 1e-12);
   out.iterations += static_cast<int>(out.final_summary.iterations.size());
   timer->Mark("solve_final_s");
+  if (options.estimate_corner_sigma) {
+    // Each eye's sigma per axis from its residuals, the sum of squares shared over 2N - p degrees
+    // of freedom (p: the free parameters, boards included). The eyes' relative weight (and an
+    // intrinsics prior's) changes, so solve again.
+    std::array<double, 2> ssq;
+    std::array<int, 2> count;
+    SumSquaresPerEye(*s, *prepared, &ssq, &count);
+    int num_free = 0;
+    for (Block* b : s->HeadBlocks())
+      if (b->in_problem) num_free += b->TangentSize();
+    for (Block* b : s->BoardBlocks())
+      if (b->in_problem) num_free += b->TangentSize();
+    const int num_residuals = 2 * (count[0] + count[1]);
+    bool changed = false;
+    for (int e = 0; e < 2 && num_residuals > num_free; ++e) {
+      if (count[e] == 0) continue;
+      const double dof = double(num_residuals) / (num_residuals - num_free);
+      fit->measured_corner_sigma_px[e] = std::sqrt(ssq[e] / (2.0 * count[e]) * dof);
+      const double use =
+          std::max(options.measured_sigma_factor * fit->measured_corner_sigma_px[e], options.min_corner_sigma_px);
+      changed |= std::abs(use - eye_sigma[e]) > 1e-3 * eye_sigma[e];
+      if (use > 0) eye_sigma[e] = use;
+    }
+    if (changed) {
+      *problem = std::make_unique<ceres::Problem>();
+      internal::BuildHeadProblem(s, *prepared, eye_sigma, 0.0, options, 0, problem->get());
+      out.final_summary = internal::SolveHeadProblem(problem->get(), options, 1e-12);
+      out.iterations += static_cast<int>(out.final_summary.iterations.size());
+      timer->Mark("solve_whitened_s");
+    }
+  }
+  for (int e = 0; e < 2; ++e) fit->corner_sigma_px[e] = eye_sigma[e];
   auto mark_unused = [](Block& b, const std::string& what) {
     if (!b.in_problem) b.FixAll("not determined: no usable view involves " + what);
   };
@@ -95,14 +191,14 @@ SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
 struct ResidualStatistics {
   int num_corners = 0;
   double rms_px = 0;
-  double noise_factor = 0;  // per-axis RMS / corner_sigma_px
+  double noise_factor = 0;  // per-axis RMS / the whitening sigma (RMS over the eyes)
   nlohmann::json per_view = nlohmann::json::array();
 };
 
 ResidualStatistics ComputeResidualStatistics(const std::vector<calib::View>& views,
                                              const std::vector<PreparedView>& prepared,
                                              const HeadState& s,
-                                             double sigma_px) {
+                                             const double sigma_px[2]) {
   ResidualStatistics r;
   double sum_sq = 0;
   for (const PreparedView& p : prepared) {
@@ -124,7 +220,8 @@ ResidualStatistics ComputeResidualStatistics(const std::vector<calib::View>& vie
                           {"rms_px", vn ? std::sqrt(vs / vn) : 0.0}});
   }
   r.rms_px = r.num_corners ? std::sqrt(sum_sq / r.num_corners) : 0.0;
-  r.noise_factor = r.num_corners ? r.rms_px / (std::sqrt(2.0) * sigma_px) : 0.0;
+  const double sigma = std::sqrt(0.5 * (sigma_px[0] * sigma_px[0] + sigma_px[1] * sigma_px[1]));
+  r.noise_factor = r.num_corners && sigma > 0 ? r.rms_px / (std::sqrt(2.0) * sigma) : 0.0;
   return r;
 }
 
@@ -159,6 +256,14 @@ bool HeadFitOptions::Check(std::string* why) const {
     return false;
   };
   if (!(corner_sigma_px > 0)) return fail("corner_sigma_px = " + std::to_string(corner_sigma_px) + " must be > 0");
+  if (!(min_corner_sigma_px >= 0 && min_corner_sigma_px < 10))
+    return fail("min_corner_sigma_px = " + std::to_string(min_corner_sigma_px) + " must be in [0, 10)");
+  if (!(measured_sigma_factor >= 1 && measured_sigma_factor <= 10))
+    return fail("measured_sigma_factor = " + std::to_string(measured_sigma_factor) + " must be in [1, 10]");
+  if (!(hysteresis_sigma_floor_us >= 0 && hysteresis_sigma_floor_us < 100))
+    return fail("hysteresis_sigma_floor_us = " + std::to_string(hysteresis_sigma_floor_us) + " must be in [0, 100)");
+  if (!(view_outlier_factor == 0 || view_outlier_factor >= 1.5))
+    return fail("view_outlier_factor = " + std::to_string(view_outlier_factor) + " must be 0 (off) or >= 1.5");
   if (huber_sigma < 0) return fail("huber_sigma = " + std::to_string(huber_sigma) + " must be >= 0");
   if (outlier_threshold_sigma < 0)
     return fail("outlier_threshold_sigma = " + std::to_string(outlier_threshold_sigma) + " must be >= 0");
@@ -206,13 +311,23 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   if (prepared.empty()) return fail("head fit: no board pose could be initialised (PnP failed for every target)");
 
   // 2. Solve.
-  ceres::Problem problem;
+  std::unique_ptr<ceres::Problem> problem;
   const SolveOutcome solved = SolveWithOutlierRejection(views, options, &prepared, &s, &problem, &fit, &timer);
-  const ResidualStatistics stats = ComputeResidualStatistics(views, prepared, s, options.corner_sigma_px);
+  const ResidualStatistics stats = ComputeResidualStatistics(views, prepared, s, fit.corner_sigma_px);
   fit.num_views_used = static_cast<int>(prepared.size());
 
   // 3. Observability and covariance.
-  const internal::HeadCovariance cov = AnalyseHead(&problem, &s, options);
+  internal::HeadCovariance cov = AnalyseHead(problem.get(), &s, options);
+  if (options.hysteresis_sigma_floor_us > 0 && cov.analysis.ok) {
+    // Raising a diagonal entry keeps the covariance positive semi-definite.
+    for (const Block& b : s.servo) {
+      auto it = cov.tangent_of.find({&b, 4});  // hysteresis_us
+      if (it == cov.tangent_of.end() || !(b.scale[4] > 0)) continue;
+      const double floor = options.hysteresis_sigma_floor_us / b.scale[4];
+      double& v = cov.analysis.covariance(it->second, it->second);
+      v = std::max(v, floor * floor);
+    }
+  }
   timer.Mark("covariance_s");
 
   // 4. Outputs.

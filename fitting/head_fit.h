@@ -40,7 +40,24 @@
 namespace owlcal::fitting {
 
 struct HeadFitOptions {
-  double corner_sigma_px = 0.15;       // measured corner noise (whitening) [px], > 0
+  double corner_sigma_px = 0.15;       // corner noise used to whiten [px], > 0 (with estimate_corner_sigma: the
+                                       // first guess, which sets the robust loss and the outlier threshold)
+  // Whiten with the noise the data shows: after the solve, each eye's corner sigma per axis is
+  // measured from its residuals (sum of squares over 2N - p), multiplied by
+  // measured_sigma_factor, floored at min_corner_sigma_px, and the problem solved again with it,
+  // so the covariance is that of the data, not of a guess.
+  bool estimate_corner_sigma = false;
+  // The detector's corner bias (blur, JPEG, perspective) is nearly the same on neighbouring views
+  // of one board, so more views do not average it away and the residual RMS does not show it.
+  // Widening sigma for it is a choice the caller documents (owlcal calibrate: 2).
+  double measured_sigma_factor = 1.0;
+  double min_corner_sigma_px = 0.0;
+  // Floor of every servo's hysteresis sigma [us]: a frame exposed before the servo fully settled
+  // looks like extra backlash on both approach sides (servo lag is not in the model); 0 = none.
+  double hysteresis_sigma_floor_us = 0.0;
+  // A view whose RMS corner error after the robust solve exceeds this many times the median
+  // view's is dropped whole (and named in warnings); 0 = off.
+  double view_outlier_factor = 5.0;
   bool fit_intrinsics = false;         // false: intrinsics held at the initial head's
   // Prior covariance of each eye's intrinsics params (fx fy cx cy dist..., physical units),
   // used when fit_intrinsics; empty = no prior (intrinsics free).
@@ -76,6 +93,8 @@ struct HeadFit {
   Eigen::MatrixXd covariance;
   std::vector<std::string> undetermined;  // "servo.Neck.deg_per_us: the neck never moved"
   std::vector<HeadOutlier> outliers;
+  double corner_sigma_px[2] = {0, 0};           // whitening sigma used per eye [px] (given or estimated)
+  double measured_corner_sigma_px[2] = {0, 0};  // per-axis sigma from the residuals (estimate_corner_sigma), else 0
   int num_views_used = 0;
   int num_corners_used = 0;
 };

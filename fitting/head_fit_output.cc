@@ -192,6 +192,13 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
   }
   result.diagnostics["head"]["base_from_target"] = boards;
   result.inputs["head_fit"] = {{"corner_sigma_px", options.corner_sigma_px},
+                               {"estimate_corner_sigma", options.estimate_corner_sigma},
+                               {"measured_sigma_factor", options.measured_sigma_factor},
+                               {"min_corner_sigma_px", options.min_corner_sigma_px},
+                               {"hysteresis_sigma_floor_us", options.hysteresis_sigma_floor_us},
+                               {"view_outlier_factor", options.view_outlier_factor},
+                               {"whitening_sigma_px", {fit.corner_sigma_px[0], fit.corner_sigma_px[1]}},
+                               {"measured_corner_sigma_px", {fit.measured_corner_sigma_px[0], fit.measured_corner_sigma_px[1]}},
                                {"fit_intrinsics", options.fit_intrinsics},
                                {"fit_nonlinear", options.fit_nonlinear},
                                {"fit_hysteresis", options.fit_hysteresis},

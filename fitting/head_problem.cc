@@ -119,7 +119,7 @@ std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v) {
 
 int BuildHeadProblem(HeadState* state,
                      const std::vector<PreparedView>& views,
-                     double sigma_px,
+                     const std::array<double, 2>& sigma_px,
                      double huber_k,
                      const HeadFitOptions& options,
                      int max_corners_per_view,
@@ -142,7 +142,7 @@ int BuildHeadProblem(HeadState* state,
     ceres::CostFunction* cost = models::VisitCameraModel(s.camera_model[eye], [&]<typename Camera>() -> ceres::CostFunction* {
       auto* f = new HeadViewResidual<Camera>;
       f->command = v.command;
-      f->sigma_px = sigma_px;
+      f->sigma_px = sigma_px[eye];
       f->huber_k = huber_k;
       for (size_t i = 0; i < v.pixels.size(); ++i) {
         if (!v.inlier[i] || i % stride != 0) continue;

@@ -10,6 +10,7 @@
 //   boards     base_from_target of each target, 7-block [qx qy qz qw tx ty tz]
 // An entry is held (SubsetManifold, or the whole block constant) when `fixed`, with the reason
 // in `fixed_note`.
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -92,7 +93,7 @@ std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v);
 // what is held; sets Block::in_problem. Returns the number of corners used.
 int BuildHeadProblem(HeadState* s,
                      const std::vector<PreparedView>& views,
-                     double sigma_px,
+                     const std::array<double, 2>& sigma_px,  // whitening per eye [px]
                      double huber_k,
                      const HeadFitOptions& options,
                      int max_corners_per_view,

@@ -22,6 +22,7 @@ void SigmaCoverage::Add(const std::vector<Parameter>& parameters) {
     Group& g = groups_[ParameterGroup(p.name)];
     ++g.count;
     if (z <= 1.0) ++g.within1;
+    if (z <= 2.0) ++g.within2;
     if (z <= 3.0) ++g.within3;
     g.sum_z2 += z * z;
     if (z > g.worst_z) {
@@ -47,14 +48,16 @@ std::string ParameterGroup(const std::string& name) {
 }
 
 std::string SigmaCoverage::GroupTable(double tol1, double min3) const {
-  std::string out = "| group | n | within 1 sigma | within 3 sigma | RMS(z) | worst | verdict |\n|---|---|---|---|---|---|---|\n";
+  std::string out =
+      "| group | n | within 1 sigma | within 2 sigma | within 3 sigma | RMS(z) | worst |z| | verdict |\n"
+      "|---|---|---|---|---|---|---|---|\n";
   char line[512];
   for (const auto& [name, g] : groups_) {
-    const double f1 = 100.0 * g.within1 / std::max(1, g.count), f3 = 100.0 * g.within3 / std::max(1, g.count);
+    const double n = std::max(1, g.count);
+    const double f1 = 100.0 * g.within1 / n, f2 = 100.0 * g.within2 / n, f3 = 100.0 * g.within3 / n;
     const bool ok = std::abs(f1 - 68.27) <= tol1 && f3 >= min3;
-    std::snprintf(line, sizeof(line), "| %s | %d | %.1f %% | %.2f %% | %.2f | %s (z = %.1f) | %s |\n", name.c_str(), g.count, f1,
-                  f3, std::sqrt(g.sum_z2 / std::max(1, g.count)), g.worst.c_str(), g.worst_z,
-                  ok ? "ok" : "OUT OF TARGET");
+    std::snprintf(line, sizeof(line), "| %s | %d | %.1f %% | %.1f %% | %.2f %% | %.2f | %.1f (%s) | %s |\n", name.c_str(),
+                  g.count, f1, f2, f3, std::sqrt(g.sum_z2 / n), g.worst_z, g.worst.c_str(), ok ? "ok" : "OUT OF TARGET");
     out += line;
   }
   return out;

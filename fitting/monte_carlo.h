@@ -44,6 +44,7 @@ class SigmaCoverage {
   struct Group {
     int count = 0;
     int within1 = 0;
+    int within2 = 0;
     int within3 = 0;
     double sum_z2 = 0;
     double worst_z = 0;
@@ -52,7 +53,7 @@ class SigmaCoverage {
   const std::map<std::string, Group>& per_group() const { return groups_; }
   // Label of the next Add() (e.g. "robot 7"), used to name the worst parameter of each group.
   void SetLabel(const std::string& label) { label_ = label; }
-  // group | n | within 1 sigma | within 3 sigma | RMS(z) | worst, and a verdict per group
+  // group | n | within 1, 2, 3 sigma | RMS(z) | worst |z| (and whose), and a verdict per group
   // against 68 +- tol1 % within 1 sigma and >= min3 % within 3 sigma (Markdown).
   std::string GroupTable(double tol1 = 5.0, double min3 = 99.0) const;
   // A table: overall fractions, then every parameter's count, within-1/3 sigma and RMS(z).

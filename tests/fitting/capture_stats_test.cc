@@ -94,7 +94,7 @@ TEST(SigmaCoverage, PoolsZPerParameterGroup) {
     p.name = "servo.Rx.centre_us";
     p.sigma = 1;
     p.truth = 0;
-    p.value = i < 68 ? 0.5 : (i < 99 ? 2 : 4);  // 68 % within 1, 99 % within 3
+    p.value = i < 68 ? 0.5 : (i < 90 ? 1.5 : (i < 99 ? 2.5 : -4));  // 68 % within 1, 90 % within 2, 99 % within 3
     ps.push_back(p);
   }
   c.Add(ps);
@@ -102,10 +102,12 @@ TEST(SigmaCoverage, PoolsZPerParameterGroup) {
   const auto& g = c.per_group().at("servo maps");
   EXPECT_EQ(g.count, 100);
   EXPECT_EQ(g.within1, 68);
+  EXPECT_EQ(g.within2, 90);
   EXPECT_EQ(g.within3, 99);
+  EXPECT_DOUBLE_EQ(g.worst_z, 4);
   EXPECT_EQ(g.worst, "robot 1 servo.Rx.centre_us");
   const std::string table = c.GroupTable();
-  EXPECT_NE(table.find("| servo maps | 100 | 68.0 % | 99.00 % |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| servo maps | 100 | 68.0 % | 90.0 % | 99.00 % |"), std::string::npos) << table;
   EXPECT_NE(table.find("| ok |"), std::string::npos) << table;
 }
 
