@@ -59,6 +59,23 @@ RangeFix RangeFromAngles(const models::HeadModel& head,
   return fix;
 }
 
+RangeFix RangeFromPulses(const models::HeadModel& head,
+                         const Fixation& f,
+                         const std::array<double, models::kNumServos>& pulses,
+                         const RangingOptions& options,
+                         const Eigen::Vector2d* pixels) {
+  const models::JointAngles a = head.Angles(pulses, Approach(f));
+  std::optional<Eigen::Vector2d> px[2];
+  if (options.use_image_offset) {
+    for (int e = 0; e < 2; ++e) {
+      if (pixels) px[e] = pixels[e];
+      else px[e] = f.target_px[e];
+    }
+  }
+  return RangeFromAngles(head, a, px);
+}
+
+
 struct ParamSlot {
   int servo = -1;  // servo param index when >= 0
   int index = 0;
@@ -102,9 +119,11 @@ double StepFor(const std::string& name) {
 }  // namespace
 
 bool RangingOptions::Check(std::string* why) const {
-  if (!(pixel_sigma_px >= 0) || !(pwm_sigma_us >= 0)) {
+  if (!(pixel_sigma_px >= 0) || !(pwm_sigma_us >= 0) || !(max_ray_gap_m > 0) || !(max_ray_gap_per_m >= 0)) {
     if (why) *why = "RangingOptions: pixel_sigma_px = " + std::to_string(pixel_sigma_px) +
-                    " and pwm_sigma_us = " + std::to_string(pwm_sigma_us) + " must be >= 0";
+                    ", pwm_sigma_us = " + std::to_string(pwm_sigma_us) + " and max_ray_gap_per_m = " +
+                    std::to_string(max_ray_gap_per_m) + " must be >= 0, max_ray_gap_m = " +
+                    std::to_string(max_ray_gap_m) + " > 0";
     return false;
   }
   return true;
@@ -175,15 +194,7 @@ RangeFix RangeFromFixation(const models::HeadModel& head,
                            const Fixation& f,
                            const RangingOptions& options,
                            const Eigen::Vector2d* pixels) {
-  const models::JointAngles a = head.Angles(ToDouble(f.pwm_us), Approach(f));
-  std::optional<Eigen::Vector2d> px[2];
-  if (options.use_image_offset) {
-    for (int e = 0; e < 2; ++e) {
-      if (pixels) px[e] = pixels[e];
-      else px[e] = f.target_px[e];
-    }
-  }
-  return RangeFromAngles(head, a, px);
+  return RangeFromPulses(head, f, ToDouble(f.Pulses()), options, pixels);
 }
 
 std::optional<double> NominalRange(const models::RobotConfig& config, const models::PwmVector& pwm_us) {
@@ -278,7 +289,7 @@ double RangeVariance(const models::HeadModel& head,
     }
   } else {
     // The gaze is the optical axis at the commanded PWM: the command's quantisation counts.
-    const std::array<double, models::kNumServos> base = ToDouble(f.pwm_us);
+    const std::array<double, models::kNumServos> base = ToDouble(f.Pulses());
     const std::optional<Eigen::Vector2d> none[2];
     for (int servo : {int(models::kLx), int(models::kRx)}) {
       auto up = base, dn = base;
@@ -288,6 +299,18 @@ double RangeVariance(const models::HeadModel& head,
       const RangeFix b = RangeFromAngles(head, head.Angles(dn, Approach(f)), none);
       if (a.ok && b.ok) var += std::pow((a.range_m - b.range_m) * options.pwm_sigma_us, 2);
     }
+  }
+  // The pulse each servo applied, when it is not known exactly (dead band, PWM step).
+  const std::array<double, models::kNumServos> pulses = ToDouble(f.Pulses());
+  for (int servo = 0; servo < models::kNumServos; ++servo) {
+    const double sigma = f.applied_sigma_us[servo];
+    if (!(sigma > 0)) continue;
+    auto up = pulses, dn = pulses;
+    up[servo] += 0.5;
+    dn[servo] -= 0.5;
+    const RangeFix a = RangeFromPulses(head, f, up, options, nullptr);
+    const RangeFix b = RangeFromPulses(head, f, dn, options, nullptr);
+    if (a.ok && b.ok) var += std::pow((a.range_m - b.range_m) * sigma, 2);
   }
   return var;
 }
@@ -315,29 +338,51 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
     RangingRow row;
     row.index = f.index;
     row.true_m = f.true_distance_m;
-    const RangeFix fix = RangeFromFixation(head, f, options);
-    row.ok = fix.ok;
+    row.status = f.status;
+    row.reason = f.reason;
+    row.range_m = row.error_m = row.rel_error = row.sigma_m = row.gap_m = kNaN;
+    row.nominal_rel_error = kNaN;
+    if (f.status != calib::TrialStatus::kOk) {
+      ev.notes.push_back("fixation " + std::to_string(f.index) + " not ranged: " + calib::TrialStatusName(f.status) +
+                         (f.reason.empty() ? "" : ": " + f.reason));
+      ev.rows.push_back(row);
+      continue;
+    }
     row.nominal_m = NominalRange(config, f.pwm_us);
     row.nominal_rel_error = row.nominal_m ? (*row.nominal_m - row.true_m) / row.true_m : kNaN;
     if (row.nominal_m) {
       nom2 += row.nominal_rel_error * row.nominal_rel_error;
       ++num_nom;
     }
-    if (fix.ok) {
-      row.range_m = fix.range_m;
+    const RangeFix fix = RangeFromFixation(head, f, options);
+    if (!fix.ok) {
+      row.status = calib::TrialStatus::kOffTarget;
+      row.reason = "the gaze rays do not converge in front of the head";
+    } else if (fix.gap_m > options.max_ray_gap_m + options.max_ray_gap_per_m * fix.range_m) {
+      row.status = calib::TrialStatus::kOffTarget;
       row.gap_m = fix.gap_m;
-      row.error_m = fix.range_m - row.true_m;
-      row.rel_error = row.error_m / row.true_m;
-      row.sigma_m = std::sqrt(RangeVariance(head, cov, f, options));
-      ++ev.num_ok;
-      sum2 += row.rel_error * row.rel_error;
-      sum_abs += std::abs(row.rel_error);
-      ev.max_abs_rel_error = std::max(ev.max_abs_rel_error, std::abs(row.rel_error));
-      if (std::abs(row.error_m) <= 2 * row.sigma_m) ++within;
-    } else {
-      row.range_m = row.error_m = row.rel_error = row.sigma_m = kNaN;
-      ev.notes.push_back("fixation " + std::to_string(f.index) + ": gaze rays do not converge in front");
+      row.reason = "the two eyes' gaze rays pass " + std::to_string(1000 * fix.gap_m).substr(0, 6) +
+                   " mm apart (limit " +
+                   std::to_string(1000 * (options.max_ray_gap_m + options.max_ray_gap_per_m * fix.range_m)).substr(0, 5) +
+                   " mm): the eyes did not fixate one point";
     }
+    if (row.status != calib::TrialStatus::kOk) {
+      ev.notes.push_back("fixation " + std::to_string(f.index) + " not ranged: " + calib::TrialStatusName(row.status) +
+                         ": " + row.reason);
+      ev.rows.push_back(row);
+      continue;
+    }
+    row.ok = true;
+    row.range_m = fix.range_m;
+    row.gap_m = fix.gap_m;
+    row.error_m = fix.range_m - row.true_m;
+    row.rel_error = row.error_m / row.true_m;
+    row.sigma_m = std::sqrt(RangeVariance(head, cov, f, options));
+    ++ev.num_ok;
+    sum2 += row.rel_error * row.rel_error;
+    sum_abs += std::abs(row.rel_error);
+    ev.max_abs_rel_error = std::max(ev.max_abs_rel_error, std::abs(row.rel_error));
+    if (std::abs(row.error_m) <= 2 * row.sigma_m) ++within;
     ev.rows.push_back(row);
   }
   if (ev.num_ok > 0) {

@@ -15,12 +15,22 @@
 // RxC) * 0.113 deg (inward positive), models::SineRuleFix with IPD 65 mm; range from the
 // midpoint of the eyes. Centres are the robot file's configured centres.
 //
-// Uncertainty: sigma_range^2 = J C J^T + J_px S_px J_px^T, where J = d range / d params by
+// Pulse widths: the servo maps are evaluated at the pulse each servo APPLIED (after its PWM
+// step and dead band, models/servo_resolution.h) with its approach, when the fixation knows it
+// (Fixation::applied_us), else at the command. A fixation whose applied pulse is uncertain
+// carries applied_sigma_us, which enters sigma below.
+//
+// Only fixations with status ok are ranged. A fixation whose two gaze rays pass further apart
+// than max_ray_gap_m + max_ray_gap_per_m * range (or do not converge in front) did not look at
+// one point with both eyes: its row says "off target" and it is never reported as a range.
+//
+// Uncertainty: sigma_range^2 = J C J^T + J_px S_px J_px^T + J_u S_u J_u^T, where J = d range / d params by
 // central differences over the named result parameters (servo.<S>.centre_us, deg_per_us,
 // quad_deg, cubic_deg, hysteresis_us; head.ipd_mm; <eye>.fx/fy/cx/cy), C their covariance
 // (diagnostics["covariance"] {names, matrix} when the fit wrote one, else diagonal from the
 // parameters' sigmas), and S_px the detection noise of the target pixel (pixel_sigma_px per
-// axis, per eye), or the PWM quantisation when no pixel is used.
+// axis, per eye), or the PWM quantisation when no pixel is used; J_u = d range / d pulse of each
+// servo and S_u = diag(applied_sigma_us^2).
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -29,6 +39,7 @@
 
 #include <Eigen/Core>
 
+#include "calib/trial_status.h"
 #include "fitting/result.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"
@@ -37,16 +48,24 @@ namespace owlcal::fitting {
 
 struct Fixation {
   int index = 0;
+  calib::TrialStatus status = calib::TrialStatus::kOk;  // as the protocol recorded it
+  std::string reason;                                   // why not ok
   models::PwmVector pwm_us{};                        // settled command, wire order
-  std::array<int8_t, models::kNumServos> approach{};  // sign of the last move per servo
+  std::optional<models::PwmVector> applied_us;       // the pulse each servo applied, when known
+  std::array<double, models::kNumServos> applied_sigma_us{};  // uncertainty of the pulse used [us]
+  std::array<int8_t, models::kNumServos> approach{};  // sign of the last (applied) move per servo
   std::optional<Eigen::Vector2d> target_px[2];       // detected target pixel per eye, after settling
   double true_distance_m = 0;                        // from the midpoint of the eye rotation centres
+  // The pulse widths the servo maps are evaluated at: applied_us when known, else pwm_us.
+  models::PwmVector Pulses() const { return applied_us ? *applied_us : pwm_us; }
 };
 
 struct RangingOptions {
   bool use_image_offset = true;   // refine the gaze with the target's pixel (else optical axis)
   double pixel_sigma_px = 0.15;   // detection noise of the target pixel, per axis
   double pwm_sigma_us = 0.2887;   // command quantisation, 1/sqrt(12) us, when no pixel is used
+  double max_ray_gap_m = 0.003;   // rays further apart than this + max_ray_gap_per_m * range: off target
+  double max_ray_gap_per_m = 0.003;
   bool Check(std::string* why) const;
 };
 
@@ -88,7 +107,9 @@ std::optional<double> NominalRange(const models::RobotConfig& config, const mode
 struct RangingRow {
   int index = 0;
   double true_m = 0;
-  bool ok = false;
+  bool ok = false;                                 // ranged: status ok
+  calib::TrialStatus status = calib::TrialStatus::kOk;
+  std::string reason;                              // why not ranged
   double range_m = 0, error_m = 0, rel_error = 0;  // error = range - true
   double sigma_m = 0;                              // predicted 1-sigma
   double gap_m = 0;
@@ -104,14 +125,14 @@ struct RangingTheoryRow {
 };
 
 struct RangingEvaluation {
-  std::vector<RangingRow> rows;
+  std::vector<RangingRow> rows;                    // every fixation, ranged or not
   std::vector<RangingTheoryRow> theory;
-  int num_ok = 0;
+  int num_ok = 0;                                  // rows ranged (of rows.size())
   double rms_rel_error = 0, mean_abs_rel_error = 0, max_abs_rel_error = 0;
   double fraction_within_2sigma = 0;
   double nominal_rms_rel_error = 0;   // over rows with a nominal fix
   std::vector<std::string> propagated;  // parameter names whose covariance went into sigma
-  std::vector<std::string> notes;
+  std::vector<std::string> notes;     // one per fixation not ranged, naming it and why
 };
 
 // Evaluates every fixation. theory_distances_m: the distances of the theory curve (symmetric

@@ -176,8 +176,8 @@ std::optional<Figure> MakeRangeErrorFigure(const ReportData& d) {
     (nom_off.rows.empty() ? nom_off_lo : nom_off).title = "course nominal, off scale: " + std::to_string(num_off) +
                                                            " points up to " + std::to_string(int(std::lround(off_max))) +
                                                            " % (table)";
-  // Fixations the calibrated head could not range: crosses on the bottom edge.
-  Series cal_none{"calibrated: no range", "points pt 2 ps 2 lw 2 " + Lc(0), "1:2", {"true_m", "edge_pct"}, {}};
+  // Fixations that were not ranged (lost, off target, not settled): crosses on the bottom edge.
+  Series cal_none{"not ranged (fixation not ok: see the ranging table)", "points pt 2 ps 2 lw 2 " + Lc(0), "1:2", {"true_m", "edge_pct"}, {}};
   for (const auto& x : r.rows)
     if (!x.ok) cal_none.rows.push_back({x.true_m, -0.93 * lim});
   // Fixations the course method cannot range at all (its gaze rays diverge): open squares at

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "fitting/servo_map_eval.h"
 #include "fitting/truth_compare.h"
@@ -96,24 +97,30 @@ std::vector<Table> MakeTables(const ReportData& d) {
   }
   if (d.ranging) {
     const auto& r = *d.ranging;
-    Table t{"ranging", "Vergence ranging per fixation", {"fixation", "true [m]", "calibrated [m]", "error [%]", "\u00b12\u03c3 [%]", "within \u00b12\u03c3", "ray gap [mm]", "course nominal [m]", "nominal error [%]"}, {}};
+    Table t{"ranging", "Vergence ranging per fixation (every fixation the protocol tried; only status ok is ranged)",
+            {"fixation", "status", "true [m]", "calibrated [m]", "error [%]", "\u00b12\u03c3 [%]", "within \u00b12\u03c3",
+             "ray gap [mm]", "course nominal [m]", "nominal error [%]", "reason"}, {}};
     for (const auto& x : r.rows)
-      t.rows.push_back({std::to_string(x.index), Fmt(x.true_m, 4), x.ok ? Fmt(x.range_m, 5) : "failed",
-                        x.ok ? Pct(x.rel_error) : "", x.ok ? Pct(2 * x.sigma_m / x.true_m) : "",
-                        x.ok ? Bool(std::abs(x.error_m) <= 2 * x.sigma_m) : "no range",
-                        Fmt(1000 * x.gap_m, 3), x.nominal_m ? Fmt(*x.nominal_m, 4) : "none: gaze rays diverge",
-                        x.nominal_m ? Pct(x.nominal_rel_error) : ""});
+      t.rows.push_back({std::to_string(x.index), calib::TrialStatusName(x.status), Fmt(x.true_m, 4),
+                        x.ok ? Fmt(x.range_m, 5) : "not ranged", x.ok ? Pct(x.rel_error) : "",
+                        x.ok ? Pct(2 * x.sigma_m / x.true_m) : "", x.ok ? Bool(std::abs(x.error_m) <= 2 * x.sigma_m) : "",
+                        std::isfinite(x.gap_m) ? Fmt(1000 * x.gap_m, 3) : "",
+                        x.ok ? (x.nominal_m ? Fmt(*x.nominal_m, 4) : "none: gaze rays diverge") : "",
+                        x.ok && x.nominal_m ? Pct(x.nominal_rel_error) : "", x.reason});
     out.push_back(t);
     // Robust summary: the median and the count of failures, not an RMS one outlier dominates.
     std::vector<double> cal, nom;
     int within = 0, nominal_none = 0;
+    std::map<std::string, int> by_status;
     for (const auto& x : r.rows) {
       if (x.ok) {
         cal.push_back(std::abs(x.rel_error));
         within += std::abs(x.error_m) <= 2 * x.sigma_m;
+        if (x.nominal_m) nom.push_back(std::abs(x.nominal_rel_error));
+        else ++nominal_none;
+      } else {
+        ++by_status[calib::TrialStatusName(x.status)];
       }
-      if (x.nominal_m) nom.push_back(std::abs(x.nominal_rel_error));
-      else nominal_none += x.ok;
     }
     auto median = [](std::vector<double> v) -> double {
       if (v.empty()) return NAN;
@@ -123,18 +130,15 @@ std::vector<Table> MakeTables(const ReportData& d) {
     auto maxv = [](const std::vector<double>& v) -> double {
       return v.empty() ? NAN : *std::max_element(v.begin(), v.end());
     };
-    int excluded = 0;
-    for (const auto& w : d.result.warnings) excluded += w.rfind("vergence fixation", 0) == 0;
+    const std::string of_n = " of " + std::to_string(r.rows.size());
     Table s{"ranging_summary", "Vergence ranging summary", {"quantity", "calibrated head", "course nominal method"}, {}};
-    s.rows = {{"fixations recorded", std::to_string(r.rows.size() + excluded), ""},
-              {"excluded before ranging (reasons in the warnings)", std::to_string(excluded), ""},
-              {"ranged", std::to_string(cal.size()) + " of " + std::to_string(r.rows.size()),
-               std::to_string(nom.size()) + " of " + std::to_string(r.rows.size())},
-              {"failed to range", std::to_string(r.rows.size() - cal.size()),
-               std::to_string(nominal_none) + " (gaze rays diverge)"},
-              {"median |relative error| [%]", Pct(median(cal)), Pct(median(nom))},
-              {"max |relative error| [%]", Pct(maxv(cal)), Pct(maxv(nom))},
-              {"within \u00b12\u03c3 of the truth", std::to_string(within) + " of " + std::to_string(cal.size()), ""}};
+    s.rows = {{"fixations ok and ranged", std::to_string(cal.size()) + of_n, std::to_string(nom.size()) + of_n}};
+    for (const auto& [status, n] : by_status)
+      s.rows.push_back({"fixations " + status + " (not ranged; reasons in the table)", std::to_string(n) + of_n, ""});
+    s.rows.push_back({"ok but no nominal range", "", std::to_string(nominal_none) + " (gaze rays diverge)"});
+    s.rows.push_back({"median |relative error| [%]", Pct(median(cal)), Pct(median(nom))});
+    s.rows.push_back({"max |relative error| [%]", Pct(maxv(cal)), Pct(maxv(nom))});
+    s.rows.push_back({"within \u00b12\u03c3 of the truth", std::to_string(within) + " of " + std::to_string(cal.size()), ""});
     out.push_back(s);
   }
   if (!d.steps.empty()) {

@@ -123,7 +123,8 @@ json EvaluationToJson(const ReportData& d) {
     const auto& r = *d.ranging;
     json rows = json::array();
     for (const auto& x : r.rows)
-      rows.push_back({{"index", x.index}, {"true_m", x.true_m}, {"ok", x.ok}, {"range_m", Num(x.range_m)},
+      rows.push_back({{"index", x.index}, {"true_m", x.true_m}, {"ok", x.ok},
+                      {"status", calib::TrialStatusName(x.status)}, {"reason", x.reason}, {"range_m", Num(x.range_m)},
                       {"error_m", Num(x.error_m)}, {"rel_error", Num(x.rel_error)}, {"sigma_m", Num(x.sigma_m)},
                       {"gap_m", Num(x.gap_m)}, {"nominal_m", OptNum(x.nominal_m)},
                       {"nominal_rel_error", Num(x.nominal_rel_error)}});
@@ -221,6 +222,12 @@ void EvaluationFromJson(const json& j, ReportData* d) {
       row.index = x.value("index", 0);
       row.true_m = Get(x, "true_m");
       row.ok = x.value("ok", false);
+      const std::string status = x.value("status", row.ok ? "ok" : "failed");
+      const auto st = calib::TrialStatusFromName(status);
+      if (!st) throw std::runtime_error("evaluation.json: ranging row " + std::to_string(row.index) + ": unknown status '" +
+                                        status + "'");
+      row.status = *st;
+      row.reason = x.value("reason", std::string());
       row.range_m = Get(x, "range_m");
       row.error_m = Get(x, "error_m");
       row.rel_error = Get(x, "rel_error");

@@ -7,27 +7,6 @@
 
 namespace owlcal::sim {
 
-double SlewLagState(double r0, double y0, double target, double slew, double lag, double dt, double* r_out) {
-  const double diff = target - r0;
-  const double s = diff > 0 ? slew : (diff < 0 ? -slew : 0.0);
-  const double t_ramp = s == 0 ? 0.0 : std::abs(diff) / slew;
-  // Phase 1 (0 <= tau <= t_ramp): r = r0 + s tau, and with lag T
-  //   y = r0 + s (tau - T) + (y0 - r0 + s T) exp(-tau / T).
-  auto ramp = [&](double tau) {
-    if (lag <= 0) return r0 + s * tau;
-    return r0 + s * (tau - lag) + (y0 - r0 + s * lag) * std::exp(-tau / lag);
-  };
-  if (dt <= t_ramp) {
-    if (r_out) *r_out = r0 + s * dt;
-    return ramp(dt);
-  }
-  // Phase 2: r = target, y relaxes exponentially from y(t_ramp).
-  if (r_out) *r_out = target;
-  const double y1 = ramp(t_ramp);
-  if (lag <= 0) return target;
-  return target + (y1 - target) * std::exp(-(dt - t_ramp) / lag);
-}
-
 ServoDynamics::ServoDynamics(const ServoTruth& truth, int initial_us, int64_t t0_ns)
     : truth_(truth),
       slew_rad_s_(truth.slew_deg_per_s * M_PI / 180.0),

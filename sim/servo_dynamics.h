@@ -18,13 +18,13 @@
 #include <cstdint>
 #include <deque>
 
+#include "models/slew_lag.h"
 #include "sim/robot_truth.h"
 
 namespace owlcal::sim {
 
-// Closed-form slew + first-order-lag response from state (r0, y0) towards `target`
-// after dt seconds. slew in rad/s (> 0), lag in s (>= 0). Returns y; *r_out gets r.
-double SlewLagState(double r0, double y0, double target, double slew, double lag, double dt, double* r_out = nullptr);
+// Closed-form slew + first-order-lag response (models/slew_lag.h): slew in rad/s here.
+using models::SlewLagState;
 
 class ServoDynamics {
  public:

@@ -142,3 +142,86 @@ TEST(RangingEval, CovarianceFromResultUsesFullMatrixWhenPresent) {
 
 }  // namespace
 }  // namespace owlcal::fitting
+
+namespace owlcal::fitting {
+namespace {
+
+// A servo with a 5 us PWM step and a dead band settles on a pulse that is not the command: the
+// image shows the applied pulse's angle, so ranging at the command is wrong by several % and
+// ranging at the applied pulse is exact.
+TEST(RangingEval, RangesWithThePulseTheServoApplied) {
+  const models::HeadModel truth = TruthHead();
+  std::vector<Fixation> commanded, applied;
+  int i = 0;
+  for (double d : {0.4, 0.8, 1.2, 1.6, 2.0}) {
+    auto fx = SyntheticFixation(truth, Eigen::Vector3d(0.01, 0.0, d), 1530);
+    ASSERT_TRUE(fx);
+    // The servos applied 2 us (Lx) and -3 us (Rx) away from the command; the target pixels are
+    // where the applied pulses put them.
+    Fixation a = *fx;
+    a.index = i++;
+    a.applied_us = a.pwm_us;
+    (*a.applied_us)[models::kLx] += 2;
+    (*a.applied_us)[models::kRx] -= 3;
+    const models::JointAngles q = truth.Angles(a.Pulses());
+    for (int e = 0; e < 2; ++e) {
+      Eigen::Vector2d px;
+      ASSERT_TRUE(truth.Project(models::Eye(e), q, Eigen::Vector3d(0.01, 0.0, d), &px));
+      a.target_px[e] = px;
+    }
+    applied.push_back(a);
+    Fixation c = a;
+    c.applied_us.reset();
+    commanded.push_back(c);
+  }
+  const RangingEvaluation good = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), applied, {}, {});
+  const RangingEvaluation bad = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), commanded, {}, {});
+  EXPECT_EQ(good.num_ok, 5);
+  EXPECT_LT(good.max_abs_rel_error, 1e-6);
+  EXPECT_GT(bad.max_abs_rel_error, 0.05);
+}
+
+TEST(RangingEval, UncertainAppliedPulseWidensSigma) {
+  const models::HeadModel truth = TruthHead();
+  auto fx = SyntheticFixation(truth, Eigen::Vector3d(0, 0, 1.0), 1530);
+  ASSERT_TRUE(fx);
+  Fixation sure = *fx, unsure = *fx;
+  unsure.applied_sigma_us[models::kLx] = unsure.applied_sigma_us[models::kRx] = 1.44;
+  const auto a = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), {sure}, {}, {});
+  const auto b = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), {unsure}, {}, {});
+  ASSERT_EQ(a.num_ok, 1);
+  ASSERT_EQ(b.num_ok, 1);
+  // 1.44 us on each eye at 1 m: about 3 % per us (FACTS.md), so sigma grows to several %.
+  EXPECT_GT(b.rows[0].sigma_m, 2 * a.rows[0].sigma_m);
+  EXPECT_GT(b.rows[0].sigma_m / b.rows[0].true_m, 0.03);
+}
+
+// Every fixation is a row: failed ones keep their status and reason and are never ranged, and
+// a fixation whose rays do not meet (one eye on the wall behind the target) is off target.
+TEST(RangingEval, FailedAndOffTargetFixationsAreRowsButNeverRanges) {
+  const models::HeadModel truth = TruthHead();
+  std::vector<Fixation> f;
+  for (double d : {0.5, 1.0, 1.5}) f.push_back(*SyntheticFixation(truth, Eigen::Vector3d(0, 0, d), 1530));
+  for (int i = 0; i < 3; ++i) f[i].index = i;
+  f[1].status = calib::TrialStatus::kLostTarget;
+  f[1].reason = "target not found in 5 consecutive frames";
+  // The left eye looks 3 deg up: its ray passes far above the right eye's.
+  f[2].target_px[0] = *f[2].target_px[0] + Eigen::Vector2d(0, 30);
+  const RangingEvaluation ev = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), f, {}, {});
+  ASSERT_EQ(ev.rows.size(), 3u);
+  EXPECT_EQ(ev.num_ok, 1);
+  EXPECT_TRUE(ev.rows[0].ok);
+  EXPECT_FALSE(ev.rows[1].ok);
+  EXPECT_EQ(ev.rows[1].status, calib::TrialStatus::kLostTarget);
+  EXPECT_FALSE(std::isfinite(ev.rows[1].range_m));
+  EXPECT_FALSE(ev.rows[2].ok);
+  EXPECT_EQ(ev.rows[2].status, calib::TrialStatus::kOffTarget);
+  EXPECT_NE(ev.rows[2].reason.find("mm apart"), std::string::npos) << ev.rows[2].reason;
+  EXPECT_FALSE(std::isfinite(ev.rows[2].range_m));
+  ASSERT_EQ(ev.notes.size(), 2u);
+  EXPECT_NE(ev.notes[0].find("fixation 1 not ranged: lost target"), std::string::npos) << ev.notes[0];
+  EXPECT_LT(ev.max_abs_rel_error, 1e-6);
+}
+
+}  // namespace
+}  // namespace owlcal::fitting

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "models/servo_resolution.h"
 #include "sim/virtual_owl.h"
 
 namespace owlcal::sim {
@@ -133,6 +134,35 @@ TEST(ServoDynamics, BacklashDeadBandAndQuantum) {
   EXPECT_EQ(q.ActivePulseUs(), 1545);
   q.Command(1548, 1);
   EXPECT_EQ(q.ActivePulseUs(), 1550);
+}
+
+// models::ServoResolution is the model owlcal's controllers and ranging use for what a servo
+// applies; it must say exactly what the truth does, for every step and dead band.
+TEST(ServoDynamics, AppliedPulseAndApproachFollowModelsServoResolution) {
+  uint32_t x = 12345;
+  auto next = [&x] {
+    x = x * 1664525u + 1013904223u;
+    return int(x >> 8);
+  };
+  for (int step : {1, 2, 5}) {
+    for (int dead : {1, 2, 3, 5, 7}) {
+      ServoTruth t = Servo();
+      t.quantum_us = step;
+      t.dead_band_us = dead;
+      ServoDynamics d(t, 1520, 0);
+      const models::ServoResolution r = models::ServoResolution::Rounding(step, dead);
+      models::ServoState s{1520, 0};
+      for (int k = 1; k < 400; ++k) {
+        const int u = 1500 + next() % 41;
+        d.Command(u, k * 1'000'000);
+        s = r.Next(s, u);
+        ASSERT_EQ(d.ActivePulseUs(), s.applied_us) << "step " << step << " dead band " << dead << " command " << k;
+        if (s.approach != 0) {
+          ASSERT_EQ(d.Approach(), s.approach);
+        }
+      }
+    }
+  }
 }
 
 TEST(VirtualOwlServos, CommandsBeyondLimitsAreClampedAndEndStopsRespected) {
