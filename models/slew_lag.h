@@ -9,7 +9,9 @@
 // Usage:
 //   double r = 0;
 //   double y = SlewLagState(/*r0=*/0, /*y0=*/0, /*target=*/0.17, /*slew=*/6.6, /*lag=*/0.025, 0.05, &r);
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace owlcal::models {
 
@@ -35,5 +37,33 @@ inline double SlewLagState(double r0, double y0, double target, double slew, dou
   if (lag <= 0) return target;
   return target + (y1 - target) * std::exp(-(dt - t_ramp) / lag);
 }
+
+// A joint's trajectory under a sequence of commands (times increasing), evaluated at any
+// time after the first: SlewLagState between commands. Units as above; times in seconds.
+class SlewLagTrajectory {
+ public:
+  SlewLagTrajectory(double slew, double lag, double t0, double at_rest)
+      : slew_(slew), lag_(lag), segs_{{t0, at_rest, at_rest, at_rest}} {}
+
+  // From time t on, head for `target` (t must not precede the last command).
+  void Command(double t, double target) {
+    const Seg& s = segs_.back();
+    double r = 0;
+    const double y = SlewLagState(s.r0, s.y0, s.target, slew_, lag_, std::max(0.0, t - s.t0), &r);
+    segs_.push_back({t, r, y, target});
+  }
+  double At(double t) const {
+    auto it = std::upper_bound(segs_.begin(), segs_.end(), t, [](double x, const Seg& s) { return x < s.t0; });
+    const Seg& s = it == segs_.begin() ? segs_.front() : *(it - 1);
+    return SlewLagState(s.r0, s.y0, s.target, slew_, lag_, std::max(0.0, t - s.t0));
+  }
+
+ private:
+  struct Seg {
+    double t0, r0, y0, target;
+  };
+  double slew_, lag_;
+  std::vector<Seg> segs_;
+};
 
 }  // namespace owlcal::models
