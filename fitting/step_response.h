@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include "calib/trial_status.h"
+
 namespace owlcal::fitting {
 
 struct StepInfoOptions {
@@ -62,6 +64,10 @@ struct StepTrace {
   double amplitude_deg = 0;
   int trial = 0;
   std::string eye_axis;            // "right pan"
+  calib::TrialStatus status = calib::TrialStatus::kOk;  // as the protocol recorded the trial
+  std::string reason;              // why not ok
+  std::string controller = "p-loop";  // "p-loop" or "saccade" (fitting/settling_model.h)
+  double band = 0.02;              // settling band used (fraction of the step)
   std::vector<double> t_s;         // from the step command
   std::vector<double> y;
   double residual_px = 0;          // |target offset| after settling
