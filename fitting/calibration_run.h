@@ -17,6 +17,9 @@
 #include "fitting/ploop_analysis.h"
 #include "fitting/ranging_eval.h"
 #include "fitting/result.h"
+#include "fitting/saccade_eval.h"
+#include "fitting/servo_resolution_fit.h"
+#include "fitting/settling_model.h"
 #include "fitting/step_response.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"
@@ -62,8 +65,11 @@ struct CalibrationRun {
   std::optional<models::HeadModel> truth;  // virtual Owl only, in the fit's gauge
   std::optional<RangingEvaluation> ranging;
   std::optional<LimitsEvaluation> limits;
-  std::vector<StepTrace> steps;
+  std::vector<StepTrace> steps;            // every step trial (P loop and saccade), failed ones too
   std::optional<GainStudy> gains;
+  std::vector<ServoResolutionResult> resolution;  // PWM step and dead band per servo, measured
+  std::optional<SettlingStudy> settling;          // loop model vs measured settling
+  std::optional<SaccadeEvaluation> saccade;       // calibrated saccade vs bound and P loop
   std::vector<ResidualPoint> residuals;
   std::vector<CoveragePoint> coverage;
   std::vector<ViewStat> views;  // fitting/fit_points.h

@@ -59,6 +59,12 @@ struct ResolutionFit {
   std::vector<int> applied_us;      // replayed applied pulse per input sample
 };
 
+// One servo's fit, as a calibration run keeps it (fitting/calibration_run.h).
+struct ServoResolutionResult {
+  int servo = 0;  // models::ServoIndex
+  ResolutionFit fit;
+};
+
 ResolutionFit FitServoResolution(const std::vector<ResolutionSample>& samples, const ResolutionFitOptions& options = {});
 
 // "step 5 us (phase 3), dead band 1-5 us" / "step 1 us, dead band 3 us".
