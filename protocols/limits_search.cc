@@ -1,0 +1,188 @@
+#include "protocols/limits_search.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "protocols/image_motion.h"
+
+namespace owlcal::protocols {
+namespace {
+
+constexpr int kDownsample = 2;
+
+std::string Num(double v, int prec = 3) {
+  std::ostringstream s;
+  s.precision(prec);
+  s << v;
+  return s.str();
+}
+
+double Median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+bool LimitSearchOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = "limit search options: " + m;
+    return false;
+  };
+  if (coarse_us < 1) return fail("coarse_us must be >= 1");
+  if (fine_us < 1 || fine_us > coarse_us) return fail("fine_us must be in [1, coarse_us]");
+  if (!(moved_fraction > 0 && moved_fraction < 1)) return fail("moved_fraction must be in (0, 1)");
+  if (!(rim_fraction > 0)) return fail("rim_fraction must be > 0");
+  if (!(min_contrast_grey >= 0)) return fail("min_contrast_grey must be >= 0");
+  return true;
+}
+
+LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nominal_px_per_us,
+                              const LimitSearchOptions& o, const LimitSearchIo& io) {
+  std::string why;
+  if (!o.Check(&why)) throw std::invalid_argument(why);
+  if (!(nominal_px_per_us > 0)) throw std::invalid_argument("SearchLimit: nominal_px_per_us must be > 0");
+  LimitSearchResult r;
+  r.measured_us = centre_us;
+  const int d = limit_us >= centre_us ? 1 : -1;
+  auto fail = [&](const std::string& m) {
+    r.status = calib::TrialStatus::kFailed;
+    r.cause.clear();
+    r.message = m;
+    r.measured_us = centre_us;
+    return r;
+  };
+  if (limit_us == centre_us) {
+    r.cause = "configured";
+    r.message = "the configured limit is the centre";
+    return r;
+  }
+
+  // 1) The centre image must show texture.
+  io.move(centre_us);
+  const cv::Mat centre_img = io.image();
+  const double rim0 = RimFraction(centre_img);
+  cv::Mat prev = MotionThumb(centre_img, kDownsample);
+  {
+    cv::Scalar mean, sd;
+    cv::meanStdDev(prev, mean, sd);
+    if (sd[0] < o.min_contrast_grey)
+      return fail("the image at the centre is black or constant (grey mean " + Num(mean[0]) + ", std " + Num(sd[0]) +
+                  " < " + Num(o.min_contrast_grey) + "): covered lens, dead or disconnected camera; no limit measured");
+  }
+  auto take = [&](int pulse, cv::Mat* thumb) {
+    io.move(pulse);
+    const cv::Mat img = io.image();
+    ++r.probes;
+    *thumb = MotionThumb(img, kDownsample);
+    r.rim = RimFraction(img) - rim0;
+  };
+  auto rim_in = [&] { return o.check_rim && r.rim > o.rim_fraction; };
+
+  // 2) Coarse walk.
+  int v = centre_us;
+  double shift_sum = 0;
+  std::vector<double> step_scales;
+  while (v != limit_us) {
+    const int nv = d > 0 ? std::min(limit_us, v + o.coarse_us) : std::max(limit_us, v - o.coarse_us);
+    cv::Mat cur;
+    take(nv, &cur);
+    const double signed_shift = ThumbShift(prev, cur, kDownsample).px[axis];
+    r.last_shift_px = std::abs(signed_shift);
+    const double expected = std::abs(nv - v) * nominal_px_per_us;
+    if (rim_in()) break;  // the fine walk finds where
+    if (r.last_shift_px < o.moved_fraction * expected) {
+      if (v == centre_us)
+        return fail("no image motion at the first step from the centre (" + std::to_string(centre_us) + " -> " +
+                    std::to_string(nv) + " us: " + Num(r.last_shift_px) + " px, expected " + Num(expected) +
+                    " px): frozen or covered camera, or a servo that does not move; no limit measured");
+      break;
+    }
+    shift_sum += signed_shift;
+    step_scales.push_back(r.last_shift_px / std::abs(nv - v));
+    v = nv;
+    prev = cur;
+  }
+  // The median per-step scale: a last step that ran partly into a stop does not bias it.
+  const double scale = step_scales.empty() ? nominal_px_per_us : Median(step_scales);
+  const double sign = shift_sum * d < 0 ? -1.0 : 1.0;
+  r.px_per_us = scale;
+
+  // 3) Fine walk from an anchor one coarse step inside the last good pulse, approached from
+  // the inside (backlash taken up).
+  int anchor = v - d * o.coarse_us;
+  if ((anchor - centre_us) * d < 0) anchor = centre_us;
+  int inside = anchor - d * o.coarse_us;
+  if ((inside - centre_us) * d < 0) inside = centre_us;
+  io.move(inside);
+  cv::Mat anchor_thumb;
+  take(anchor, &anchor_thumb);
+  // In outward us from the anchor command: x = commanded travel, a(x) = applied. Each probe
+  // measures travel = a(x) - a(0); deficit = x - travel = (x - a(x)) + a(0). Over the probes
+  // that moved, the median deficit (bias) estimates a(0): the PWM step's rounding averages out.
+  const double tol = std::max(8.0, 2.0 * o.fine_us);
+  double bias = 0, travel_max = 0, prev_travel = 0;
+  std::vector<double> moved_deficits;
+  int last_free = anchor;
+  r.cause.clear();
+  for (int nv = anchor; nv != limit_us;) {
+    nv = d > 0 ? std::min(limit_us, nv + o.fine_us) : std::max(limit_us, nv - o.fine_us);
+    cv::Mat cur;
+    take(nv, &cur);
+    const double shift = ThumbShift(anchor_thumb, cur, kDownsample).px[axis];
+    r.last_shift_px = std::abs(shift);
+    if (rim_in()) {
+      r.cause = "rim";
+      r.measured_us = last_free;
+      r.message = "rim darkening " + Num(r.rim) + " at " + std::to_string(nv) + " us";
+      return r;
+    }
+    const double travel = sign * d * shift / scale;
+    const double commanded = std::abs(nv - anchor);
+    const double deficit = commanded - travel;
+    travel_max = std::max(travel_max, travel);
+    if (deficit - bias > tol) {
+      const double stop = anchor + d * (travel_max + bias);
+      r.cause = "end-stop";
+      r.measured_us = d > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
+      r.message = "the image stopped following: at " + std::to_string(nv) + " us commanded travel " + Num(commanded) +
+                  " us, measured " + Num(travel) + " us from " + std::to_string(anchor) + " us (tolerance " + Num(tol) +
+                  " us, scale " + Num(scale) + " px/us)";
+      return r;
+    }
+    // Only probes that clearly moved enter the bias (a stop creeping in, where the travel no
+    // longer grows, must not drag it along); bounded by the rounding of steps up to 10 us.
+    if (travel - prev_travel >= 0.5 * o.fine_us) {
+      moved_deficits.push_back(deficit);
+      bias = std::clamp(Median(moved_deficits), -5.0, 5.0);
+    }
+    prev_travel = travel;
+    last_free = nv;
+    if (nv == limit_us) {
+      // 4) The configured limit reached with the image following, unless the servo applied
+      // noticeably less than the limit (a stop just inside it).
+      const double reached = travel + bias;  // a(x_limit) - anchor, outward
+      const double short_us = commanded - reached;
+      if (short_us > 4.0) {
+        const double stop = anchor + d * reached;
+        r.cause = "end-stop";
+        r.measured_us = d > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
+        r.message = "at the configured limit the servo applied " + Num(short_us) + " us less: a stop just inside it";
+      } else {
+        r.cause = "configured";
+        r.measured_us = limit_us;
+        r.message = "configured limit reached with the image following (within " + Num(short_us) + " us)";
+      }
+      return r;
+    }
+  }
+  r.cause = "configured";  // the anchor is the limit
+  r.measured_us = limit_us;
+  r.message = "configured limit reached";
+  return r;
+}
+
+}  // namespace owlcal::protocols

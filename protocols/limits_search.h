@@ -1,0 +1,74 @@
+#pragma once
+// The search for one end of one servo's usable range (the limits protocol, protocols/runner.h
+// limits.csv): the servo is stepped outward from its centre, every other servo at its centre,
+// until the image stops following the command (a physical end-stop), the eye-socket rim
+// darkens the image border, or the configured limit is reached.
+//
+// It works with any PWM step and dead band (models/servo_resolution.h) and finds a stop
+// anywhere inside the configured range, including inside the last coarse step:
+//   1. Image check: the eye image at the centre must show texture (grey standard deviation of
+//      the motion thumbnail >= min_contrast_grey). A black, covered (lens cap) or constant
+//      image fails the search: it shows no motion, so it can neither find nor rule out a stop.
+//   2. Coarse: steps of coarse_us outward. A step whose image shift is below moved_fraction of
+//      the nominal shift ends the coarse walk. When that is the very FIRST step from the
+//      centre, the search fails (the camera shows no motion: frozen or covered, or the servo
+//      does not move): a stop at the centre is never reported. The image scale (px per us) is
+//      the median over the coarse steps that moved.
+//   3. Fine, always (also when the coarse walk reached the configured limit): from an anchor
+//      one coarse step inside the last good coarse pulse, approached from the inside (backlash
+//      taken up), steps of fine_us outward. The image position is measured against the anchor
+//      image (cumulative shift / measured scale = travel the servo applied), so a fine step
+//      that produces no motion because of the PWM step or dead band is not a stop. A stop is
+//      when the commanded travel exceeds the measured travel by more than max(8 us, 2 fine_us)
+//      beyond the bias (the median disagreement of the probes that moved: the anchor's own
+//      rounding). The reported stop is the anchor plus the largest measured travel plus the
+//      bias, rounded inward: within a few us of the true stop, whatever the PWM step.
+//   4. At the configured limit with the image following: "configured", unless the servo
+//      applied more than 4 us less than the limit (a stop just inside it: "end-stop" there).
+// The rim (eyes only): RimFraction of the eye image grew by more than rim_fraction over the
+// centre pose; the end is then the last fine pulse without it.
+#include <functional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "calib/trial_status.h"
+
+namespace owlcal::protocols {
+
+struct LimitSearchOptions {
+  int coarse_us = 20;
+  int fine_us = 4;
+  double moved_fraction = 0.3;
+  double rim_fraction = 0.02;
+  bool check_rim = true;          // false for the neck (it carries the sockets with the head)
+  double min_contrast_grey = 4;   // thumbnail grey std below this: black or constant image
+  bool Check(std::string* why) const;
+};
+
+// What the search needs: move this servo to a pulse (others at their centre) and wait for it
+// to settle; the eye image after that (8-bit BGR or grey).
+struct LimitSearchIo {
+  std::function<void(int pulse_us)> move;
+  std::function<cv::Mat()> image;
+};
+
+struct LimitSearchResult {
+  calib::TrialStatus status = calib::TrialStatus::kOk;  // ok, or failed (no usable image/motion)
+  std::string cause;        // ok: "end-stop", "rim" or "configured"; failed: ""
+  std::string message;      // failed: why; ok: how it was found
+  int measured_us = 0;      // the usable end (failed: the centre, never to be used)
+  double last_shift_px = 0; // image shift of the last probe
+  double rim = 0;           // rim darkening of the last probe over the centre pose
+  double px_per_us = 0;     // measured image scale
+  int probes = 0;
+};
+
+// centre_us, limit_us: the configured centre and the configured limit of this end (either
+// side of the centre); axis 0 = the image moves in x (pan, neck), 1 = y (tilt);
+// nominal_px_per_us > 0: the expected image shift per us. Throws std::invalid_argument on bad
+// options.
+LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nominal_px_per_us,
+                              const LimitSearchOptions& options, const LimitSearchIo& io);
+
+}  // namespace owlcal::protocols
