@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <opencv2/calib3d.hpp>
 
@@ -165,6 +166,46 @@ struct PeakTracker {
   }
 };
 
+// A limit cycle across the target on one axis: a servo with a PWM step or dead band
+// (models/servo_resolution.h) makes the image jump across the centre between two plateaus and
+// cannot put the target closer. Each half-cycle (between two sign changes of the offset, all
+// within near_px) gives the plateau on its side: the median |offset| over its frames (the loop
+// crawls through the servo's bin for many frames; the few frames of the jump do not count).
+struct CrossingTracker {
+  int sign = 0;
+  int crossings = 0;
+  std::vector<double> half;               // |offset| in the current half-cycle
+  double plateau[2] = {-1, -1};           // [0] negative side, [1] positive side; -1 unknown
+  double min_jump = 0;                    // smallest |e_after - e_before| at a crossing
+  double last = 0;
+  void Add(double e, double near_px) {
+    const int s = e > 0 ? 1 : (e < 0 ? -1 : 0);
+    if (s == 0) return;
+    if (std::abs(e) > near_px) {  // far from the target: no cycle (yet)
+      *this = CrossingTracker{};
+      return;
+    }
+    if (sign != 0 && s != sign) {
+      std::vector<double> v = half;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      plateau[sign > 0] = v[v.size() / 2];
+      const double jump = std::abs(e - last);
+      min_jump = crossings == 0 ? jump : std::min(min_jump, jump);
+      ++crossings;
+      half.clear();
+    }
+    half.push_back(std::abs(e));
+    sign = s;
+    last = e;
+  }
+  // After a full cycle (both plateaus known), the dead zone takes in the worse plateau (the loop
+  // stops on whichever side it is), at least the tolerance.
+  double DeadZone(double tolerance_px) const {
+    if (crossings < 2 || plateau[0] < 0 || plateau[1] < 0) return tolerance_px;
+    return std::max(tolerance_px, 1.05 * std::max(plateau[0], plateau[1]));
+  }
+};
+
 }  // namespace
 
 std::unique_ptr<TargetLocator> MakeFixationLocator(const calib::FixationDetectorOptions& options) {
@@ -191,6 +232,27 @@ const char* OutcomeName(FixationResult::Outcome o) {
     case FixationResult::Outcome::kNotStarted: return "not-started";
   }
   return "?";
+}
+
+calib::TrialStatus FixationStatus(const FixationResult& r, const FixationOptions& o, std::string* reason) {
+  using Outcome = FixationResult::Outcome;
+  reason->clear();
+  switch (r.outcome) {
+    case Outcome::kConverged:
+      for (int e = 0; e < 2; ++e)
+        if (o.eyes[e] && !r.found[e]) {
+          *reason = std::string("target not found in the ") + models::kEyeNames[e] + " eye at the end";
+          return calib::TrialStatus::kLostTarget;
+        }
+      return calib::TrialStatus::kOk;
+    case Outcome::kLost: *reason = r.message; return calib::TrialStatus::kLostTarget;
+    case Outcome::kMaxIterations: *reason = r.message; return calib::TrialStatus::kNotSettled;
+    case Outcome::kDiverged: *reason = "diverged: " + r.message; return calib::TrialStatus::kNotSettled;
+    case Outcome::kLimit: *reason = "stopped before a limit: " + r.message; return calib::TrialStatus::kNotSettled;
+    case Outcome::kNotStarted: *reason = "could not start: " + r.message; return calib::TrialStatus::kFailed;
+  }
+  *reason = r.message;
+  return calib::TrialStatus::kFailed;
 }
 
 bool FixationOptions::Check(std::string* why) const {
@@ -232,6 +294,7 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
   for (int i = 0; i < models::kNumServos; ++i) state[i] = start[i];
   models::PwmVector sent = start;
   PeakTracker peaks[2][2];
+  CrossingTracker crossings[2][2];
   double initial_err[2] = {-1, -1};
   int lost = 0, still = 0, wait = 0;
   for (int k = 0; k < o.max_iterations; ++k) {
@@ -247,7 +310,6 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
     s.stamp_ns = frame.stamp_ns;
     s.pwm_us = sent;
     bool all_found = true;
-    double max_err = 0;
     double eye_err[2] = {0, 0};
     for (int e = 0; e < 2; ++e) {
       if (!o.eyes[e]) continue;
@@ -262,11 +324,11 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       r.found[e] = true;
       r.residual_px[e] = s.offset_px[e];
       const double err = std::max(o.pan ? std::abs(s.offset_px[e].x()) : 0.0, o.tilt ? std::abs(s.offset_px[e].y()) : 0.0);
-      max_err = std::max(max_err, err);
       eye_err[e] = err;
       if (initial_err[e] < 0) initial_err[e] = err;
       peaks[e][0].Add(s.offset_px[e].x(), o.tolerance_px);
       peaks[e][1].Add(s.offset_px[e].y(), o.tolerance_px);
+      for (int a = 0; a < 2; ++a) crossings[e][a].Add(s.offset_px[e][a], std::max(3 * o.tolerance_px, 7.0));
     }
     r.trace.push_back(s);
     r.iterations = k + 1;
@@ -317,8 +379,9 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       for (int a = 0; a < 2; ++a) {
         if ((a == 0 && !o.pan) || (a == 1 && !o.tilt)) continue;
         // Dead zone: an axis already within the tolerance is left alone (with backlash an
-        // integrating loop would otherwise chase it in a limit cycle).
-        if (std::abs(s.offset_px[e][a]) <= o.tolerance_px) continue;
+        // integrating loop would otherwise chase it in a limit cycle); widened to what the
+        // servo can resolve once the target was seen to jump across the centre.
+        if (std::abs(s.offset_px[e][a]) <= crossings[e][a].DeadZone(o.tolerance_px)) continue;
         const double step = std::clamp(o.gain * err_us[a], -double(o.max_step_us), double(o.max_step_us));
         state[servos[a]] += step;
         next[servos[a]] = static_cast<int>(std::lround(state[servos[a]]));
@@ -338,10 +401,22 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       }
     }
     const bool unchanged = next == sent;
-    if (unchanged && max_err <= o.tolerance_px) {
+    bool within = true;
+    for (int e = 0; e < 2; ++e)
+      for (int a = 0; a < 2; ++a)
+        if (o.eyes[e] && ((a == 0 && o.pan) || (a == 1 && o.tilt)))
+          within &= std::abs(s.offset_px[e][a]) <= crossings[e][a].DeadZone(o.tolerance_px);
+    if (unchanged && within) {
       if (++still >= o.still_frames && o.stop_when_converged) {
         r.outcome = FixationResult::Outcome::kConverged;
         r.message = "converged in " + std::to_string(k + 1) + " frames";
+        for (int e = 0; e < 2; ++e)
+          for (int a = 0; a < 2; ++a)
+            if (crossings[e][a].DeadZone(o.tolerance_px) > o.tolerance_px)
+              r.message += std::string(", ") + models::kEyeNames[e] + (a == 0 ? " pan" : " tilt") + " within " +
+                           std::to_string(crossings[e][a].DeadZone(o.tolerance_px)).substr(0, 4) +
+                           " px (the target jumps across the centre by " +
+                           std::to_string(crossings[e][a].min_jump).substr(0, 4) + " px: PWM step or dead band)";
         r.final_pwm_us = sent;
         return r;
       }

@@ -12,7 +12,10 @@
 // FACTS.md "Control with latency": with d frames of delay K_crit = 2 sin(pi / (2 (2d + 1))),
 // 0.445 for d = 3; K = 0.1 settles without overshoot). The command is kept as a real number
 // and rounded to whole microseconds when sent. An axis whose offset is within tolerance_px is
-// not updated (a dead zone: with servo backlash an integrating loop would limit-cycle).
+// not updated (a dead zone: with servo backlash an integrating loop would limit-cycle). Once
+// an axis' offset has cycled across the centre (two sign changes within 7 px), its dead zone
+// takes in the plateaus the target jumped between: a servo with a PWM step or dead band cannot
+// put it closer, and the loop would otherwise cycle between two pulses for ever.
 //
 // Latency awareness: latency_frames = n > 0 waits n frames after every update (those frames
 // still show the old pose), which makes large gains stable at the cost of a slower loop.
@@ -32,6 +35,7 @@
 
 #include "calib/fixation_detector.h"
 #include "calib/target.h"
+#include "calib/trial_status.h"
 #include "models/robot_config.h"
 #include "protocols/protocol.h"
 #include "robot/robot_interface.h"
@@ -100,6 +104,12 @@ struct FixationResult {
   std::vector<FixationSample> trace;
 };
 const char* OutcomeName(FixationResult::Outcome outcome);
+
+// The trial status (calib/trial_status.h) of a fixation and why: converged with the target
+// found in every controlled eye = ok; out of frames, diverged or stopped before a limit = not
+// settled; the target lost (or missing in a controlled eye at the end) = lost target; could not
+// start = failed. *reason is empty for ok.
+calib::TrialStatus FixationStatus(const FixationResult& result, const FixationOptions& options, std::string* reason);
 
 // What the loop needs from the runner: the command in force, sending through the limits
 // guard, and the next frame (throws on timeout or abort).

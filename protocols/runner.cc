@@ -14,12 +14,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/detector.h"
+#include "calib/trial_status.h"
 #include "calib/observation_io.h"
 #include "models/head_model.h"
 #include "protocols/coverage.h"
 #include "owlcal_version.h"
 #include "protocols/fixation.h"
 #include "protocols/image_motion.h"
+#include "protocols/limits_search.h"
 #include "protocols/step_plan.h"
 #include "robot/limits_guard.h"
 
@@ -390,16 +392,23 @@ void Runner::DoFixate(const Protocol& p, const Step& s) {
   // The approach of the settled command: backlash shifts the eyes by the hysteresis (~0.25 deg
   // each), which ranging must account for (a vergence run moves both eyes outward in turn).
   for (int i = 0; i < kNumServos; ++i) row.push_back(std::to_string(int(approach_[i])));
+  // Every fixation is a row with its status (calib/trial_status.h); only "ok" may be ranged.
+  std::string reason;
+  const calib::TrialStatus status = FixationStatus(r, fo, &reason);
+  row.push_back(calib::TrialStatusName(status));
+  row.push_back(CsvSafe(reason));
   writer_->AppendRow("fixations.csv",
                      "step_index,step_name,placement_index,target,distance_m,eyes,gain,outcome,iterations,Rx_us,Ry_us,"
                      "Lx_us,Ly_us,Neck_us,left_found,left_dx_px,left_dy_px,right_found,right_dx_px,right_dy_px,stamp_ns,"
-                     "approach_Rx,approach_Ry,approach_Lx,approach_Ly,approach_Neck",
+                     "approach_Rx,approach_Ry,approach_Lx,approach_Ly,approach_Neck,status,reason",
                      row);
-  Event("fixate", std::string(OutcomeName(r.outcome)) + ": " + r.message + " (frame " + std::to_string(frame_index) + ")");
+  Event("fixate", std::string(calib::TrialStatusName(status)) + " (" + OutcomeName(r.outcome) + "): " + r.message +
+                      " (frame " + std::to_string(frame_index) + ")");
   if (o_.progress)
-    *o_.progress << "  fixate " << s.eyes << " gain " << s.gain << ": " << OutcomeName(r.outcome) << " after "
-                 << r.iterations << " frames, residual L " << F(r.residual_px[0].norm(), 2) << " px R "
-                 << F(r.residual_px[1].norm(), 2) << " px\n";
+    *o_.progress << "  fixate " << s.eyes << " gain " << s.gain << ": " << calib::TrialStatusName(status)
+                 << (reason.empty() ? "" : " (" + reason + ")") << " after " << r.iterations
+                 << " frames, residual L " << F(r.residual_px[0].norm(), 2) << " px R " << F(r.residual_px[1].norm(), 2)
+                 << " px\n";
 }
 
 void Runner::DoStepResponse(const Protocol& p, const Step& s) {
@@ -423,13 +432,21 @@ void Runner::DoStepResponse(const Protocol& p, const Step& s) {
         const PwmVector fix = cmd_;
         std::vector<std::string> trial_row = {std::to_string(step_index_), F(gain, 4), F(amp, 3), std::to_string(trial),
                                               s.eye, s.axis, models::kServoNames[servo]};
-        if (a.outcome != FixationResult::Outcome::kConverged) {
-          trial_row.insert(trial_row.end(), {"", PwmText(fix), "no-fixation", "0", "", CsvSafe(a.message)});
+        std::string acquire_reason;
+        const calib::TrialStatus acquired = FixationStatus(a, acquire, &acquire_reason);
+        if (acquired != calib::TrialStatus::kOk) {
+          // The trial is a row too: skipped, saying why.
+          const std::string why = std::string("no fixation before the step: ") + calib::TrialStatusName(acquired) + ": " +
+                                  acquire_reason;
+          trial_row.insert(trial_row.end(), {"", PwmText(fix), "no-fixation", "0", "", CsvSafe(a.message),
+                                             calib::TrialStatusName(calib::TrialStatus::kSkipped), CsvSafe(why)});
           writer_->AppendRow("step_trials.csv",
                              "step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,"
-                             "final_offset_px,message",
+                             "final_offset_px,message,status,reason",
                              trial_row);
-          Event("step-response", "could not fixate before the step: " + a.message);
+          Event("step-response", "trial skipped: " + why);
+          if (o_.progress)
+            *o_.progress << "  step " << F(amp, 0) << " deg gain " << F(gain, 3) << ": skipped (" << why << ")\n";
           continue;
         }
         // 2) Step away by the amplitude (alternating direction), settle.
@@ -466,16 +483,19 @@ void Runner::DoStepResponse(const Protocol& p, const Step& s) {
                               fs.found[eye] ? "1" : "0", std::to_string(k < frames.size() ? frames[k] : -1)});
         }
         const double final_off = r.found[eye] ? (s.axis == "pan" ? r.residual_px[eye].x() : r.residual_px[eye].y()) : NAN;
+        std::string reason;
+        const calib::TrialStatus status = FixationStatus(r, fo, &reason);
         trial_row.insert(trial_row.end(), {std::to_string(start[servo]), std::to_string(fix[servo]), OutcomeName(r.outcome),
-                                           std::to_string(r.iterations), F(final_off, 3), CsvSafe(r.message)});
+                                           std::to_string(r.iterations), F(final_off, 3), CsvSafe(r.message),
+                                           calib::TrialStatusName(status), CsvSafe(reason)});
         writer_->AppendRow("step_trials.csv",
                            "step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,"
-                           "final_offset_px,message",
+                           "final_offset_px,message,status,reason",
                            trial_row);
-        Event("step-response", "gain " + F(gain, 3) + " amplitude " + F(amp, 1) + " deg: " + OutcomeName(r.outcome) +
-                                   " " + r.message);
+        Event("step-response", "gain " + F(gain, 3) + " amplitude " + F(amp, 1) + " deg: " + calib::TrialStatusName(status) +
+                                   " (" + OutcomeName(r.outcome) + ") " + r.message);
         if (o_.progress)
-          *o_.progress << "  step " << F(amp, 0) << " deg gain " << F(gain, 3) << ": " << OutcomeName(r.outcome)
+          *o_.progress << "  step " << F(amp, 0) << " deg gain " << F(gain, 3) << ": " << calib::TrialStatusName(status)
                        << ", final offset " << F(final_off, 2) << " px\n";
         // 4) Back to the fixation pose.
         Send(fix);
@@ -486,102 +506,62 @@ void Runner::DoStepResponse(const Protocol& p, const Step& s) {
 }
 
 void Runner::DoLimits(const Step& s) {
+  // protocols/limits_search.h: works with any PWM step and dead band; a black, covered or
+  // frozen camera fails the step (after its rows are written), never passes as "configured".
   const double focal_px = 585.0 * config_.image_width / 640.0;
+  std::vector<std::string> failed;
+  int ends = 0;
   for (int servo : s.servos) {
     const models::ServoConfig& sc = config_.servos[servo];
     const int eye = ServoEye(servo);
-    const int axis = ServoAxis(servo);
     const double px_per_us = sc.nominal_deg_per_us * M_PI / 180.0 * focal_px;
+    LimitSearchOptions lo;
+    lo.coarse_us = s.coarse_us;
+    lo.fine_us = s.fine_us;
+    lo.moved_fraction = s.moved_fraction;
+    lo.rim_fraction = s.rim_fraction;
+    lo.check_rim = servo != models::kNeck;  // the neck carries the sockets with the head
+    const PwmVector centre = config_.Centre();
+    LimitSearchIo io;
+    io.move = [&](int u) {
+      PwmVector p = centre;
+      p[servo] = u;
+      Send(p);
+      Settle(s.settle);
+    };
+    io.image = [&] {
+      robot::StereoFrame f = Grab();
+      if (s.record_frames) Record(f);
+      return (eye == models::kLeftEye ? f.left : f.right).clone();
+    };
     for (int d : {+1, -1}) {
       const int limit = d > 0 ? sc.max_us : sc.min_us;
-      const PwmVector centre = config_.Centre();
-      Send(centre);
-      Settle(s.settle);
-      RimProfile base_profile;
-      bool have_base = false;
-      double rim = 0, rim0 = 0;
-      auto grab_eye = [&](cv::Mat* thumb) {
-        robot::StereoFrame f = Grab();
-        if (s.record_frames) Record(f);
-        const cv::Mat& img = eye == models::kLeftEye ? f.left : f.right;
-        *thumb = MotionThumb(img, 2);
-        (void)base_profile;
-        const double frac = RimFraction(img);
-        if (!have_base) {
-          rim0 = frac;
-          have_base = true;
-        }
-        rim = frac - rim0;
-      };
-      cv::Mat prev;
-      grab_eye(&prev);
-      int v = centre[servo];
-      std::string reason = "configured";
-      double last_shift = 0;
-      bool stopped = false;
-      // One outward move from v to nv: did the image follow, did the rim intrude?
-      auto probe = [&](int nv, cv::Mat* cur) {
-        PwmVector p = centre;
-        p[servo] = nv;
-        Send(p);
-        Settle(s.settle);
-        grab_eye(cur);
-        const Shift sh = ThumbShift(prev, *cur, 2);
-        last_shift = std::abs(sh.px[axis]);
-        const double expected = std::abs(nv - v) * px_per_us;
-        if (last_shift < s.moved_fraction * expected) return std::string("end-stop");
-        // The neck carries the sockets with the head: no rim for it.
-        if (servo != models::kNeck && rim > s.rim_fraction) return std::string("rim");
-        return std::string();
-      };
-      // Coarse.
-      while (v != limit) {
-        const int nv = d > 0 ? std::min(limit, v + s.coarse_us) : std::max(limit, v - s.coarse_us);
-        cv::Mat cur;
-        const std::string why = probe(nv, &cur);
-        if (!why.empty()) {
-          stopped = true;
-          reason = why;
-          break;
-        }
-        v = nv;
-        prev = cur;
-      }
-      // Fine, from the last good coarse value, approached from the inside (backlash taken up).
-      if (stopped) {
-        PwmVector p = centre;
-        p[servo] = v - d * s.coarse_us;
-        Send(p);
-        Settle(s.settle);
-        p[servo] = v;
-        Send(p);
-        Settle(s.settle);
-        grab_eye(&prev);
-        while (v != limit) {
-          const int nv = d > 0 ? std::min(limit, v + s.fine_us) : std::max(limit, v - s.fine_us);
-          cv::Mat cur;
-          const std::string why = probe(nv, &cur);
-          if (!why.empty()) {
-            reason = why;
-            break;
-          }
-          v = nv;
-          prev = cur;
-        }
-        if (v == limit && reason.empty()) reason = "configured";
-      }
-      writer_->AppendRow("limits.csv", "step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening",
-                         {std::to_string(step_index_), models::kServoNames[servo], d > 0 ? "max" : "min",
-                          std::to_string(limit), std::to_string(v), reason, F(last_shift, 3), F(rim, 4)});
-      Event("limits", std::string(models::kServoNames[servo]) + (d > 0 ? " max" : " min") + ": configured " +
-                          std::to_string(limit) + ", measured " + std::to_string(v) + " (" + reason + ")");
+      const std::string end = d > 0 ? "max" : "min";
+      ++ends;
+      const LimitSearchResult r = SearchLimit(centre[servo], limit, ServoAxis(servo), px_per_us, lo, io);
+      const bool ok = r.status == calib::TrialStatus::kOk;
+      writer_->AppendRow("limits.csv",
+                         "step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening,status,message",
+                         {std::to_string(step_index_), models::kServoNames[servo], end, std::to_string(limit),
+                          ok ? std::to_string(r.measured_us) : "", r.cause, F(r.last_shift_px, 3), F(r.rim, 4),
+                          calib::TrialStatusName(r.status), CsvSafe(r.message)});
+      const std::string what = std::string(models::kServoNames[servo]) + " " + end;
+      if (!ok) failed.push_back(what + ": " + r.message);
+      Event("limits", what + ": configured " + std::to_string(limit) + ", " +
+                          (ok ? "measured " + std::to_string(r.measured_us) + " (" + r.cause + "): " : "FAILED: ") +
+                          r.message);
       if (o_.progress)
-        *o_.progress << "  limits " << models::kServoNames[servo] << (d > 0 ? " max" : " min") << ": configured "
-                     << limit << " us, measured " << v << " us (" << reason << ")\n";
+        *o_.progress << "  limits " << what << ": configured " << limit << " us, "
+                     << (ok ? "measured " + std::to_string(r.measured_us) + " us (" + r.cause + ")" : "FAILED: " + r.message)
+                     << "\n";
     }
   }
   Send(config_.Centre());
   Settle(s.settle);
+  if (!failed.empty())
+    throw std::runtime_error("limits: " + std::to_string(failed.size()) + " of " + std::to_string(ends) +
+                             " ends could not be measured (limits.csv names them): " + failed.front() +
+                             (failed.size() > 1 ? "; ..." : ""));
 }
 
 void Runner::DoAlignment(const Protocol& p, const Step& s) {

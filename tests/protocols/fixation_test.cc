@@ -12,6 +12,8 @@ namespace owlcal::protocols {
 namespace {
 
 struct Rig {
+  Rig() = default;
+  explicit Rig(const sim::VirtualOwlOptions& o) : owl(o) {}
   sim::VirtualOwl owl{sim::VirtualOwlOptions{}};
   robot::LimitsGuard guard{owl.Config()};
   models::PwmVector cmd = owl.Config().Centre();
@@ -77,6 +79,61 @@ TEST(Fixation, ConvergesAtTheCourseGain) {
     std::cout << "distance " << distance << ": " << OutcomeName(r.outcome) << " in " << r.iterations
               << " frames, residual L " << r.residual_px[0].transpose() << " R " << r.residual_px[1].transpose() << "\n";
   }
+}
+
+// A servo with 5 us PWM steps and a 3 us dead band moves the image ~6 px at a time: a 1 px
+// tolerance can never be met, and the loop used to cycle between two pulses until it ran out of
+// frames. It now widens the axis' dead zone to what the servo resolves, and converges.
+TEST(Fixation, ConvergesOnFiveMicrosecondPwmSteps) {
+  sim::VirtualOwlOptions vo;
+  sim::RobotTruth t = sim::DefaultRobotTruth();
+  for (auto& sv : t.servos) {
+    sv.quantum_us = 5;
+    sv.dead_band_us = 3;
+  }
+  vo.truth = t;
+  for (double distance : {0.5, 1.5}) {
+    Rig rig(vo);
+    rig.PlaceFixation(distance, 0.03);
+    FixationOptions o;
+    o.gain = 0.1;
+    o.max_iterations = 150;
+    auto loc = MakeFixationLocator();
+    const FixationResult r = RunFixation(o, rig.owl.Config(), *loc, rig.Io());
+    std::string reason;
+    EXPECT_EQ(FixationStatus(r, o, &reason), calib::TrialStatus::kOk) << "distance " << distance << ": " << reason;
+    // Within one 5 us step's image shift (5.75 px at 1.15 px/us) on each axis: the loop stops on
+    // whichever side of the target the servo's step left it (ranging uses the target's pixel).
+    for (int e = 0; e < 2; ++e) {
+      EXPECT_LT(std::abs(r.residual_px[e].x()), 6.0) << "distance " << distance;
+      EXPECT_LT(std::abs(r.residual_px[e].y()), 6.0) << "distance " << distance;
+    }
+    std::cout << "5 us steps, distance " << distance << ": " << r.message << "\n";
+    if (getenv("TRACE"))
+      for (const auto& fs : r.trace)
+        std::cout << fs.k << " L " << fs.offset_px[0].transpose() << " R " << fs.offset_px[1].transpose() << " pwm "
+                  << fs.pwm_us[0] << " " << fs.pwm_us[1] << " " << fs.pwm_us[2] << " " << fs.pwm_us[3] << "\n";
+  }
+}
+
+// The target leaves the view: the fixation is a "lost target", never ok.
+TEST(Fixation, LostTargetIsReportedAsSuch) {
+  Rig rig;
+  rig.PlaceFixation(1.0, 0.03);
+  FixationOptions o;
+  o.max_iterations = 60;
+  // The target is found in the first frames, then never again (taken away mid-loop).
+  int calls = 0;
+  auto loc = MakeFunctionLocator("vanishing", [&calls](const cv::Mat& img, int eye) -> std::optional<Eigen::Vector2d> {
+    if (++calls > 6) return std::nullopt;
+    return calib::DetectFixationTarget(img, {}).found ? std::optional(calib::DetectFixationTarget(img, {}).centre)
+                                                      : std::nullopt;
+    (void)eye;
+  });
+  const FixationResult r = RunFixation(o, rig.owl.Config(), *loc, rig.Io());
+  std::string reason;
+  EXPECT_EQ(FixationStatus(r, o, &reason), calib::TrialStatus::kLostTarget) << OutcomeName(r.outcome) << ": " << reason;
+  EXPECT_NE(reason.find("not found"), std::string::npos) << reason;
 }
 
 TEST(Fixation, DivergentGainIsStoppedBeforeAnyLimit) {

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "calib/csv.h"
+#include "robot/robot_interface.h"
 #include "protocols/dataset.h"
 #include "protocols/image_motion.h"
 #include "protocols/protocol.h"
@@ -89,9 +90,11 @@ int TruthEnd(const sim::VirtualOwl& owl, int servo, int d, double rim_fraction, 
   }
 }
 
-void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name) {
+void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, const std::vector<int>& servos = {},
+                 int max_error_us = 10) {
   sim::VirtualOwl owl(vo);
-  const Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
+  Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
+  if (!servos.empty()) p.steps[1].servos = servos;
   RunOptions o;
   o.out_dir = (fs::temp_directory_path() / ("owlcal_limits_" + name + "_" + std::to_string(::getpid()))).string();
   fs::remove_all(o.out_dir);
@@ -111,11 +114,13 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name) {
     const int truth = TruthEnd(owl, servo, d, p.steps[1].rim_fraction, &cause);
     std::cout << name << " " << f[1] << " " << f[2] << ": measured " << measured << " (" << f[5] << "), truth " << truth
               << " (" << cause << "), error " << measured - truth << " us\n";
-    EXPECT_LE(std::abs(measured - truth), 10) << f[1] << " " << f[2];
+    EXPECT_LE(std::abs(measured - truth), max_error_us) << f[1] << " " << f[2];
     EXPECT_EQ(f[5], cause) << f[1] << " " << f[2];
+    EXPECT_EQ(f[8], "ok") << f[1] << " " << f[2];
     ++rows;
   }
-  EXPECT_EQ(rows, 10);
+  EXPECT_EQ(rows, 2 * int(p.steps[1].servos.size()));
+  fs::remove_all(o.out_dir);
 }
 
 TEST(Limits, FindsTheTrueUsableRangeWithin10usOnTheDefaultRobot) {
@@ -132,6 +137,89 @@ TEST(Limits, FindsEndStopsInsideTheConfiguredRange) {
   vo.truth = t;
   vo.seed = 3;
   CheckLimits(vo, "endstops");
+}
+
+// A robot built like real ones: 5 us PWM steps, dead bands of 2-5 us, and stops inside the
+// configured range, one inside the last 20 us coarse step of its limit. Every end within 5 us.
+TEST(Limits, FiveMicrosecondStepsAndDeadBandsStopsInsideTheLastCoarseStep) {
+  sim::VirtualOwlOptions vo;
+  sim::RobotTruth t = sim::DefaultRobotTruth();
+  for (auto& s : t.servos) {
+    s.quantum_us = 5;
+    s.dead_band_us = 3;
+  }
+  t.servos[models::kNeck].dead_band_us = 5;
+  t.servos[models::kNeck].endstop_hi_us = t.robot.servos[models::kNeck].max_us - 13;  // inside the last coarse step
+  t.servos[models::kNeck].endstop_lo_us = t.robot.servos[models::kNeck].min_us + 57;
+  t.servos[models::kRx].dead_band_us = 2;
+  t.servos[models::kRx].endstop_hi_us = t.robot.servos[models::kRx].centre_us + 163;
+  vo.truth = t;
+  vo.seed = 5;
+  CheckLimits(vo, "pwm5", {models::kRx, models::kNeck}, 5);
+}
+
+// Forwards to a robot, but one eye's image is black (a lens cap, a dead camera).
+class BlackEyeRobot : public robot::RobotInterface {
+ public:
+  BlackEyeRobot(robot::RobotInterface* inner, int eye) : inner_(inner), eye_(eye) {}
+  const models::RobotConfig& Config() const override { return inner_->Config(); }
+  robot::ServoReply SendServos(const robot::PwmVector& pwm_us) override { return inner_->SendServos(pwm_us); }
+  std::optional<robot::StereoFrame> GrabFrame(int64_t after, int64_t timeout) override {
+    auto f = inner_->GrabFrame(after, timeout);
+    if (f) {
+      cv::Mat& img = eye_ == models::kLeftEye ? f->left : f->right;
+      img = cv::Mat(img.size(), img.type(), cv::Scalar::all(3));
+    }
+    return f;
+  }
+  int64_t NowNs() override { return inner_->NowNs(); }
+  void SleepNs(int64_t ns) override { inner_->SleepNs(ns); }
+  robot::SceneControl* Scene() override { return inner_->Scene(); }
+  std::string Describe() const override { return "black left eye on " + inner_->Describe(); }
+
+ private:
+  robot::RobotInterface* inner_;
+  int eye_;
+};
+
+// Regression: a black camera half reported "configured" limits and end-stops at the centre.
+// Now the step fails with a message, the black eye's ends are rows with status "failed" and no
+// measured value, and the other eye's servo is still measured.
+TEST(Limits, BlackCameraFailsWithAMessageAndNeverPassesAsConfigured) {
+  sim::VirtualOwl owl(sim::VirtualOwlOptions{});
+  BlackEyeRobot robot(&owl, models::kLeftEye);
+  Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
+  p.steps[1].servos = {models::kLx, models::kRx};
+  RunOptions o;
+  o.out_dir = (fs::temp_directory_path() / ("owlcal_limits_black_" + std::to_string(::getpid()))).string();
+  fs::remove_all(o.out_dir);
+  const RunSummary s = RunProtocols({p}, robot, o);
+  EXPECT_EQ(s.status, "failed");
+  EXPECT_NE(s.message.find("2 of 4 ends could not be measured"), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("black or constant"), std::string::npos) << s.message;
+  std::ifstream in(o.out_dir + "/limits.csv");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_NE(line.find(",status,message"), std::string::npos) << line;
+  int rows = 0, failed = 0;
+  while (std::getline(in, line)) {
+    const auto f = calib::SplitCsvLine(line);
+    ASSERT_GE(f.size(), 10u) << line;
+    ++rows;
+    if (f[1] == "Lx") {
+      ++failed;
+      EXPECT_EQ(f[8], "failed") << line;
+      EXPECT_EQ(f[4], "") << line;  // no measured value
+      EXPECT_NE(f[5], "configured") << line;
+      EXPECT_NE(f[5], "end-stop") << line;
+    } else {
+      EXPECT_EQ(f[8], "ok") << line;
+      EXPECT_FALSE(f[4].empty()) << line;
+    }
+  }
+  EXPECT_EQ(rows, 4);
+  EXPECT_EQ(failed, 2);
+  fs::remove_all(o.out_dir);
 }
 
 }  // namespace
