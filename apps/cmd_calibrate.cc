@@ -20,6 +20,7 @@
 #include "calib/csv.h"
 #include "calib/observation.h"
 #include "calib/observation_io.h"
+#include "calib/trial_status.h"
 #include "fitting/fit_points.h"
 #include "fitting/head_fit.h"
 #include "fitting/limits_eval.h"
@@ -140,26 +141,30 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
                                                                    : std::vector<protocols::PlacementRecord>{};
   const double cx = (config.image_width - 1) / 2.0, cy = (config.image_height - 1) / 2.0;
   for (size_t r = 0; r < t.rows.size(); ++r) {
-    // A fixation that cannot be ranged is named, never dropped silently.
-    const std::string where = "vergence fixation " + std::to_string(r) + " (fixations.csv row " + std::to_string(r + 2) + ")";
-    if (t.Get(r, "outcome") != "converged") {
-      excluded->push_back(where + " excluded: outcome " + t.Get(r, "outcome"));
-      continue;
-    }
-    if (t.Get(r, "left_found") != "1" || t.Get(r, "right_found") != "1") {
-      excluded->push_back(where + " excluded: target not found in the " +
-                          (t.Get(r, "left_found") != "1" ? std::string("left") : std::string("right")) + " image");
-      continue;
-    }
+    // Every fixation is a row of the ranging table with its status; only "ok" is ranged. Older
+    // datasets have no status column: it follows from the outcome.
     fitting::Fixation f;
     f.index = int(r);
+    const std::string outcome = t.Get(r, "outcome");
+    if (auto st = calib::TrialStatusFromName(t.Get(r, "status"))) {
+      f.status = *st;
+      f.reason = t.Get(r, "reason");
+    } else if (outcome != "converged") {
+      f.status = outcome == "target-lost" ? calib::TrialStatus::kLostTarget : calib::TrialStatus::kNotSettled;
+      f.reason = "outcome " + outcome;
+    }
+    const bool found[2] = {t.Get(r, "left_found") == "1", t.Get(r, "right_found") == "1"};
+    if (f.status == calib::TrialStatus::kOk && !(found[0] && found[1])) {
+      f.status = calib::TrialStatus::kLostTarget;
+      f.reason = std::string("target not found in the ") + (found[0] ? "right" : "left") + " image";
+    }
     for (int s = 0; s < models::kNumServos; ++s) {
       f.pwm_us[s] = int(t.Num(r, std::string(models::kServoNames[s]) + "_us"));
       const double a = t.Num(r, std::string("approach_") + models::kServoNames[s]);  // NaN in older datasets
       f.approach[s] = std::isfinite(a) ? int8_t(a) : 0;
     }
-    f.target_px[0] = Eigen::Vector2d(cx + t.Num(r, "left_dx_px"), cy + t.Num(r, "left_dy_px"));
-    f.target_px[1] = Eigen::Vector2d(cx + t.Num(r, "right_dx_px"), cy + t.Num(r, "right_dy_px"));
+    if (found[0]) f.target_px[0] = Eigen::Vector2d(cx + t.Num(r, "left_dx_px"), cy + t.Num(r, "left_dy_px"));
+    if (found[1]) f.target_px[1] = Eigen::Vector2d(cx + t.Num(r, "right_dx_px"), cy + t.Num(r, "right_dy_px"));
     // True distance: from the placement pose (base frame) to the midpoint of the eye centres
     // (the truth's on the virtual Owl, else the fitted head's); else the logged distance.
     const int pi = int(t.Num(r, "placement_index"));
@@ -170,8 +175,14 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
     f.true_distance_m = t.Num(r, "distance_m");
     for (const auto& p : placements)
       if (p.placement_index == pi) f.true_distance_m = (p.base_from_target.translation() - mid).norm();
-    if (std::isfinite(f.true_distance_m)) out.push_back(f);
-    else excluded->push_back(where + " excluded: no true distance (no placement or distance_m)");
+    if (!std::isfinite(f.true_distance_m) && f.status == calib::TrialStatus::kOk) {
+      f.status = calib::TrialStatus::kSkipped;
+      f.reason = "no true distance (no placement or distance_m)";
+    }
+    if (f.status != calib::TrialStatus::kOk)
+      excluded->push_back("vergence fixation " + std::to_string(r) + " (fixations.csv row " + std::to_string(r + 2) +
+                          ") not ranged: " + calib::TrialStatusName(f.status) + ": " + f.reason);
+    out.push_back(f);
   }
   return out;
 }
@@ -196,9 +207,50 @@ std::vector<fitting::StepTrace> ReadSteps(const std::string& dataset) {
     by[key].t_s.push_back(t.Num(r, "t_s"));
     by[key].y.push_back(t.Num(r, "offset_px"));  // converted below
   }
+  // The trials' statuses (step_trials.csv); trials without frames (skipped) are rows too.
+  std::map<std::tuple<int, double, double, int>, std::pair<calib::TrialStatus, std::string>> status;
+  const Csv trials = ReadCsv(dataset + "/step_trials.csv");
+  for (size_t r = 0; r < trials.rows.size(); ++r) {
+    const auto key = std::make_tuple(int(trials.Num(r, "step_index")), trials.Num(r, "gain"),
+                                     trials.Num(r, "amplitude_deg"), int(trials.Num(r, "trial")));
+    auto st = calib::TrialStatusFromName(trials.Get(r, "status"));
+    const std::string outcome = trials.Get(r, "outcome");
+    if (!st)
+      st = outcome == "converged"     ? calib::TrialStatus::kOk
+           : outcome == "no-fixation" ? calib::TrialStatus::kSkipped
+           : outcome == "target-lost" ? calib::TrialStatus::kLostTarget
+                                      : calib::TrialStatus::kNotSettled;
+    std::string reason = trials.Get(r, "reason");
+    if (reason.empty() && *st != calib::TrialStatus::kOk) reason = "outcome " + outcome + ": " + trials.Get(r, "message");
+    status[key] = {*st, reason};
+    if (!by.count(key)) {
+      order.push_back(key);
+      fitting::StepTrace s;
+      s.gain = std::get<1>(key);
+      s.amplitude_deg = std::get<2>(key);
+      s.trial = std::get<3>(key);
+      by[key] = s;
+    }
+  }
   for (const auto& key : order) {
     fitting::StepTrace s = by[key];
-    if (s.y.size() < 3 || std::abs(s.y.front()) < 1e-6) continue;
+    s.eye_axis = "step-response";
+    if (auto it = status.find(key); it != status.end()) {
+      s.status = it->second.first;
+      s.reason = it->second.second;
+    }
+    if (s.y.size() < 3 || std::abs(s.y.front()) < 1e-6) {
+      // Not a usable step response: a row with its status, no metrics.
+      if (s.status == calib::TrialStatus::kOk) {
+        s.status = calib::TrialStatus::kLostTarget;
+        s.reason = s.y.size() < 3 ? "the target was seen in " + std::to_string(s.y.size()) + " frames of the trial"
+                                  : std::string("no step: the target was centred in the first frame");
+      }
+      s.t_s.clear();
+      s.y.clear();
+      out.push_back(s);
+      continue;
+    }
     const double o0 = s.y.front();
     s.residual_px = std::abs(s.y.back());
     for (double& y : s.y) y = 1.0 - y / o0;  // fraction of the step done
@@ -207,27 +259,40 @@ std::vector<fitting::StepTrace> ReadSteps(const std::string& dataset) {
     o.y_final = 1.0;
     try {
       s.info = fitting::ComputeStepInfo(s.t_s, s.y, o);
-    } catch (const std::exception&) {
-      continue;  // non-increasing times (dropped frames logged twice)
+    } catch (const std::exception& e) {
+      // e.g. non-increasing times (dropped frames logged twice): a row, not a silent drop.
+      s.status = calib::TrialStatus::kFailed;
+      s.reason = std::string("no step metrics: ") + e.what();
+      s.t_s.clear();
+      s.y.clear();
     }
-    s.eye_axis = "step-response";
     out.push_back(s);
   }
   return out;
 }
 
-std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset) {
+// The measured ends; *failed names every probe row that measured nothing (status not ok, or no
+// number), *num_rows counts them all ("n ok of N").
+std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset, std::vector<std::string>* failed,
+                                                  int* num_rows) {
   std::vector<fitting::LimitMeasurement> out;
   const Csv t = ReadCsv(dataset + "/limits.csv");
+  *num_rows = int(t.rows.size());
   for (size_t r = 0; r < t.rows.size(); ++r) {
+    const std::string what = t.Get(r, "servo") + " " + t.Get(r, "end") + " (limits.csv row " + std::to_string(r + 2) + ")";
     const int s = protocols::ServoIndexFromName(t.Get(r, "servo"));
-    if (s < 0) continue;
     fitting::LimitMeasurement m;
     m.servo = s;
     m.high_end = t.Get(r, "end") == "max";
     m.measured_us = t.Num(r, "measured_us");
     m.cause = fitting::LimitCauseFromName(t.Get(r, "reason"));
-    if (std::isfinite(m.measured_us)) out.push_back(m);
+    const std::string status = t.Get(r, "status");
+    if (s < 0 || (!status.empty() && status != "ok") || !std::isfinite(m.measured_us)) {
+      failed->push_back(what + ": " + (status.empty() ? std::string("no measurement") : status) +
+                        (t.Get(r, "message").empty() ? "" : ": " + t.Get(r, "message")));
+      continue;
+    }
+    out.push_back(m);
   }
   return out;
 }
@@ -438,12 +503,27 @@ int RunCalibrate(const CalibrateOptions& o) {
   d.gains = fitting::MakeGainStudy(delay, fps);
   if (dataset.count("step_response")) {
     d.steps = ReadSteps(dataset["step_response"]);
+    for (const auto& st : d.steps)
+      if (st.status != calib::TrialStatus::kOk)
+        d.result.warnings.push_back("step trial (gain " + reports::Fmt(st.gain, 3) + ", " + reports::Fmt(st.amplitude_deg, 3) +
+                                    " deg, trial " + std::to_string(st.trial) + ") " + calib::TrialStatusName(st.status) +
+                                    ": " + st.reason);
     progress("step responses: " + std::to_string(d.steps.size()) + " trials; delay " + std::to_string(delay) +
              " frames, K_crit " + reports::Fmt(d.gains->critical_gain, 3));
   }
   if (dataset.count("limits")) {
-    d.limits = fitting::EvaluateLimits(config, ReadLimits(dataset["limits"]), &*d.result.head);
-    progress("limits: " + std::to_string(d.limits->notes.size()) + " notes");
+    std::vector<std::string> failed;
+    int rows = 0;
+    const auto measured = ReadLimits(dataset["limits"], &failed, &rows);
+    d.limits = fitting::EvaluateLimits(config, measured, &*d.result.head);
+    d.limits->notes.insert(d.limits->notes.begin(),
+                           "limit probes: " + std::to_string(measured.size()) + " ok of " + std::to_string(rows));
+    for (const auto& f : failed) {
+      d.limits->notes.push_back("not measured: " + f);
+      d.result.warnings.push_back("limits: not measured: " + f);
+    }
+    progress("limits: " + std::to_string(measured.size()) + " ok of " + std::to_string(rows) + " ends, " +
+             std::to_string(d.limits->notes.size()) + " notes");
   }
   d.result.inputs["datasets"] = dataset;
 

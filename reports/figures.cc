@@ -210,6 +210,7 @@ std::optional<Figure> MakeStepResponseFigure(const ReportData& d) {
   std::set<double> titled;
   double tmax = 0;
   for (const auto& s : d.steps) {
+    if (s.t_s.empty()) continue;  // a failed or skipped trial: a row of the step table, no curve
     const int c = gain_colour[s.gain];
     std::string title;
     if (!titled.count(s.gain)) {
@@ -249,7 +250,8 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
   f.series.push_back(model);
   Series meas{"measured", "points pt 7 ps 1.5 " + Lc(1), "1:2", {"gain", "settling_s"}, {}};
   for (const auto& s : d.steps)
-    if (!s.simulated && s.info.settled) meas.rows.push_back({s.gain, s.info.settling_time});
+    if (!s.simulated && s.status == calib::TrialStatus::kOk && s.controller == "p-loop" && s.info.settled)
+      meas.rows.push_back({s.gain, s.info.settling_time});
   if (!meas.rows.empty()) f.series.push_back(meas);
   if (g.fastest)
     f.series.push_back({"model fastest: K = " + Fmt(g.fastest->gain, 3) + ", " + Fmt(g.fastest->settling_time_s, 3) + " s",

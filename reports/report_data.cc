@@ -170,7 +170,8 @@ json EvaluationToJson(const ReportData& d) {
   for (const auto& s : d.steps)
     steps.push_back({{"gain", s.gain}, {"amplitude_deg", s.amplitude_deg}, {"trial", s.trial},
                      {"eye_axis", s.eye_axis}, {"t_s", VecJson(s.t_s)}, {"y", VecJson(s.y)},
-                     {"residual_px", Num(s.residual_px)}, {"info", StepInfoJson(s.info)}, {"simulated", s.simulated}});
+                     {"residual_px", Num(s.residual_px)}, {"info", StepInfoJson(s.info)}, {"simulated", s.simulated},
+                     {"status", calib::TrialStatusName(s.status)}, {"reason", s.reason}, {"controller", s.controller}});
   j["steps"] = steps;
   if (d.gains) {
     const auto& g = *d.gains;
@@ -294,6 +295,9 @@ void EvaluationFromJson(const json& j, ReportData* d) {
       t.residual_px = Get(s, "residual_px");
       if (s.contains("info")) t.info = StepInfoFromJson(s.at("info"));
       t.simulated = s.value("simulated", false);
+      if (const auto st = calib::TrialStatusFromName(s.value("status", "ok"))) t.status = *st;
+      t.reason = s.value("reason", "");
+      t.controller = s.value("controller", "p-loop");
       d->steps.push_back(t);
     }
   }
