@@ -151,20 +151,21 @@ std::vector<Table> MakeTables(const ReportData& d) {
     Table t{"step_metrics",
             "Step-response metrics (MATLAB stepinfo with y_init = 0, y_final = 1 in fractions of the step); every trial "
             "the protocol tried: " + std::to_string(ok) + " ok of " + std::to_string(measured),
-            {"gain", "step [deg]", "trial", "status", "rise 10\u201390 % [s]", "settling 2 % [s]", "overshoot [%]",
+            {"gain", "step [deg]", "trial", "rise 10\u201390 % [s]", "settling 2 % [s]", "overshoot [%]",
              "undershoot [%]", "peak [-]", "peak time [s]", "steady-state error [%]", "residual offset [px]", "source",
-             "reason"}, {}};
+             "status", "reason"}, {}};
     for (const auto& s : d.steps) {
       const std::string source = s.simulated ? "model" : s.controller == "p-loop" ? "measured" : "measured, " + s.controller;
       if (s.t_s.empty()) {
-        t.rows.push_back({Fmt(s.gain, 3), Fmt(s.amplitude_deg, 3), std::to_string(s.trial), calib::TrialStatusName(s.status),
-                          "", "", "", "", "", "", "", "", source, s.reason});
+        t.rows.push_back({Fmt(s.gain, 3), Fmt(s.amplitude_deg, 3), std::to_string(s.trial), "", "", "", "", "", "", "",
+                          "", source, calib::TrialStatusName(s.status), s.reason});
         continue;
       }
-      t.rows.push_back({Fmt(s.gain, 3), Fmt(s.amplitude_deg, 3), std::to_string(s.trial), calib::TrialStatusName(s.status),
-                        Fmt(s.info.rise_time, 3), s.info.settled ? Fmt(s.info.settling_time, 3) : "not settled",
-                        Fmt(s.info.overshoot_pct, 3), Fmt(s.info.undershoot_pct, 3), Fmt(s.info.peak, 4),
-                        Fmt(s.info.peak_time, 3), Pct(SteadyStateError(s), 3), Fmt(s.residual_px, 3), source, s.reason});
+      t.rows.push_back({Fmt(s.gain, 3), Fmt(s.amplitude_deg, 3), std::to_string(s.trial), Fmt(s.info.rise_time, 3),
+                        s.info.settled ? Fmt(s.info.settling_time, 3) : "not settled", Fmt(s.info.overshoot_pct, 3),
+                        Fmt(s.info.undershoot_pct, 3), Fmt(s.info.peak, 4), Fmt(s.info.peak_time, 3),
+                        Pct(SteadyStateError(s), 3), Fmt(s.residual_px, 3), source, calib::TrialStatusName(s.status),
+                        s.reason});
     }
     out.push_back(t);
   }
