@@ -21,17 +21,21 @@
 //   fixations.csv      step_index,step_name,placement_index,target,distance_m,eyes,gain,outcome,iterations,
 //                      Rx_us,Ry_us,Lx_us,Ly_us,Neck_us,left_found,left_dx_px,left_dy_px,right_found,
 //                      right_dx_px,right_dy_px,stamp_ns,approach_Rx,approach_Ry,approach_Lx,approach_Ly,
-//                      approach_Neck (sign of the last move of each servo: +1 up, -1 down, 0 unknown)
+//                      approach_Neck (sign of the last move of each servo: +1 up, -1 down, 0 unknown),
+//                      status,reason (calib/trial_status.h: ok, not settled, lost target, failed; only
+//                      ok is ever ranged)
 //   step_response.csv  step_index,gain,amplitude_deg,trial,k,t_s,offset_px,offset_y_px,pwm_us,found,frame_index
 //                      (offset_px along the stepped axis: x for pan, y for tilt; t_s from the step)
 //   step_trials.csv    step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,
-//                      frames,final_offset_px,message
-//   limits.csv         step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_fraction
-//                      (reason: end-stop = the image moved less than moved_fraction of the
-//                      nominal shift; rim = the fraction of the 8 px border band darker than
-//                      grey 20 grew by more than rim_fraction over the centre pose
-//                      (protocols/image_motion.h RimFraction);
-//                      configured = the robot file's limit reached with neither)
+//                      frames,final_offset_px,message,status,reason (a trial whose fixation failed is a
+//                      row with status skipped and the reason)
+//   limits.csv         step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening,
+//                      status,message (protocols/limits_search.h; reason: end-stop = the image stopped
+//                      following the command; rim = the fraction of the 8 px border band darker than
+//                      grey 20 grew by more than rim_fraction over the centre pose (protocols/
+//                      image_motion.h RimFraction); configured = the robot file's limit reached with
+//                      neither. status failed, measured_us empty: a black, constant or motionless
+//                      image; the step then fails with a message)
 //   alignment.csv      step_index,frame_index,method,roll_deg,vertical_offset_px,horizontal_offset_px,corners
 //   latency.csv        step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px
 //   coverage.csv       eye,num_views,x_min,x_max,x_progress,y_min,y_max,y_progress,size_min,size_max,

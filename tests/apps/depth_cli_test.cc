@@ -1,6 +1,8 @@
 // `owlcal depth` on the real kit2020 distance set with the course's reference calibration
 // (intrinsics.xml + extrinsics.xml): the depth at the target against the tape-measured
 // distance, the students' constant, and the files a student opens (PNG maps, PLY cloud).
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -24,7 +26,8 @@ class DepthCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
     if (test_cli::OwlcalBinary().empty()) GTEST_SKIP() << "the owlcal binary is not built";
-    dir_ = fs::temp_directory_path() / "owlcal_depth_cli";
+    // One folder per process: suites of several worktrees run at once on a shared machine.
+    dir_ = fs::temp_directory_path() / ("owlcal_depth_cli_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
