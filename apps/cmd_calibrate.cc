@@ -26,6 +26,7 @@
 #include "fitting/limits_eval.h"
 #include "fitting/ranging_eval.h"
 #include "fitting/stereo_fit.h"
+#include "fitting/stereo_sanity.h"
 #include "fitting/step_response.h"
 #include "fitting/truth_compare.h"
 #include "models/head_kinematics.h"
@@ -403,6 +404,16 @@ int RunCalibrate(const CalibrateOptions& o) {
       stereo = fitting::FitStereo(l, r, so);
       if (stereo->ok) {
         fitting::AppendStereoToResult(*stereo, &d.result);
+        // Physical sanity against this robot (fitting/stereo_sanity.h): a mirrored or swapped
+        // stream setting shows as T_x > 0, and is named with the robot-file field to change.
+        fitting::RigExpectation rig = fitting::RigExpectation::Owl();
+        rig.ipd_m = config.ipd_m;
+        const fitting::StereoSanity sanity =
+            fitting::CheckStereoSanity(stereo->cameras, stereo->right_from_left, 1.0, rig);
+        fitting::AppendSanityToResult(sanity, rig, &d.result);
+        for (const auto& f : sanity.findings)
+          progress("  sanity (" + std::string(f.unusable ? "unusable" : "poor") + "): " + f.message +
+                   (f.check == "tx_sign" ? " [robot file: image.mirror / image.swap_eyes]" : ""));
         fitting::AddFitPoints(*stereo, views, ViewName, &d);
         progress("  RMS " + reports::Fmt(stereo->rms_px[0], 3) + " / " + reports::Fmt(stereo->rms_px[1], 3) + " px");
       } else {

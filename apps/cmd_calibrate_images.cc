@@ -27,7 +27,26 @@ struct CalibrateImagesOptions {
   bool mirror = false, side_by_side = false, swap = false;
   std::string model = "opencv5";
   bool no_report = false;
+  std::string rig = "auto";
+  double ipd_mm = 65;
 };
+
+// The rig the sanity checks expect: the Owl (lens family, IPD) for a metric target, a generic
+// side-by-side pair otherwise (OpenCV's sample in squares), or as asked.
+fitting::RigExpectation RigFor(const std::string& rig, const std::string& unit, double ipd_mm) {
+  fitting::RigExpectation e;
+  if (rig == "owl" || (rig == "auto" && (unit == "m" || unit == "mm"))) {
+    e = fitting::RigExpectation::Owl();
+    e.ipd_m = ipd_mm / 1000;
+  } else if (rig == "generic" || rig == "auto") {
+    e = fitting::RigExpectation::Generic();
+  } else {
+    throw UsageError("--rig = '" + rig + "': use auto, owl or generic");
+  }
+  std::string why;
+  if (!e.Check(&why)) throw UsageError(why);
+  return e;
+}
 
 int RunCalibrateImages(const CalibrateImagesOptions& a) {
   const calib::TargetFile target = calib::LoadTargetFileWithUnit(a.target);
@@ -48,13 +67,16 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   else if (a.model != "opencv5") throw UsageError("--model = '" + a.model + "': use opencv5 or opencv8");
   std::string why;
   if (!fo.Check(&why)) throw UsageError(why);
-  fitting::ImageSetCalibration c = fitting::CalibrateImageSet(set.observations, fo);
+  fitting::SetVerdictOptions vo;
+  vo.rig = RigFor(a.rig, target.unit, a.ipd_mm);
+  fitting::ImageSetCalibration c = fitting::CalibrateImageSet(set.observations, fo, vo);
   c.result.software_version = OWLCAL_VERSION;
   c.result.inputs["images"] = a.dir;
   c.result.inputs["target"] = a.target;
   c.result.inputs["mirror"] = a.mirror;
   c.result.inputs["side_by_side"] = a.side_by_side;
   c.result.inputs["swap"] = a.swap;
+  c.result.inputs["rig"] = vo.rig.name;
   nlohmann::json det_j = nlohmann::json::array();
   std::vector<std::string> keys;
   for (const auto& p : set.pairs) {
@@ -94,9 +116,16 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   };
   fitting::AddFitPoints(c.fit, views, name_of, &rd);
   reports::WriteReportData(rd, a.out);
-  const reports::ExportSet ex = reports::WriteCalibrationFiles(rd, a.out);
-  for (const auto& p : ex.written) written.push_back(fs::relative(p, out).string());
-  for (const auto& s : ex.skipped) std::cerr << "export skipped: " << s << "\n";
+  if (c.set_verdict.status != "unusable") {
+    const reports::ExportSet ex = reports::WriteCalibrationFiles(rd, a.out);
+    for (const auto& p : ex.written) written.push_back(fs::relative(p, out).string());
+    for (const auto& s : ex.skipped) std::cerr << "export skipped: " << s << "\n";
+  } else {
+    // Numbers owlcal cannot stand behind are not handed to other programs.
+    std::cerr << "calibration.yaml and exports not written: the set is unusable ("
+              << (c.set_verdict.reasons.empty() ? std::string("see calibration.md") : c.set_verdict.reasons.front())
+              << ")\n";
+  }
   if (!a.no_report) {
     reports::ReportOptions ro;
     ro.title = "owlcal calibration from images: " + a.dir;
@@ -107,7 +136,8 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   std::cout << md << "\nwrote " << a.out << ":";
   for (const auto& w : written) std::cout << " " << w;
   std::cout << "\n";
-  if (!c.fit.ok) return kExitFailed;
+  std::cout << "verdict: " << c.set_verdict.status << "\n";
+  if (!c.fit.ok || c.set_verdict.status == "unusable") return kExitFailed;
   return kExitOk;
 }
 
@@ -117,8 +147,10 @@ const bool kRegistered = RegisterCommand(
     "with --side-by-side): detect the target, fit both cameras and R, T with sigma, write results.json,\n"
     "calibration.yaml (OpenCV, metres), the course's intrinsics.xml/extrinsics.xml (mm), exports/ (ROS,\n"
     "Kalibr, mrcal), calibration.md (verdict, per-view residuals, coverage) and the report\n"
-    "(report/index.html, figures/, tables/). A poor set (few poses, board always central, no tilt) is named as such and the\n"
-    "parameters it cannot determine are reported as undetermined.",
+    "(report/index.html, figures/, tables/). The set gets a verdict (good, poor, unusable) from what it leaves\n"
+    "uncertain: projection uncertainty, sigma of f and c, two halves calibrated alone, physical sanity (a mirrored or\n"
+    "swapped set is named with the flag that fixes it); reasons and advice on which views to add. An unusable set's\n"
+    "numbers are refused (exit 1, no exports).",
     [](CLI::App* cmd) {
       auto o = std::make_shared<CalibrateImagesOptions>();
       cmd->add_option("dir", o->dir, "folder of image pairs")->required()->check(CLI::ExistingDirectory);
@@ -132,6 +164,11 @@ const bool kRegistered = RegisterCommand(
       cmd->add_flag("--swap", o->swap, "exchange left and right eyes");
       cmd->add_option("--model", o->model, "distortion model: opencv5 or opencv8")->capture_default_str();
       cmd->add_flag("--no-report", o->no_report, "skip the HTML report");
+      cmd->add_option("--rig", o->rig,
+                      "what the sanity checks expect: owl (3.6 mm lens on the OV5647, IPD), generic (any side-by-side "
+                      "pair), auto (owl for a metric target)")
+          ->capture_default_str();
+      cmd->add_option("--ipd-mm", o->ipd_mm, "the robot's IPD for the baseline check [mm]")->capture_default_str();
       return [o] { return RunCalibrateImages(*o); };
     });
 

@@ -14,6 +14,7 @@
 #include "fitting/opencv_calib_file.h"
 #include "fitting/result.h"
 #include "fitting/stereo_fit.h"
+#include "fitting/stereo_sanity.h"
 #include "owlcal_version.h"
 
 namespace owlcal::apps {
@@ -32,6 +33,7 @@ struct FitCmdOptions {
   double sigma_px = 0;
   double outlier_sigma = 6;
   bool fix_k3 = false, fix_aspect = false, fix_tangential = false, fix_pp = false;
+  std::string rig = "auto";
 };
 
 std::string Fnv1a64(const std::string& path) {
@@ -113,8 +115,19 @@ int RunFit(const FitCmdOptions& o) {
     fitting::AppendStereoToResult(fit, &result);
     std::cout << "stereo: " << fit.message << "\n";
     if (fit.ok) {
+      // Physical sanity of the stereo result (fitting/stereo_sanity.h): owl for a metric target.
+      const bool metric = sopt.length_unit == "m" || sopt.length_unit == "mm";
+      fitting::RigExpectation rig;
+      if (o.rig == "owl" || (o.rig == "auto" && metric)) rig = fitting::RigExpectation::Owl();
+      else if (o.rig == "generic" || o.rig == "auto") rig = fitting::RigExpectation::Generic();
+      else throw UsageError("--rig = '" + o.rig + "': use auto, owl or generic");
+      const fitting::StereoSanity sanity = fitting::CheckStereoSanity(
+          fit.cameras, fit.right_from_left, sopt.length_unit == "m" ? 1.0 : (sopt.length_unit == "mm" ? 0.001 : 0.0), rig);
+      fitting::AppendSanityToResult(sanity, rig, &result);
+      for (const auto& f : sanity.findings)
+        std::cout << "sanity (" << (f.unusable ? "unusable" : "poor") << "): " << f.message << "\n";
       cv_file = fitting::ToOpenCvCalibration(fit);
-      usable = true;
+      usable = !sanity.mirrored_or_swapped;
     } else {
       for (int e = 0; e < 2; ++e)
         if (fit.per_eye[e].ok) usable = true;
@@ -161,6 +174,8 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("observations", o->obs_path, "observation CSV from `owlcal detect`")->required();
       cmd->add_option("--out", o->out_dir, "output folder")->required();
       cmd->add_option("--model", o->model, "distortion model: opencv5 (k1 k2 p1 p2 k3) or opencv8 (+k4 k5 k6)");
+      cmd->add_option("--rig", o->rig, "sanity checks of a stereo result: owl, generic or auto (owl for a metric target)")
+          ->capture_default_str();
       cmd->add_option("--loss", o->loss, "robust loss: none, huber or cauchy");
       cmd->add_option("--corner-sigma-px", o->sigma_px, "corner noise [px]; 0 = estimate from the residuals");
       cmd->add_option("--outlier-sigma", o->outlier_sigma, "reject corners beyond this many sigma (0 = off)");

@@ -1,6 +1,6 @@
-// owlcal range-images DIR --calib FILE --truth CSV --out OUT: range a target in stereo pairs
-// at known distances and report the error against the truth with predicted sigma (issue 7,
-// item 3).
+// owlcal range-images DIR --calib FILE [--truth CSV] --out OUT: range a target in stereo pairs,
+// at known distances (error against the truth, datum and scale fit) or unknown ones (range with
+// sigma), every row with a status (ok, low_confidence, failed).
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -9,7 +9,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "apps/command_registry.h"
+#include "calib/image_pairs.h"
+#include "calib/template_roi.h"
 #include "fitting/format.h"
+#include "fitting/range_datum_fit.h"
 #include "fitting/range_images_ranging.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/image_set_tables.h"
@@ -22,16 +25,57 @@ namespace fs = std::filesystem;
 struct RangeImagesOptions {
   std::string dir, calib, truth, out;
   std::vector<int> roi;
+  std::string select = "centre";  // centre, texture, colour:NAME, tag[:ID]
   double truth_sigma_cm = 0;
   double datum_cm = 0;
-  bool mirror = false;
+  bool mirror = false, no_datum_fit = false;
   int template_w = 64, template_h = 48, max_disparity = 256;
 };
+
+calib::TemplateRoiOptions SelectOptions(const RangeImagesOptions& a) {
+  calib::TemplateRoiOptions t;
+  t.width = a.template_w;
+  t.height = a.template_h;
+  const std::string& s = a.select;
+  if (s == "texture") {
+    t.mode = "texture";
+  } else if (s.rfind("colour:", 0) == 0 || s.rfind("color:", 0) == 0) {
+    t.mode = "colour";
+    t.colour = s.substr(s.find(':') + 1);
+  } else if (s == "tag" || s.rfind("tag:", 0) == 0) {
+    t.mode = "tag";
+    if (s.size() > 4) {
+      try {
+        t.tag_id = std::stoi(s.substr(4));
+      } catch (const std::exception&) {
+        throw UsageError("--select " + s + ": the tag id must be a number (tag:7)");
+      }
+    }
+  } else {
+    throw UsageError("--select = '" + s + "': use centre, texture, colour:red|green|blue|yellow, tag or tag:ID");
+  }
+  std::string why;
+  if (!t.Check(&why)) throw UsageError("--select: " + why);
+  return t;
+}
 
 int RunRangeImages(const RangeImagesOptions& a) {
   const fitting::StereoRig rig = fitting::LoadStereoRig(a.calib);
   const fitting::Rectification rect = fitting::RectifyRig(rig);
-  const auto truth = fitting::ReadRangeTruthCsv(a.truth);
+  std::vector<fitting::RangeTruthRow> truth;
+  if (!a.truth.empty()) {
+    truth = fitting::ReadRangeTruthCsv(a.truth);
+  } else {
+    // No truth file: every left*/right* pair of the folder, distance unknown.
+    calib::ImagePairOptions po;
+    for (const auto& p : calib::ListImagePairs(a.dir, po).pairs) {
+      fitting::RangeTruthRow r;
+      r.left = fs::path(p.left_path).filename().string();
+      r.right = fs::path(p.right_path).filename().string();
+      r.distance_m = std::numeric_limits<double>::quiet_NaN();
+      truth.push_back(r);
+    }
+  }
   fitting::RangeOptions o;
   o.truth_sigma_m = a.truth_sigma_cm / 100;
   o.datum_offset_m = a.datum_cm / 100;
@@ -48,6 +92,9 @@ int RunRangeImages(const RangeImagesOptions& a) {
                        std::to_string(rect.size.width) + "x" + std::to_string(rect.size.height) + " rectified image");
   }
   fitting::CheckRangeTruthRois(truth, rect.size);
+  const bool auto_select = a.select != "centre";
+  calib::TemplateRoiOptions sel;
+  if (auto_select) sel = SelectOptions(a);
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
   std::vector<fitting::RangeMeasurement> ms;
@@ -62,75 +109,144 @@ int RunRangeImages(const RangeImagesOptions& a) {
       cv::flip(l, l, 1);
       cv::flip(r, r, 1);
     }
-    fitting::RangeMeasurement m = fitting::RangePair(l, r, rig, rect, ro);
+    cv::Mat lr, rr;
+    fitting::RemapPair(rect, l, r, &lr, &rr);
+    std::string how = t.roi.area() > 0 ? "ROI from the truth file" : (a.roi.empty() ? "central region" : "--roi");
+    bool have_roi = true;
+    if (auto_select && t.roi.area() == 0 && a.roi.empty()) {
+      const calib::TemplateRoiChoice c = calib::ChooseTemplateRois(lr, sel);
+      ro.candidate_rois = c.candidates;
+      how = c.how;
+      have_roi = !c.candidates.empty();
+    }
+    fitting::RangeMeasurement m;
+    if (have_roi) {
+      m = fitting::RangeRectifiedPair(lr, rr, rig, rect, ro);
+    } else {
+      m.status = "failed";
+      m.message = "no target: " + how;
+    }
+    m.roi_how = how + (m.roi_how.empty() ? "" : ", " + m.roi_how);
     m.name = t.left;
     m.true_m = t.distance_m;
+    m.truth_sigma_m = ro.truth_sigma_m;
     ms.push_back(m);
   }
   const fitting::RangeSummary s = fitting::SummariseRanges(ms);
   fs::create_directories(a.out);
   const fs::path out(a.out);
   std::string md = reports::RangeTableMarkdown(ms, s, "Range from stereo images: " + a.dir);
-  md += "\nCalibration: " + rig.source + (rig.covariance.size() ? "" : " (no covariance: sigma is matching only)") +
-        "; rectified f " + fitting::FixedOrDash(rect.focal_px, 2) + " px, baseline " +
-        fitting::FixedOrDash(rect.baseline_m * 1000, 3) +
+  // Datum and scale of the truth, from the confident rows.
+  fitting::DatumFit datum;
+  std::vector<int> datum_rows;
+  if (!a.no_datum_fit && s.num_ranged > 0) {
+    std::vector<fitting::DatumFitRow> rows;
+    for (size_t i = 0; i < ms.size(); ++i) {
+      if (ms[i].status != "ok" || !ms[i].has_truth()) continue;
+      rows.push_back({ms[i].range_m, ms[i].true_m, ms[i].sigma_m, ms[i].truth_sigma_m});
+      datum_rows.push_back(static_cast<int>(i));
+    }
+    datum = fitting::FitDatum(rows);
+    md += "\n" + reports::DatumFitMarkdown(datum);
+  }
+  md += "\nTemplates: " + std::string(auto_select ? "chosen per pair (" + a.select + "): " : "") +
+        (ms.empty() ? std::string("-") : ms.front().roi_how) + (ms.size() > 1 ? " (first pair)" : "") + ".\n";
+  md += "\nCalibration: " + rig.source + (rig.covariance.size() ? "" : " (no covariance)") +
+        (rig.halves.empty() ? "; no halves (sigma_cv unknown)" : "; with its two halves (sigma_cv)") + "; rectified f " +
+        fitting::FixedOrDash(rect.focal_px, 2) + " px, baseline " + fitting::FixedOrDash(rect.baseline_m * 1000, 3) +
         " mm. Range = depth from the optical centres along the rectified axis + datum " +
         fitting::FixedOrDash(a.datum_cm, 1) + " cm; truth sigma " + fitting::FixedOrDash(a.truth_sigma_cm, 1) +
         " cm (the uncertainty of the true distances themselves: datum and placement).\n";
   std::ofstream(out / "ranges.md") << md;
   std::ofstream(out / "ranges.csv") << reports::RangeTableCsv(ms);
+  // Figure: error vs truth (ok and low-confidence apart, after the datum fit too), or the
+  // ranges themselves when no distance is known.
   reports::Figure f;
-  f.name = "range_error";
-  f.title = "Stereo range error vs true distance";
-  f.xlabel = "true distance [cm]";
-  f.ylabel = "error [%]";
-  // The owlcal prediction (calibration + matching) as error bars; the uncertainty of the true
-  // distances themselves as a grey band, so neither hides the other.
-  reports::Series band;
+  const bool any_truth = s.num_rows > 0;
+  f.name = any_truth ? "range_error" : "range_values";  // not "ranges": ranges.csv is the table
+  f.title = any_truth ? "Stereo range error vs true distance" : "Stereo ranges (distances unknown)";
+  f.xlabel = any_truth ? "true distance [cm]" : "pair";
+  f.ylabel = any_truth ? "error [%]" : "range [cm]";
+  reports::Series band, ok, low, after;
   band.title = "true distance +-3 sigma";
   band.style = "filledcurves fs transparent solid 0.18 noborder lc rgb '#777777'";
   band.using_spec = "1:2:3";
   band.columns = {"true_cm", "lo_pct", "hi_pct"};
-  reports::Series pts;
-  pts.title = "measured, +-3 sigma predicted";
-  pts.style = "yerrorbars pt 7 lc rgb '#1f77b4'";
-  pts.using_spec = "1:2:3";
-  pts.columns = {"true_cm", "err_pct", "three_sigma_pct"};
-  for (const auto& m : ms)
-    if (m.ok) {
-      pts.rows.push_back({m.true_m * 100, 100 * m.error_m() / m.true_m, 300 * m.sigma_m / m.true_m});
-      band.rows.push_back({m.true_m * 100, -300 * m.truth_sigma_m / m.true_m, 300 * m.truth_sigma_m / m.true_m});
+  ok.title = "ok, +-3 sigma predicted";
+  ok.style = "yerrorbars pt 7 lc rgb '#1f77b4'";
+  ok.using_spec = "1:2:3";
+  ok.columns = {any_truth ? "true_cm" : "pair", any_truth ? "err_pct" : "range_cm", any_truth ? "three_sigma_pct" : "three_sigma_cm"};
+  low = ok;
+  low.title = "LOW CONFIDENCE (not counted), +-3 sigma";
+  low.style = "yerrorbars pt 6 ps 1.5 lc rgb '#d62728'";
+  after.title = "after the datum and scale fit";
+  after.style = "points pt 9 lc rgb '#2ca02c'";
+  after.using_spec = "1:2";
+  after.columns = {"true_cm", "err_after_pct"};
+  for (size_t i = 0; i < ms.size(); ++i) {
+    const auto& m = ms[i];
+    if (!m.ok) continue;
+    reports::Series& target = m.status == "ok" ? ok : low;
+    if (any_truth) {
+      if (!m.has_truth()) continue;
+      target.rows.push_back({m.true_m * 100, 100 * m.error_m() / m.true_m, 300 * m.sigma_m / m.true_m});
+      if (m.status == "ok")
+        band.rows.push_back({m.true_m * 100, -300 * m.truth_sigma_m / m.true_m, 300 * m.truth_sigma_m / m.true_m});
+    } else {
+      target.rows.push_back({static_cast<double>(i), m.range_m * 100, 300 * m.sigma_m});
     }
-  if (a.truth_sigma_cm > 0) f.series.push_back(band);
-  f.series.push_back(pts);
-  f.settings.push_back("set xzeroaxis");
-  const auto ff = reports::WriteFigure(f, a.out);
-  if (!ff.drawn) std::cerr << "figure not drawn: " << ff.message << "\n";
-  std::cout << md << "wrote " << a.out << ": ranges.md ranges.csv range_error.{csv,gp" << (ff.drawn ? ",png,svg" : "")
-            << "}\n";
-  return s.num_ranged == s.num_rows ? kExitOk : kExitFailed;
+  }
+  if (datum.ok)
+    for (size_t k = 0; k < datum_rows.size(); ++k) {
+      const auto& m = ms[datum_rows[k]];
+      after.rows.push_back({m.true_m * 100, 100 * (datum.after_m[k] - m.true_m) / m.true_m});
+    }
+  if (any_truth && a.truth_sigma_cm > 0 && !band.rows.empty()) f.series.push_back(band);
+  if (!ok.rows.empty()) f.series.push_back(ok);
+  if (!low.rows.empty()) f.series.push_back(low);
+  if (!after.rows.empty()) f.series.push_back(after);
+  if (any_truth) f.settings.push_back("set xzeroaxis");
+  std::string drawn = "not drawn: no range";
+  if (!f.series.empty()) {
+    const auto ff = reports::WriteFigure(f, a.out);
+    drawn = ff.drawn ? "" : ff.message;
+    if (!ff.drawn) std::cerr << "figure not drawn: " << ff.message << "\n";
+  }
+  std::cout << md << "wrote " << a.out << ": ranges.md ranges.csv " << f.name << ".{csv,gp"
+            << (drawn.empty() ? ",png,svg" : "") << "}\n";
+  return s.num_failed == 0 && s.num_low_confidence == 0 ? kExitOk : kExitFailed;
 }
 
 const bool kRegistered = RegisterCommand(
     "range-images",
-    "Range a target in stereo pairs at known distances: rectify with a calibration (results.json,\n"
-    "calibration.yaml or the course's intrinsics.xml + extrinsics.xml), match a template from the left\n"
-    "image along the rectified row (NCC, sub-pixel), triangulate, and report error vs the truth CSV\n"
-    "(left,right,distance_cm[,roi_x,roi_y,roi_w,roi_h]) with predicted sigma: ranges.md, ranges.csv, figure.",
+    "Range a target in stereo pairs: rectify with a calibration (results.json, calibration.yaml or the\n"
+    "course's intrinsics.xml + extrinsics.xml), match a template from the left image along the rectified row\n"
+    "(NCC, sub-pixel, left-right check, second-peak ratio, texture, depth-consistency of its quarters),\n"
+    "triangulate, predict sigma (matching, calibration covariance and the calibration's two halves). Each row\n"
+    "has a status: ok, low_confidence (ranged, flagged, not counted) or failed. With --truth\n"
+    "(left,right,distance_cm[,roi_x,roi_y,roi_w,roi_h]; blank = unknown) the errors, and a fit of the truth's\n"
+    "datum and scale (distance = a + b truth) with the errors before and after it. Without --truth every\n"
+    "left*/right* pair of DIR is ranged. Writes ranges.md, ranges.csv and a figure. Exit 1 if any row is not ok.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<RangeImagesOptions>();
-      cmd->add_option("dir", o->dir, "folder of the images named in the truth CSV")->required()->check(CLI::ExistingDirectory);
+      cmd->add_option("dir", o->dir, "folder of the image pairs")->required()->check(CLI::ExistingDirectory);
       cmd->add_option("--calib", o->calib, "calibration file or folder")->required();
-      cmd->add_option("--truth", o->truth, "truth CSV")->required()->check(CLI::ExistingFile);
+      cmd->add_option("--truth", o->truth, "truth CSV (optional: without it every pair is ranged, distance unknown)")
+          ->check(CLI::ExistingFile);
       cmd->add_option("--out", o->out, "output folder")->required();
-      cmd->add_option("--roi", o->roi, "template x y w h in the left rectified image (default: central region)")
-          ->expected(4);
-      cmd->add_option("--template-size", o->template_w, "central template width [px]")->capture_default_str();
-      cmd->add_option("--template-height", o->template_h, "central template height [px]")->capture_default_str();
+      cmd->add_option("--roi", o->roi, "template x y w h in the left rectified image")->expected(4);
+      cmd->add_option("--select", o->select,
+                      "how to choose the template when no ROI is given: centre (the central region), texture (the most "
+                      "textured windows near the centre, first confident one), colour:red|green|blue|yellow (the blob "
+                      "nearest the centre), tag or tag:ID (an AprilTag)")
+          ->capture_default_str();
+      cmd->add_option("--template-size", o->template_w, "template width [px]")->capture_default_str();
+      cmd->add_option("--template-height", o->template_h, "template height [px]")->capture_default_str();
       cmd->add_option("--max-disparity", o->max_disparity, "largest disparity searched [px]")->capture_default_str();
       cmd->add_option("--truth-sigma-cm", o->truth_sigma_cm, "uncertainty of the logged distances [cm]")
           ->capture_default_str();
       cmd->add_option("--datum-cm", o->datum_cm, "added to the depth from the optical centres [cm]")->capture_default_str();
+      cmd->add_flag("--no-datum-fit", o->no_datum_fit, "do not fit the truth's datum and scale");
       cmd->add_flag("--mirror", o->mirror, "flip each image horizontally first (mirrored captures)");
       return [o] { return RunRangeImages(*o); };
     });

@@ -39,7 +39,7 @@ std::vector<std::pair<int, double>> ViewTilts(const StereoFit& fit, int eye) {
 
 ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation>& observations,
                                       const StereoFitOptions& options,
-                                      const ImageSetVerdictOptions& vo) {
+                                      const SetVerdictOptions& vo) {
   ImageSetCalibration c;
   std::vector<calib::View> views[2];
   for (const auto& v : calib::GroupIntoViews(observations)) views[v.eye == 0 ? 0 : 1].push_back(v);
@@ -77,50 +77,16 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
     }
   }
 
-  // Verdict.
-  const int pairs = static_cast<int>(c.fit.paired_frames.size());
-  if (!c.fit.ok) {
-    c.poor = true;
-    c.verdict.push_back("stereo fit failed: " + c.fit.message);
-  }
-  if (pairs < vo.min_pairs) {
-    c.poor = true;
-    c.verdict.push_back("too few poses: " + std::to_string(pairs) + " pairs seen by both eyes (< " +
-                        std::to_string(vo.min_pairs) + "): no parameter is determined");
-    for (auto& p : c.result.parameters) {
-      p.determined = false;
-      p.sigma = kNaN;
-      p.note = "too few poses";
-    }
-  }
+  // Verdict: from what the set leaves uncertain (fitting/set_verdict.h).
+  const double unit_m = options.length_unit == "m" ? 1.0 : (options.length_unit == "mm" ? 0.001 : 0.0);
+  c.set_verdict = JudgeStereoSet(c.fit, views, options, unit_m, vo);
+  c.poor = c.set_verdict.status != "good";
+  c.verdict = c.set_verdict.reasons;
+  AppendVerdictToResult(c.set_verdict, vo.rig, &c.result);
+  // An unusable set's numbers are refused, not printed as if they were good.
+  if (c.set_verdict.status == "unusable" && !c.set_verdict.reasons.empty())
+    for (auto& p : c.result.parameters) MarkUndetermined(&c.result, p.name, "set unusable: " + c.set_verdict.reasons[0]);
   const char* eye_name[2] = {"left", "right"};
-  const double spread = std::min(c.coverage[0].spread_deg, c.coverage[1].spread_deg);
-  if (spread < vo.min_spread_deg) {
-    c.poor = true;
-    const std::string why = "no tilt: board normals span only " + FixedOrDash(spread, 1) + " deg (< " +
-                            FixedOrDash(vo.min_spread_deg, 0) +
-                            "), so the focal length trades against the board distance and the principal point "
-                            "against the board position";
-    c.verdict.push_back("focal length, principal point and the baseline's z component are not determined (" + why +
-                        ")");
-    for (const char* e : eye_name)
-      for (const char* n : {"fx", "fy", "cx", "cy"}) MarkUndetermined(&c.result, std::string(e) + "." + n, why);
-    MarkUndetermined(&c.result, "stereo.tz", why);
-    MarkUndetermined(&c.result, "stereo.tz_mm", why);
-  }
-  for (int e = 0; e < 2; ++e) {
-    const EyeCoverage& cov = c.coverage[e];
-    if (cov.grid_fraction < vo.min_grid_coverage || cov.max_radius_fraction < vo.min_radius_fraction) {
-      c.poor = true;
-      const std::string why = std::string("board always central in the ") + eye_name[e] + " eye: corners in " +
-                              FixedOrDash(100 * cov.grid_fraction, 0) + " % of the image cells, out to " +
-                              FixedOrDash(100 * cov.max_radius_fraction, 0) + " % of the half-diagonal";
-      c.verdict.push_back("higher distortion terms (k2, k3, k4-k6) of the " + std::string(eye_name[e]) +
-                          " eye are not determined (" + why + ")");
-      for (const char* n : {"k2", "k3", "k4", "k5", "k6"}) MarkUndetermined(&c.result, std::string(eye_name[e]) + "." + n, why);
-    }
-  }
-  for (const auto& v : c.verdict) c.result.warnings.push_back(v);
 
   // Diagnostics: per-view residuals and coverage.
   nlohmann::json d = nlohmann::json::object();
@@ -138,8 +104,6 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
                       {"max_tilt_deg", c.coverage[e].max_tilt_deg},
                       {"orientation_spread_deg", c.coverage[e].spread_deg}};
   }
-  d["verdict"] = c.verdict;
-  d["poor"] = c.poor;
   c.result.diagnostics["image_set"] = d;
   return c;
 }

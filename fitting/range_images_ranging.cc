@@ -3,6 +3,8 @@
 #include "calib/csv.h"
 
 #include <algorithm>
+#include <limits>
+#include <optional>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -66,6 +68,28 @@ StereoRig RigFromStereoFit(const StereoFit& fit, double length_unit_m) {
   return rig;
 }
 
+void AttachHalves(const SetVerdict& v, StereoRig* rig) {
+  rig->halves.clear();
+  for (const auto& h : v.half_rig)
+    if (static_cast<int>(h.size()) == rig->NumParams()) rig->halves.push_back(h);
+  if (rig->halves.size() != 2) rig->halves.clear();
+}
+
+namespace {
+
+void ReadHalves(const CalibrationResult& r, StereoRig* rig) {
+  if (!r.diagnostics.contains("cross_validation")) return;
+  const auto& cv = r.diagnostics.at("cross_validation");
+  if (!cv.contains("halves") || !cv.at("halves").is_array()) return;
+  for (const auto& h : cv.at("halves")) {
+    const auto q = h.get<std::vector<double>>();
+    if (static_cast<int>(q.size()) == rig->NumParams()) rig->halves.push_back(q);
+  }
+  if (rig->halves.size() != 2) rig->halves.clear();
+}
+
+}  // namespace
+
 StereoRig RigFromResult(const CalibrationResult& r) {
   if (!r.cameras[0] || !r.cameras[1] || !r.stereo)
     throw std::runtime_error("result has no stereo calibration (cameras and stereo pose needed)");
@@ -75,6 +99,7 @@ StereoRig RigFromResult(const CalibrationResult& r) {
   rig.right_from_left = r.stereo->right_from_left;
   const int n = rig.NumParams();
   rig.source = "results.json";
+  ReadHalves(r, &rig);
   if (r.stereo->full_covariance.rows() == n && r.stereo->full_covariance.cols() == n) {
     rig.covariance = r.stereo->full_covariance;  // with the correlations (same layout)
     return rig;
@@ -204,8 +229,78 @@ RectifiedTriangulation TriangulateRectified(const StereoRig& rig,
     }
     t.sigma_calib_m = std::sqrt(std::max(0.0, J.dot(rig.covariance * J)));
   }
+  if (rig.halves.size() == 2) {
+    const auto za = TriangulateDepth(rig, rig.halves[0], t.raw_px[0], t.raw_px[1], axis);
+    const auto zb = TriangulateDepth(rig, rig.halves[1], t.raw_px[0], t.raw_px[1], axis);
+    if (za && zb) t.sigma_cv_m = std::abs(*za - *zb) / 2;
+  }
   t.ok = true;
   return t;
+}
+
+namespace {
+
+// Triangulates one confident-enough match and predicts its sigma (header).
+void Triangulate(const StereoRig& rig, const Rectification& rect, const RangeOptions& options, RangeMeasurement* m) {
+  const RectifiedTriangulation t = TriangulateRectified(rig, rect, m->match.left_px, m->match.right_px);
+  if (!t.ok) {
+    m->status = "failed";
+    m->message = t.message;
+    return;
+  }
+  m->raw_px[0] = t.raw_px[0];
+  m->raw_px[1] = t.raw_px[1];
+  m->ray_gap_m = t.ray_gap_m;
+  m->range_m = t.depth_m + options.datum_offset_m;
+  m->sigma_match_m = m->match.disparity_px > 0 ? t.depth_m / m->match.disparity_px * m->match.sigma_disparity_px
+                                               : std::numeric_limits<double>::infinity();
+  m->sigma_cov_m = t.sigma_calib_m;
+  m->sigma_cv_m = t.sigma_cv_m;
+  const double cov = std::isfinite(m->sigma_cov_m) ? m->sigma_cov_m : 0.0;
+  const double cvv = std::isfinite(m->sigma_cv_m) ? m->sigma_cv_m : 0.0;
+  m->sigma_calib_m = std::isfinite(m->sigma_cov_m) || std::isfinite(m->sigma_cv_m)
+                         ? std::max(cov, cvv)
+                         : std::numeric_limits<double>::quiet_NaN();
+  m->sigma_m = std::hypot(std::isfinite(m->sigma_calib_m) ? m->sigma_calib_m : 0.0, m->sigma_match_m);
+  m->ok = true;
+}
+
+}  // namespace
+
+RangeMeasurement RangeRectifiedPair(const cv::Mat& lr,
+                                    const cv::Mat& rr,
+                                    const StereoRig& rig,
+                                    const Rectification& rect,
+                                    const RangeOptions& options) {
+  RangeMeasurement m;
+  m.truth_sigma_m = options.truth_sigma_m;
+  // Candidates in order: the first confident match wins, else the best low-confidence one
+  // (highest NCC), else the first failure's reasons.
+  std::vector<cv::Rect> rois = options.candidate_rois;
+  if (rois.empty()) rois.push_back(options.match.template_roi);
+  std::optional<calib::StereoMatch> low, first;
+  int tried = 0;
+  for (const cv::Rect& roi : rois) {
+    calib::StereoMatchOptions mo = options.match;
+    mo.template_roi = roi;
+    const calib::StereoMatch x = calib::MatchAlongRow(lr, rr, mo);
+    ++tried;
+    if (!first) first = x;
+    if (x.confidence == calib::MatchConfidence::kOk) {
+      m.match = x;
+      break;
+    }
+    if (x.confidence == calib::MatchConfidence::kLowConfidence && (!low || x.ncc > low->ncc)) low = x;
+  }
+  if (m.match.confidence != calib::MatchConfidence::kOk) m.match = low ? *low : *first;
+  if (rois.size() > 1)
+    m.roi_how = "candidate " + std::to_string(tried) + " of " + std::to_string(rois.size()) + " at (" +
+                std::to_string(m.match.template_roi.x) + ", " + std::to_string(m.match.template_roi.y) + ")";
+  m.status = calib::ToString(m.match.confidence);
+  m.message = m.match.message;
+  if (m.match.confidence == calib::MatchConfidence::kFailed) return m;
+  Triangulate(rig, rect, options, &m);
+  return m;
 }
 
 RangeMeasurement RangePair(const cv::Mat& left_raw,
@@ -213,30 +308,9 @@ RangeMeasurement RangePair(const cv::Mat& left_raw,
                            const StereoRig& rig,
                            const Rectification& rect,
                            const RangeOptions& options) {
-  RangeMeasurement m;
-  m.truth_sigma_m = options.truth_sigma_m;
   cv::Mat lr, rr;
   RemapPair(rect, left_raw, right_raw, &lr, &rr);
-  m.match = calib::MatchAlongRow(lr, rr, options.match);
-  if (!m.match.found) {
-    m.message = "no match: " + m.match.message;
-    return m;
-  }
-  const RectifiedTriangulation tri = TriangulateRectified(rig, rect, m.match.left_px, m.match.right_px);
-  if (!tri.ok) {
-    m.message = tri.message;
-    return m;
-  }
-  m.raw_px[0] = tri.raw_px[0];
-  m.raw_px[1] = tri.raw_px[1];
-  m.ray_gap_m = tri.ray_gap_m;
-  m.range_m = tri.depth_m + options.datum_offset_m;
-  m.sigma_match_m = m.match.disparity_px > 0 ? tri.depth_m / m.match.disparity_px * m.match.sigma_disparity_px
-                                             : std::numeric_limits<double>::infinity();
-  m.sigma_calib_m = tri.sigma_calib_m;
-  m.sigma_m = std::isfinite(tri.sigma_calib_m) ? std::hypot(m.sigma_calib_m, m.sigma_match_m) : m.sigma_match_m;
-  m.ok = true;
-  return m;
+  return RangeRectifiedPair(lr, rr, rig, rect, options);
 }
 
 std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path) {
@@ -250,7 +324,6 @@ std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path) {
     dist = name;
     scale = s;
   }
-  if (dist.empty()) throw std::runtime_error(path + ":1: header needs a distance column: distance_cm, distance_mm or distance_m");
   const char* kRoi[] = {"roi_x", "roi_y", "roi_w", "roi_h"};
   int num_roi_columns = 0;
   for (const char* c : kRoi) num_roi_columns += t.HasColumn(c);
@@ -263,8 +336,11 @@ std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path) {
     row.left = t.Text(r, "left");
     row.right = t.Text(r, "right");
     if (row.left.empty() || row.right.empty()) throw std::runtime_error(row.where + ": left and right must name image files");
-    // A true distance is a positive length; 1 km is far beyond what a stereo head ranges.
-    row.distance_m = t.PositiveNumber(r, dist, 1e3 / scale) * scale;
+    // A true distance is a positive length; 1 km is far beyond what a stereo head ranges. A blank
+    // distance (or no distance column) is an unknown distance (NaN), not an error: the pair is
+    // ranged and reported with its sigma.
+    row.distance_m = !dist.empty() && !t.Text(r, dist).empty() ? t.PositiveNumber(r, dist, 1e3 / scale) * scale
+                                                                : std::numeric_limits<double>::quiet_NaN();
     const bool roi_given = num_roi_columns == 4 && !(t.Text(r, "roi_x").empty() && t.Text(r, "roi_y").empty() &&
                                                      t.Text(r, "roi_w").empty() && t.Text(r, "roi_h").empty());
     if (roi_given) {
@@ -298,9 +374,15 @@ RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_
   RangeSummary s;
   double sum = 0;
   for (const auto& r : m) {
+    if (r.status == "low_confidence") ++s.num_low_confidence;
+    if (r.status == "failed") ++s.num_failed;
+    if (!r.has_truth()) {
+      ++s.num_unknown;
+      continue;
+    }
     if (!(r.true_m >= min_true_m - 1e-9 && r.true_m <= max_true_m + 1e-9)) continue;
     ++s.num_rows;
-    if (!r.ok) continue;
+    if (r.status != "ok") continue;
     ++s.num_ranged;
     const double rel = std::abs(r.error_m()) / r.true_m;
     sum += rel;

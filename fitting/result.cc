@@ -117,6 +117,7 @@ json ToJson(const CalibrationResult& r) {
                            {"usable", s.usable}});
   }
   j["warnings"] = r.warnings;
+  if (!r.verdict.is_null()) j["verdict"] = r.verdict;
   for (int e = 0; e < 2; ++e)
     if (r.cameras[e]) j["cameras"][models::kEyeNames[e]] = CameraJson(*r.cameras[e]);
   if (r.stereo) {
@@ -171,6 +172,7 @@ CalibrationResult ResultFromJson(const json& j) {
     }
   }
   if (j.contains("warnings")) r.warnings = j.at("warnings").get<std::vector<std::string>>();
+  if (j.contains("verdict")) r.verdict = j.at("verdict");
   if (j.contains("cameras"))
     for (int e = 0; e < 2; ++e)
       if (j.at("cameras").contains(models::kEyeNames[e]))

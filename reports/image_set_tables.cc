@@ -1,8 +1,10 @@
 #include "reports/image_set_tables.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include "fitting/format.h"
+#include "reports/verdict_tables.h"
 
 namespace owlcal::reports {
 
@@ -12,13 +14,7 @@ using fitting::RangeMeasurement;
 std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const std::vector<std::string>& keys) {
   std::ostringstream md;
   md << "# Stereo calibration from images\n\n";
-  if (c.verdict.empty()) {
-    md << "Verdict: the set determines every reported parameter.\n\n";
-  } else {
-    md << "Verdict: **poor set**. What it cannot determine:\n";
-    for (const auto& v : c.verdict) md << "- " << v << "\n";
-    md << "\n";
-  }
+  md << SetVerdictMarkdown(c.set_verdict) << "\n";
   md << "Pairs used: " << c.fit.paired_frames.size() << "; RMS left " << FixedOrDash(c.fit.rms_px[0], 3) << " px, right "
      << FixedOrDash(c.fit.rms_px[1], 3) << " px, joint " << FixedOrDash(c.fit.rms_joint_px, 3) << " px; rectified |dy| mean "
      << FixedOrDash(c.fit.rectified_dy_mean_px, 3) << " px, max " << FixedOrDash(c.fit.rectified_dy_max_px, 3) << " px.\n\n";
@@ -46,16 +42,25 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
 
 std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
   std::ostringstream c;
-  c << "name,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,z,disparity_px,"
-       "sigma_disparity_px,dy_px,ncc,second_ncc,ray_gap_mm,ok,message\n";
+  c << "name,status,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_cov_cm,sigma_cv_cm,sigma_match_cm,z,"
+       "disparity_px,sigma_disparity_px,dy_px,ncc,second_ncc,peak_ratio,lr_error_px,contrast,block_spread_px,roi_x,roi_y,"
+       "roi_w,roi_h,ray_gap_mm,message\n";
   for (const auto& r : m) {
-    c << r.name << "," << FixedOrDash(r.true_m * 100, 2) << "," << (r.ok ? FixedOrDash(r.range_m * 100, 3) : "") << ","
-      << (r.ok ? FixedOrDash(r.error_m() * 100, 3) : "") << "," << (r.ok ? FixedOrDash(100 * r.error_m() / r.true_m, 3) : "") << ","
-      << (r.ok ? FixedOrDash(r.sigma_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_calib_m * 100, 3) : "") << ","
-      << (r.ok ? FixedOrDash(r.sigma_match_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "") << ","
-      << FixedOrDash(r.match.disparity_px, 3) << "," << FixedOrDash(r.match.sigma_disparity_px, 3) << ","
-      << FixedOrDash(r.match.dy_px, 2) << "," << FixedOrDash(r.match.ncc, 3) << "," << FixedOrDash(r.match.second_ncc, 3) << ","
-      << FixedOrDash(r.ray_gap_m * 1000, 2) << "," << (r.ok ? 1 : 0) << ",\"" << r.message << "\"\n";
+    const bool e = r.ok && r.has_truth();
+    const cv::Rect& roi = r.match.template_roi;
+    std::string msg = r.message;
+    std::replace(msg.begin(), msg.end(), '"', '\'');
+    c << r.name << "," << r.status << "," << (r.has_truth() ? FixedOrDash(r.true_m * 100, 2) : "") << ","
+      << (r.ok ? FixedOrDash(r.range_m * 100, 3) : "") << "," << (e ? FixedOrDash(r.error_m() * 100, 3) : "") << ","
+      << (e ? FixedOrDash(100 * r.error_m() / r.true_m, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_m * 100, 3) : "")
+      << "," << (r.ok ? FixedOrDash(r.sigma_calib_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_cov_m * 100, 3) : "")
+      << "," << (r.ok ? FixedOrDash(r.sigma_cv_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_match_m * 100, 3) : "")
+      << "," << (e ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "") << "," << FixedOrDash(r.match.disparity_px, 3)
+      << "," << FixedOrDash(r.match.sigma_disparity_px, 3) << "," << FixedOrDash(r.match.dy_px, 2) << ","
+      << FixedOrDash(r.match.ncc, 3) << "," << FixedOrDash(r.match.second_ncc, 3) << "," << FixedOrDash(r.match.peak_ratio, 3)
+      << "," << FixedOrDash(r.match.lr_error_px, 2) << "," << FixedOrDash(r.match.contrast, 1) << ","
+      << FixedOrDash(r.match.block_spread_px, 2) << "," << roi.x << "," << roi.y << "," << roi.width << "," << roi.height
+      << "," << (r.ok ? FixedOrDash(r.ray_gap_m * 1000, 2) : "") << ",\"" << msg << "\"\n";
   }
   return c.str();
 }
@@ -63,23 +68,47 @@ std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
 std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const fitting::RangeSummary& s, const std::string& title) {
   std::ostringstream md;
   md << "# " << title << "\n\n"
-     << "| pair | true (cm) | range (cm) | error (%) | sigma (cm) | sigma calib / match (cm) | truth sigma (cm) | "
-        "error/sigma | disparity (px) | NCC |\n|---|---|---|---|---|---|---|---|---|---|\n";
+     << "| pair | status | true (cm) | range (cm) | error (%) | sigma (cm) | sigma calib / match (cm) | truth sigma (cm) | "
+        "error/sigma | disparity (px) | NCC | why not ok |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : m) {
-    if (!r.ok) {
-      md << "| " << r.name << " | " << FixedOrDash(r.true_m * 100, 1) << " | not ranged: " << r.message
-         << " | | | | | | | |\n";
-      continue;
-    }
-    md << "| " << r.name << " | " << FixedOrDash(r.true_m * 100, 1) << " | " << FixedOrDash(r.range_m * 100, 2) << " | "
-       << FixedOrDash(100 * r.error_m() / r.true_m, 2) << " | " << FixedOrDash(r.sigma_m * 100, 2) << " | "
-       << FixedOrDash(r.sigma_calib_m * 100, 2) << " / " << FixedOrDash(r.sigma_match_m * 100, 2) << " | "
-       << FixedOrDash(r.truth_sigma_m * 100, 2) << " | " << FixedOrDash(r.error_m() / r.error_sigma_m(), 2) << " | " << FixedOrDash(r.match.disparity_px, 2) << " | " << FixedOrDash(r.match.ncc, 3)
-       << " |\n";
+    const bool e = r.ok && r.has_truth();
+    md << "| " << r.name << " | " << r.status << " | " << (r.has_truth() ? FixedOrDash(r.true_m * 100, 1) : "unknown")
+       << " | " << (r.ok ? FixedOrDash(r.range_m * 100, 2) : "-") << " | "
+       << (e ? FixedOrDash(100 * r.error_m() / r.true_m, 2) : "-") << " | " << (r.ok ? FixedOrDash(r.sigma_m * 100, 2) : "-")
+       << " | " << (r.ok ? FixedOrDash(r.sigma_calib_m * 100, 2) + " / " + FixedOrDash(r.sigma_match_m * 100, 2) : "-")
+       << " | " << FixedOrDash(r.truth_sigma_m * 100, 2) << " | "
+       << (e ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "-") << " | " << FixedOrDash(r.match.disparity_px, 2)
+       << " | " << FixedOrDash(r.match.ncc, 3) << " | " << (r.status == "ok" ? "" : r.message) << " |\n";
   }
-  md << "\nRanged " << s.num_ranged << "/" << s.num_rows << "; mean |error| " << FixedOrDash(100 * s.mean_abs_rel, 2)
-     << " %, max " << FixedOrDash(100 * s.max_abs_rel, 2) << " %; max |error|/sigma " << FixedOrDash(s.max_abs_z, 2) << "; "
-     << s.num_outside_3sigma << " outside +-3 sigma (error/sigma uses sqrt(sigma^2 + truth sigma^2)).\n";
+  md << "\n" << s.num_ranged << " of " << s.num_rows << " rows with a truth ranged with confidence; "
+     << s.num_low_confidence << " low confidence, " << s.num_failed << " failed (both left out of the errors), "
+     << s.num_unknown << " of unknown distance. ";
+  if (s.num_ranged > 0)
+    md << "Mean |error| " << FixedOrDash(100 * s.mean_abs_rel, 2) << " %, max " << FixedOrDash(100 * s.max_abs_rel, 2)
+       << " %; max |error|/sigma " << FixedOrDash(s.max_abs_z, 2) << "; " << s.num_outside_3sigma
+       << " outside +-3 sigma (error/sigma uses sqrt(sigma^2 + truth sigma^2)).";
+  md << "\n";
+  return md.str();
+}
+
+std::string DatumFitMarkdown(const fitting::DatumFit& f) {
+  std::ostringstream md;
+  md << "## Datum and scale of the true distances\n\n";
+  if (!f.ok) {
+    md << "Not fitted: " << f.message << ".\n";
+    return md.str();
+  }
+  md << "range = a + b * truth over " << f.num_rows << " confident rows: a = " << FixedOrDash(100 * f.a_m, 2) << " +- "
+     << FixedOrDash(100 * f.sigma_a_m, 2) << " cm, b = " << FixedOrDash(f.b, 4) << " +- " << FixedOrDash(f.sigma_b, 4)
+     << " (correlation " << FixedOrDash(f.correlation, 2) << "), chi2/dof " << FixedOrDash(f.chi2_per_dof, 2) << " (dof "
+     << f.dof << "). A negative a means the ranges read short by a constant: the true distances were measured from "
+     << "about " << FixedOrDash(100 * std::abs(f.a_m), 1) << " cm " << (f.a_m < 0 ? "behind" : "in front of")
+     << " the cameras' optical centres; b - 1 is a scale error (focal length x baseline).\n\n"
+     << "| | mean abs error | max abs error |\n|---|---|---|\n"
+     << "| before the fit | " << FixedOrDash(100 * f.mean_abs_rel_before, 2) << " % | " << FixedOrDash(100 * f.max_abs_rel_before, 2)
+     << " % |\n| after the fit (in-sample) | " << FixedOrDash(100 * f.mean_abs_rel_after, 2) << " % | "
+     << FixedOrDash(100 * f.max_abs_rel_after, 2) << " % |\n| after, leave-one-out | " << FixedOrDash(100 * f.mean_abs_rel_loo, 2)
+     << " % | " << FixedOrDash(100 * f.max_abs_rel_loo, 2) << " % |\n";
   return md.str();
 }
 

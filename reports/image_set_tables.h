@@ -2,14 +2,18 @@
 // Tables of the image-folder commands (calibrate-images, range-images) for the lab report:
 //   ImageSetReportMarkdown  verdict, every parameter with its sigma, per-view RMS and tilt per eye
 //                           (pair_keys[frame] names each pair; may be empty)
-//   RangeTableCsv           name,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,
-//                           sigma_match_cm,z,disparity_px,sigma_disparity_px,dy_px,ncc,second_ncc,
-//                           ray_gap_mm,ok,message (one row per pair; empty cells when not ranged)
+//   RangeTableCsv           name,status,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,
+//                           sigma_cov_cm,sigma_cv_cm,sigma_match_cm,z,disparity_px,sigma_disparity_px,
+//                           dy_px,ncc,second_ncc,peak_ratio,lr_error_px,contrast,block_spread_px,
+//                           roi_x,roi_y,roi_w,roi_h,ray_gap_mm,message (one row per pair; status ok,
+//                           low_confidence or failed; empty cells when not ranged or no truth)
 //   RangeTableMarkdown      the same for reading, with the summary line below
+//   DatumFitMarkdown        the truth's datum and scale fit, errors before / after / leave-one-out
 // Values the data did not determine print as "-" (fitting/format.h), never as "nan".
 #include <string>
 #include <vector>
 
+#include "fitting/range_datum_fit.h"
 #include "fitting/range_images_calib.h"
 #include "fitting/range_images_ranging.h"
 
@@ -20,5 +24,6 @@ std::string RangeTableCsv(const std::vector<fitting::RangeMeasurement>& m);
 std::string RangeTableMarkdown(const std::vector<fitting::RangeMeasurement>& m,
                                const fitting::RangeSummary& s,
                                const std::string& title);
+std::string DatumFitMarkdown(const fitting::DatumFit& fit);
 
 }  // namespace owlcal::reports

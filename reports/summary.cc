@@ -85,8 +85,21 @@ Summary MakeSummary(const ReportData& d) {
       failed = true;
       s.reasons.push_back("the " + sum.problem + " fit is not usable: " + sum.message);
     }
-  const bool poor = diag.contains("image_set") && diag["image_set"].value("poor", false);
-  if (diag.contains("verdict")) {
+  // The set verdict (fitting/set_verdict.h) is results.json's top-level `verdict`.
+  const nlohmann::json& set_verdict = r.verdict;
+  const bool has_set_verdict = set_verdict.is_object() && set_verdict.contains("status");
+  const bool poor = has_set_verdict && set_verdict.at("status") != "good";
+  if (has_set_verdict) {
+    const std::string status = set_verdict.at("status").get<std::string>();
+    s.verdict = "Calibration set: " + status;
+    if (set_verdict.contains("reasons"))
+      for (const auto& x : set_verdict.at("reasons")) s.reasons.push_back(x.get<std::string>());
+    s.level = status == "good" ? "ok" : (status == "poor" ? "warn" : "bad");
+    if (failed) {
+      s.verdict += "; a fit failed";
+      s.level = "bad";
+    }
+  } else if (diag.contains("verdict")) {
     const auto& v = diag["verdict"];
     if (v.is_string()) {
       s.verdict = v.get<std::string>();
@@ -124,8 +137,8 @@ Summary MakeSummary(const ReportData& d) {
     s.next_steps.push_back("Look at the worst calibration views (" + names +
                            "): retake or drop any with a blurred, moved or partly hidden board.");
   }
-  if (poor && diag["image_set"].contains("verdict"))
-    for (const auto& v : diag["image_set"]["verdict"]) s.next_steps.push_back("Image set: " + v.get<std::string>() + ".");
+  if (has_set_verdict && set_verdict.contains("advice"))
+    for (const auto& v : set_verdict.at("advice")) s.next_steps.push_back("Image set: " + v.get<std::string>() + ".");
   if (undetermined > 0 && !poor)
     s.next_steps.push_back("Add views that determine the " + std::to_string(undetermined) +
                            " undetermined parameters (listed in the Discussion): boards tilted by 30\u201345\u00b0, near "

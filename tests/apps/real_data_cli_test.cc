@@ -1,5 +1,6 @@
 // Command-line checks of the real-data commands as a user runs them: free-standing tags
-// (detect-tags). Exit codes: 0 ok, 1 failed, 2 usage (apps/command_registry.h).
+// (detect-tags), toe-in servo maps (fit-toe-in), ranging without distances (range-images), a
+// mirrored set refused (calibrate-images). Exit codes: 0 ok, 1 failed, 2 usage (apps/command_registry.h).
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -8,7 +9,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/observation_io.h"
+#include "fitting/result.h"
 #include "tests/apps/run_owlcal.h"
+#include "tests/fitting/toe_in_synthetic.h"
+#include "owlcal_version.h"
+#include "tests/shared_data.h"
 
 extern "C" {
 #include <apriltag/apriltag.h>
@@ -70,6 +76,69 @@ TEST_F(RealDataCliTest, DetectTagsWritesEveryTagAndKeepsRepeatedIds) {
   const auto bad = RunOwlcal("detect-tags '" + (dir_ / "two.png").string() + "' --family tag37h11 --out x.csv");
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_NE(bad.output.find("tag37h11"), std::string::npos) << bad.output;
+}
+
+// fit-toe-in as a student runs it: a CSV of observation files (each set calibrated by the
+// command) and the PWM values; synthetic sets with known per-eye scales.
+TEST_F(RealDataCliTest, FitToeInCalibratesEachSetAndFitsTheScales) {
+  const test_toe_in::Truth t;
+  std::mt19937 rng(5);
+  {
+    std::ofstream f(dir_ / "sets.csv");
+    f << "calibration,Rx,Ry,Lx,Ly\n";
+    for (size_t i = 0; i < test_toe_in::kSettings.size(); ++i) {
+      const auto& s = test_toe_in::kSettings[i];
+      const std::string name = "set" + std::to_string(i) + ".csv";
+      calib::WriteObservationsCsv((dir_ / name).string(), test_toe_in::SynthesiseSet(t, s.rx, s.lx, &rng));
+      f << name << "," << s.rx << ",1530," << s.lx << ",1580\n";  // relative to the CSV's folder
+    }
+  }
+  const auto r = RunOwlcal("fit-toe-in '" + (dir_ / "sets.csv").string() + "' --out '" + (dir_ / "out").string() + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const fitting::CalibrationResult res = fitting::ReadResultJson((dir_ / "out" / "results.json").string());
+  for (const auto& [name, truth] : {std::pair<std::string, double>{"servo.Rx.deg_per_us", t.rx_deg_per_us},
+                                    std::pair<std::string, double>{"servo.Lx.deg_per_us", t.lx_deg_per_us}}) {
+    const fitting::Parameter* p = res.Find(name);
+    ASSERT_NE(p, nullptr) << r.output;
+    EXPECT_NEAR(p->value, truth, 3 * p->sigma) << name;
+  }
+  EXPECT_TRUE(fs::exists(dir_ / "out" / "sets" / "0" / "results.json"));
+  EXPECT_TRUE(fs::exists(dir_ / "out" / "toe_in_sets.csv"));
+  EXPECT_NE(r.output.find("chi2/dof"), std::string::npos) << r.output;
+}
+
+// Unknown distances: no truth file, every pair of the folder ranged with sigma and a status,
+// the target chosen by texture.
+TEST_F(RealDataCliTest, RangeImagesWithoutTruthRangesEveryPair) {
+  const std::string data = test_data::SharedData();
+  const auto r = RunOwlcal("range-images '" + data + "/owl-real/kit2020-distance-target1' --calib '" + data +
+                           "/owl-real/kit2020-chessboard/reference/intrinsics.xml' --select texture --out '" +
+                           (dir_ / "ranges").string() + "'");
+  EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;  // 1 when a row is not ok
+  const std::string csv = Slurp(dir_ / "ranges" / "ranges.csv");
+  EXPECT_EQ(csv.rfind("name,status,true_cm,range_cm", 0), 0u) << csv;
+  size_t rows = 0;
+  for (char c : csv) rows += c == '\n';
+  EXPECT_EQ(rows, 14u);  // header + 13 pairs
+  const std::string md = Slurp(dir_ / "ranges" / "ranges.md");
+  EXPECT_NE(md.find("13 of unknown distance"), std::string::npos) << md;
+  EXPECT_NE(md.find("most textured"), std::string::npos) << md;
+}
+
+// A mirrored set calibrated without --mirror: refused (exit 1), the flags named, no exports.
+TEST_F(RealDataCliTest, CalibrateImagesRefusesAMirroredSetAndNamesTheFlag) {
+  const std::string data = test_data::SharedData();
+  const fs::path out = dir_ / "mirrored";
+  const auto r = RunOwlcal("calibrate-images '" + data + "/owl-real/darvill2019-chessboard/session3' --target '" +
+                           std::string(OWLCAL_SOURCE_DIR) + "/data/targets/owl-kit-chessboard.yaml' --no-report --out '" +
+                           out.string() + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("--mirror"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("verdict: unusable"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out / "calibration.yaml"));
+  const fitting::CalibrationResult res = fitting::ReadResultJson((out / "results.json").string());
+  ASSERT_TRUE(res.verdict.is_object());
+  EXPECT_EQ(res.verdict.at("status"), "unusable");
 }
 
 }  // namespace

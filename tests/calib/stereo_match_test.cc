@@ -39,6 +39,10 @@ TEST(StereoMatch, RecoversSubPixelDisparityOfShiftedTexture) {
     EXPECT_GT(m.ncc, 0.95);
     EXPECT_GT(m.sigma_disparity_px, 0.0);
     EXPECT_LT(m.sigma_disparity_px, 0.3);
+    EXPECT_EQ(m.confidence, MatchConfidence::kOk) << m.message;
+    EXPECT_LT(m.lr_error_px, 0.3);
+    EXPECT_LT(m.peak_ratio, 0.85);
+    EXPECT_EQ(m.blocks_used, 4);
   }
 }
 
@@ -74,6 +78,44 @@ TEST(StereoMatch, FlatImageIsNotFoundAndRoiIsHonoured) {
   EXPECT_NEAR(m.right_px.x, 400 + 19.5 - 22.5, 0.12);
   o.template_roi = cv::Rect(630, 100, 40, 30);
   EXPECT_FALSE(MatchAlongRow(left, left, o).found);
+}
+
+// Vertical stripes repeating every 24 px: every period matches as well as the true one.
+TEST(StereoMatch, RepeatedTextureIsAmbiguousNeverOk) {
+  cv::Mat left(480, 640, CV_8U);
+  for (int y = 0; y < 480; ++y)
+    for (int x = 0; x < 640; ++x) left.at<uint8_t>(y, x) = static_cast<uint8_t>(128 + 90 * std::sin(2 * M_PI * x / 24.0));
+  const StereoMatch m = MatchAlongRow(left, Shift(left, 30.4, 0), StereoMatchOptions());
+  EXPECT_NE(m.confidence, MatchConfidence::kOk) << m.message;
+  EXPECT_GT(m.peak_ratio, 0.85);
+  EXPECT_NE(m.message.find("peak"), std::string::npos) << m.message;
+}
+
+// A near object (disparity 45) in front of a far background (disparity 12): a template astride
+// its edge matches partly both; its quarters disagree.
+TEST(StereoMatch, TemplateAcrossADepthEdgeIsLowConfidence) {
+  const cv::Mat far = Texture(640, 480, 21), near = Texture(640, 480, 22);
+  cv::Mat left = far.clone(), right = Shift(far, 12, 0);
+  const cv::Rect object(320, 150, 200, 180);  // in the left image
+  near(object).copyTo(left(object));
+  near(object).copyTo(right(object - cv::Point(45, 0)));
+  StereoMatchOptions o;
+  o.template_roi = cv::Rect(object.x - 32, 200, 64, 48);  // half background, half object
+  const StereoMatch m = MatchAlongRow(left, right, o);
+  EXPECT_NE(m.confidence, MatchConfidence::kOk) << m.message;
+  EXPECT_FALSE(m.flags.empty());
+  // Wholly on the object: confident, at the object's disparity.
+  o.template_roi = cv::Rect(object.x + 40, 200, 64, 48);
+  const StereoMatch on = MatchAlongRow(left, right, o);
+  EXPECT_EQ(on.confidence, MatchConfidence::kOk) << on.message;
+  EXPECT_NEAR(on.disparity_px, 45, 0.2);
+}
+
+// The right image of another scene: nothing matches; never ok.
+TEST(StereoMatch, UnrelatedImagesFail) {
+  const StereoMatch m = MatchAlongRow(Texture(640, 480, 31), Texture(640, 480, 32), StereoMatchOptions());
+  EXPECT_EQ(m.confidence, MatchConfidence::kFailed) << m.message;
+  EXPECT_FALSE(m.found);
 }
 
 TEST(StereoMatch, ParabolaPeakOffsetIsExactForAParabola) {

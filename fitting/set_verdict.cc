@@ -1,0 +1,323 @@
+#include "fitting/set_verdict.h"
+
+#include <algorithm>
+#include <limits>
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "fitting/format.h"
+
+#include <Eigen/Geometry>
+
+namespace owlcal::fitting {
+namespace {
+
+const char* kEye[2] = {"left", "right"};
+const char* kZone[9] = {"top-left", "top", "top-right", "left edge", "centre", "right edge", "bottom-left", "bottom",
+                        "bottom-right"};
+
+int ZoneOf(const Eigen::Vector2d& q, int width, int height) {
+  const int zx = std::clamp(static_cast<int>(3 * (q.x() + 0.5) / width), 0, 2);
+  const int zy = std::clamp(static_cast<int>(3 * (q.y() + 0.5) / height), 0, 2);
+  return 3 * zy + zx;
+}
+
+// 90th percentile of the grid values within `r` of the half-diagonal from the image centre
+// (a value that is not finite counts as larger than any other).
+double P90Within(const std::vector<Eigen::Vector2d>& px, const std::vector<double>& v, int w, int h, double r) {
+  const Eigen::Vector2d c((w - 1) / 2.0, (h - 1) / 2.0);
+  std::vector<double> in;
+  for (size_t i = 0; i < px.size() && i < v.size(); ++i)
+    if ((px[i] - c).norm() <= r * c.norm()) in.push_back(std::isfinite(v[i]) ? v[i] : 1e300);
+  if (in.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(in.begin(), in.end());
+  const double p = in[std::min(in.size() - 1, static_cast<size_t>(0.9 * in.size()))];
+  return p >= 1e300 ? std::numeric_limits<double>::infinity() : p;
+}
+
+std::string Join(const std::vector<std::string>& v) {
+  std::string s;
+  for (size_t i = 0; i < v.size(); ++i) s += (i == 0 ? "" : (i + 1 == v.size() ? " and " : ", ")) + v[i];
+  return s;
+}
+
+double CovOf(const UncertaintyMap& u, int param_index) {
+  for (size_t k = 0; k < u.free_indices.size(); ++k)
+    if (u.free_indices[k] == param_index) return u.intrinsics_covariance(k, k);
+  return 0;  // fixed
+}
+
+nlohmann::json StatsJson(const UncertaintyMap& u) {
+  if (!u.ok) return {{"ok", false}, {"message", u.message}};
+  return {{"ok", true}, {"centre_px", u.centre_px}, {"median_px", u.median_px}, {"p90_px", u.p90_px}, {"max_px", u.max_px}};
+}
+
+}  // namespace
+
+bool SetVerdictOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (min_pairs < 1 || min_pairs_to_split < 2) return fail("min_pairs must be >= 1 and min_pairs_to_split >= 2");
+  if (!(max_projection_sigma_px > 0 && max_relative_focal_sigma > 0 && max_principal_sigma_px > 0 &&
+        max_half_diff_px > 0 && max_half_focal_diff > 0))
+    return fail("every verdict limit must be > 0");
+  if (!(working_radius_fraction > 0 && working_radius_fraction <= 1))
+    return fail("working_radius_fraction must be in (0, 1]");
+  if (grid_cols < 3 || grid_rows < 3) return fail("the uncertainty grid must be at least 3x3");
+  return rig.Check(why);
+}
+
+SetVerdict JudgeStereoSet(const StereoFit& fit,
+                          const std::vector<calib::View> views[2],
+                          const StereoFitOptions& options,
+                          double length_unit_m,
+                          const SetVerdictOptions& vo) {
+  SetVerdict v;
+  std::string why;
+  if (!vo.Check(&why)) throw std::invalid_argument("SetVerdictOptions: " + why);
+  v.num_pairs = static_cast<int>(fit.paired_frames.size());
+  bool unusable = false, poor = false;
+  // Advice, most useful first: the mirror/swap fix, tilt, where to fill, closer, more views.
+  std::map<int, std::vector<std::string>> advice;
+  auto advise = [&](int rank, const std::string& a) {
+    auto& v2 = advice[rank];
+    if (std::find(v2.begin(), v2.end(), a) == v2.end()) v2.push_back(a);
+  };
+  auto add_reason = [&](bool is_unusable, const std::string& r) {
+    (is_unusable ? unusable : poor) = true;
+    v.reasons.push_back(r);
+  };
+  if (!fit.ok) {
+    add_reason(true, "the stereo fit failed: " + fit.message);
+    v.advice.push_back("capture 15-25 pairs with the whole board visible in both eyes, tilted in different directions");
+    v.status = "unusable";
+    return v;
+  }
+  if (v.num_pairs < vo.min_pairs)
+    add_reason(true, "only " + std::to_string(v.num_pairs) + " pairs show the board in both eyes (< " +
+                         std::to_string(vo.min_pairs) + ")");
+
+  // Physical sanity.
+  v.sanity = CheckStereoSanity(fit.cameras, fit.right_from_left, length_unit_m, vo.rig);
+  for (const auto& f : v.sanity.findings) add_reason(f.unusable, f.message);
+
+  // Uncertainty per eye.
+  const auto fixed = internal::FixedIntrinsicIndices(options.intrinsics);
+  UncertaintyMapOptions uo;
+  uo.grid_cols = vo.grid_cols;
+  uo.grid_rows = vo.grid_rows;
+  bool weak_focal = false, thin_coverage = false;
+  auto refuse_focal = [&](int e, const std::string& why) {
+    for (const char* n : {"fx", "fy", "cx", "cy"}) v.refused.push_back({std::string(kEye[e]) + "." + n, why});
+  };
+  const std::string region = "within " + FixedOrDash(100 * vo.working_radius_fraction, 0) + " % of the half-diagonal";
+  for (int e = 0; e < 2; ++e) {
+    EyeVerdictMetrics& m = v.eye[e];
+    const IntrinsicsFit& f = fit.per_eye[e];
+    const int W = f.camera.width, H = f.camera.height;
+    const std::string eye = kEye[e];
+    m.corners_per_zone.assign(9, 0);
+    for (const auto& view : views[e])
+      for (const auto& px : view.pixels) ++m.corners_per_zone[ZoneOf(px, W, H)];
+    for (const auto& u : f.undetermined)
+      if (u.find("fixed by option") == std::string::npos) add_reason(false, eye + " eye: not determined: " + u);
+    m.at_infinity = ComputeUncertaintyMap(f, views[e], fixed, uo);
+    m.board_distance = MedianBoardDistance(f);
+    UncertaintyMapOptions ub = uo;
+    ub.distance_m = m.board_distance;
+    m.at_boards = ComputeUncertaintyMap(f, views[e], fixed, ub);
+    if (!m.at_infinity.ok) {
+      weak_focal = thin_coverage = true;
+      add_reason(false, eye + " eye: the set does not determine the lens: " + m.at_infinity.message);
+      refuse_focal(e, v.reasons.back());
+      continue;
+    }
+    m.working_p90_px = P90Within(m.at_infinity.pixels, m.at_infinity.sigma_px, W, H, vo.working_radius_fraction);
+    if (m.at_boards.ok)
+      m.working_p90_boards_px = P90Within(m.at_boards.pixels, m.at_boards.sigma_px, W, H, vo.working_radius_fraction);
+    int within = 0;
+    for (double x : m.at_infinity.sigma_px) within += x <= 1.0;
+    m.image_fraction_within_1px = static_cast<double>(within) / std::max<size_t>(1, m.at_infinity.sigma_px.size());
+    const auto& p = f.camera.params;
+    m.relative_focal_sigma = std::max(std::sqrt(CovOf(m.at_infinity, 0)) / p[0], std::sqrt(CovOf(m.at_infinity, 1)) / p[1]);
+    m.principal_sigma_px = std::max(std::sqrt(CovOf(m.at_infinity, 2)), std::sqrt(CovOf(m.at_infinity, 3)));
+    if (!(m.working_p90_px <= vo.max_projection_sigma_px)) {
+      thin_coverage = true;
+      add_reason(false, eye + " eye: the predicted projection uncertainty (points at infinity) reaches " +
+                            FixedOrDash(m.working_p90_px, 2) + " px over 10 % of the working region (" + region +
+                            "; limit " + FixedOrDash(vo.max_projection_sigma_px, 2) + " px; " +
+                            FixedOrDash(m.at_infinity.centre_px, 2) + " px at the centre; " +
+                            FixedOrDash(100 * m.image_fraction_within_1px, 0) + " % of the image within 1 px)");
+      if (m.working_p90_px > 2 * m.working_p90_boards_px) weak_focal = true;  // fine at the boards, not beyond
+    }
+    if (m.relative_focal_sigma > vo.max_relative_focal_sigma) {
+      weak_focal = true;
+      add_reason(false, eye + " eye: the focal length is known only to " + FixedOrDash(100 * m.relative_focal_sigma, 2) +
+                            " % (limit " + FixedOrDash(100 * vo.max_relative_focal_sigma, 2) + " %)");
+      refuse_focal(e, v.reasons.back());
+    }
+    if (m.principal_sigma_px > vo.max_principal_sigma_px) {
+      weak_focal = true;
+      add_reason(false, eye + " eye: the principal point is known only to " + FixedOrDash(m.principal_sigma_px, 1) +
+                            " px (limit " + FixedOrDash(vo.max_principal_sigma_px, 1) + " px)");
+    }
+  }
+
+  // Cross-validation: two interleaved halves, each calibrated alone.
+  std::vector<int> frames = fit.paired_frames;
+  std::sort(frames.begin(), frames.end());
+  if (v.sanity.mirrored_or_swapped) {
+    v.split_message = "not cross-checked: the geometry is impossible (mirrored or swapped)";
+  } else if (static_cast<int>(frames.size()) < vo.min_pairs_to_split) {
+    v.split_message = std::to_string(frames.size()) + " pairs: too few to calibrate two halves (at least " +
+                      std::to_string(vo.min_pairs_to_split) + ")";
+    add_reason(false, "nothing checks the set against itself: " + v.split_message);
+    advise(4, "capture 15-25 pairs, so that the set can be checked against itself");
+  } else {
+    std::set<int> half[2];
+    for (size_t i = 0; i < frames.size(); ++i) half[i % 2].insert(frames[i]);
+    StereoFit hf[2];
+    bool ok = true;
+    for (int h = 0; h < 2; ++h) {
+      std::vector<calib::View> hv[2];
+      for (int e = 0; e < 2; ++e)
+        for (const auto& view : views[e])
+          if (half[h].count(view.frame_index)) hv[e].push_back(view);
+      hf[h] = FitStereo(hv[0], hv[1], options);
+      if (!hf[h].ok && ok) {
+        ok = false;
+        v.split_message = "half " + std::string(h == 0 ? "A" : "B") + " (" + std::to_string(half[h].size()) +
+                          " pairs) cannot be calibrated alone: " + hf[h].message;
+      }
+    }
+    if (!ok) {
+      add_reason(false, "nothing checks the set against itself: " + v.split_message);
+      weak_focal = true;
+      advise(4, "capture more pairs (15-25), each with the board in a new place and orientation");
+    } else {
+      v.split = true;
+      if (length_unit_m > 0) {
+        for (int h = 0; h < 2; ++h) {
+          std::vector<double> q = hf[h].cameras[0].params;
+          q.insert(q.end(), hf[h].cameras[1].params.begin(), hf[h].cameras[1].params.end());
+          const Eigen::AngleAxisd aa(hf[h].right_from_left.rotation);
+          const Eigen::Vector3d rv = aa.angle() * aa.axis();
+          for (int i = 0; i < 3; ++i) q.push_back(rv[i]);
+          for (int i = 0; i < 3; ++i) q.push_back(hf[h].right_from_left.translation[i] * length_unit_m);
+          v.half_rig.push_back(q);
+        }
+      }
+      const double ba = hf[0].right_from_left.translation.norm(), bb = hf[1].right_from_left.translation.norm();
+      v.half_baseline_diff = std::abs(ba - bb) / std::max(1e-12, fit.right_from_left.translation.norm());
+      for (int e = 0; e < 2; ++e) {
+        EyeVerdictMetrics& m = v.eye[e];
+        const std::string eye = kEye[e];
+        const int W = fit.per_eye[e].camera.width, H = fit.per_eye[e].camera.height;
+        m.halves = CompareProjection(hf[0].cameras[e], hf[1].cameras[e], vo.grid_cols, vo.grid_rows,
+                                     vo.working_radius_fraction);
+        const auto& pa = hf[0].cameras[e].params;
+        const auto& pb = hf[1].cameras[e].params;
+        m.half_focal_diff = std::max(std::abs(pa[0] - pb[0]) / pa[0], std::abs(pa[1] - pb[1]) / pa[1]);
+        if (m.halves.ok) {
+          m.halves_working_p90_px = P90Within(m.halves.pixels, m.halves.diff_px, W, H, vo.working_radius_fraction);
+          if (m.working_p90_px > 0) m.covariance_scale = m.halves_working_p90_px / (2 * m.working_p90_px);
+        }
+        if (!m.halves.ok || !(m.halves_working_p90_px <= vo.max_half_diff_px)) {
+          add_reason(false, eye + " eye: two halves of the set, calibrated alone, project " +
+                                (m.halves.ok ? FixedOrDash(m.halves_working_p90_px, 2) + " px apart over 10 % of the working region (limit " +
+                                                   FixedOrDash(vo.max_half_diff_px, 2) + " px)"
+                                             : "too differently to compare (" + m.halves.message + ")"));
+          advise(4, "add views (15-25 pairs in all) that differ from each other: board near and far, in every "
+                        "part of the image, tilted several ways");
+        }
+        if (m.half_focal_diff > vo.max_half_focal_diff) {
+          weak_focal = true;
+          add_reason(false, eye + " eye: the halves' focal lengths differ by " + FixedOrDash(100 * m.half_focal_diff, 2) +
+                                " % (limit " + FixedOrDash(100 * vo.max_half_focal_diff, 1) + " %; fx " +
+                                FixedOrDash(pa[0], 1) + " vs " + FixedOrDash(pb[0], 1) + " px)");
+          refuse_focal(e, v.reasons.back());
+        }
+      }
+    }
+  }
+  if (thin_coverage) {
+    // Where the board never went: the 3 x 3 zones holding under 2 % of an eye's corners.
+    for (int e = 0; e < 2; ++e) {
+      int total = 0;
+      for (int c : v.eye[e].corners_per_zone) total += c;
+      std::vector<std::string> zones;
+      for (int z = 0; z < 9; ++z)
+        if (v.eye[e].corners_per_zone[z] < 0.02 * std::max(1, total)) zones.push_back(kZone[z]);
+      if (!zones.empty())
+        advise(2, "fill the " + Join(zones) + " of the " + kEye[e] +
+                      " image: add views where the board reaches there (closer to the cameras, or moved off-centre)");
+    }
+    advise(3, "bring the board closer so it fills more of the image in some views");
+  }
+  if (weak_focal)
+    advise(1, "tilt the board 30-45 deg about its horizontal axis (top edge away from the cameras, then towards "
+                  "them) in some views and about its vertical axis in others: boards facing the cameras let the "
+                  "focal length trade against the board's distance");
+  if (v.sanity.mirrored_or_swapped) advise(0, "calibrate again with --mirror or --swap (see the reason above)");
+  for (const auto& [rank, list] : advice) v.advice.insert(v.advice.end(), list.begin(), list.end());
+  v.status = unusable ? "unusable" : (poor ? "poor" : "good");
+  return v;
+}
+
+nlohmann::json SetVerdict::ToJson() const {
+  nlohmann::json eyes = nlohmann::json::object();
+  for (int e = 0; e < 2; ++e) {
+    const EyeVerdictMetrics& m = eye[e];
+    nlohmann::json h = nlohmann::json::object();
+    if (m.halves.ok)
+      h = {{"p90_px", m.halves.p90_px}, {"max_px", m.halves.max_px}, {"median_px", m.halves.median_px},
+           {"focal_diff", m.half_focal_diff}};
+    if (m.halves.ok) h["working_p90_px"] = m.halves_working_p90_px;
+    eyes[kEye[e]] = {{"projection_sigma_at_infinity", StatsJson(m.at_infinity)},
+                     {"projection_sigma_at_boards", StatsJson(m.at_boards)},
+                     {"working_p90_px", m.working_p90_px},
+                     {"working_p90_boards_px", m.working_p90_boards_px},
+                     {"image_fraction_within_1px", m.image_fraction_within_1px},
+                     {"covariance_scale", m.covariance_scale},
+                     {"board_distance", m.board_distance},
+                     {"relative_focal_sigma", m.relative_focal_sigma},
+                     {"principal_sigma_px", m.principal_sigma_px},
+                     {"halves", h},
+                     {"corners_per_zone", m.corners_per_zone}};
+  }
+  return {{"status", status},
+          {"reasons", reasons},
+          {"advice", advice},
+          {"metrics",
+           {{"pairs", num_pairs},
+            {"split", split},
+            {"split_message", split_message},
+            {"half_baseline_diff", half_baseline_diff},
+            {"eyes", eyes}}}};
+}
+
+void AppendVerdictToResult(const SetVerdict& v, const RigExpectation& rig, CalibrationResult* r) {
+  r->verdict = v.ToJson();
+  for (const auto& [name, why] : v.refused) {
+    for (auto& p : r->parameters) {
+      if (p.name != name || !p.determined) continue;
+      p.determined = false;
+      p.sigma = std::numeric_limits<double>::quiet_NaN();
+      p.note = "refused by the set verdict: " + why;
+    }
+  }
+  AppendSanityToResult(v.sanity, rig, r);
+  if (v.half_rig.size() == 2)
+    r->diagnostics["cross_validation"] = {
+        {"layout", "left params, right params, rotation vector of R [rad], T [m] (stereo.full_covariance's order)"},
+        {"halves", v.half_rig}};
+  for (const auto& reason : v.reasons)
+    if (std::find(r->warnings.begin(), r->warnings.end(), "sanity: " + reason) == r->warnings.end())
+      r->warnings.push_back("verdict " + v.status + ": " + reason);
+}
+
+}  // namespace owlcal::fitting

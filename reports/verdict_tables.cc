@@ -1,0 +1,50 @@
+#include "reports/verdict_tables.h"
+
+#include <sstream>
+
+#include "fitting/format.h"
+
+namespace owlcal::reports {
+
+using fitting::FixedOrDash;
+
+namespace {
+const char* kEye[2] = {"left", "right"};
+}  // namespace
+
+std::string SetVerdictMarkdown(const fitting::SetVerdict& v) {
+  std::ostringstream md;
+  md << "Verdict: **" << v.status << "**";
+  if (v.status == "good")
+    md << " (the set pins down every parameter to the accuracy below, and two halves of it agree)";
+  md << "\n\n";
+  if (!v.reasons.empty()) {
+    md << "Why:\n";
+    for (const auto& r : v.reasons) md << "- " << r << "\n";
+    md << "\n";
+  }
+  if (!v.advice.empty()) {
+    md << "Views to add:\n";
+    for (const auto& a : v.advice) md << "- " << a << "\n";
+    md << "\n";
+  }
+  md << "| eye | projection sigma, working region p90 (px) | at the centre (px) | image within 1 px | "
+        "sigma f / f | sigma c (px) | halves apart, working region p90 (px) | halves' f differ | sigma optimistic by |\n"
+        "|---|---|---|---|---|---|---|---|---|\n";
+  for (int e = 0; e < 2; ++e) {
+    const fitting::EyeVerdictMetrics& m = v.eye[e];
+    md << "| " << kEye[e] << " | " << (m.at_infinity.ok ? FixedOrDash(m.working_p90_px, 3) : "-") << " | "
+       << (m.at_infinity.ok ? FixedOrDash(m.at_infinity.centre_px, 3) : "-") << " | "
+       << (m.at_infinity.ok ? FixedOrDash(100 * m.image_fraction_within_1px, 0) + " %" : "-") << " | "
+       << (m.at_infinity.ok ? FixedOrDash(100 * m.relative_focal_sigma, 3) + " %" : "-") << " | "
+       << (m.at_infinity.ok ? FixedOrDash(m.principal_sigma_px, 2) : "-") << " | "
+       << (m.halves.ok ? FixedOrDash(m.halves_working_p90_px, 3) : "-") << " | "
+       << (v.split ? FixedOrDash(100 * m.half_focal_diff, 2) + " %" : "-") << " | "
+       << (m.covariance_scale > 0 ? "x " + FixedOrDash(m.covariance_scale, 1) : "-") << " |\n";
+  }
+  md << "\n" << v.num_pairs << " pairs; " << (v.split ? "halves calibrated alone and compared" : "not split: " + v.split_message)
+     << ".\n";
+  return md.str();
+}
+
+}  // namespace owlcal::reports

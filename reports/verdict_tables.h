@@ -1,0 +1,13 @@
+#pragma once
+// The set verdict (fitting/set_verdict.h) as Markdown: status, reasons, advice on which views to
+// add and the per-eye table of what the set leaves uncertain; a self-contained block
+// (calibration.md puts it first).
+#include <string>
+
+#include "fitting/set_verdict.h"
+
+namespace owlcal::reports {
+
+std::string SetVerdictMarkdown(const fitting::SetVerdict& v);
+
+}  // namespace owlcal::reports
