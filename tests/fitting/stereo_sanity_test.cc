@@ -121,7 +121,9 @@ void CheckNamed(const Case& k) {
   det.fast_check = true;
   calib::ImagePairOptions po;
   po.swap = k.swap;
-  const auto list = calib::ListImagePairs(test_data::SharedData() + "/" + k.dir, po);
+  auto list = calib::ListImagePairs(test_data::SharedData() + "/" + k.dir, po);
+  // 12 pairs show the sign as well as all of them and keep the fit of an impossible geometry short.
+  if (list.pairs.size() > 12) list.pairs.resize(12);
   const auto set = calib::DetectImagePairs(list, po, board, det);
   StereoFitOptions o;
   const ImageSetCalibration c = CalibrateImageSet(set.observations, o);
