@@ -17,7 +17,6 @@
 
 #include "apps/command_registry.h"
 #include "apps/robot_options.h"
-#include "calib/csv.h"
 #include "calib/observation.h"
 #include "calib/observation_io.h"
 #include "calib/trial_status.h"
@@ -32,6 +31,7 @@
 #include "models/head_kinematics.h"
 #include "owlcal_version.h"
 #include "protocols/dataset.h"
+#include "protocols/dataset_tables.h"
 #include "protocols/placement_views.h"
 #include "protocols/protocol.h"
 #include "protocols/robot_factory.h"
@@ -54,47 +54,6 @@ struct CalibrateOptions {
   bool no_figures = false;
   bool quiet = false;
 };
-
-// A CSV table with a header row, by column name.
-struct Csv {
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-  int Col(const std::string& name) const {
-    for (size_t i = 0; i < header.size(); ++i)
-      if (header[i] == name) return int(i);
-    return -1;
-  }
-  std::string Get(size_t r, const std::string& name) const {
-    const int c = Col(name);
-    return (c >= 0 && c < int(rows[r].size())) ? rows[r][c] : std::string();
-  }
-  double Num(size_t r, const std::string& name) const {
-    const std::string s = Get(r, name);
-    if (s.empty()) return NAN;
-    try {
-      return std::stod(s);
-    } catch (...) {
-      return NAN;
-    }
-  }
-};
-
-Csv ReadCsv(const std::string& path) {
-  Csv t;
-  std::ifstream f(path);
-  if (!f) return t;
-  std::string line;
-  bool first = true;
-  while (std::getline(f, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    auto cells = calib::SplitCsvLine(line);
-    if (first) t.header = cells;
-    else t.rows.push_back(cells);
-    first = false;
-  }
-  return t;
-}
 
 class Progress {
  public:
@@ -137,51 +96,46 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
                                              const models::HeadModel& fitted,
                                              std::vector<std::string>* excluded) {
   std::vector<fitting::Fixation> out;
-  const Csv t = ReadCsv(dataset + "/fixations.csv");
-  const auto placements = fs::exists(dataset + "/placements.csv") ? protocols::ReadPlacementsCsv(dataset)
-                                                                   : std::vector<protocols::PlacementRecord>{};
+  const std::vector<protocols::FixationRow> rows = protocols::ReadFixationsCsv(dataset);
+  const auto placements = protocols::ReadPlacementsCsv(dataset);
   const double cx = (config.image_width - 1) / 2.0, cy = (config.image_height - 1) / 2.0;
-  for (size_t r = 0; r < t.rows.size(); ++r) {
+  for (size_t r = 0; r < rows.size(); ++r) {
+    const protocols::FixationRow& row = rows[r];
     // Every fixation is a row of the ranging table with its status; only "ok" is ranged. Older
     // datasets have no status column: it follows from the outcome.
     fitting::Fixation f;
     f.index = int(r);
-    const std::string outcome = t.Get(r, "outcome");
-    if (auto st = calib::TrialStatusFromName(t.Get(r, "status"))) {
-      f.status = *st;
-      f.reason = t.Get(r, "reason");
-    } else if (outcome != "converged") {
-      f.status = outcome == "target-lost" ? calib::TrialStatus::kLostTarget : calib::TrialStatus::kNotSettled;
-      f.reason = "outcome " + outcome;
+    if (row.status) {
+      f.status = *row.status;
+      f.reason = row.reason;
+    } else if (row.outcome != "converged") {
+      f.status = row.outcome == "target-lost" ? calib::TrialStatus::kLostTarget : calib::TrialStatus::kNotSettled;
+      f.reason = "outcome " + row.outcome;
     }
-    const bool found[2] = {t.Get(r, "left_found") == "1", t.Get(r, "right_found") == "1"};
+    const bool found[2] = {row.found[0] && row.offset_px[0].has_value(), row.found[1] && row.offset_px[1].has_value()};
     if (f.status == calib::TrialStatus::kOk && !(found[0] && found[1])) {
       f.status = calib::TrialStatus::kLostTarget;
       f.reason = std::string("target not found in the ") + (found[0] ? "right" : "left") + " image";
     }
-    for (int s = 0; s < models::kNumServos; ++s) {
-      f.pwm_us[s] = int(t.Num(r, std::string(models::kServoNames[s]) + "_us"));
-      const double a = t.Num(r, std::string("approach_") + models::kServoNames[s]);  // NaN in older datasets
-      f.approach[s] = std::isfinite(a) ? int8_t(a) : 0;
-    }
-    if (found[0]) f.target_px[0] = Eigen::Vector2d(cx + t.Num(r, "left_dx_px"), cy + t.Num(r, "left_dy_px"));
-    if (found[1]) f.target_px[1] = Eigen::Vector2d(cx + t.Num(r, "right_dx_px"), cy + t.Num(r, "right_dy_px"));
+    f.pwm_us = row.pwm_us;
+    f.approach = row.approach;
+    for (int e = 0; e < 2; ++e)
+      if (found[e]) f.target_px[e] = Eigen::Vector2d(cx, cy) + *row.offset_px[e];
     // True distance: from the placement pose (base frame) to the midpoint of the eye centres
     // (the truth's on the virtual Owl, else the fitted head's); else the logged distance.
-    const int pi = int(t.Num(r, "placement_index"));
     const models::HeadModel& ref = truth ? *truth : fitted;
     const double neck = ref.ServoAngle(models::kNeck, f.pwm_us[models::kNeck]);
     const Eigen::Vector3d mid = models::HeadFromBase(neck).Inverse() *
                                 (0.5 * (ref.geometry.centre_in_head[0] + ref.geometry.centre_in_head[1]));
-    f.true_distance_m = t.Num(r, "distance_m");
+    f.true_distance_m = row.distance_m.value_or(NAN);
     for (const auto& p : placements)
-      if (p.placement_index == pi) f.true_distance_m = (p.base_from_target.translation() - mid).norm();
+      if (p.placement_index == row.placement_index) f.true_distance_m = (p.base_from_target.translation() - mid).norm();
     if (!std::isfinite(f.true_distance_m) && f.status == calib::TrialStatus::kOk) {
       f.status = calib::TrialStatus::kSkipped;
       f.reason = "no true distance (no placement or distance_m)";
     }
     if (f.status != calib::TrialStatus::kOk)
-      excluded->push_back("vergence fixation " + std::to_string(r) + " (fixations.csv row " + std::to_string(r + 2) +
+      excluded->push_back("vergence fixation " + std::to_string(r) + " (fixations.csv line " + std::to_string(row.line) +
                           ") not ranged: " + calib::TrialStatusName(f.status) + ": " + f.reason);
     out.push_back(f);
   }
@@ -190,48 +144,39 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
 
 std::vector<fitting::StepTrace> ReadSteps(const std::string& dataset) {
   std::vector<fitting::StepTrace> out;
-  const Csv t = ReadCsv(dataset + "/step_response.csv");
-  std::map<std::tuple<int, double, double, int>, fitting::StepTrace> by;
-  std::vector<std::tuple<int, double, double, int>> order;
-  for (size_t r = 0; r < t.rows.size(); ++r) {
-    const auto key = std::make_tuple(int(t.Num(r, "step_index")), t.Num(r, "gain"), t.Num(r, "amplitude_deg"),
-                                     int(t.Num(r, "trial")));
-    if (!by.count(key)) {
-      order.push_back(key);
-      fitting::StepTrace s;
-      s.gain = std::get<1>(key);
-      s.amplitude_deg = std::get<2>(key);
-      s.trial = std::get<3>(key);
-      by[key] = s;
-    }
-    if (t.Get(r, "found") != "1") continue;
-    by[key].t_s.push_back(t.Num(r, "t_s"));
-    by[key].y.push_back(t.Num(r, "offset_px"));  // converted below
+  using Key = std::tuple<int, double, double, int>;
+  std::map<Key, fitting::StepTrace> by;
+  std::vector<Key> order;
+  auto add = [&](const Key& key) {
+    if (by.count(key)) return;
+    order.push_back(key);
+    fitting::StepTrace s;
+    s.gain = std::get<1>(key);
+    s.amplitude_deg = std::get<2>(key);
+    s.trial = std::get<3>(key);
+    by[key] = s;
+  };
+  for (const protocols::StepResponseRow& row : protocols::ReadStepResponseCsv(dataset)) {
+    const Key key{row.step_index, row.gain, row.amplitude_deg, row.trial};
+    add(key);
+    if (!row.found || !row.offset_px) continue;
+    by[key].t_s.push_back(row.t_s);
+    by[key].y.push_back(*row.offset_px);  // converted below
   }
   // The trials' statuses (step_trials.csv); trials without frames (skipped) are rows too.
-  std::map<std::tuple<int, double, double, int>, std::pair<calib::TrialStatus, std::string>> status;
-  const Csv trials = ReadCsv(dataset + "/step_trials.csv");
-  for (size_t r = 0; r < trials.rows.size(); ++r) {
-    const auto key = std::make_tuple(int(trials.Num(r, "step_index")), trials.Num(r, "gain"),
-                                     trials.Num(r, "amplitude_deg"), int(trials.Num(r, "trial")));
-    auto st = calib::TrialStatusFromName(trials.Get(r, "status"));
-    const std::string outcome = trials.Get(r, "outcome");
+  std::map<Key, std::pair<calib::TrialStatus, std::string>> status;
+  for (const protocols::StepTrialRow& row : protocols::ReadStepTrialsCsv(dataset)) {
+    const Key key{row.step_index, row.gain, row.amplitude_deg, row.trial};
+    auto st = row.status;
     if (!st)
-      st = outcome == "converged"     ? calib::TrialStatus::kOk
-           : outcome == "no-fixation" ? calib::TrialStatus::kSkipped
-           : outcome == "target-lost" ? calib::TrialStatus::kLostTarget
-                                      : calib::TrialStatus::kNotSettled;
-    std::string reason = trials.Get(r, "reason");
-    if (reason.empty() && *st != calib::TrialStatus::kOk) reason = "outcome " + outcome + ": " + trials.Get(r, "message");
+      st = row.outcome == "converged"     ? calib::TrialStatus::kOk
+           : row.outcome == "no-fixation" ? calib::TrialStatus::kSkipped
+           : row.outcome == "target-lost" ? calib::TrialStatus::kLostTarget
+                                          : calib::TrialStatus::kNotSettled;
+    std::string reason = row.reason;
+    if (reason.empty() && *st != calib::TrialStatus::kOk) reason = "outcome " + row.outcome + ": " + row.message;
     status[key] = {*st, reason};
-    if (!by.count(key)) {
-      order.push_back(key);
-      fitting::StepTrace s;
-      s.gain = std::get<1>(key);
-      s.amplitude_deg = std::get<2>(key);
-      s.trial = std::get<3>(key);
-      by[key] = s;
-    }
+    add(key);
   }
   for (const auto& key : order) {
     fitting::StepTrace s = by[key];
@@ -277,22 +222,21 @@ std::vector<fitting::StepTrace> ReadSteps(const std::string& dataset) {
 std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset, std::vector<std::string>* failed,
                                                   int* num_rows) {
   std::vector<fitting::LimitMeasurement> out;
-  const Csv t = ReadCsv(dataset + "/limits.csv");
-  *num_rows = int(t.rows.size());
-  for (size_t r = 0; r < t.rows.size(); ++r) {
-    const std::string what = t.Get(r, "servo") + " " + t.Get(r, "end") + " (limits.csv row " + std::to_string(r + 2) + ")";
-    const int s = protocols::ServoIndexFromName(t.Get(r, "servo"));
+  const std::vector<protocols::LimitRow> rows = protocols::ReadLimitsCsv(dataset);
+  *num_rows = int(rows.size());
+  for (const protocols::LimitRow& row : rows) {
+    const std::string what = row.servo + " " + row.end + " (limits.csv line " + std::to_string(row.line) + ")";
+    const int s = protocols::ServoIndexFromName(row.servo);
     fitting::LimitMeasurement m;
     m.servo = s;
-    m.high_end = t.Get(r, "end") == "max";
-    m.measured_us = t.Num(r, "measured_us");
-    m.cause = fitting::LimitCauseFromName(t.Get(r, "reason"));
-    const std::string status = t.Get(r, "status");
-    if (s < 0 || (!status.empty() && status != "ok") || !std::isfinite(m.measured_us)) {
-      failed->push_back(what + ": " + (status.empty() ? std::string("no measurement") : status) +
-                        (t.Get(r, "message").empty() ? "" : ": " + t.Get(r, "message")));
+    m.high_end = row.end == "max";
+    m.cause = fitting::LimitCauseFromName(row.cause);
+    if (s < 0 || (row.status && *row.status != calib::TrialStatus::kOk) || !row.measured_us) {
+      failed->push_back(what + ": " + (row.status ? calib::TrialStatusName(*row.status) : "no measurement") +
+                        (row.message.empty() ? "" : ": " + row.message));
       continue;
     }
+    m.measured_us = *row.measured_us;
     out.push_back(m);
   }
   return out;
@@ -300,10 +244,9 @@ std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset, st
 
 // Median latency in frames from latency.csv; nullopt without data.
 std::optional<int> LatencyFrames(const std::string& dataset, double fps) {
-  const Csv t = ReadCsv(dataset + "/latency.csv");
   std::vector<double> v;
-  for (size_t r = 0; r < t.rows.size(); ++r)
-    if (std::isfinite(t.Num(r, "latency_ms"))) v.push_back(t.Num(r, "latency_ms"));
+  for (const protocols::LatencyRow& row : protocols::ReadLatencyCsv(dataset))
+    if (row.latency_ms) v.push_back(*row.latency_ms);
   if (v.empty()) return std::nullopt;
   std::sort(v.begin(), v.end());
   return std::max(1, int(std::lround(v[v.size() / 2] * fps / 1000.0)));

@@ -168,7 +168,12 @@ CsvTable CsvTable::Parse(const std::string& text_in, const std::string& source, 
   CsvTable t;
   t.source_ = source;
   std::string_view text = text_in;
-  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+  size_t bom = 0;
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") {
+    text.remove_prefix(3);
+    bom = 3;
+  }
+  t.complete_bytes_ = bom;
   size_t pos = 0;
   int line = 1;
   bool have_header = false;
@@ -179,6 +184,10 @@ CsvTable CsvTable::Parse(const std::string& text_in, const std::string& source, 
     line += r.line_breaks;
     pos = r.next;
     const bool last_partial = !r.terminated && options.allow_partial_tail;
+    if (last_partial && options.tail_needs_line_break) {
+      t.dropped_partial_tail_ = true;
+      break;
+    }
     if (!r.error.empty()) {
       if (last_partial) {
         t.dropped_partial_tail_ = true;
@@ -186,6 +195,7 @@ CsvTable CsvTable::Parse(const std::string& text_in, const std::string& source, 
       }
       Throw(where, r.error);
     }
+    if (r.terminated) t.complete_bytes_ = bom + pos;
     if (options.skip_blank_lines && r.blank) continue;
     if (!have_header) {
       // Empty or repeated header cells are allowed (spreadsheets leave them); looking up a
@@ -203,7 +213,7 @@ CsvTable CsvTable::Parse(const std::string& text_in, const std::string& source, 
     }
     t.rows_.push_back({record_line, std::move(r.cells)});
   }
-  if (!have_header) Throw(source + ":1", "empty CSV file (no header row)");
+  if (!have_header && !options.allow_empty) Throw(source + ":1", "empty CSV file (no header row)");
   return t;
 }
 

@@ -57,6 +57,10 @@ struct CsvOptions {
   bool skip_blank_lines = true;    // lines holding nothing but separators and spaces are skipped
   bool allow_partial_tail = false; // a last record with no line break that does not parse (a
                                    // recording cut short) is dropped, see DroppedPartialTail()
+  bool tail_needs_line_break = false;  // with allow_partial_tail: an appended log, whose writer
+                                       // ends every record with a line break, so a last record
+                                       // without one was cut short and is dropped even if it parses
+  bool allow_empty = false;        // a file with no complete header row is a table with no columns
 };
 
 // A CSV file with a header row, read whole; cells are looked up by column name.
@@ -72,6 +76,9 @@ class CsvTable {
   const std::vector<std::string>& Header() const { return header_; }
   size_t NumRows() const { return rows_.size(); }
   bool DroppedPartialTail() const { return dropped_partial_tail_; }
+  // Bytes of the text up to the end of the last complete record (a BOM counts): truncating the
+  // file there removes a dropped partial tail.
+  size_t CompleteBytes() const { return complete_bytes_; }
 
   // Column index by exact name: -1 (Find) or throws "SOURCE:1: missing column 'name' (header: ...)"
   // or, for a name the header repeats, "SOURCE:1: column 'name' appears twice in the header".
@@ -104,6 +111,7 @@ class CsvTable {
   std::vector<std::string> header_;
   std::vector<Row> rows_;
   bool dropped_partial_tail_ = false;
+  size_t complete_bytes_ = 0;
 };
 
 }  // namespace owlcal::calib

@@ -62,28 +62,6 @@ void WriteFileAtomic(const std::string& path, const std::string& data) {
     throw std::runtime_error(path + ": rename failed: " + std::strerror(errno));
 }
 
-// Complete lines of a file (those ending in '\n'); *partial_tail is set when the file ends
-// with bytes after the last newline, *complete_bytes to the length of the complete part.
-std::vector<std::string> ReadLines(const std::string& path, bool* partial_tail, size_t* complete_bytes) {
-  *partial_tail = false;
-  *complete_bytes = 0;
-  std::vector<std::string> lines;
-  if (!fs::exists(path)) return lines;
-  const std::string data = ReadWholeFile(path);
-  size_t start = 0;
-  while (start < data.size()) {
-    const size_t nl = data.find('\n', start);
-    if (nl == std::string::npos) {
-      *partial_tail = true;
-      break;
-    }
-    lines.push_back(data.substr(start, nl - start));
-    start = nl + 1;
-  }
-  *complete_bytes = start;
-  return lines;
-}
-
 // An integer within [min, max] (default: any int64).
 int64_t ParseInt(const std::string& s, const std::string& where, int64_t min = INT64_MIN, int64_t max = INT64_MAX) {
   int64_t v = 0;
@@ -106,8 +84,7 @@ std::string Fmt(double v) {
   return buf;
 }
 
-FrameRecord ParseFrameLine(const std::string& line, const std::string& where) {
-  const std::vector<std::string> f = calib::SplitCsvLine(line, false, where);
+FrameRecord ParseFrameRow(const std::vector<std::string>& f, const std::string& where) {
   if (static_cast<int>(f.size()) != kFramesCsvFields)
     throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
                              std::to_string(kFramesCsvFields));
@@ -141,7 +118,7 @@ std::string FrameLine(const FrameRecord& r) {
   for (int8_t a : r.approach) s << ',' << int(a);
   char crc[16];
   std::snprintf(crc, sizeof(crc), "%08x", r.jpeg_crc32);
-  s << ',' << r.step_index << ',' << CsvSafe(r.step_name) << ',' << r.placement_index << ',' << r.jpeg_bytes
+  s << ',' << r.step_index << ',' << calib::CsvCell(r.step_name) << ',' << r.placement_index << ',' << r.jpeg_bytes
     << ',' << crc << '\n';
   return s.str();
 }
@@ -150,15 +127,14 @@ std::string PlacementLine(const PlacementRecord& p) {
   const Eigen::Quaterniond q(p.base_from_target.rotation());
   const Eigen::Vector3d t = p.base_from_target.translation();
   std::ostringstream s;
-  s << p.placement_index << ',' << p.step_index << ',' << CsvSafe(p.target) << ',' << Fmt(p.distance_m) << ','
+  s << p.placement_index << ',' << p.step_index << ',' << calib::CsvCell(p.target) << ',' << Fmt(p.distance_m) << ','
     << Fmt(t.x()) << ',' << Fmt(t.y()) << ',' << Fmt(t.z()) << ',' << Fmt(q.x()) << ',' << Fmt(q.y()) << ','
-    << Fmt(q.z()) << ',' << Fmt(q.w()) << ',' << CsvSafe(p.source) << ',' << CsvSafe(p.answer) << ','
+    << Fmt(q.z()) << ',' << Fmt(q.w()) << ',' << calib::CsvCell(p.source) << ',' << calib::CsvCell(p.answer) << ','
     << p.stamp_ns << '\n';
   return s.str();
 }
 
-PlacementRecord ParsePlacementLine(const std::string& line, const std::string& where) {
-  const std::vector<std::string> f = calib::SplitCsvLine(line, false, where);
+PlacementRecord ParsePlacementRow(const std::vector<std::string>& f, const std::string& where) {
   if (static_cast<int>(f.size()) != kPlacementsCsvFields)
     throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
                              std::to_string(kPlacementsCsvFields));
@@ -184,13 +160,12 @@ PlacementRecord ParsePlacementLine(const std::string& line, const std::string& w
 
 std::string StepLine(const StepRecord& s) {
   std::ostringstream o;
-  o << s.step_index << ',' << CsvSafe(s.step_name) << ',' << CsvSafe(s.kind) << ',' << CsvSafe(s.status) << ','
+  o << s.step_index << ',' << calib::CsvCell(s.step_name) << ',' << calib::CsvCell(s.kind) << ',' << calib::CsvCell(s.status) << ','
     << s.start_ns << ',' << s.end_ns << ',' << s.num_frames << '\n';
   return o.str();
 }
 
-StepRecord ParseStepLine(const std::string& line, const std::string& where) {
-  const std::vector<std::string> f = calib::SplitCsvLine(line, false, where);
+StepRecord ParseStepRow(const std::vector<std::string>& f, const std::string& where) {
   if (static_cast<int>(f.size()) != kStepsCsvFields)
     throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
                              std::to_string(kStepsCsvFields));
@@ -205,17 +180,39 @@ StepRecord ParseStepLine(const std::string& line, const std::string& where) {
   return s;
 }
 
-// Generic reader: header check + complete lines parsed by `parse`; a partial tail is ignored.
+// The header of a table as cells.
+std::vector<std::string> HeaderCells(const char* header) { return calib::SplitCsvLine(header, false, header); }
+
+// Throws "PATH:1: header is '...', expected '...'" unless the table has the expected header (or none).
+void CheckHeader(const calib::CsvTable& t, const char* header) {
+  if (t.Header().empty() || t.Header() == HeaderCells(header)) return;
+  std::string got;
+  for (const std::string& h : t.Header()) {
+    if (!got.empty()) got.push_back(',');
+    got += io::Printable(h);
+  }
+  throw std::runtime_error(t.Source() + ":1: header is '" + got + "', expected '" + header + "'");
+}
+
+// Header check + every complete row parsed by `parse`; a partial tail is ignored.
 template <typename R, typename Parse>
 std::vector<R> ReadTable(const std::string& path, const char* header, Parse parse) {
+  const calib::CsvTable t = ReadAppendedCsv(path);
+  CheckHeader(t, header);
   std::vector<R> out;
-  bool partial = false;
-  size_t bytes = 0;
-  const std::vector<std::string> lines = ReadLines(path, &partial, &bytes);
-  if (lines.empty()) return out;
-  if (lines[0] != header) throw std::runtime_error(path + ":1: header is '" + lines[0] + "', expected '" + header + "'");
-  for (size_t i = 1; i < lines.size(); ++i) out.push_back(parse(lines[i], path + ":" + std::to_string(i + 1)));
+  for (size_t r = 0; r < t.NumRows(); ++r) out.push_back(parse(t.Cells(r), t.Where(r)));
   return out;
+}
+
+// A row as one CSV line (cells quoted where needed).
+std::string CsvLine(const std::vector<std::string>& cells) {
+  std::string line;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    if (i) line.push_back(',');
+    line += calib::CsvCell(cells[i]);
+  }
+  line.push_back('\n');
+  return line;
 }
 
 }  // namespace
@@ -291,12 +288,11 @@ int64_t DatasetWriter::SupersedeFrom(int first_step, int64_t stamp_ns) {
   // frames.csv: relabel, keep every line (frame_index stays contiguous, JPEGs stay).
   std::set<int64_t> superseded;
   const std::string frames_path = (dir / "frames.csv").string();
-  bool partial = false;
-  size_t bytes = 0;
-  std::vector<std::string> lines = ReadLines(frames_path, &partial, &bytes);
-  std::string out = lines.empty() ? std::string(kFramesCsvHeader) + "\n" : lines[0] + "\n";
-  for (size_t i = 1; i < lines.size(); ++i) {
-    FrameRecord r = ParseFrameLine(lines[i], frames_path + ":" + std::to_string(i + 1));
+  const calib::CsvTable frames = ReadAppendedCsv(frames_path);
+  CheckHeader(frames, kFramesCsvHeader);
+  std::string out = std::string(kFramesCsvHeader) + "\n";
+  for (size_t i = 0; i < frames.NumRows(); ++i) {
+    FrameRecord r = ParseFrameRow(frames.Cells(i), frames.Where(i));
     if (r.step_index >= first_step) {
       superseded.insert(r.frame_index);
       r.step_name = "superseded:" + r.step_name;
@@ -314,28 +310,29 @@ int64_t DatasetWriter::SupersedeFrom(int first_step, int64_t stamp_ns) {
   for (const fs::path& path : tables) {
     const std::string name = path.filename().string();
     if (name == "frames.csv" || name == "placements.csv" || name == "steps.csv") continue;
-    const std::vector<std::string> t = ReadLines(path.string(), &partial, &bytes);
-    if (t.empty()) continue;
-    const std::vector<std::string> header = calib::SplitCsvLine(t[0], false, path.string() + ":1");
-    const bool by_step = !header.empty() && header[0] == "step_index";
-    const bool by_frame = !header.empty() && header[0] == "frame_index";
+    const calib::CsvTable t = ReadAppendedCsv(path.string());
+    if (t.Header().empty()) continue;
+    const std::string& key_column = t.Header()[0];
+    const bool by_step = key_column == "step_index";
+    const bool by_frame = key_column == "frame_index";
     if (!by_step && !by_frame) continue;
-    std::string keep = t[0] + "\n", gone;
-    for (size_t i = 1; i < t.size(); ++i) {
-      const std::string where = path.string() + ":" + std::to_string(i + 1) + " field " + header[0];
-      const std::vector<std::string> f = calib::SplitCsvLine(t[i], false, where);
-      const int64_t key = f.empty() ? -1 : ParseInt(f[0], where);
+    const std::string header_line = CsvLine(t.Header());
+    std::string keep = header_line, gone;
+    int64_t num_gone = 0;
+    for (size_t i = 0; i < t.NumRows(); ++i) {
+      const int64_t key = t.Integer(i, key_column, INT64_MIN, INT64_MAX);
       const bool drop = by_step ? key >= first_step : superseded.count(key) > 0;
-      (drop ? gone : keep) += t[i] + "\n";
+      (drop ? gone : keep) += CsvLine(t.Cells(i));
+      num_gone += drop;
     }
     if (gone.empty()) continue;
     fs::create_directories(dir / "superseded");
     const fs::path side = dir / "superseded" / name;
     const bool fresh = !fs::exists(side) || fs::file_size(side) == 0;
-    const std::string previous = fresh ? t[0] + "\n" : ReadWholeFile(side.string());
+    const std::string previous = fresh ? header_line : ReadWholeFile(side.string());
     WriteFileAtomic(side.string(), previous + gone);  // first, so a crash here loses nothing
     WriteFileAtomic(path.string(), keep);
-    moved += static_cast<int64_t>(std::count(gone.begin(), gone.end(), '\n'));
+    moved += num_gone;
   }
   if (superseded.empty() && moved == 0) return 0;  // stopped between steps: nothing to set apart
   Event(stamp_ns, "supersede",
@@ -415,13 +412,23 @@ void DatasetWriter::AppendRow(const std::string& name, const std::string& header
   std::string line;
   for (size_t i = 0; i < row.size(); ++i) {
     if (i) line.push_back(',');
-    line.append(CsvSafe(row[i]));
+    line.append(calib::CsvCell(row[i]));
   }
   line.push_back('\n');
   AppendLine(Open(name, header), name, line);
 }
 
 // ---------------------------------------------------------------- reading and checking
+
+calib::CsvTable ReadAppendedCsv(const std::string& path) {
+  calib::CsvOptions o;
+  o.skip_blank_lines = false;  // a blank line in a table the runner wrote is damage, not layout
+  o.allow_partial_tail = true;
+  o.tail_needs_line_break = true;
+  o.allow_empty = true;
+  if (!fs::exists(path)) return calib::CsvTable::Parse("", path, o);
+  return calib::CsvTable::Read(path, o);
+}
 
 nlohmann::json ReadManifest(const std::string& dir) {
   const std::string path = (fs::path(dir) / "manifest.json").string();
@@ -438,14 +445,14 @@ nlohmann::json ReadManifest(const std::string& dir) {
 }
 
 std::vector<FrameRecord> ReadFramesCsv(const std::string& dir) {
-  return ReadTable<FrameRecord>((fs::path(dir) / "frames.csv").string(), kFramesCsvHeader, ParseFrameLine);
+  return ReadTable<FrameRecord>((fs::path(dir) / "frames.csv").string(), kFramesCsvHeader, ParseFrameRow);
 }
 std::vector<PlacementRecord> ReadPlacementsCsv(const std::string& dir) {
   return ReadTable<PlacementRecord>((fs::path(dir) / "placements.csv").string(), kPlacementsCsvHeader,
-                                    ParsePlacementLine);
+                                    ParsePlacementRow);
 }
 std::vector<StepRecord> ReadStepsCsv(const std::string& dir) {
-  return ReadTable<StepRecord>((fs::path(dir) / "steps.csv").string(), kStepsCsvHeader, ParseStepLine);
+  return ReadTable<StepRecord>((fs::path(dir) / "steps.csv").string(), kStepsCsvHeader, ParseStepRow);
 }
 
 std::vector<uint8_t> ReadFrameJpeg(const std::string& dir, int64_t frame_index) {
@@ -467,23 +474,22 @@ DatasetCheck CheckDataset(const std::string& dir, bool verify_crc) {
   }
   // frames.csv
   const std::string frames_csv = (fs::path(dir) / "frames.csv").string();
-  bool partial = false;
-  size_t bytes = 0;
-  std::vector<std::string> lines;
+  if (!fs::exists(frames_csv)) error(frames_csv + ": missing");
+  calib::CsvTable frames = calib::CsvTable::Parse("", frames_csv, {.allow_empty = true});
   try {
-    lines = ReadLines(frames_csv, &partial, &bytes);
+    frames = ReadAppendedCsv(frames_csv);
+    CheckHeader(frames, kFramesCsvHeader);
   } catch (const std::exception& e) {
     error(e.what());
   }
-  if (!fs::exists(frames_csv)) error(frames_csv + ": missing");
-  if (partial) c.warnings.push_back(frames_csv + ": partial last line dropped (the run was cut while writing it)");
-  if (!lines.empty() && lines[0] != kFramesCsvHeader) error(frames_csv + ":1: header is not the frames header");
+  if (frames.DroppedPartialTail())
+    c.warnings.push_back(frames_csv + ": partial last line dropped (the run was cut while writing it)");
   int64_t expected = 0;
-  for (size_t i = 1; i < lines.size() && c.errors.empty(); ++i) {
-    const std::string where = frames_csv + ":" + std::to_string(i + 1);
+  for (size_t i = 0; i < frames.NumRows() && c.errors.empty(); ++i) {
+    const std::string where = frames.Where(i);
     FrameRecord r;
     try {
-      r = ParseFrameLine(lines[i], where);
+      r = ParseFrameRow(frames.Cells(i), where);
     } catch (const std::exception& e) {
       error(e.what());
       break;
@@ -534,22 +540,17 @@ DatasetCheck CheckDataset(const std::string& dir, bool verify_crc) {
   // Other tables: parse; tolerate a partial tail.
   auto check_table = [&](const std::string& name, const char* header, auto parse) {
     const std::string path = (fs::path(dir) / name).string();
-    bool p = false;
-    size_t b = 0;
-    const std::vector<std::string> l = ReadLines(path, &p, &b);
-    if (p) c.warnings.push_back(path + ": partial last line dropped");
-    if (!l.empty() && l[0] != header) error(path + ":1: header is not the " + name + " header");
-    for (size_t i = 1; i < l.size(); ++i) {
-      try {
-        parse(l[i], path + ":" + std::to_string(i + 1));
-      } catch (const std::exception& e) {
-        error(e.what());
-        break;
-      }
+    try {
+      const calib::CsvTable t = ReadAppendedCsv(path);
+      if (t.DroppedPartialTail()) c.warnings.push_back(path + ": partial last line dropped");
+      CheckHeader(t, header);
+      for (size_t i = 0; i < t.NumRows(); ++i) parse(t.Cells(i), t.Where(i));
+    } catch (const std::exception& e) {
+      error(e.what());
     }
   };
-  check_table("placements.csv", kPlacementsCsvHeader, ParsePlacementLine);
-  check_table("steps.csv", kStepsCsvHeader, ParseStepLine);
+  check_table("placements.csv", kPlacementsCsvHeader, ParsePlacementRow);
+  check_table("steps.csv", kStepsCsvHeader, ParseStepRow);
   c.ok = c.errors.empty();
   return c;
 }
@@ -561,15 +562,19 @@ DatasetCheck RepairDataset(const std::string& dir) {
     for (const std::string& e : c.errors) msg += "\n  " + e;
     throw std::runtime_error(msg);
   }
-  // Truncate the partial tails of every CSV and text log.
+  // Truncate the partial tails of every CSV (a record may span lines inside quotes) and text log.
   for (const auto& e : fs::directory_iterator(dir)) {
     if (!e.is_regular_file()) continue;
     const std::string ext = e.path().extension().string();
-    if (ext != ".csv" && ext != ".log") continue;
-    bool partial = false;
-    size_t bytes = 0;
-    ReadLines(e.path().string(), &partial, &bytes);
-    if (partial) fs::resize_file(e.path(), bytes);
+    if (ext == ".csv") {
+      const calib::CsvTable t = ReadAppendedCsv(e.path().string());
+      if (t.DroppedPartialTail()) fs::resize_file(e.path(), t.CompleteBytes());
+    } else if (ext == ".log") {
+      const std::string text = ReadWholeFile(e.path().string());
+      const size_t nl = text.rfind('\n');
+      const size_t complete = nl == std::string::npos ? 0 : nl + 1;
+      if (complete < text.size()) fs::resize_file(e.path(), complete);
+    }
   }
   for (const auto& e : fs::directory_iterator(fs::path(dir) / "frames")) {
     const std::string name = e.path().filename().string();

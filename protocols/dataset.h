@@ -61,6 +61,7 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
+#include "calib/csv.h"
 #include "models/robot_config.h"
 
 namespace owlcal::protocols {
@@ -188,10 +189,16 @@ nlohmann::json ReadManifest(const std::string& dir);
 std::vector<FrameRecord> ReadFramesCsv(const std::string& dir);
 std::vector<PlacementRecord> ReadPlacementsCsv(const std::string& dir);
 std::vector<StepRecord> ReadStepsCsv(const std::string& dir);
+// A table of DIR that DatasetWriter appends to (frames.csv, placements.csv, steps.csv and the
+// measurement tables): every record ends with a line break, so a last record without one was
+// cut short by a crash and is dropped (DroppedPartialTail()). A missing or empty file is a table
+// with no header and no rows. Quoted cells may hold commas, quotes and line breaks.
+calib::CsvTable ReadAppendedCsv(const std::string& path);
 // Reads frame `frame_index`'s JPEG bytes.
 std::vector<uint8_t> ReadFrameJpeg(const std::string& dir, int64_t frame_index);
 
-// Replaces commas and newlines in free text so it fits one CSV field.
+// Replaces commas and newlines in free text (one-line messages). Not needed for CSV cells:
+// AppendRow quotes any cell that needs it (calib::CsvCell).
 std::string CsvSafe(std::string text);
 
 }  // namespace owlcal::protocols

@@ -97,5 +97,31 @@ TEST(Csv, PartialTailIsDroppedOnlyWhenAllowed) {
   EXPECT_FALSE(u.DroppedPartialTail());
 }
 
+TEST(Csv, AnAppendedLogDropsAnyRecordWithoutItsLineBreak) {
+  const CsvOptions log{.allow_partial_tail = true, .tail_needs_line_break = true};
+  // The last record parses (two cells) but its writer never reached the line break.
+  const std::string text = "a,b\n1,\"x\ny\"\n2,3";
+  const CsvTable t = CsvTable::Parse(text, "log.csv", log);
+  ASSERT_EQ(t.NumRows(), 1u);
+  EXPECT_EQ(t.Text(0, "b"), "x\ny");
+  EXPECT_TRUE(t.DroppedPartialTail());
+  EXPECT_EQ(t.CompleteBytes(), text.size() - 3);  // truncating there leaves the complete records
+  // A cut inside a quoted cell that spans lines: the last complete record ends before it.
+  const std::string cut = "a,b\n1,2\n3,\"p\nq";
+  const CsvTable c = CsvTable::Parse(cut, "log.csv", log);
+  EXPECT_EQ(c.NumRows(), 1u);
+  EXPECT_EQ(c.CompleteBytes(), 8u);
+  // A byte-order mark counts in the complete length.
+  EXPECT_EQ(CsvTable::Parse("\xEF\xBB\xBF" "a\n1\n", "bom.csv", log).CompleteBytes(), 7u);
+  // Nothing complete, not even the header: empty only when allowed.
+  EXPECT_EQ(ErrorOf([&] { CsvTable::Parse("a,", "h.csv", log); }), "h.csv:1: empty CSV file (no header row)");
+  CsvOptions empty_ok = log;
+  empty_ok.allow_empty = true;
+  const CsvTable e = CsvTable::Parse("a,", "h.csv", empty_ok);
+  EXPECT_TRUE(e.Header().empty());
+  EXPECT_EQ(e.NumRows(), 0u);
+  EXPECT_EQ(e.CompleteBytes(), 0u);
+}
+
 }  // namespace
 }  // namespace owlcal::calib

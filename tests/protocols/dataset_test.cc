@@ -42,11 +42,12 @@ TEST(Dataset, WritesReadsAndChecksFrames) {
       r.pwm_us = {1500 + i, 1500, 1500, 1500, 1500};
       r.approach = {1, -1, 0, 0, 0};
       r.step_index = 2;
-      r.step_name = "a,b";  // commas are made safe
+      r.step_name = "a,b \"c\"\nd";  // quoted in the file, read back exactly
       w->AppendFrame(std::vector<uint8_t>(100 + i, uint8_t(i)), r);
     }
     PlacementRecord p;
     p.target = "board";
+    p.answer = " 600, I think ";
     p.distance_m = 0.6;
     p.base_from_target.translation() = Eigen::Vector3d(0.1, 0.2, 0.6);
     EXPECT_EQ(w->AppendPlacement(p), 0);
@@ -60,11 +61,12 @@ TEST(Dataset, WritesReadsAndChecksFrames) {
   ASSERT_EQ(frames.size(), 5u);
   EXPECT_EQ(frames[3].pwm_us[0], 1503);
   EXPECT_EQ(frames[3].approach[1], -1);
-  EXPECT_EQ(frames[3].step_name, "a;b");
+  EXPECT_EQ(frames[3].step_name, "a,b \"c\"\nd");
   EXPECT_EQ(ReadFrameJpeg(dir, 4).size(), 104u);
   const auto placements = ReadPlacementsCsv(dir);
   ASSERT_EQ(placements.size(), 1u);
   EXPECT_NEAR(placements[0].base_from_target.translation().y(), 0.2, 1e-12);
+  EXPECT_EQ(placements[0].answer, " 600, I think ");
   EXPECT_THROW(DatasetWriter::Create(dir, {}), std::runtime_error);  // never overwrites
 }
 
@@ -111,6 +113,59 @@ TEST(Dataset, PartialLastLineIsDroppedAndRepaired) {
   // Resume continues the numbering.
   auto w = DatasetWriter::Resume(dir);
   EXPECT_EQ(w->AppendFrame(std::vector<uint8_t>(10, 1), {}), 3);
+}
+
+TEST(Dataset, ACutRecordIsDroppedEvenWhenItParses) {
+  const std::string dir = TempDir("cutparses");
+  {
+    auto w = DatasetWriter::Create(dir, {});
+    for (int i = 0; i < 3; ++i) w->AppendFrame(std::vector<uint8_t>(40, uint8_t(i)), {});
+    w->Finish("complete", "");
+  }
+  // Cut off only the line break: the last record still has 18 cells, but the writer never
+  // finished it (its CRC may be cut short), so it is not a frame.
+  const fs::path csv = fs::path(dir) / "frames.csv";
+  fs::resize_file(csv, fs::file_size(csv) - 1);
+  DatasetCheck c = CheckDataset(dir);
+  EXPECT_TRUE(c.ok);
+  EXPECT_EQ(c.num_frames, 2);
+  ASSERT_EQ(c.warnings.size(), 2u);  // the cut line, and frame 2's JPEG without its line
+  EXPECT_NE(c.warnings[0].find("frames.csv: partial last line dropped"), std::string::npos) << c.warnings[0];
+  EXPECT_NE(c.warnings[1].find("000002.jpg: frame without a frames.csv line dropped"), std::string::npos)
+      << c.warnings[1];
+  EXPECT_EQ(ReadFramesCsv(dir).size(), 2u);
+  RepairDataset(dir);
+  EXPECT_EQ(CheckDataset(dir).warnings.size(), 0u);
+  EXPECT_EQ(ReadFramesCsv(dir).size(), 2u);
+}
+
+TEST(Dataset, ErrorsNameFileLineAndField) {
+  const std::string dir = TempDir("badfield");
+  {
+    auto w = DatasetWriter::Create(dir, {});
+    FrameRecord r;
+    r.pwm_us = {1500, 1501, 1502, 1503, 1504};
+    for (int i = 0; i < 2; ++i) w->AppendFrame(std::vector<uint8_t>(40, uint8_t(i)), r);
+  }
+  const fs::path csv = fs::path(dir) / "frames.csv";
+  std::ifstream in(csv);
+  std::string header, l1, l2;
+  std::getline(in, header);
+  std::getline(in, l1);
+  std::getline(in, l2);
+  in.close();
+  l2.replace(l2.find(",1500,"), 6, ",nan,");  // Rx_us of frame 1
+  std::ofstream(csv) << header << "\n" << l1 << "\n" << l2 << "\n";
+  try {
+    ReadFramesCsv(dir);
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), csv.string() + ":3 field Rx_us = 'nan' is not an integer");
+  }
+  const DatasetCheck c = CheckDataset(dir);
+  EXPECT_FALSE(c.ok);
+  ASSERT_EQ(c.errors.size(), 1u);
+  EXPECT_NE(c.errors[0].find("frames.csv:3 field Rx_us"), std::string::npos) << c.errors[0];
 }
 
 // Forks a recording, SIGKILLs it at a random moment, checks the dataset. The child writes one

@@ -5,13 +5,12 @@
 // the protocol's rim_fraction), and the configured limit of the robot file.
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 
 #include <gtest/gtest.h>
 
-#include "calib/csv.h"
 #include "robot/robot_interface.h"
 #include "protocols/dataset.h"
+#include "protocols/dataset_tables.h"
 #include "protocols/image_motion.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
@@ -101,22 +100,20 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, cons
   const RunSummary s = RunProtocols({p}, owl, o);
   ASSERT_EQ(s.status, "complete") << s.message;
   EXPECT_EQ(s.num_clamped, 0);
-  std::ifstream in(o.out_dir + "/limits.csv");
-  std::string line;
-  std::getline(in, line);
   int rows = 0;
-  while (std::getline(in, line)) {
-    const auto f = calib::SplitCsvLine(line);
-    const int servo = ServoIndexFromName(f[1]);
-    const int d = f[2] == "max" ? 1 : -1;
-    const int measured = std::stoi(f[4]);
+  for (const LimitRow& row : ReadLimitsCsv(o.out_dir)) {
+    const std::string what = row.servo + " " + row.end;
+    const int servo = ServoIndexFromName(row.servo);
+    const int d = row.end == "max" ? 1 : -1;
+    ASSERT_TRUE(row.measured_us) << what;
+    const int measured = *row.measured_us;
     std::string cause;
     const int truth = TruthEnd(owl, servo, d, p.steps[1].rim_fraction, &cause);
-    std::cout << name << " " << f[1] << " " << f[2] << ": measured " << measured << " (" << f[5] << "), truth " << truth
-              << " (" << cause << "), error " << measured - truth << " us\n";
-    EXPECT_LE(std::abs(measured - truth), max_error_us) << f[1] << " " << f[2];
-    EXPECT_EQ(f[5], cause) << f[1] << " " << f[2];
-    EXPECT_EQ(f[8], "ok") << f[1] << " " << f[2];
+    std::cout << name << " " << what << ": measured " << measured << " (" << row.cause << "), truth " << truth << " ("
+              << cause << "), error " << measured - truth << " us\n";
+    EXPECT_LE(std::abs(measured - truth), max_error_us) << what;
+    EXPECT_EQ(row.cause, cause) << what;
+    EXPECT_EQ(row.status, calib::TrialStatus::kOk) << what;
     ++rows;
   }
   EXPECT_EQ(rows, 2 * int(p.steps[1].servos.size()));
@@ -197,24 +194,20 @@ TEST(Limits, BlackCameraFailsWithAMessageAndNeverPassesAsConfigured) {
   EXPECT_EQ(s.status, "failed");
   EXPECT_NE(s.message.find("2 of 4 ends could not be measured"), std::string::npos) << s.message;
   EXPECT_NE(s.message.find("black or constant"), std::string::npos) << s.message;
-  std::ifstream in(o.out_dir + "/limits.csv");
-  std::string line;
-  std::getline(in, line);
-  EXPECT_NE(line.find(",status,message"), std::string::npos) << line;
   int rows = 0, failed = 0;
-  while (std::getline(in, line)) {
-    const auto f = calib::SplitCsvLine(line);
-    ASSERT_GE(f.size(), 10u) << line;
+  for (const LimitRow& row : ReadLimitsCsv(o.out_dir)) {
+    const std::string at = "limits.csv:" + std::to_string(row.line);
     ++rows;
-    if (f[1] == "Lx") {
+    if (row.servo == "Lx") {
       ++failed;
-      EXPECT_EQ(f[8], "failed") << line;
-      EXPECT_EQ(f[4], "") << line;  // no measured value
-      EXPECT_NE(f[5], "configured") << line;
-      EXPECT_NE(f[5], "end-stop") << line;
+      EXPECT_EQ(row.status, calib::TrialStatus::kFailed) << at;
+      EXPECT_FALSE(row.measured_us) << at;  // no measured value
+      EXPECT_NE(row.cause, "configured") << at;
+      EXPECT_NE(row.cause, "end-stop") << at;
+      EXPECT_FALSE(row.message.empty()) << at;
     } else {
-      EXPECT_EQ(f[8], "ok") << line;
-      EXPECT_FALSE(f[4].empty()) << line;
+      EXPECT_EQ(row.status, calib::TrialStatus::kOk) << at;
+      EXPECT_TRUE(row.measured_us) << at;
     }
   }
   EXPECT_EQ(rows, 4);

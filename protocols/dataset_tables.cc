@@ -1,0 +1,188 @@
+#include "protocols/dataset_tables.h"
+
+#include <filesystem>
+#include <stdexcept>
+
+#include "calib/csv.h"
+#include "io/strict_number.h"
+#include "protocols/dataset.h"
+
+namespace owlcal::protocols {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kMaxPx = 1e5;
+constexpr double kMaxGain = 1e3;
+constexpr double kMaxDeg = 360;
+constexpr int kMaxPwm = 9999;
+
+// Row accessors of one table with the rules of dataset_tables.h.
+class Rows {
+ public:
+  Rows(const std::string& dir, const char* name) : table_(ReadAppendedCsv((fs::path(dir) / name).string())) {}
+  size_t Size() const { return table_.Header().empty() ? 0 : table_.NumRows(); }
+  int Line(size_t r) const { return table_.Line(r); }
+  bool Has(const char* column) const { return table_.HasColumn(column); }
+
+  const std::string& Text(size_t r, const char* column) const { return table_.Text(r, column); }
+  std::string TextOr(size_t r, const char* column) const { return Has(column) ? Text(r, column) : std::string(); }
+  double Number(size_t r, const char* column, double min, double max) const { return table_.Number(r, column, min, max); }
+  int Int(size_t r, const char* column, int min, int max) const { return table_.Int(r, column, min, max); }
+  int64_t Int64(size_t r, const char* column) const { return table_.Integer(r, column, INT64_MIN, INT64_MAX); }
+  // Empty (or "nan", as earlier runners wrote a measurement not made) -> nullopt.
+  std::optional<double> Optional(size_t r, const char* column, double min, double max) const {
+    const std::string& s = Text(r, column);
+    if (s.empty() || s == "nan" || s == "-nan") return std::nullopt;
+    return Number(r, column, min, max);
+  }
+  // The same for a column older datasets lack (nullopt there).
+  std::optional<double> Newer(size_t r, const char* column, double min, double max) const {
+    return Has(column) ? Optional(r, column, min, max) : std::nullopt;
+  }
+  std::optional<int> OptionalInt(size_t r, const char* column, int min, int max) const {
+    if (Text(r, column).empty()) return std::nullopt;
+    return Int(r, column, min, max);
+  }
+  bool Flag(size_t r, const char* column) const { return Int(r, column, 0, 1) == 1; }
+  // nullopt when the column is missing (older datasets) or empty; an unknown name throws.
+  std::optional<calib::TrialStatus> Status(size_t r) const {
+    if (!Has("status")) return std::nullopt;
+    const std::string& s = Text(r, "status");
+    if (s.empty()) return std::nullopt;
+    if (auto st = calib::TrialStatusFromName(s)) return st;
+    throw std::runtime_error(table_.Where(r) + ": column status = '" + io::Printable(s) +
+                             "' is not a trial status (ok, not settled, lost target, off target, timed out, skipped, "
+                             "failed)");
+  }
+
+ private:
+  calib::CsvTable table_;
+};
+
+}  // namespace
+
+std::vector<FixationRow> ReadFixationsCsv(const std::string& dir) {
+  const Rows t(dir, "fixations.csv");
+  std::vector<FixationRow> out;
+  for (size_t r = 0; r < t.Size(); ++r) {
+    FixationRow f;
+    f.line = t.Line(r);
+    f.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+    f.step_name = t.Text(r, "step_name");
+    f.placement_index = t.Int(r, "placement_index", -1, INT32_MAX);
+    f.target = t.Text(r, "target");
+    f.distance_m = t.Optional(r, "distance_m", 0, 1e3);
+    f.eyes = t.Text(r, "eyes");
+    f.gain = t.Number(r, "gain", -kMaxGain, kMaxGain);
+    f.outcome = t.Text(r, "outcome");
+    f.iterations = t.Int(r, "iterations", 0, INT32_MAX);
+    for (int s = 0; s < models::kNumServos; ++s) {
+      const std::string name = models::kServoNames[s];
+      f.pwm_us[s] = t.Int(r, (name + "_us").c_str(), 0, kMaxPwm);
+      const std::string approach = "approach_" + name;
+      if (t.Has(approach.c_str())) f.approach[s] = static_cast<int8_t>(t.Int(r, approach.c_str(), -1, 1));
+    }
+    static const char* const kFound[2] = {"left_found", "right_found"};
+    static const char* const kDx[2] = {"left_dx_px", "right_dx_px"};
+    static const char* const kDy[2] = {"left_dy_px", "right_dy_px"};
+    for (int e = 0; e < 2; ++e) {
+      f.found[e] = t.Flag(r, kFound[e]);
+      const auto dx = t.Optional(r, kDx[e], -kMaxPx, kMaxPx);
+      const auto dy = t.Optional(r, kDy[e], -kMaxPx, kMaxPx);
+      if (dx && dy) f.offset_px[e] = Eigen::Vector2d(*dx, *dy);
+    }
+    f.stamp_ns = t.Int64(r, "stamp_ns");
+    f.status = t.Status(r);
+    f.reason = t.TextOr(r, "reason");
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+std::vector<StepResponseRow> ReadStepResponseCsv(const std::string& dir) {
+  const Rows t(dir, "step_response.csv");
+  std::vector<StepResponseRow> out;
+  for (size_t r = 0; r < t.Size(); ++r) {
+    StepResponseRow s;
+    s.line = t.Line(r);
+    s.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+    s.gain = t.Number(r, "gain", -kMaxGain, kMaxGain);
+    s.amplitude_deg = t.Number(r, "amplitude_deg", -kMaxDeg, kMaxDeg);
+    s.trial = t.Int(r, "trial", 0, INT32_MAX);
+    s.k = t.Int(r, "k", 0, INT32_MAX);
+    s.t_s = t.Number(r, "t_s", -1e9, 1e9);
+    s.offset_px = t.Optional(r, "offset_px", -kMaxPx, kMaxPx);
+    s.offset_y_px = t.Optional(r, "offset_y_px", -kMaxPx, kMaxPx);
+    s.pwm_us = t.Int(r, "pwm_us", 0, kMaxPwm);
+    s.found = t.Flag(r, "found");
+    s.frame_index = t.Int64(r, "frame_index");
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::vector<StepTrialRow> ReadStepTrialsCsv(const std::string& dir) {
+  const Rows t(dir, "step_trials.csv");
+  std::vector<StepTrialRow> out;
+  for (size_t r = 0; r < t.Size(); ++r) {
+    StepTrialRow s;
+    s.line = t.Line(r);
+    s.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+    s.gain = t.Number(r, "gain", -kMaxGain, kMaxGain);
+    s.amplitude_deg = t.Number(r, "amplitude_deg", -kMaxDeg, kMaxDeg);
+    s.trial = t.Int(r, "trial", 0, INT32_MAX);
+    s.eye = t.Text(r, "eye");
+    s.axis = t.Text(r, "axis");
+    s.servo = t.Text(r, "servo");
+    s.outcome = t.Text(r, "outcome");
+    s.frames = t.Int(r, "frames", 0, INT32_MAX);
+    s.final_offset_px = t.Optional(r, "final_offset_px", -kMaxPx, kMaxPx);
+    s.message = t.TextOr(r, "message");
+    s.status = t.Status(r);
+    s.reason = t.TextOr(r, "reason");
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::vector<LimitRow> ReadLimitsCsv(const std::string& dir) {
+  const Rows t(dir, "limits.csv");
+  std::vector<LimitRow> out;
+  for (size_t r = 0; r < t.Size(); ++r) {
+    LimitRow l;
+    l.line = t.Line(r);
+    l.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+    l.servo = t.Text(r, "servo");
+    l.end = t.Text(r, "end");
+    l.configured_us = t.Int(r, "configured_us", 0, kMaxPwm);
+    l.measured_us = t.OptionalInt(r, "measured_us", 0, kMaxPwm);
+    l.cause = t.Text(r, "reason");
+    l.last_shift_px = t.Newer(r, "last_shift_px", -kMaxPx, kMaxPx);
+    l.rim_darkening = t.Newer(r, "rim_darkening", -1e3, 1e3);
+    l.status = t.Status(r);
+    l.message = t.TextOr(r, "message");
+    out.push_back(std::move(l));
+  }
+  return out;
+}
+
+std::vector<LatencyRow> ReadLatencyCsv(const std::string& dir) {
+  const Rows t(dir, "latency.csv");
+  std::vector<LatencyRow> out;
+  for (size_t r = 0; r < t.Size(); ++r) {
+    LatencyRow l;
+    l.line = t.Line(r);
+    l.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+    l.trial = t.Int(r, "trial", 0, INT32_MAX);
+    l.servo = t.Text(r, "servo");
+    l.amplitude_us = t.Int(r, "amplitude_us", -kMaxPwm, kMaxPwm);
+    l.latency_ms = t.Optional(r, "latency_ms", 0, 1e7);
+    l.frames_waited = t.Int(r, "frames_waited", 0, INT32_MAX);
+    l.shift_px = t.Optional(r, "shift_px", -kMaxPx, kMaxPx);
+    out.push_back(l);
+  }
+  return out;
+}
+
+}  // namespace owlcal::protocols
