@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "apps/command_registry.h"
+#include "io/strict_number.h"
 #include "robot/link_commands.h"
 
 namespace owlcal::apps {
@@ -11,7 +12,7 @@ namespace {
 struct MoveOptions {
   std::string robot;
   std::string robot_file;
-  std::vector<int> pwm_us;
+  std::vector<std::string> pwm_us;  // parsed strictly: '' and 0x600 are not pulse widths
   int timeout_ms = 2000;
 };
 
@@ -19,7 +20,12 @@ int RunMove(const MoveOptions& o) {
   if (o.pwm_us.size() != models::kNumServos) throw UsageError("expected 5 pulse widths: Rx Ry Lx Ly Neck");
   const models::RobotConfig robot = robot::RobotConfigOrDefault(o.robot_file);
   models::PwmVector pwm;
-  for (int i = 0; i < models::kNumServos; ++i) pwm[i] = o.pwm_us[i];
+  static constexpr const char* kNames[models::kNumServos] = {"Rx", "Ry", "Lx", "Ly", "Neck"};
+  for (int i = 0; i < models::kNumServos; ++i) {
+    // Decimal digits only; the packet carries four digits, the limits guard then clamps.
+    const std::string why = io::CheckInt(o.pwm_us[i], 0, 9999, &pwm[i]);
+    if (!why.empty()) throw UsageError(std::string("pulse width ") + kNames[i] + " " + why + " (decimal us, e.g. 1500)");
+  }
   const robot::MoveReport r = robot::SendOneCommand(o.robot, robot, pwm, std::chrono::milliseconds(o.timeout_ms));
   std::cout << r.Text();
   return kExitOk;

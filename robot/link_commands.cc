@@ -51,6 +51,7 @@ MoveReport SendOneCommand(const std::string& robot_hostport,
   o.robot = robot;
   o.connect_timeout = timeout;
   o.reply_timeout = timeout;
+  o.command_timeout = timeout;  // --timeout-ms bounds the whole command, reconnect included
   o.log = [&report](const std::string& line) { report.clamp_message = line; };
   OwlLink link(o);
   report.reply = link.SendServos(pwm_us);
@@ -77,13 +78,18 @@ GrabReport GrabOneFrame(const std::string& robot_host,
   o.swap_eyes = robot.swap_eyes;
   o.mirror_stream = robot.mirror_stream;
   o.connect_timeout = std::min(timeout, std::chrono::milliseconds(2000));
+  o.expected_width = 2 * robot.image_width;  // checked before decoding
+  o.expected_height = robot.image_height;
   MjpegClient client(o);
   const std::string url = "http://" + hp.host + ":" + std::to_string(http_port) + o.path;
   std::optional<MjpegFrame> f = client.Next(timeout);
   if (!f) {
     throw std::runtime_error(url + ": no frame within " + std::to_string(timeout.count()) + " ms (" +
                              std::to_string(client.Stats().num_corrupt) + " corrupt, " +
-                             std::to_string(client.Stats().num_failures) + " failed connections)");
+                             std::to_string(client.Stats().num_wrong_size) + " of the wrong size, " +
+                             std::to_string(client.Stats().num_failures) + " failed connections" +
+                             (client.Stats().last_problem.empty() ? "" : "; last: " + client.Stats().last_problem) +
+                             ")");
   }
   std::filesystem::create_directories(out_dir);
   GrabReport r;

@@ -52,6 +52,12 @@ bool MjpegClientOptions::Check(std::string* why) const {
   if (port < 1 || port > 65535) return fail("port = " + std::to_string(port) + " is not 1..65535");
   if (path.empty() || path[0] != '/') return fail("path '" + path + "' must start with /");
   if (read_timeout.count() <= 0 || connect_timeout.count() <= 0) return fail("timeouts must be positive");
+  if (reconnect_delay.count() < 0 || max_reconnect_delay < reconnect_delay)
+    return fail("reconnect delays must satisfy 0 <= reconnect_delay <= max_reconnect_delay");
+  if (expected_width < 0 || expected_height < 0 || expected_width > 65535 || expected_height > 65535)
+    return fail("expected frame size " + std::to_string(expected_width) + "x" + std::to_string(expected_height) +
+                " is not within 0..65535");
+  if (max_frame_pixels < 1) return fail("max_frame_pixels must be positive");
   return true;
 }
 
@@ -70,6 +76,32 @@ void SplitStereo(const cv::Mat& frame, bool mirror_stream, bool swap_eyes, cv::M
   *right = b;
 }
 
+std::optional<JpegSize> JpegDeclaredSize(const uint8_t* data, size_t size) {
+  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return std::nullopt;
+  size_t i = 2;
+  while (i < size) {
+    if (data[i] != 0xFF) return std::nullopt;
+    while (i < size && data[i] == 0xFF) ++i;  // fill bytes
+    if (i >= size) return std::nullopt;
+    const uint8_t m = data[i++];
+    if (m == 0x01 || (m >= 0xD0 && m <= 0xD8)) continue;  // markers without a length
+    if (m == 0xD9 || m == 0xDA) return std::nullopt;      // end of image or scan before any SOF
+    if (i + 2 > size) return std::nullopt;
+    const size_t length = (static_cast<size_t>(data[i]) << 8) | data[i + 1];
+    if (length < 2 || i + length > size) return std::nullopt;
+    const bool sof = m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC;
+    if (sof) {
+      if (length < 7) return std::nullopt;
+      JpegSize s;
+      s.height = (data[i + 3] << 8) | data[i + 4];
+      s.width = (data[i + 5] << 8) | data[i + 6];
+      return s;
+    }
+    i += length;
+  }
+  return std::nullopt;
+}
+
 bool LooksLikeCompleteJpeg(const std::vector<uint8_t>& jpeg) {
   size_t n = jpeg.size();
   while (n > 0 && (jpeg[n - 1] == '\r' || jpeg[n - 1] == '\n')) --n;
@@ -79,6 +111,7 @@ bool LooksLikeCompleteJpeg(const std::vector<uint8_t>& jpeg) {
 MjpegClient::MjpegClient(MjpegClientOptions options) : options_(std::move(options)) {
   std::string why;
   if (!options_.Check(&why)) throw std::invalid_argument(why);
+  backoff_ = options_.reconnect_delay;
 }
 
 void MjpegClient::Close() {
@@ -102,14 +135,30 @@ bool MjpegClient::Fill(Clock::time_point deadline) {
 bool MjpegClient::Connect(Clock::time_point deadline) {
   Close();
   try {
-    socket_ = ConnectTcp(options_.host, options_.port, options_.connect_timeout);
-  } catch (const std::exception&) {
+    // Never past the caller's deadline.
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+    if (left.count() <= 0) return false;
+    socket_ = ConnectTcp(options_.host, options_.port, std::min(options_.connect_timeout, left));
+  } catch (const std::exception& e) {
+    stats_.last_problem = e.what();
     return false;
   }
   const std::string request = "GET " + options_.path + " HTTP/1.1\r\nHost: " + options_.host + ":" +
                               std::to_string(options_.port) +
                               "\r\nUser-Agent: owlcal\r\nAccept: multipart/x-mixed-replace\r\nConnection: close\r\n\r\n";
   if (!SendAll(socket_.fd(), request)) return false;
+  return ReadResponseHead(deadline);
+}
+
+bool MjpegClient::Adopt(Socket connected, std::chrono::milliseconds timeout) {
+  Close();
+  socket_ = std::move(connected);
+  if (ReadResponseHead(Clock::now() + timeout)) return true;
+  Close();
+  return false;
+}
+
+bool MjpegClient::ReadResponseHead(Clock::time_point deadline) {
   size_t end;
   while ((end = buf_.find("\r\n\r\n")) == std::string::npos) {
     if (buf_.size() > 65536 || !Fill(deadline)) return false;
@@ -202,14 +251,20 @@ std::optional<std::vector<uint8_t>> MjpegClient::ReadPart(Clock::time_point dead
 
 std::optional<MjpegFrame> MjpegClient::Next(std::chrono::milliseconds timeout) {
   const auto deadline = Clock::now() + timeout;
+  // Waits the current back-off (never past the deadline) and doubles it.
+  auto back_off = [&] {
+    const auto left = deadline - Clock::now();
+    if (left <= Clock::duration::zero()) return;
+    std::this_thread::sleep_for(std::min<Clock::duration>(backoff_, left));
+    backoff_ = std::min(options_.max_reconnect_delay, std::max(backoff_ * 2, std::chrono::milliseconds(1)));
+  };
   while (Clock::now() < deadline) {
     if (!socket_.valid()) {
+      if (!options_.reconnect && stats_.num_connects + stats_.num_failures > 0) break;
       if (!Connect(deadline)) {
         ++stats_.num_failures;
         Close();
-        const auto left = deadline - Clock::now();
-        if (left <= Clock::duration::zero()) break;
-        std::this_thread::sleep_for(std::min<Clock::duration>(options_.reconnect_delay, left));
+        back_off();
         continue;
       }
     }
@@ -219,6 +274,8 @@ std::optional<MjpegFrame> MjpegClient::Next(std::chrono::milliseconds timeout) {
       if (Clock::now() < deadline) {  // the stream failed (not just our deadline): reconnect
         ++stats_.num_failures;
         Close();
+        if (!options_.reconnect) break;
+        back_off();
       }
       continue;
     }
@@ -226,6 +283,28 @@ std::optional<MjpegFrame> MjpegClient::Next(std::chrono::milliseconds timeout) {
     ++seq_;
     if (!LooksLikeCompleteJpeg(*jpeg)) {
       ++stats_.num_corrupt;
+      stats_.last_problem = "part " + std::to_string(seq_) + " is not a complete JPEG (no SOI/EOI marker)";
+      continue;
+    }
+    // Size from the SOF header before any decoding (bounded memory).
+    const std::optional<JpegSize> size = JpegDeclaredSize(jpeg->data(), jpeg->size());
+    std::string size_problem;
+    if (!size) {
+      size_problem = "has no readable SOF header";
+    } else if (options_.expected_width > 0 || options_.expected_height > 0) {
+      if ((options_.expected_width > 0 && size->width != options_.expected_width) ||
+          (options_.expected_height > 0 && size->height != options_.expected_height))
+        size_problem = "declares " + std::to_string(size->width) + "x" + std::to_string(size->height) +
+                       ", the robot file says " + std::to_string(options_.expected_width) + "x" +
+                       std::to_string(options_.expected_height);
+    } else if (size->width < 2 || size->height < 1 ||
+               static_cast<int64_t>(size->width) * size->height > options_.max_frame_pixels) {
+      size_problem = "declares " + std::to_string(size->width) + "x" + std::to_string(size->height) +
+                     " (at most " + std::to_string(options_.max_frame_pixels) + " pixels)";
+    }
+    if (!size_problem.empty()) {
+      ++stats_.num_wrong_size;
+      stats_.last_problem = "JPEG part " + std::to_string(seq_) + " " + size_problem + "; not decoded";
       continue;
     }
     out.stereo.seq = seq_;
@@ -239,12 +318,14 @@ std::optional<MjpegFrame> MjpegClient::Next(std::chrono::milliseconds timeout) {
       }
       if (frame.empty() || frame.cols < 2) {
         ++stats_.num_corrupt;
+        stats_.last_problem = "JPEG part " + std::to_string(seq_) + " does not decode";
         continue;
       }
       SplitStereo(frame, options_.mirror_stream, options_.swap_eyes, &out.stereo.left, &out.stereo.right);
     }
     out.stereo.jpeg = std::move(*jpeg);
     ++stats_.num_frames;
+    backoff_ = options_.reconnect_delay;
     return out;
   }
   return std::nullopt;

@@ -24,6 +24,7 @@ ServoClientOptions ServoOptionsOf(const OwlLinkOptions& o) {
   s.port = o.servo_port;
   s.connect_timeout = o.connect_timeout;
   s.reply_timeout = o.reply_timeout;
+  s.command_timeout = o.command_timeout;
   return s;
 }
 }  // namespace
@@ -36,6 +37,9 @@ OwlLink::OwlLink(OwlLinkOptions options)
   stream_options_.connect_timeout = options_.connect_timeout;
   stream_options_.swap_eyes = options_.robot.swap_eyes;
   stream_options_.mirror_stream = options_.robot.mirror_stream;
+  // Frames are checked against the robot file's size before they are decoded.
+  stream_options_.expected_width = 2 * options_.robot.image_width;
+  stream_options_.expected_height = options_.robot.image_height;
 }
 
 OwlLink::~OwlLink() { Close(); }
@@ -59,7 +63,7 @@ ServoReply OwlLink::SendServos(const PwmVector& pwm_us) {
       if (i) sent += ' ';
       sent += std::to_string(clamp.pwm_us[i]);
     }
-    throw std::runtime_error("servo command [" + sent + "] not answered: " + r.error);
+    throw std::runtime_error("servo command [" + sent + "] " + (r.bad_reply ? "failed: " : "not answered: ") + r.error);
   }
   ServoReply reply;
   reply.ok = r.ok;

@@ -38,6 +38,7 @@ struct OwlLinkOptions {
   models::RobotConfig robot = models::DefaultRobotConfig();
   std::chrono::milliseconds connect_timeout{2000};
   std::chrono::milliseconds reply_timeout{1000};
+  std::chrono::milliseconds command_timeout{0};  // > 0: one command, retries included, takes at most this
   LogSink log;                           // clamps and link events
   bool Check(std::string* why) const;
 };

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "io/strict_number.h"
 #include "robot/packet_codec.h"
 
 namespace owlcal::robot {
@@ -18,6 +19,16 @@ bool ServoClientOptions::Check(std::string* why) const {
   if (port < 1 || port > 65535) return fail("port = " + std::to_string(port) + " is not 1..65535");
   if (max_attempts < 1) return fail("max_attempts = " + std::to_string(max_attempts) + " is below 1");
   if (reply_timeout.count() <= 0 || connect_timeout.count() <= 0) return fail("timeouts must be positive");
+  if (command_timeout.count() < 0) return fail("command_timeout must not be negative");
+  return true;
+}
+
+bool IsServoReply(std::string_view text) {
+  if (text == "ok") return true;
+  if (text.empty() || text.size() > 4) return false;
+  for (const char c : text) {
+    if (c < '0' || c > '9') return false;
+  }
   return true;
 }
 
@@ -48,19 +59,33 @@ void ServoClient::Close() {
 ServoClientReply ServoClient::Send(const models::PwmVector& pwm_us) { return SendBytes(EncodePacket(pwm_us)); }
 
 ServoClientReply ServoClient::SendBytes(std::string_view bytes) {
+  using Clock = std::chrono::steady_clock;
+  const bool bounded = options_.command_timeout.count() > 0;
+  const Clock::time_point deadline = Clock::now() + options_.command_timeout;
+  // A wait of at most `wanted`, cut to what is left of the command's time (0 = none left).
+  auto budget = [&](std::chrono::milliseconds wanted) {
+    if (!bounded) return wanted;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+    return std::max(std::chrono::milliseconds(0), std::min(wanted, left));
+  };
+  const std::string where = options_.host + ":" + std::to_string(options_.port);
   ServoClientReply reply;
   for (int attempt = 1; attempt <= options_.max_attempts; ++attempt) {
+    if (attempt > 1) {
+      if (bounded && budget(options_.reconnect_delay) < options_.reconnect_delay) break;
+      std::this_thread::sleep_for(options_.reconnect_delay);
+    }
+    if (bounded && budget(options_.reply_timeout).count() == 0) break;
     reply.attempts = attempt;
-    if (attempt > 1) std::this_thread::sleep_for(options_.reconnect_delay);
     if (!socket_.valid()) {
       try {
-        Connect();
+        socket_ = ConnectTcp(options_.host, options_.port, budget(options_.connect_timeout));
+        ++num_connects_;
       } catch (const std::exception& e) {
         reply.error = e.what();
         continue;
       }
     }
-    const std::string where = options_.host + ":" + std::to_string(options_.port);
     // Drop stale bytes (a late reply to an earlier packet); EOF here means the server left.
     char buf[256];
     bool closed = false;
@@ -75,24 +100,35 @@ ServoClientReply ServoClient::SendBytes(std::string_view bytes) {
       socket_.Close();
       continue;
     }
-    const int64_t got = RecvSome(socket_.fd(), buf, sizeof(buf), options_.reply_timeout);
+    const std::chrono::milliseconds wait = budget(options_.reply_timeout);
+    const int64_t got = wait.count() > 0 ? RecvSome(socket_.fd(), buf, sizeof(buf), wait) : -1;
     if (got > 0) {
-      reply.text.assign(buf, static_cast<size_t>(got));
+      std::string text(buf, static_cast<size_t>(got));
       // Collect the rest of a reply split over segments if it is already here (never wait:
       // the reply is one short write, and waiting would add to every command's latency).
       int64_t more;
-      while (reply.text.size() < 64 &&
-             (more = RecvSome(socket_.fd(), buf, sizeof(buf), std::chrono::milliseconds(0))) > 0) {
-        reply.text.append(buf, static_cast<size_t>(more));
+      while (text.size() < 64 && (more = RecvSome(socket_.fd(), buf, sizeof(buf), std::chrono::milliseconds(0))) > 0) {
+        text.append(buf, static_cast<size_t>(more));
       }
+      while (!text.empty() && (text.back() == '\r' || text.back() == '\n' || text.back() == '\0')) text.pop_back();
+      if (!IsServoReply(text)) {
+        // A server that answers something else is not a course server: never take it as "ok".
+        reply.bad_reply = true;
+        reply.text = io::Printable(text);
+        reply.error = where + ": unexpected reply '" + reply.text + "' (" + std::to_string(text.size()) +
+                      " bytes; expected 'ok' or the Rx value)";
+        return reply;
+      }
+      reply.text = text;
       reply.ok = true;
       reply.error.clear();
       return reply;
     }
-    reply.error = where + (got == -1 ? ": no reply within " + std::to_string(options_.reply_timeout.count()) + " ms"
+    reply.error = where + (got == -1 ? ": no reply within " + std::to_string(wait.count()) + " ms"
                                      : ": connection closed by the server");
     socket_.Close();
   }
+  if (reply.error.empty()) reply.error = where + ": no reply within " + std::to_string(options_.command_timeout.count()) + " ms";
   return reply;
 }
 

@@ -6,7 +6,14 @@
 // does not confirm motion), a C variant answers with the Rx value. Stale reply bytes are
 // drained before each send so replies cannot shift by one.
 // On a failed send, or no reply in time, the client reconnects and resends (commands are
-// absolute positions, so a repeat is harmless), up to max_attempts in all.
+// absolute positions, so a repeat is harmless), up to max_attempts in all, and never past
+// command_timeout (when set) from the start of the command: connecting, waiting and resending
+// together take at most that long.
+// The reply must be "ok" (the Python server) or a decimal number of at most four digits (the C
+// server's Rx echo, "0" for a packet it could not parse), optionally followed by CR/LF or NUL
+// bytes. Anything else is an error (ok = false, not resent), and the error shows the reply
+// with printable characters only (io::Printable), so a hostile server cannot write to the
+// terminal.
 // Close() ends the session the way the course server expects: the host closes its side, so
 // the server's recv(24) returns a zero-length ("NULL") packet and its loop ends.
 //
@@ -34,15 +41,21 @@ struct ServoClientOptions {
   std::chrono::milliseconds reply_timeout{1000};
   int max_attempts = 2;                              // sends per command, reconnecting between
   std::chrono::milliseconds reconnect_delay{100};
+  std::chrono::milliseconds command_timeout{0};      // > 0: bound on one Send, retries included
   bool Check(std::string* why) const;
 };
 
 struct ServoClientReply {
-  bool ok = false;        // a reply arrived
-  std::string text;       // the reply ("ok", or a number from a C server)
+  bool ok = false;        // a valid reply arrived
+  std::string text;       // the reply ("ok", or a number from a C server), trailing CR/LF/NUL cut
+  bool bad_reply = false; // a reply arrived but was neither "ok" nor an Rx echo (see error)
   int attempts = 0;       // sends it took
   std::string error;      // why not ok (last failure)
 };
+
+// True if `text` (trailing CR, LF and NUL already removed) is a reply a course server gives:
+// "ok", or 1-4 decimal digits.
+bool IsServoReply(std::string_view text);
 
 class ServoClient {
  public:

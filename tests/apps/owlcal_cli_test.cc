@@ -117,6 +117,24 @@ TEST_F(OwlcalCliTest, MoveWithoutRobotIsAUsageError) {
   EXPECT_EQ(s.exit_code, 2) << "three pulse widths: " << s.output;
 }
 
+// Issue 15: `move ''` was read as 0 and `move 0x600` as 1536. Pulse widths are decimal only, and
+// refused before any connection (the closed port is never tried).
+TEST_F(OwlcalCliTest, MoveRefusesEmptyAndHexPulseWidths) {
+  const int port = ClosedLoopbackPort();
+  ASSERT_GT(port, 0);
+  const std::string robot = "move --robot 127.0.0.1:" + std::to_string(port) + " ";
+  const RunResult empty = RunOwlcal(robot + "'' 1500 1500 1500 1500");
+  EXPECT_EQ(empty.exit_code, 2) << empty.output;
+  EXPECT_NE(empty.output.find("pulse width Rx = '' is not an integer"), std::string::npos) << empty.output;
+  const RunResult hex = RunOwlcal(robot + "1500 1500 1500 1500 0x600");
+  EXPECT_EQ(hex.exit_code, 2) << hex.output;
+  EXPECT_NE(hex.output.find("pulse width Neck = '0x600' is not an integer"), std::string::npos) << hex.output;
+  const RunResult big = RunOwlcal(robot + "1500 15000 1500 1500 1500");
+  EXPECT_EQ(big.exit_code, 2) << big.output;
+  EXPECT_NE(big.output.find("pulse width Ry = 15000 is outside [0, 9999]"), std::string::npos) << big.output;
+  EXPECT_EQ(big.output.find("connect"), std::string::npos) << big.output;
+}
+
 TEST_F(OwlcalCliTest, MoveToAClosedPortFailsWithAClearMessage) {
   const int port = ClosedLoopbackPort();
   ASSERT_GT(port, 0);

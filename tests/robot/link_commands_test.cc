@@ -10,6 +10,7 @@
 
 #include "robot/mjpeg_server.h"
 #include "robot/servo_server.h"
+#include "robot/mjpeg_client.h"
 #include "robot/socket_util.h"
 
 namespace owlcal::robot {
@@ -71,6 +72,21 @@ TEST_F(LinkCommandsTest, UnreachableRobotThrowsNamingIt) {
                std::invalid_argument);
 }
 
+// Issue 15: --timeout-ms bounds the whole command (connect, reply and any resend together).
+TEST(SendOneCommand, TimeoutIsHonouredAsStated) {
+  int port = 0;
+  Socket silent = Listen("127.0.0.1", 0, &port);  // connects, never answers
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_THROW(SendOneCommand("127.0.0.1:" + std::to_string(port),
+                              models::DefaultRobotConfig(),
+                              {1545, 1530, 1545, 1580, 1530},
+                              std::chrono::milliseconds(400)),
+               std::runtime_error);
+  const auto took = std::chrono::steady_clock::now() - t0;
+  EXPECT_GE(took, std::chrono::milliseconds(350));
+  EXPECT_LT(took, std::chrono::milliseconds(650));  // was 400 + 100 + 400
+}
+
 TEST(GrabOneFrame, WritesLeftRightAndTheRawFrame) {
   cv::Mat sbs(480, 1280, CV_8UC3, cv::Scalar(10, 10, 10));
   sbs(cv::Rect(640, 0, 640, 480)).setTo(cv::Scalar(240, 240, 240));  // right half bright
@@ -91,6 +107,41 @@ TEST(GrabOneFrame, WritesLeftRightAndTheRawFrame) {
   EXPECT_GT(cv::mean(right)[0], 220);
   EXPECT_EQ(std::filesystem::file_size(r.frame_jpg), jpeg.size());
   std::filesystem::remove_all(dir);
+}
+
+// Issue 15: a 631-byte JPEG declaring 30000x30000 made `grab` take 5.3 GB and write 30000x15000
+// PNGs, past its own timeout. The SOF size is checked against the robot file before decoding.
+TEST(GrabOneFrame, FrameLargerThanTheRobotFileIsNeverDecoded) {
+  cv::Mat small(8, 16, CV_8UC3, cv::Scalar(10, 10, 10));
+  std::vector<uint8_t> jpeg;
+  cv::imencode(".jpg", small, jpeg);
+  const std::optional<JpegSize> size = JpegDeclaredSize(jpeg.data(), jpeg.size());
+  ASSERT_TRUE(size);
+  EXPECT_EQ(size->width, 16);
+  EXPECT_EQ(size->height, 8);
+  // Patch the SOF to declare 30000x30000.
+  size_t sof = 0;
+  for (size_t i = 2; i + 8 < jpeg.size(); ++i)
+    if (jpeg[i] == 0xFF && jpeg[i + 1] == 0xC0) {
+      sof = i;
+      break;
+    }
+  ASSERT_GT(sof, 0u);
+  jpeg[sof + 5] = 30000 >> 8, jpeg[sof + 6] = 30000 & 0xFF, jpeg[sof + 7] = 30000 >> 8, jpeg[sof + 8] = 30000 & 0xFF;
+  EXPECT_EQ(JpegDeclaredSize(jpeg.data(), jpeg.size())->width, 30000);
+  MjpegServer video({}, [&] { return std::optional(jpeg); });
+  video.Start();
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    GrabOneFrame("127.0.0.1", video.Port(), models::DefaultRobotConfig(), "/tmp/owlcal_never_big",
+                 std::chrono::milliseconds(500));
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("declares 30000x30000, the robot file says 1280x480"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(1500));
+  EXPECT_FALSE(std::filesystem::exists("/tmp/owlcal_never_big"));
 }
 
 TEST(GrabOneFrame, NoStreamThrowsNamingTheUrl) {

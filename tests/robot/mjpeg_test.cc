@@ -14,6 +14,7 @@
 #include "robot/mjpeg_client.h"
 #include "robot/mjpeg_server.h"
 #include "robot/socket_util.h"
+#include "tests/robot/raw_server.h"
 #include "tests/shared_data.h"
 
 namespace owlcal::robot {
@@ -163,6 +164,71 @@ TEST_F(MjpegTest, ReconnectsAfterServerRestart) {
   for (int i = 0; i < 5; ++i) ASSERT_TRUE(client.Next(5s)) << i;
   EXPECT_EQ(client.Stats().num_connects, 2);
   EXPECT_GE(client.Stats().num_failures, 1);
+}
+
+// Issue 15: a stream whose parts keep failing was reconnected 2,046 times in 5 s.
+TEST_F(MjpegTest, ReconnectsToAFailingStreamBackOff) {
+  testing::RawServer failing(
+      [](int) {
+        return std::string(
+            "HTTP/1.1 200 OK\r\nContent-Type: multipart/x-mixed-replace; boundary=f\r\n\r\n"
+            "--f\r\nContent-Type: image/jpeg\r\nContent-Length: 999999999\r\n\r\n");
+      },
+      100000);
+  MjpegClientOptions co;
+  co.port = failing.Port();
+  co.reconnect_delay = 50ms;
+  co.max_reconnect_delay = 400ms;
+  MjpegClient client(co);
+  EXPECT_FALSE(client.Next(1500ms));
+  // 50 + 100 + 200 + 400 + 400 + ... ms: about 6 attempts in 1.5 s, not hundreds.
+  EXPECT_GE(failing.NumAccepted(), 3);
+  EXPECT_LE(failing.NumAccepted(), 8);
+  EXPECT_GE(client.Stats().num_failures, 3);
+}
+
+// The size declared by the SOF marker, read without decoding, and a frame of the wrong size
+// skipped and counted before it is decoded.
+TEST_F(MjpegTest, FramesOfTheWrongSizeAreSkippedBeforeDecoding) {
+  const std::optional<JpegSize> size = JpegDeclaredSize(Jpegs()[0].data(), Jpegs()[0].size());
+  ASSERT_TRUE(size);
+  EXPECT_EQ(size->width, 1280);
+  EXPECT_EQ(size->height, 480);
+  EXPECT_FALSE(JpegDeclaredSize(Jpegs()[0].data(), 100));  // cut before the SOF
+  const std::vector<uint8_t> junk = {0xFF, 0xD8, 0xFF, 0xD9};
+  EXPECT_FALSE(JpegDeclaredSize(junk.data(), junk.size()));
+  cv::Mat small(240, 640, CV_8UC3, cv::Scalar(50, 50, 50));
+  std::vector<uint8_t> half;
+  cv::imencode(".jpg", small, half);
+  MjpegServer server({});
+  server.Start();
+  MjpegClientOptions co;
+  co.port = server.Port();
+  co.expected_width = 1280;
+  co.expected_height = 480;
+  MjpegClient client(co);
+  auto reader = std::async(std::launch::async, [&] {
+    std::vector<cv::Size> got;
+    for (int i = 0; i < 2; ++i) {
+      if (auto f = client.Next(10s)) got.push_back(f->stereo.left.size());
+    }
+    return got;
+  });
+  ASSERT_TRUE(server.WaitForStreamClients(1, 5s));
+  const std::vector<uint8_t>* sequence[] = {&half, &half, &Jpegs()[0], &Jpegs()[1]};
+  for (const std::vector<uint8_t>* jpeg : sequence) {
+    const int64_t sent = server.NumFramesSent();
+    server.Publish(*jpeg);
+    for (int w = 0; w < 500 && server.NumFramesSent() == sent; ++w) std::this_thread::sleep_for(2ms);
+  }
+  const auto got = reader.get();
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0], cv::Size(640, 480));
+  EXPECT_EQ(got[1], cv::Size(640, 480));
+  EXPECT_EQ(client.Stats().num_wrong_size, 2);
+  EXPECT_EQ(client.Stats().num_corrupt, 0);
+  EXPECT_NE(client.Stats().last_problem.find("declares 640x240, the robot file says 1280x480"), std::string::npos)
+      << client.Stats().last_problem;
 }
 
 TEST_F(MjpegTest, TimesOutWhenNoServer) {

@@ -14,6 +14,7 @@
 #include "robot/servo_client.h"
 #include "robot/servo_server.h"
 #include "robot/socket_util.h"
+#include "tests/robot/raw_server.h"
 
 namespace owlcal::robot {
 namespace {
@@ -82,6 +83,61 @@ TEST(ServoClient, AcceptsTheCServersNumericReply) {
   const ServoClientReply r = client.Send({1600, 1530, 1545, 1580, 1530});
   EXPECT_TRUE(r.ok);
   EXPECT_EQ(r.text, "1600");
+}
+
+// Issue 15: the client took any reply as "ok" and printed the server's raw bytes.
+TEST(ServoClient, AReplyThatIsNeitherOkNorAnRxEchoIsAnErrorShownPrintable) {
+  testing::RawServer hostile([](int) { return std::string("\x1b[2J\x07pwned\xff\r\n"); }, 24, true);
+  ServoClient client({.host = "127.0.0.1", .port = hostile.Port(), .reply_timeout = 500ms});
+  const ServoClientReply r = client.Send({1545, 1530, 1545, 1580, 1530});
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(r.bad_reply);
+  EXPECT_EQ(r.attempts, 1);  // not resent: the server answered, wrongly
+  EXPECT_NE(r.error.find("unexpected reply '?[2J?pwned?'"), std::string::npos) << r.error;
+  for (const char c : r.error + r.text) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << int(static_cast<unsigned char>(c));
+  // OwlLink turns it into an exception naming the reply.
+  OwlLinkOptions o;
+  o.host = "127.0.0.1";
+  o.servo_port = hostile.Port();
+  o.reply_timeout = 500ms;
+  OwlLink link(o);
+  try {
+    link.SendServos(link.Config().Centre());
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("unexpected reply"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ServoClient, AcceptsOkAndRxEchoWithLineEndsOnly) {
+  EXPECT_TRUE(IsServoReply("ok"));
+  EXPECT_TRUE(IsServoReply("1545"));
+  EXPECT_TRUE(IsServoReply("0"));
+  EXPECT_FALSE(IsServoReply(""));
+  EXPECT_FALSE(IsServoReply("OK!"));
+  EXPECT_FALSE(IsServoReply("12345"));
+  EXPECT_FALSE(IsServoReply("-100"));
+  EXPECT_FALSE(IsServoReply("ok ok"));
+  testing::RawServer crlf([](int) { return std::string("ok\r\n"); }, 24, true);
+  ServoClient client({.host = "127.0.0.1", .port = crlf.Port()});
+  const ServoClientReply r = client.Send({1545, 1530, 1545, 1580, 1530});
+  EXPECT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.text, "ok");
+}
+
+// Issue 15: `--timeout-ms 60000` waited 120 s (connect + reply, and a resend). A command
+// timeout bounds the whole command.
+TEST(ServoClient, CommandTimeoutBoundsRetriesToo) {
+  int port = 0;
+  Socket silent = Listen("127.0.0.1", 0, &port);  // accepts (kernel backlog), never answers
+  ServoClient client(
+      {.host = "127.0.0.1", .port = port, .reply_timeout = 400ms, .max_attempts = 3, .command_timeout = 500ms});
+  const auto t0 = std::chrono::steady_clock::now();
+  const ServoClientReply r = client.Send({1545, 1530, 1545, 1580, 1530});
+  const auto took = std::chrono::steady_clock::now() - t0;
+  EXPECT_FALSE(r.ok);
+  EXPECT_GE(took, 350ms);   // the first wait ran in full
+  EXPECT_LT(took, 700ms);   // not 3 x 400 ms: no resend that cannot finish in time
 }
 
 TEST(ServoClient, NextClientIsServedAfterClose) {
