@@ -291,7 +291,7 @@ int RunCalibrate(const CalibrateOptions& o) {
   if (auto* owl = dynamic_cast<sim::VirtualOwl*>(robot.get())) truth = owl->Truth();
 
   // 1) Record one dataset per protocol.
-  std::atomic<bool>* stop = protocols::InstallSigintStop();
+  std::atomic<bool>* stop = protocols::InstallStopSignals();
   std::map<std::string, std::string> dataset;
   nlohmann::json run_info = nlohmann::json::object();
   for (const std::string& name : names) {

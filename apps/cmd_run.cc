@@ -57,7 +57,7 @@ int RunRun(const RunCmdOptions& o) {
     return kExitOk;
   }
   std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot.robot, o.robot.Factory());
-  ro.stop_flag = protocols::InstallSigintStop();
+  ro.stop_flag = protocols::InstallStopSignals();
   const protocols::RunSummary s = protocols::RunProtocols(loaded, *robot, ro);
   if (s.status != "complete") {
     std::cerr << "owlcal run: " << s.status << ": " << s.message << "\n"
@@ -74,7 +74,7 @@ const bool kRegistered = RegisterCommand(
     "Consumes protocol files (YAML; or standard names: limits, alignment, intrinsics, stereo,\n"
     "servo_sweep, vergence, step_response, latency); produces DATASET/ (manifest.json, frames/,\n"
     "frames.csv, placements.csv, steps.csv, events.log and measurement tables). Every command\n"
-    "is clamped to the robot file's limits; Ctrl-C parks the head and closes the dataset.",
+    "is clamped to the robot file's limits; Ctrl-C, SIGTERM or SIGHUP parks the head and closes the dataset as aborted.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<RunCmdOptions>();
       cmd->add_option("protocols", o->protocols, "protocol files or standard protocol names")->required();

@@ -9,6 +9,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "io/strict_number.h"
+
 #include "owlcal_version.h"
 
 namespace owlcal::protocols {
@@ -146,15 +148,54 @@ class Fields {
       return def;
     }
     YAML::Node n = Get(key);
-    try {
-      return n.as<T>();
-    } catch (const YAML::Exception&) {
-      Fail(key, "'" + (n.IsScalar() ? n.Scalar() : std::string("<not a scalar>")) + "' has the wrong type");
+    std::string why;
+    const std::optional<T> v = Convert<T>(n, &why);
+    if (!v) Fail(key, why);
+    return *v;
+  }
+  // A scalar as T: ints and doubles strictly (io/strict_number.h: no hex, nan, inf, overflow).
+  template <typename T>
+  static std::optional<T> Convert(const YAML::Node& n, std::string* why) {
+    if (!n.IsScalar()) {
+      *why = "expected a single value, not a list or map";
+      return std::nullopt;
+    }
+    if constexpr (std::is_same_v<T, int>) {
+      int v = 0;
+      *why = io::CheckInt(n.Scalar(), -kMaxPlanInt, kMaxPlanInt, &v);
+      if (!why->empty()) return std::nullopt;
+      return v;
+    } else if constexpr (std::is_same_v<T, double>) {
+      double v = 0;
+      *why = io::CheckNumber(n.Scalar(), -1e9, 1e9, &v);
+      if (!why->empty()) return std::nullopt;
+      return v;
+    } else {
+      try {
+        return n.as<T>();
+      } catch (const YAML::Exception&) {
+        *why = "'" + io::Printable(n.Scalar()) + "' has the wrong type";
+        return std::nullopt;
+      }
     }
   }
   int PositiveInt(const std::string& key, int def, int min_value = 1) {
     const int v = Value<int>(key, def);
     if (v < min_value) Fail(key, std::to_string(v) + " must be >= " + std::to_string(min_value));
+    return v;
+  }
+  // A pulse-width quantity [us]: min_value .. kMaxPulseUs.
+  int PulseUs(const std::string& key, int def, int min_value = 1) {
+    const int v = PositiveInt(key, def, min_value);
+    if (v > kMaxPulseUs) Fail(key, std::to_string(v) + " us is more than " + std::to_string(kMaxPulseUs) + " us");
+    return v;
+  }
+  // A list of pulse-width offsets [us], each within +-kMaxPulseUs.
+  std::vector<int> PulseOffsets(const std::string& key, std::vector<int> def) {
+    std::vector<int> v = List<int>(key, std::move(def));
+    for (int x : v)
+      if (x < -kMaxPulseUs || x > kMaxPulseUs)
+        Fail(key, std::to_string(x) + " us is outside +-" + std::to_string(kMaxPulseUs) + " us");
     return v;
   }
   double PositiveDouble(const std::string& key, double def, bool allow_zero = false) {
@@ -171,12 +212,12 @@ class Fields {
     YAML::Node n = Get(key);
     if (!n.IsSequence() || n.size() == 0) Fail(key, "expected a non-empty list");
     std::vector<T> out;
+    if (n.size() > static_cast<size_t>(kMaxPlanSteps)) Fail(key, "more than " + std::to_string(kMaxPlanSteps) + " entries");
     for (size_t i = 0; i < n.size(); ++i) {
-      try {
-        out.push_back(n[i].as<T>());
-      } catch (const YAML::Exception&) {
-        Fail(key, "entry " + std::to_string(i) + " '" + (n[i].IsScalar() ? n[i].Scalar() : "?") + "' has the wrong type");
-      }
+      std::string why;
+      const std::optional<T> v = Convert<T>(n[i], &why);
+      if (!v) Fail(key, "entry " + std::to_string(i) + " " + why);
+      out.push_back(*v);
     }
     return out;
   }
@@ -290,7 +331,7 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
     s.servo = f.Servo("servo");
     s.from = f.Pwm("from", {PwmExpr::Base::kMin, 0});
     s.to = f.Pwm("to", {PwmExpr::Base::kMax, 0});
-    s.step_us = f.PositiveInt("step_us", 20);
+    s.step_us = f.PulseUs("step_us", 20);
     s.both_directions = f.Value<bool>("both_directions", true);
     s.pre_approach = f.Value<bool>("pre_approach", true);
     s.detect = f.Value<bool>("detect", false);
@@ -300,9 +341,9 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
   } else if (kind == "grid") {
     s.kind = StepKind::kGrid;
     s.eyes = f.OneOf("eyes", "both", {"both", "left", "right"});
-    s.pan_us = f.List<int>("pan_us", {0});
-    s.tilt_us = f.List<int>("tilt_us", {0});
-    s.neck_us = f.List<int>("neck_us", {0});
+    s.pan_us = f.PulseOffsets("pan_us", {0});
+    s.tilt_us = f.PulseOffsets("tilt_us", {0});
+    s.neck_us = f.PulseOffsets("neck_us", {0});
     s.frames = f.PositiveInt("frames", 1);
     s.pose = ParsePose(f.Get("hold"), context + " hold");
     s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
@@ -332,8 +373,8 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
     s.tolerance_px = f.PositiveDouble("tolerance_px", s.tolerance_px);
     s.still_frames = f.PositiveInt("still_frames", s.still_frames);
     s.latency_frames = f.PositiveInt("latency_frames", 0, 0);
-    s.max_step_us = f.PositiveInt("max_step_us", s.max_step_us);
-    s.limit_margin_us = f.PositiveInt("limit_margin_us", s.limit_margin_us, 0);
+    s.max_step_us = f.PulseUs("max_step_us", s.max_step_us);
+    s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
     s.record_frames = f.Value<bool>("record_frames", false);
     if (kind == "fixate") {
       s.eyes = f.OneOf("eyes", "both", {"both", "left", "right"});
@@ -362,8 +403,8 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
         s.servos.push_back(i);
       }
     }
-    s.coarse_us = f.PositiveInt("coarse_us", s.coarse_us);
-    s.fine_us = f.PositiveInt("fine_us", s.fine_us);
+    s.coarse_us = f.PulseUs("coarse_us", s.coarse_us);
+    s.fine_us = f.PulseUs("fine_us", s.fine_us);
     if (s.fine_us > s.coarse_us) f.Fail("fine_us", std::to_string(s.fine_us) + " is larger than coarse_us");
     s.frames = f.PositiveInt("frames", 1);
     s.moved_fraction = f.PositiveDouble("moved_fraction", s.moved_fraction);
@@ -377,7 +418,7 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
   } else if (kind == "latency") {
     s.kind = StepKind::kLatency;
     s.servo = f.Servo("servo");
-    s.amplitude_us = f.PositiveInt("amplitude_us", s.amplitude_us);
+    s.amplitude_us = f.PulseUs("amplitude_us", s.amplitude_us);
     s.trials = f.PositiveInt("trials", 5);
     s.max_frames = f.PositiveInt("max_frames", s.max_frames);
     s.record_frames = f.Value<bool>("record_frames", false);
@@ -392,6 +433,27 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
   }
   f.RejectUnknown();
   return s;
+}
+
+// Steps `list` expands to (repeats multiplied out, saturating above kMaxPlanSteps).
+int64_t CountSteps(const YAML::Node& list, const std::string& source, int depth) {
+  if (!list || !list.IsSequence()) throw ProtocolError(source + ": field 'steps': expected a list of steps");
+  if (depth > 4) throw ProtocolError(source + ": repeat nested too deeply");
+  int64_t n = 0;
+  for (size_t i = 0; i < list.size() && n <= kMaxPlanSteps; ++i) {
+    const YAML::Node item = list[i];
+    if (item.IsMap() && item.size() == 1 && item.begin()->first.IsScalar() && item.begin()->first.Scalar() == "repeat" &&
+        item.begin()->second.IsMap()) {
+      const YAML::Node body = item.begin()->second;
+      int times = 1;
+      if (body["times"] && body["times"].IsScalar() && !io::CheckInt(body["times"].Scalar(), 1, kMaxPlanInt, &times).empty())
+        times = 1;  // ParseSteps names the bad value
+      n += std::min<int64_t>(kMaxPlanSteps + 1, times * CountSteps(body["steps"], source, depth + 1));
+    } else {
+      ++n;
+    }
+  }
+  return std::min<int64_t>(n, kMaxPlanSteps + 1);
 }
 
 void ParseSteps(const YAML::Node& list, const std::string& source, const std::string& prefix, Protocol* p, int depth) {
@@ -411,6 +473,12 @@ void ParseSteps(const YAML::Node& list, const std::string& source, const std::st
       const YAML::Node inner = f.Get("steps");
       f.Value<std::string>("name", "");
       f.RejectUnknown();
+      // The plan is expanded in memory: cap its size before expanding (a repeat of 2e9, or
+      // nested repeats of 1000, ended in std::bad_alloc).
+      const int64_t each = CountSteps(inner, source, depth + 1);
+      if (each * times > kMaxPlanSteps - static_cast<int64_t>(p->steps.size()))
+        f.Fail("times", std::to_string(times) + " x " + std::to_string(each) + " steps would make the protocol longer than " +
+                            std::to_string(kMaxPlanSteps) + " steps");
       for (int k = 0; k < times; ++k) {
         const size_t before = p->steps.size();
         ParseSteps(inner, source, prefix + std::to_string(i) + ".", p, depth + 1);
@@ -478,6 +546,43 @@ std::string StandardProtocolDir() {
 
 std::vector<std::string> StandardProtocolNames() {
   return {"limits", "alignment", "intrinsics", "stereo", "servo_sweep", "vergence", "step_response", "latency"};
+}
+
+std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
+  const std::string where = s.file + ": step " + std::to_string(s.file_index) + " (" + StepKindName(s.kind) + "): field '";
+  auto range = [&](int servo) { return robot.servos[servo].max_us - robot.servos[servo].min_us; };
+  auto at_most = [&](const char* field, int value, int servo) -> std::string {
+    if (value <= range(servo)) return "";
+    return where + field + "': " + std::to_string(value) + " us is more than " + models::kServoNames[servo] +
+           "'s range of " + std::to_string(range(servo)) + " us in the robot file";
+  };
+  std::string why;
+  auto first = [&](const std::string& w) {
+    if (why.empty()) why = w;
+  };
+  switch (s.kind) {
+    case StepKind::kSweep:
+      first(at_most("step_us", s.step_us, s.servo));
+      break;
+    case StepKind::kLatency:
+      first(at_most("amplitude_us", s.amplitude_us, s.servo));
+      break;
+    case StepKind::kLimits:
+      for (int servo : s.servos) first(at_most("coarse_us", s.coarse_us, servo));
+      break;
+    case StepKind::kFixate:
+    case StepKind::kStepResponse:
+      for (int servo = 0; servo < models::kNumServos; ++servo) {
+        first(at_most("max_step_us", s.max_step_us, servo));
+        if (2 * s.limit_margin_us >= range(servo))
+          first(where + "limit_margin_us': " + std::to_string(s.limit_margin_us) + " us leaves no room in " +
+                models::kServoNames[servo] + "'s range of " + std::to_string(range(servo)) + " us");
+      }
+      break;
+    default:
+      break;
+  }
+  return why;
 }
 
 std::string ResolveProtocolPath(const std::string& name_or_path) {

@@ -70,6 +70,16 @@ struct ProtocolError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Bounds that keep a plan finite and its arithmetic in range: a loaded protocol has at most
+// kMaxPlanSteps steps after `repeat` expansion (and list fields at most that many entries);
+// every integer field lies within +-kMaxPlanInt, and every pulse-width quantity (step_us,
+// pan_us, tilt_us, neck_us, amplitude_us, coarse_us, fine_us, max_step_us, limit_margin_us)
+// within +-kMaxPulseUs (the packet's four digits), so no sum of them overflows an int. Whether
+// a plan fits the robot is checked against the robot file by CheckStepForRobot.
+inline constexpr int64_t kMaxPlanSteps = 10000;
+inline constexpr int kMaxPlanInt = 1000000;
+inline constexpr int kMaxPulseUs = 9999;
+
 // One pulse width relative to the robot file: base + offset_us.
 struct PwmExpr {
   enum class Base { kAbsolute, kCentre, kMin, kMax };
@@ -194,6 +204,13 @@ struct Protocol {
 
 // Loads a protocol file; throws ProtocolError (naming file, step index and field).
 Protocol LoadProtocolFile(const std::string& path);
+
+// "" if the step's pulse-width quantities fit the robot file: step_us, amplitude_us,
+// coarse_us and max_step_us no larger than the servo's range (max_us - min_us),
+// limit_margin_us below half of it (grid offsets beyond the range are clamped and reported). Else why, naming the file, step and field
+// ("wide.yaml: step 0 (sweep): field 'step_us': 5000 us is more than Rx's range of 1000 us").
+// The runner and the dry-run plan refuse a protocol that does not fit, before anything moves.
+std::string CheckStepForRobot(const Step& step, const models::RobotConfig& robot);
 // Parses protocol YAML text; `source` names it in errors.
 Protocol ParseProtocolYaml(const std::string& yaml_text, const std::string& source);
 

@@ -28,6 +28,28 @@
 namespace owlcal::protocols {
 namespace {
 
+std::atomic<bool> g_stop{false};
+std::atomic<int> g_stop_signal{0};  // the signal that asked to stop (0: none, or set by a caller)
+extern "C" void OnStopSignal(int sig) {
+  if (g_stop.load()) std::_Exit(128 + sig);
+  g_stop_signal.store(sig);
+  g_stop.store(true);
+}
+
+std::string StopReason() {
+  switch (g_stop_signal.load()) {
+    case SIGINT:
+      return "stop requested (SIGINT, Ctrl-C)";
+    case SIGTERM:
+      return "stop requested (SIGTERM)";
+    case SIGHUP:
+      return "stop requested (SIGHUP: the terminal or SSH session closed)";
+    default:
+      return "stop requested";
+  }
+}
+
+
 using models::kNumServos;
 using models::PwmVector;
 
@@ -76,7 +98,7 @@ class Runner {
 
   // ---- robot I/O
   void CheckStop() {
-    if (o_.stop_flag && o_.stop_flag->load()) throw RunAborted("stop requested (Ctrl-C)");
+    if (o_.stop_flag && o_.stop_flag->load()) throw RunAborted(StopReason());
   }
   void Send(const PwmVector& desired) {
     const robot::ClampResult c = guard_.Clamp(desired);
@@ -869,11 +891,6 @@ RunSummary Runner::Run() {
   return summary_;
 }
 
-std::atomic<bool> g_stop{false};
-extern "C" void OnSigint(int) {
-  if (g_stop.load()) std::_Exit(130);
-  g_stop.store(true);
-}
 
 }  // namespace
 
@@ -889,15 +906,28 @@ bool RunOptions::Check(std::string* why) const {
   return true;
 }
 
+namespace {
+// Throws ProtocolError for the first step whose pulse widths do not fit the robot file.
+void CheckProtocolsForRobot(const std::vector<Protocol>& protocols, const models::RobotConfig& robot) {
+  for (const Protocol& p : protocols)
+    for (const Step& s : p.steps) {
+      const std::string why = CheckStepForRobot(s, robot);
+      if (!why.empty()) throw ProtocolError(why);
+    }
+}
+}  // namespace
+
 RunSummary RunProtocols(const std::vector<Protocol>& protocols, robot::RobotInterface& robot, const RunOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument(why);
+  CheckProtocolsForRobot(protocols, robot.Config());
   Runner r(protocols, robot, options);
   return r.Run();
 }
 
 std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols, const models::RobotConfig& robot,
                                  int64_t* num_clamped) {
+  CheckProtocolsForRobot(protocols, robot);
   robot::LimitsGuard guard(robot);
   std::vector<std::string> out;
   int64_t clamped = 0;
@@ -967,9 +997,12 @@ std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols, const m
   return out;
 }
 
-std::atomic<bool>* InstallSigintStop() {
+std::atomic<bool>* InstallStopSignals() {
   g_stop.store(false);
-  std::signal(SIGINT, OnSigint);
+  g_stop_signal.store(0);
+  std::signal(SIGINT, OnStopSignal);
+  std::signal(SIGTERM, OnStopSignal);
+  std::signal(SIGHUP, OnStopSignal);
   return &g_stop;
 }
 

@@ -8,7 +8,7 @@
 //    in RunSummary::num_clamped) and never sent out of limits;
 //  - an RAII guard parks the head at its centre pose and closes the dataset (status
 //    "aborted" or "failed") on an exception or a stop request (Ctrl-C: the caller sets
-//    *RunOptions::stop_flag, e.g. from a SIGINT handler; see InstallSigintStop()).
+//    *RunOptions::stop_flag, e.g. from a signal handler; see InstallStopSignals()).
 //  - dry-run resolves and prints every planned command and checks it against the limits
 //    before anything moves (no robot needed: PlanRun()).
 //
@@ -101,7 +101,9 @@ RunSummary RunProtocols(const std::vector<Protocol>& protocols, robot::RobotInte
 std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols, const models::RobotConfig& robot,
                                  int64_t* num_clamped);
 
-// Installs a SIGINT handler that sets the returned flag (a second Ctrl-C terminates).
-std::atomic<bool>* InstallSigintStop();
+// Installs a handler for SIGINT, SIGTERM and SIGHUP (Ctrl-C, `timeout`, kill, a closed SSH
+// session) that sets the returned flag: the run parks the head and closes the manifest as
+// "aborted", naming the signal. A second signal terminates at once (exit 128 + signal).
+std::atomic<bool>* InstallStopSignals();
 
 }  // namespace owlcal::protocols

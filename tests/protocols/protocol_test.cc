@@ -82,6 +82,56 @@ TEST(Protocol, ErrorsNameFileStepAndField) {
   EXPECT_NE(e.find("not valid YAML"), std::string::npos) << e;
 }
 
+// Issue 15: a repeat of 2e9, or three nested repeats of 1000, ended in a bare std::bad_alloc.
+TEST(Protocol, PlanSizeIsCappedWithAClearError) {
+  std::string e = ErrorOf("name: x\nsteps:\n  - repeat: {times: 2000000000, steps: [{wait: {ms: 1}}]}\n");
+  EXPECT_NE(e.find("p.yaml: step 0 (repeat): field 'times'"), std::string::npos) << e;
+  e = ErrorOf("name: x\nsteps:\n  - repeat: {times: 1000, steps: [{wait: {ms: 1}}]}\n");
+  EXPECT_EQ(e, "");  // 1000 steps is fine
+  e = ErrorOf(
+      "name: x\nsteps:\n  - repeat: {times: 1000, steps: [{repeat: {times: 1000, steps: [{repeat: {times: 1000, steps: "
+      "[{capture: {frames: 1}}]}}]}}]}\n");
+  EXPECT_NE(e.find("field 'times'"), std::string::npos) << e;
+  EXPECT_NE(e.find("longer than 10000 steps"), std::string::npos) << e;
+  // Several repeats that each fit but together do not.
+  std::string many = "name: x\nsteps:\n";
+  for (int i = 0; i < 3; ++i) many += "  - repeat: {times: 4000, steps: [{wait: {ms: 1}}]}\n";
+  e = ErrorOf(many);
+  EXPECT_NE(e.find("step 2 (repeat): field 'times'"), std::string::npos) << e;
+}
+
+// Issue 15: step_us, pan_us or amplitude_us of 2147483647 overflowed a signed int and the sweep
+// ran 2,400 commands clamped to the opposite end. Pulse widths are bounded when read and
+// checked against the robot file's range before anything moves.
+TEST(Protocol, PulseWidthQuantitiesCannotOverflow) {
+  for (const char* yaml : {"  - sweep: {servo: Rx, step_us: 2147483647}\n",
+                           "  - grid: {pan_us: [0, 2147483647]}\n",
+                           "  - latency: {servo: Rx, amplitude_us: 2147483647}\n",
+                           "  - limits: {coarse_us: 2147483647}\n",
+                           "  - grid: {tilt_us: [-99999]}\n",
+                           "  - fixate: {max_step_us: 10000}\n"}) {
+    const std::string e = ErrorOf(std::string("name: x\nsteps:\n") + yaml);
+    EXPECT_NE(e.find("p.yaml: step 0"), std::string::npos) << yaml << " -> " << e;
+    EXPECT_NE(e.find("_us'"), std::string::npos) << yaml << " -> " << e;
+  }
+  // Strict numbers: hex, nan and fractions are not integers.
+  EXPECT_NE(ErrorOf("name: x\nsteps:\n  - sweep: {servo: Rx, step_us: 0x10}\n").find("'0x10' is not an integer"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("name: x\nsteps:\n  - fixate: {gain: .nan}\n").find("field 'gain'"), std::string::npos);
+  EXPECT_NE(ErrorOf("name: x\nsteps:\n  - place-target: {target: b, distance_m: 1e300}\n").find("field 'distance_m'"),
+            std::string::npos);
+  // Within the packet's range but larger than the robot's: refused against the robot file.
+  const Protocol p = ParseProtocolYaml("name: x\nsteps:\n  - sweep: {servo: Rx, step_us: 5000}\n", "p.yaml");
+  const models::RobotConfig robot = models::DefaultRobotConfig();
+  const std::string why = CheckStepForRobot(p.steps[0], robot);
+  EXPECT_NE(why.find("p.yaml: step 0 (sweep): field 'step_us': 5000 us is more than Rx's range of"), std::string::npos)
+      << why;
+  const Protocol ok = ParseProtocolYaml("name: x\nsteps:\n  - sweep: {servo: Rx, step_us: 25}\n", "p.yaml");
+  EXPECT_EQ(CheckStepForRobot(ok.steps[0], robot), "");
+  const Protocol lat = ParseProtocolYaml("name: x\nsteps:\n  - latency: {servo: Neck, amplitude_us: 9000}\n", "p.yaml");
+  EXPECT_NE(CheckStepForRobot(lat.steps[0], robot).find("field 'amplitude_us'"), std::string::npos);
+}
+
 TEST(Protocol, EveryStandardProtocolLoads) {
   for (const std::string& name : StandardProtocolNames()) {
     const Protocol p = LoadProtocolFile(ResolveProtocolPath(name));

@@ -1,6 +1,7 @@
 // The runner against a fast fake robot: limits guard (clamped, reported, never sent),
 // dry-run plan, safe abort (parks at centre, dataset closed), resume, placement prompts.
 #include <atomic>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -125,6 +126,54 @@ TEST(Runner, StopRequestParksTheHeadAndClosesTheDataset) {
   EXPECT_TRUE(c.ok);
   EXPECT_EQ(c.status, "aborted");
   EXPECT_EQ(c.num_frames, 10);
+}
+
+// Issue 15: `timeout` (SIGTERM) or a closed SSH session (SIGHUP) left the head where it was and
+// the manifest "running". Each signal now stops the run like Ctrl-C.
+TEST(Runner, SigtermAndSighupParkTheHeadLikeSigint) {
+  for (const int sig : {SIGTERM, SIGHUP, SIGINT}) {
+    SCOPED_TRACE(sig);
+    testing::FakeRobot robot;
+    const Protocol p = ParseProtocolYaml(kCapture, "cap.yaml");
+    RunOptions o;
+    o.out_dir = TempDir("signal" + std::to_string(sig));
+    o.stop_flag = InstallStopSignals();
+    o.on_frame = [&](int64_t index) {
+      if (index == 9) std::raise(sig);
+    };
+    const RunSummary s = RunProtocols({p}, robot, o);
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+    std::signal(SIGHUP, SIG_DFL);
+    EXPECT_EQ(s.status, "aborted");
+    const char* name = sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "SIGINT";
+    EXPECT_NE(s.message.find(name), std::string::npos) << s.message;
+    EXPECT_EQ(s.num_frames, 10);
+    EXPECT_EQ(robot.requested.back(), robot.Config().Centre());
+    const DatasetCheck c = CheckDataset(o.out_dir);
+    EXPECT_TRUE(c.ok);
+    EXPECT_EQ(c.status, "aborted");
+    EXPECT_NE(ReadText(o.out_dir + "/manifest.json").find("\"aborted\""), std::string::npos);
+  }
+}
+
+// Issue 15: a sweep step larger than the servo's range is refused before anything moves.
+TEST(Runner, StepLargerThanTheRobotRangeIsRefusedBeforeMoving) {
+  testing::FakeRobot robot(TightRobot());
+  const Protocol p = ParseProtocolYaml("name: big\nsteps:\n  - sweep: {servo: Neck, step_us: 400}\n", "big.yaml");
+  RunOptions o;
+  o.out_dir = TempDir("bigstep");
+  try {
+    RunProtocols({p}, robot, o);
+    ADD_FAILURE() << "no error";
+  } catch (const ProtocolError& e) {
+    EXPECT_NE(std::string(e.what()).find("big.yaml: step 0 (sweep): field 'step_us': 400 us is more than Neck's range of 150 us"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(robot.requested.empty());
+  int64_t n = 0;
+  EXPECT_THROW(PlanRun({p}, TightRobot(), &n), ProtocolError);
 }
 
 TEST(Runner, ResumeContinuesAfterTheLastFinishedStep) {
