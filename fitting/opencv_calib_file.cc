@@ -95,6 +95,11 @@ void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereo
     }
     if (m.empty()) continue;
     m.convertTo(m, CV_64F);
+    if (m.channels() != 1)
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " has " +
+                               std::to_string(m.channels()) + " channels, expected 1");
+    if (!cv::checkRange(m))
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " holds a NaN or infinite value");
     if (f.rows > 0 && (m.rows != f.rows || m.cols != f.cols))
       throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " is " + std::to_string(m.rows) +
                                "x" + std::to_string(m.cols) + ", expected " + std::to_string(f.rows) + "x" +
@@ -112,8 +117,24 @@ void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereo
     if (std::string(f.name) == "T") m = m.reshape(1, 3);
     *f.m = m;
   }
-  if (!fs["image_width"].empty()) c->image_width = int(fs["image_width"]);
-  if (!fs["image_height"].empty()) c->image_height = int(fs["image_height"]);
+  for (const auto& [name, out] : {std::pair<const char*, int*>{"image_width", &c->image_width},
+                                  std::pair<const char*, int*>{"image_height", &c->image_height}}) {
+    const cv::FileNode n = fs[name];
+    if (n.empty()) continue;
+    if (!n.isInt() || int(n) < 1 || int(n) > 16384)
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + name + " is not an integer in 1..16384");
+    *out = int(n);
+  }
+  // Camera matrices: positive focal lengths and the [0 0 1] last row.
+  for (const auto& [name, m] : {std::pair<const char*, const cv::Mat*>{"M1", &c->M1}, {"M2", &c->M2}}) {
+    if (m->empty()) continue;
+    if (!(m->at<double>(0, 0) > 0 && m->at<double>(1, 1) > 0) || m->at<double>(2, 0) != 0 || m->at<double>(2, 1) != 0 ||
+        m->at<double>(2, 2) != 1)
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + name +
+                               " is not a camera matrix (fx > 0, fy > 0, last row 0 0 1)");
+  }
+  if (!c->R.empty() && cv::norm(c->R.t() * c->R - cv::Mat::eye(3, 3, CV_64F)) > 1e-3)
+    throw std::runtime_error("OpenCV calibration file " + path + ": field R is not a rotation (R^T R != I)");
   // The unit: stated by owlcal's files; else the course's mm when |T| > 1 (a stereo baseline
   // of more than 1 m is not an Owl), metres otherwise.
   c->rectify_alpha = NAN;
@@ -218,7 +239,27 @@ OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path) {
   } catch (const std::exception& e) {
     throw std::runtime_error("cannot open OpenCV calibration file " + path + ": " + e.what());
   }
-  ReadFields(fs, path, &c);
+  try {
+    ReadFields(fs, path, &c);
+  } catch (const cv::Exception& e) {  // a node of the wrong type (e.g. a string where a number belongs)
+    throw std::runtime_error("OpenCV calibration file " + path + ": " + e.what());
+  }
+  return c;
+}
+
+OpenCvStereoCalibration ParseOpenCvCalibration(const std::string& text, const std::string& source) {
+  OpenCvStereoCalibration c;
+  cv::FileStorage fs;
+  try {
+    if (!fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY)) throw std::runtime_error("not a FileStorage");
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot read OpenCV calibration file " + source + ": " + e.what());
+  }
+  try {
+    ReadFields(fs, source, &c);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error("OpenCV calibration file " + source + ": " + e.what());
+  }
   return c;
 }
 

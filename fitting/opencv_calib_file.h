@@ -69,8 +69,11 @@ void WriteOpenCvSplitFiles(const std::string& intrinsics_path,
                            const OpenCvStereoCalibration& c);
 
 // Reads every field present. Throws naming the path (and field) if the file cannot be opened
-// or a field has the wrong shape.
+// or a field has the wrong shape, holds a NaN or infinite value, M1/M2 is not a camera matrix
+// (fx, fy > 0, last row 0 0 1), R is not a rotation, or image_width/height is not 1..16384.
 OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path);
+// The same from the text of a YAML or XML FileStorage file (`source` names it in errors).
+OpenCvStereoCalibration ParseOpenCvCalibration(const std::string& text, const std::string& source);
 // Reads the split files and merges them.
 OpenCvStereoCalibration ReadOpenCvSplitFiles(const std::string& intrinsics_path, const std::string& extrinsics_path);
 

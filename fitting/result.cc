@@ -3,7 +3,10 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
+
+#include "io/json_strict.h"
 
 namespace owlcal::fitting {
 namespace {
@@ -40,8 +43,25 @@ models::CameraIntrinsics CameraFromJson(const json& j) {
   c.model = m == "opencv5" ? models::DistortionModel::kOpenCv5 : models::DistortionModel::kOpenCv8;
   c.width = j.at("width").get<int>();
   c.height = j.at("height").get<int>();
-  c.params = j.at("params").get<std::vector<double>>();
+  if (c.width < 1 || c.height < 1 || c.width > 16384 || c.height > 16384)
+    throw std::runtime_error("camera size " + std::to_string(c.width) + "x" + std::to_string(c.height) +
+                             " is not within 1..16384");
+  // NaN is written as null: a null parameter is refused here, by name.
+  const json& params = j.at("params");
+  if (!params.is_array()) throw std::runtime_error("camera params: expected a list of numbers");
+  static const char* kNames[] = {"fx", "fy", "cx", "cy"};
+  c.params.clear();
+  for (size_t i = 0; i < params.size(); ++i) {
+    const std::string name = "params[" + std::to_string(i) + "]" + (i < 4 ? std::string(" (") + kNames[i] + ")" : "");
+    if (!params[i].is_number()) throw std::runtime_error("camera " + name + " is " + params[i].dump() + ", not a number");
+    c.params.push_back(params[i].get<double>());
+  }
   if (int(c.params.size()) != 4 + c.NumDistortion()) throw std::runtime_error("camera params has wrong length");
+  // A focal length of 0 gave calibration.yaml full of NaN: refuse it here.
+  for (int i = 0; i < 2; ++i)
+    if (!(c.params[i] > 0))
+      throw std::runtime_error(std::string("camera params[") + std::to_string(i) + "] (" + kNames[i] + ") = " +
+                               std::to_string(c.params[i]) + " must be > 0");
   return c;
 }
 
@@ -176,7 +196,11 @@ CalibrationResult ResultFromJson(const json& j) {
   if (j.contains("cameras"))
     for (int e = 0; e < 2; ++e)
       if (j.at("cameras").contains(models::kEyeNames[e]))
-        r.cameras[e] = CameraFromJson(j.at("cameras").at(models::kEyeNames[e]));
+        try {
+          r.cameras[e] = CameraFromJson(j.at("cameras").at(models::kEyeNames[e]));
+        } catch (const std::exception& ex) {
+          throw std::runtime_error(std::string("cameras.") + models::kEyeNames[e] + ": " + ex.what());
+        }
   if (j.contains("stereo")) {
     StereoEstimate s;
     s.right_from_left = PoseFromJson(j.at("stereo").at("right_from_left"));
@@ -220,9 +244,11 @@ void WriteResultJson(const CalibrationResult& r, const std::string& path) {
 CalibrationResult ReadResultJson(const std::string& path) {
   std::ifstream f(path);
   if (!f) throw std::runtime_error("cannot open result file " + path);
+  std::ostringstream text;
+  text << f.rdbuf();
   json j;
   try {
-    j = json::parse(f);
+    j = io::ParseJsonStrict(text.str(), path);  // repeated keys are errors
     return ResultFromJson(j);
   } catch (const std::exception& e) {
     throw std::runtime_error("result file " + path + ": " + e.what());

@@ -109,5 +109,35 @@ TEST(OpenCvCalibFile, BadShapesAndMissingFilesNameThePath) {
   EXPECT_NE(why.find("thin prism"), std::string::npos);
 }
 
+// Issue 15: the course XML reader validates what it reads.
+TEST(OpenCvCalibFile, RefusesNonFiniteValuesBadCameraMatricesAndSizes) {
+  auto error_of = [](const std::string& body) {
+    try {
+      ParseOpenCvCalibration("%YAML:1.0\n---\n" + body, "bad.yml");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string m_ok = "M1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [500., 0., 320., 0., 500., 240., 0., 0., 1.]\n";
+  EXPECT_EQ(error_of(m_ok), "");
+  std::string e = error_of(
+      "M1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [0., 0., 320., 0., 500., 240., 0., 0., 1.]\n");
+  EXPECT_NE(e.find("bad.yml: field M1 is not a camera matrix"), std::string::npos) << e;
+  e = error_of("M1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [.nan, 0., 320., 0., 500., 240., 0., 0., 1.]\n");
+  EXPECT_NE(e.find("bad.yml: field M1 holds a NaN or infinite value"), std::string::npos) << e;
+  e = error_of("R: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [2., 0., 0., 0., 1., 0., 0., 0., 1.]\n");
+  EXPECT_NE(e.find("field R is not a rotation"), std::string::npos) << e;
+  e = error_of(m_ok + "image_width: 1000000\n");
+  EXPECT_NE(e.find("field image_width is not an integer in 1..16384"), std::string::npos) << e;
+  e = error_of(m_ok + "image_height: \"tall\"\n");
+  EXPECT_NE(e.find("field image_height"), std::string::npos) << e;
+  const std::string xml =
+      "<?xml version=\"1.0\"?>\n<opencv_storage>\n<M2 type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols><dt>d</dt>"
+      "<data>500. 0. 320. 0. 500. 240. 0. 0. 1.</data></M2>\n</opencv_storage>\n";
+  EXPECT_FALSE(ParseOpenCvCalibration(xml, "x.xml").M2.empty());
+  EXPECT_THROW(ParseOpenCvCalibration("<?xml version=\"1.0\"?>\n<opencv_storage><M2", "x.xml"), std::runtime_error);
+}
+
 }  // namespace
 }  // namespace owlcal::fitting
