@@ -1,6 +1,7 @@
 #include "protocols/dataset.h"
 
 #include "calib/csv.h"
+#include "io/json_strict.h"
 #include "io/strict_number.h"
 
 #include <sys/stat.h>
@@ -433,12 +434,8 @@ calib::CsvTable ReadAppendedCsv(const std::string& path) {
 nlohmann::json ReadManifest(const std::string& dir) {
   const std::string path = (fs::path(dir) / "manifest.json").string();
   if (!fs::exists(path)) throw std::runtime_error(path + ": missing (not a dataset folder)");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(ReadWholeFile(path));
-  } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(path + ": not valid JSON: " + e.what());
-  }
+  // Strict: a key given twice is an error (io/json_strict.h), as is invalid JSON.
+  const nlohmann::json j = io::ParseJsonStrict(ReadWholeFile(path), path);
   if (!j.is_object() || j.value("format", "") != kDatasetFormat)
     throw std::runtime_error(path + ": field 'format' is not '" + std::string(kDatasetFormat) + "'");
   return j;

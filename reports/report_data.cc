@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "io/json_strict.h"
 #include "reports/table.h"
 
 namespace owlcal::reports {
@@ -347,10 +348,9 @@ ReportData ReadReportData(const std::string& dir) {
   d.result = fitting::ReadResultJson(dir + "/results.json");
   const std::string ev = dir + "/evaluation.json";
   if (std::filesystem::exists(ev)) {
-    std::ifstream f(ev);
-    if (!f) throw std::runtime_error("cannot open " + ev);
+    const json j = io::ReadJsonFileStrict(ev);  // a key given twice is an error
     try {
-      EvaluationFromJson(json::parse(f), &d);
+      EvaluationFromJson(j, &d);
     } catch (const std::exception& e) {
       throw std::runtime_error("evaluation file " + ev + ": " + e.what());
     }

@@ -168,6 +168,27 @@ TEST(Dataset, ErrorsNameFileLineAndField) {
   EXPECT_NE(c.errors[0].find("frames.csv:3 field Rx_us"), std::string::npos) << c.errors[0];
 }
 
+// Issue 15: nlohmann-json kept the last of two equal keys without a word.
+TEST(Dataset, ManifestWithARepeatedKeyIsRefused) {
+  const std::string dir = TempDir("dupkey");
+  { auto w = DatasetWriter::Create(dir, {}); }
+  const fs::path manifest = fs::path(dir) / "manifest.json";
+  std::ifstream in(manifest);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  EXPECT_NO_THROW(ReadManifest(dir));
+  const size_t brace = text.find('{');
+  ASSERT_NE(brace, std::string::npos);
+  text.insert(brace + 1, "\"status\": \"complete\",");
+  std::ofstream(manifest) << text;
+  try {
+    ReadManifest(dir);
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), manifest.string() + ": key 'status' given twice") << e.what();
+  }
+}
+
 // Forks a recording, SIGKILLs it at a random moment, checks the dataset. The child writes one
 // byte per frame to a pipe AFTER the frame's line is flushed: every acknowledged frame must
 // survive.
