@@ -1,4 +1,7 @@
-// owlcal detect: images -> observation CSV (calib/observation_io.h).
+// owlcal detect: images, or a recorded dataset's frames -> observation CSV (calib/observation_io.h).
+// A dataset folder (protocols/dataset.h) is re-detected frame by frame: each frame's JPEG split
+// as the robot's stream is (manifest robot.config: mirror_stream, swap_eyes), and each corner
+// keeps the frame's servo command, approach and time stamp, as the runner's own detection does.
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
@@ -7,11 +10,14 @@
 #include <regex>
 
 #include <opencv2/imgcodecs.hpp>
+#include <nlohmann/json.hpp>
 
 #include "apps/command_registry.h"
 #include "calib/detector.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
+#include "fitting/robot_config_json.h"
+#include "protocols/dataset.h"
 
 namespace owlcal::apps {
 namespace {
@@ -45,6 +51,45 @@ int NumberIn(const std::string& stem) {
   return last.empty() ? -1 : std::stoi(last);
 }
 
+// Re-detects every recorded frame of the dataset `dir` (superseded frames of a resumed run are
+// skipped, as everything downstream skips them).
+int DetectDataset(const std::string& dir, const calib::TargetFile& tf, const calib::DetectorOptions& dopt,
+                  const std::string& out) {
+  const nlohmann::json manifest = protocols::ReadManifest(dir);
+  models::RobotConfig config = models::DefaultRobotConfig();
+  if (manifest.contains("robot") && manifest["robot"].contains("config"))
+    config = fitting::RobotConfigFromJson(manifest["robot"]["config"]);
+  std::vector<calib::CornerObservation> obs;
+  int found = 0, tried = 0, skipped = 0;
+  for (const protocols::FrameRecord& f : protocols::ReadFramesCsv(dir)) {
+    if (f.step_index < 0) {
+      ++skipped;
+      continue;
+    }
+    const std::vector<uint8_t> jpeg = protocols::ReadFrameJpeg(dir, f.frame_index);
+    const cv::Mat frame = cv::imdecode(jpeg, cv::IMREAD_COLOR);
+    if (frame.empty())
+      throw std::runtime_error(protocols::FramePath(dir, f.frame_index) + ": not a decodable JPEG");
+    cv::Mat eyes[2];
+    calib::SplitStereoFrame(frame, config.mirror_stream, config.swap_eyes, &eyes[0], &eyes[1]);
+    for (int eye = 0; eye < 2; ++eye) {
+      ++tried;
+      const calib::TargetDetection d = calib::DetectTarget(eyes[eye], tf.target, dopt);
+      if (!d.found) continue;
+      ++found;
+      std::vector<calib::CornerObservation> o2 =
+          calib::DetectionToObservations(d, tf.target, int(f.frame_index), eye, f.pwm_us, f.stamp_ns);
+      for (auto& c : o2) c.approach = f.approach;
+      obs.insert(obs.end(), o2.begin(), o2.end());
+    }
+  }
+  calib::WriteObservationsCsv(out, obs);
+  std::cout << "dataset " << dir << ": detected the target in " << found << " of " << tried << " eye images ("
+            << skipped << " superseded frames skipped); " << obs.size() << " corners with their servo commands written to "
+            << out << " (target '" << tf.target.id << "', unit " << tf.unit << ")\n";
+  return found > 0 ? kExitOk : kExitFailed;
+}
+
 int RunDetect(const DetectOptions& o) {
   const calib::TargetFile tf = calib::LoadTargetFileWithUnit(o.target_path);
   calib::DetectorOptions dopt;
@@ -57,8 +102,15 @@ int RunDetect(const DetectOptions& o) {
   std::string why;
   if (!dopt.Check(&why)) throw UsageError(why);
 
+  if (o.inputs.size() == 1 && fs::exists(fs::path(o.inputs[0]) / "manifest.json")) {
+    if (o.pairs || o.mirror || o.swap)
+      throw UsageError("a dataset's frames are split as its manifest says: --pairs, --mirror and --swap do not apply");
+    return DetectDataset(o.inputs[0], tf, dopt, o.out);
+  }
   std::vector<fs::path> files;
   for (const std::string& in : o.inputs) {
+    if (fs::exists(fs::path(in) / "manifest.json"))
+      throw UsageError("'" + in + "' is a dataset: give it alone to re-detect its frames");
     if (fs::is_directory(in)) {
       for (const auto& e : fs::directory_iterator(in))
         if (e.is_regular_file() && IsImage(e.path())) files.push_back(e.path());
@@ -138,10 +190,11 @@ int RunDetect(const DetectOptions& o) {
 const bool kRegistered = RegisterCommand(
     "detect",
     "Detect a chessboard/AprilGrid in images and write an observation CSV. Consumes image files or "
-    "folders (left*/right* pairs, single-eye images, or 1280x480 side-by-side frames); produces OBS.csv.",
+    "folders (left*/right* pairs, single-eye images, or 1280x480 side-by-side frames), or one recorded "
+    "dataset folder (its frames re-detected, each corner keeping the frame's servo command); produces OBS.csv.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<DetectOptions>();
-      cmd->add_option("inputs", o->inputs, "image files and/or folders")->required();
+      cmd->add_option("inputs", o->inputs, "image files and/or folders, or one dataset folder")->required();
       cmd->add_option("--target", o->target_path, "target file (data/targets/*.yaml)")->required();
       cmd->add_option("--out", o->out, "observation CSV to write")->required();
       cmd->add_option("--method", o->method, "chessboard detector: classic (findChessboardCorners + cornerSubPix) or sb");

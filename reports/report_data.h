@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fitting/calibration_run.h"
+#include "fitting/robot_config_json.h"
 #include "models/robot_config.h"
 
 namespace owlcal::reports {
@@ -28,8 +29,8 @@ nlohmann::json EvaluationToJson(const ReportData& data);
 // Fills everything but `result`; throws naming the field on a malformed document.
 void EvaluationFromJson(const nlohmann::json& j, ReportData* data);
 
-nlohmann::json RobotConfigToJson(const models::RobotConfig& c);
-models::RobotConfig RobotConfigFromJson(const nlohmann::json& j);
+using fitting::RobotConfigFromJson;
+using fitting::RobotConfigToJson;
 
 // Reads DIR/results.json and DIR/evaluation.json (the latter optional).
 ReportData ReadReportData(const std::string& dir);

@@ -1,0 +1,45 @@
+#include "apps/calibration_output.h"
+
+#include <iostream>
+
+#include "fitting/truth_compare.h"
+#include "owlcal_git.h"
+#include "owlcal_version.h"
+#include "reports/exports.h"
+#include "reports/report.h"
+#include "reports/report_data.h"
+#include "reports/table.h"
+
+namespace owlcal::apps {
+
+void Progress::operator()(const std::string& msg) const {
+  if (quiet_) return;
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  std::cout << "[" << name_ << " " << std::fixed;
+  std::cout.precision(1);
+  std::cout << s << " s] " << msg << std::endl;
+  std::cout.unsetf(std::ios::fixed);
+}
+
+nlohmann::json SoftwareInputs() { return {{"name", "owlcal"}, {"version", OWLCAL_VERSION}, {"git", OWLCAL_GIT_DESCRIBE}}; }
+
+void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out, bool draw, const Progress& progress) {
+  run->result.software_version = OWLCAL_VERSION;
+  run->result.inputs["software"] = SoftwareInputs();
+  reports::WriteReportData(*run, out);
+  const reports::ExportSet ex = reports::WriteCalibrationFiles(*run, out);
+  for (const auto& s : ex.skipped) progress("export skipped: " + s);
+  reports::ReportOptions ro;
+  ro.draw = draw;
+  const reports::ReportOutput rep = reports::WriteReport(*run, out, ro);
+  for (const auto& w : rep.warnings) progress("report: " + w);
+  if (run->truth) {
+    const fitting::TruthComparison c = fitting::CompareWithTruth(run->result);
+    progress("truth: " + std::to_string(c.num_with_sigma) + " parameters with sigma, " +
+             reports::Fmt(100 * c.fraction_within_2sigma, 3) + " % within 2 sigma, worst " + c.worst + " (z = " +
+             reports::Fmt(c.worst_z, 3) + ")");
+  }
+  progress("done: " + rep.index_html);
+}
+
+}  // namespace owlcal::apps

@@ -1,0 +1,37 @@
+#pragma once
+// What `owlcal calibrate` and `owlcal fit-datasets` share after the pipeline: progress lines and
+// the calibration folder's files (results.json, evaluation.json, calibration.yaml, the course's
+// xml, exports/, figures/, tables/, report/index.html).
+#include <chrono>
+#include <string>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+#include "fitting/calibration_run.h"
+
+namespace owlcal::apps {
+
+// "[NAME 12.3 s] message" lines on stdout (nothing when quiet).
+class Progress {
+ public:
+  Progress(std::string name, bool quiet)
+      : name_(std::move(name)), quiet_(quiet), t0_(std::chrono::steady_clock::now()) {}
+  void operator()(const std::string& msg) const;
+
+ private:
+  std::string name_;
+  bool quiet_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+// The software that made a result: {"name": "owlcal", "version", "git"} (git describe at
+// configure time, "unknown" without a checkout).
+nlohmann::json SoftwareInputs();
+
+// Stamps run->result with the software (software_version, inputs.software) and writes the
+// calibration folder `out`; draw = run gnuplot. On the virtual Owl, prints the comparison with
+// the truth.
+void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out, bool draw, const Progress& progress);
+
+}  // namespace owlcal::apps

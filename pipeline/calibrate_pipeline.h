@@ -1,0 +1,73 @@
+#pragma once
+// Everything `owlcal calibrate` does after recording, as one library call: from the recorded
+// datasets (one folder per protocol, protocols/dataset.h) to the calibration run the report
+// files are written from (fitting/calibration_run.h). `owlcal calibrate` records and then calls
+// it; `owlcal fit-datasets DIR` calls it on a recorded calibrate folder with no robot, and with
+// the same options reproduces every results.json value and sigma.
+//
+// It sits above protocols/ (the dataset readers) and fitting/ (the fits and evaluations); it
+// moves nothing and writes nothing (apps/ write the files).
+//
+// Steps, each on the datasets present (a protocol that did not run is skipped, and said so):
+//   1. intrinsics + stereo from `intrinsics` (eyes moving: each eye's intrinsics only) and
+//      `stereo` (eyes fixed: left and right paired), with the physical sanity of the rig;
+//   2. the head (servo maps, eye centres, intrinsics refined) from `servo_sweep`, one board per
+//      placement;
+//   3. the truth in the fit's gauge (virtual Owl only: CalibratePipelineOptions::truth);
+//   4. evaluations: ranging from `vergence` (every fixation a row with its status), the gain
+//      study at the delay `latency` measured, step responses from `step_response`, limits from
+//      `limits`.
+// Every option goes into result.inputs["pipeline"] and the datasets into result.inputs["datasets"].
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "fitting/calibration_run.h"
+#include "fitting/head_fit.h"
+#include "fitting/stereo_fit.h"
+#include "models/head_model.h"
+#include "models/robot_config.h"
+
+namespace owlcal::pipeline {
+
+struct CalibratePipelineOptions {
+  models::RobotConfig config = models::DefaultRobotConfig();
+  // The virtual Owl's true head (as the robot truth gives it, not yet in the fit's gauge):
+  // true fixation distances and the truth columns. nullopt on a real robot.
+  std::optional<models::HeadModel> truth;
+  double fps = 30.0;                  // stream frame rate (latency in frames, gain study)
+  int default_delay_frames = 3;       // loop delay when no latency dataset measured it
+  fitting::StereoFitOptions stereo;
+  fitting::HeadFitOptions head = CalibrateHeadFitOptions();
+  // Distances of the theoretical ranging-error curve [m].
+  double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
+  // Progress lines (may be null).
+  std::function<void(const std::string&)> progress;
+
+  // The head-fit options `owlcal calibrate` uses (why each: calibrate_pipeline.cc).
+  static fitting::HeadFitOptions CalibrateHeadFitOptions();
+  bool Check(std::string* why) const;
+  // Every option above but `truth` and `progress`, for results.json's inputs.
+  nlohmann::json ToJson() const;
+};
+
+// Runs the steps above on `datasets` (protocol name -> dataset folder; names the pipeline does
+// not know are listed in a warning). Failures of a fit are warnings in the result, never a
+// throw; unreadable dataset files throw std::runtime_error naming path:line:column.
+fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
+                                              const CalibratePipelineOptions& options);
+
+// The datasets of a recorded calibrate folder: every DIR/datasets/*/ with a manifest, by the
+// name of the protocol its manifest records. Throws when there are none, or two datasets of
+// one protocol.
+std::map<std::string, std::string> FindDatasets(const std::string& calibration_dir);
+
+// The robot configuration a dataset was recorded with (manifest.json robot.config), naming the
+// field on a malformed manifest.
+models::RobotConfig RobotConfigFromManifest(const nlohmann::json& manifest, const std::string& path);
+
+}  // namespace owlcal::pipeline

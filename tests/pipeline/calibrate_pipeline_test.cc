@@ -1,0 +1,100 @@
+// The calibration pipeline's own contract: which datasets a calibrate folder holds, the robot a
+// manifest recorded, options that are checked and recorded, and datasets with nothing to fit.
+#include "pipeline/calibrate_pipeline.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+
+#include <gtest/gtest.h>
+
+#include "fitting/robot_config_json.h"
+#include "protocols/dataset.h"
+
+namespace owlcal::pipeline {
+namespace {
+namespace fs = std::filesystem;
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+fs::path TempDir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("owlcal_pipeline_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  fs::create_directories(p / "datasets");
+  return p;
+}
+
+void MakeDataset(const fs::path& dir, const std::string& protocol) {
+  protocols::DatasetWriter::Create(dir.string(), {{"protocols", {{{"name", protocol}}}}})->Finish("complete", "");
+}
+
+TEST(CalibratePipeline, FindsTheDatasetsOfACalibrateFolderByProtocol) {
+  const fs::path root = TempDir("find");
+  EXPECT_NE(ErrorOf([&] { FindDatasets(root.string()); }).find("holds no dataset"), std::string::npos);
+  MakeDataset(root / "datasets" / "stereo", "stereo");
+  MakeDataset(root / "datasets" / "my_sweep", "servo_sweep");
+  fs::create_directories(root / "datasets" / "notes");  // no manifest: not a dataset
+  const auto d = FindDatasets(root.string());
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d.at("servo_sweep"), (root / "datasets" / "my_sweep").string());
+  EXPECT_EQ(d.at("stereo"), (root / "datasets" / "stereo").string());
+  MakeDataset(root / "datasets" / "stereo2", "stereo");
+  EXPECT_NE(ErrorOf([&] { FindDatasets(root.string()); }).find("a second dataset of protocol 'stereo'"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { FindDatasets((root / "datasets").string()); }).find("not a calibrate output folder"),
+            std::string::npos);
+  fs::remove_all(root);
+}
+
+TEST(CalibratePipeline, TheRobotComesFromTheManifest) {
+  models::RobotConfig c = models::DefaultRobotConfig();
+  c.name = "bench-owl";
+  c.servos[models::kNeck].max_us = 1900;
+  c.swap_eyes = true;
+  const nlohmann::json m = {{"robot", {{"config", fitting::RobotConfigToJson(c)}}}};
+  const models::RobotConfig r = RobotConfigFromManifest(m, "m.json");
+  EXPECT_EQ(r.name, "bench-owl");
+  EXPECT_EQ(r.servos[models::kNeck].max_us, 1900);
+  EXPECT_TRUE(r.swap_eyes);
+  EXPECT_EQ(fitting::RobotConfigToJson(r), fitting::RobotConfigToJson(c));
+  EXPECT_EQ(ErrorOf([] { RobotConfigFromManifest(nlohmann::json::object(), "m.json"); }),
+            "m.json: field 'robot.config' is missing");
+}
+
+TEST(CalibratePipeline, OptionsAreCheckedAndRecorded) {
+  CalibratePipelineOptions o;
+  std::string why;
+  EXPECT_TRUE(o.Check(&why)) << why;
+  EXPECT_TRUE(o.head.fit_intrinsics);
+  EXPECT_EQ(o.head.measured_sigma_factor, 2.0);
+  const nlohmann::json j = o.ToJson();
+  EXPECT_EQ(j.at("head").at("measured_sigma_factor"), 2.0);
+  EXPECT_EQ(j.at("stereo").at("intrinsics").at("model"), "opencv5");
+  EXPECT_EQ(j.at("truth"), false);
+  o.fps = 0;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("fps"), std::string::npos);
+  EXPECT_THROW(CalibrateFromDatasets({}, o), std::invalid_argument);
+}
+
+TEST(CalibratePipeline, NoDatasetsGiveWarningsNotACrash) {
+  const fitting::CalibrationRun run = CalibrateFromDatasets({}, CalibratePipelineOptions());
+  ASSERT_GE(run.result.warnings.size(), 2u);
+  EXPECT_EQ(run.result.warnings[0], "no chessboard views: intrinsics and stereo not fitted");
+  EXPECT_NE(run.result.warnings[1].find("no head fit"), std::string::npos);
+  EXPECT_TRUE(run.result.head.has_value());
+  EXPECT_FALSE(run.ranging);
+  EXPECT_TRUE(run.result.inputs.contains("pipeline"));
+}
+
+}  // namespace
+}  // namespace owlcal::pipeline
