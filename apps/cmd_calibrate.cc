@@ -13,11 +13,11 @@
 
 #include "apps/calibration_output.h"
 #include "apps/command_registry.h"
+#include "apps/robot_factory.h"
 #include "apps/robot_options.h"
 #include "owlcal_version.h"
 #include "pipeline/calibrate_pipeline.h"
 #include "protocols/protocol.h"
-#include "protocols/robot_factory.h"
 #include "protocols/runner.h"
 #include "sim/virtual_owl.h"
 
@@ -42,7 +42,7 @@ int RunCalibrate(const CalibrateOptions& o) {
   fs::create_directories(o.out);
   std::vector<std::string> names = o.protocols.empty() ? protocols::StandardProtocolNames() : o.protocols;
 
-  std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot.robot, o.robot.Factory());
+  std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
   const models::RobotConfig config = robot->Config();
   progress("robot: " + robot->Describe());
 

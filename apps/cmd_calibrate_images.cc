@@ -1,5 +1,5 @@
 // owlcal calibrate-images DIR --target FILE --out OUT [--mirror] [--side-by-side] [--swap]:
-// stereo calibration from a folder of image pairs a student already has (issue 7, item 1).
+// stereo calibration from a folder of image pairs a student already has.
 #include <filesystem>
 #include <fstream>
 #include <iostream>

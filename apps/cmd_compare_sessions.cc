@@ -1,5 +1,5 @@
 // owlcal compare-sessions A/results.json B/results.json ... --out DIR: calibrations of one
-// robot from different sessions side by side, differences in sigma units (issue 7, item 5).
+// robot from different sessions side by side, differences in sigma units.
 #include <filesystem>
 #include <fstream>
 #include <iostream>

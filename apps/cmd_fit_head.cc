@@ -1,4 +1,4 @@
-// owlcal fit-head OBS --out DIR: the head problem (issue 4, part 3) on a servo-sweep
+// owlcal fit-head OBS --out DIR: the head problem on a servo-sweep
 // observation file: servo maps, camera mounts, eye centres and IPD, neck map, with sigma and
 // the parameters the data cannot determine named (fitting/head_fit.h).
 // Consumes: observations CSV (calib/observation_io.h), optional robot file (robot/robot_file.h,

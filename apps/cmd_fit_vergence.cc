@@ -1,4 +1,4 @@
-// owlcal fit-vergence CSV --out DIR: eye-pan maps from a vergence log (issue 7, item 4).
+// owlcal fit-vergence CSV --out DIR: eye-pan maps from a vergence log.
 #include <filesystem>
 #include <fstream>
 #include <iostream>

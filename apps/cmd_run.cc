@@ -6,9 +6,9 @@
 #include <memory>
 
 #include "apps/command_registry.h"
+#include "apps/robot_factory.h"
 #include "apps/robot_options.h"
 #include "protocols/protocol.h"
-#include "protocols/robot_factory.h"
 #include "protocols/runner.h"
 #include "robot/link_commands.h"
 
@@ -51,12 +51,12 @@ int RunRun(const RunCmdOptions& o) {
   if (o.dry_run) {
     // Nothing moves and nothing connects: plan against the robot file's limits.
     models::RobotConfig config = robot::RobotConfigOrDefault(o.robot.robot_file);
-    if (o.robot.IsSim()) config = protocols::MakeRobot("sim", o.robot.Factory())->Config();
+    if (o.robot.IsSim()) config = MakeRobot("sim", o.robot.Factory())->Config();
     int64_t clamped = 0;
     for (const std::string& line : protocols::PlanRun(loaded, config, &clamped)) std::cout << line << "\n";
     return kExitOk;
   }
-  std::unique_ptr<robot::RobotInterface> robot = protocols::MakeRobot(o.robot.robot, o.robot.Factory());
+  std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
   ro.stop_flag = protocols::InstallStopSignals();
   const protocols::RunSummary s = protocols::RunProtocols(loaded, *robot, ro);
   if (s.status != "complete") {

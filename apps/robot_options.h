@@ -9,7 +9,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "protocols/robot_factory.h"
+#include "apps/robot_factory.h"
 #include "protocols/runner.h"
 
 namespace owlcal::apps {
@@ -24,8 +24,8 @@ struct RobotOptions {
 
   bool IsSim() const { return robot == "sim"; }
 
-  protocols::RobotFactoryOptions Factory() const {
-    protocols::RobotFactoryOptions fo;
+  RobotFactoryOptions Factory() const {
+    RobotFactoryOptions fo;
     fo.robot_file = robot_file;
     fo.truth_file = robot_truth;
     fo.scene_file = scene;

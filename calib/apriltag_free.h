@@ -6,10 +6,11 @@
 // tag25h9, tag16h5, tagCircle21h7, tagCircle49h12, tagCustom48h12, tagStandard41h12,
 // tagStandard52h13.
 //
-// Pixels: OpenCV's convention (STYLE.md section 7, (0,0) is the centre of the top-left
+// Pixels: OpenCV's convention (docs/conventions.md, Pixels, (0,0) is the centre of the top-left
 // pixel). libapriltag puts (0,0) at the top-left pixel's CORNER, so its corners and centre are
-// shifted by -0.5 px in x and y here (FACTS.md), pinned by tests/calib/apriltag_free_test.cc on
-// rendered tags with known corners and against the library called directly.
+// shifted by -0.5 px in x and y here (docs/conventions.md, Facts), pinned by
+// tests/calib/apriltag_free_test.cc on rendered tags with known corners and against the library
+// called directly.
 //
 // Corner refinement (refine_corners, on by default): libapriltag's refine_edges leaves corners
 // up to 0.3 px off when a tag's edges run along the pixel grid (measured on area-sampled
@@ -53,7 +54,7 @@ struct AprilTagOptions {
   std::vector<std::string> families = {"tag36h11"};  // or {"all"}
   double quad_decimate = 2.0;     // libapriltag quad_decimate: 1 = full resolution (slower, ~3x)
   double quad_sigma = 0.0;        // Gaussian blur before quad detection [px]
-  bool refine_edges = true;       // off: corners about 0.85 px off instead of 0.15 (FACTS.md)
+  bool refine_edges = true;       // off: corners about 0.85 px off instead of 0.15 (docs/conventions.md)
   double decode_sharpening = 0.25;
   int max_hamming = 1;            // bits corrected: 0..2 (2 only for families up to 10000 codes)
   double min_decision_margin = 0; // drop weaker detections (0 keeps all; the margin is reported)

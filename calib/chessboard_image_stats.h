@@ -4,7 +4,7 @@
 // Owl images and on the virtual Owl's, so the two can be put side by side
 // (fitting/capture_stats.h).
 //
-// All measurements use the detected inner corners (OpenCV pixel convention, STYLE.md 7):
+// All measurements use the detected inner corners (OpenCV pixel convention, docs/conventions.md, Pixels):
 //   - squares: the quadrilateral of four neighbouring corners; its interior (bilinear
 //     coordinates s, t in [0.25, 0.75]) is sampled pixel by pixel. A square is white or
 //     black by its mean against the board's median.

@@ -1,9 +1,9 @@
 #pragma once
 // Target detection: an image -> the target's corners that are visible, with their stable ids.
 //
-// Pixels are in OpenCV's convention (STYLE.md section 7): (0,0) is the centre of the top-left
+// Pixels are in OpenCV's convention (docs/conventions.md, Pixels): (0,0) is the centre of the top-left
 // pixel. AprilTags come from calib/apriltag_free.h (libapriltag's (0,0) at the top-left
-// pixel's corner shifted by -0.5 px, FACTS.md). AprilTag corner ids follow calib/target.h:
+// pixel's corner shifted by -0.5 px, docs/conventions.md, Facts). AprilTag corner ids follow calib/target.h:
 // 4 * tag_id + k, k = 0 TL, 1 TR, 2 BR, 3 BL as seen on the upright board (target x right,
 // y down), pinned by tests/calib/detector_test.cc on a rendered tag. A tag id seen more than
 // once in one image is ambiguous for a grid: every copy is rejected and the message names it.

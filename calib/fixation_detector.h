@@ -4,7 +4,7 @@
 // correlation as in the course's Owl-1 demo (a template cut from one eye is found in the
 // other).
 //
-// Pixels in OpenCV's convention (STYLE.md section 7): (0,0) is the centre of the top-left
+// Pixels in OpenCV's convention (docs/conventions.md, Pixels): (0,0) is the centre of the top-left
 // pixel.
 //
 // Disc: the image is thresholded (Otsu, or the given polarity), connected blobs are scored by

@@ -1,5 +1,5 @@
 #pragma once
-// Stereo image pairs from a folder a student already has (issue 7, item 1).
+// Stereo image pairs from a folder a student already has.
 //
 // Layouts (ImagePairOptions::side_by_side):
 //   separate files (default): left<KEY>.<ext> and right<KEY>.<ext> (case-insensitive prefix,

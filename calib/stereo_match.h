@@ -1,5 +1,5 @@
 #pragma once
-// Template matching along the rectified row (issue 7, item 3): a template is cut from the
+// Template matching along the rectified row: a template is cut from the
 // LEFT rectified image (a given ROI, or a central region), and searched for in the RIGHT
 // rectified image along the same rows by normalised cross-correlation
 // (cv::matchTemplate, TM_CCOEFF_NORMED), over disparities d = x_left - x_right in

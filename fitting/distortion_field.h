@@ -2,7 +2,7 @@
 // Where a lens moves image points: for a grid of pixels over the image, the pinhole position
 // of the ray the camera maps to that pixel (fx * x + cx, fy * y + cy with (x, y, 1) the
 // unprojected ray) and the displacement pixel - pinhole [px]. Pixels (0,0) = centre of the
-// top-left pixel (STYLE.md section 7).
+// top-left pixel (docs/conventions.md, Pixels).
 #include <vector>
 
 #include "models/camera_model.h"

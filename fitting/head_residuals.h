@@ -1,7 +1,7 @@
 #pragma once
-// Residual of the head problem (issue 4, part 3): all corners of one calib::View (one eye,
-// one frame, one board) against the head model, whitened by the corner sigma (STYLE.md
-// section 3, TagCornerResidual pattern, one cost function per view so the chain
+// Residual of the head problem: all corners of one calib::View (one eye,
+// one frame, one board) against the head model, whitened by the corner sigma (residuals are
+// whitened so the covariance is in physical units; one cost function per view so the chain
 // cam_from_target is built once per view).
 //
 // Parameter blocks, in this order (all Euclidean except the board pose):

@@ -2,7 +2,7 @@
 // Reprojection residuals shared by the intrinsics and stereo problems (fitting/ internal).
 // Parameter blocks: camera [fx fy cx cy dist...] (models::OpenCvCamera<N> order), poses as
 // 7-blocks [qx qy qz qw tx ty tz] (models::Rigid3). Residual = (projection - measured) /
-// sigma_px, so the problem is whitened (STYLE.md section 3).
+// sigma_px, so the problem is whitened (docs/conventions.md).
 #include <Eigen/Core>
 #include <ceres/autodiff_cost_function.h>
 

@@ -1,5 +1,5 @@
 #pragma once
-// Monte-Carlo check of reported uncertainties ("honest sigma", issue 4 part 4): run a fit on
+// Monte-Carlo check of reported uncertainties ("honest sigma"): run a fit on
 // many noisy realisations with known truth and count how often |estimate - truth| lies
 // within 1 and 3 reported sigmas. For Gaussian errors and honest sigmas: 68.3 % and 99.7 %.
 //

@@ -1,6 +1,6 @@
 #pragma once
 // The course's incremental proportional fixation loop with latency, and what it implies for
-// gain choice (FACTS.md "Control with latency").
+// gain choice (docs/conventions.md, Facts "Control with latency").
 //
 // Model (per frame k, frame period T = 1 / fps, d frames of delay between a command and the
 // image that shows it):

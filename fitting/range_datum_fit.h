@@ -1,10 +1,10 @@
 #pragma once
 // Datum and scale of the true distances (distance = a + b * truth): ranges that read short by a
 // roughly constant amount at every distance say the tape was zeroed somewhere else than the
-// cameras' optical centres (the kit2020 distance set reads 2-5 % short at 30-60 cm and within
-// 1.5 % beyond 1 m: about 1.5 cm of datum, FACTS.md); a constant percentage says scale (focal
-// length times baseline). The fit separates the two and reports the errors both before it and
-// after it, in-sample and leave-one-out (each row corrected by a fit on the others).
+// cameras' optical centres (the kit2020 distance set reads 2-5 % short at 30-60 cm and within 1.5 %
+// beyond 1 m: about 1.5 cm of datum, docs/conventions.md, Facts); a constant percentage says scale
+// (focal length times baseline). The fit separates the two and reports the errors both before it
+// and after it, in-sample and leave-one-out (each row corrected by a fit on the others).
 //
 // Weighted least squares over the rows with status ok and a truth: each row's variance is
 // sigma_range^2 + b^2 sigma_truth^2 (iterated on b); a and b carry sigma from the covariance,

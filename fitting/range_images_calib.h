@@ -1,5 +1,5 @@
 #pragma once
-// Stereo calibration from a folder of image pairs (issue 7, item 1), shared by
+// Stereo calibration from a folder of image pairs, shared by
 // `owlcal calibrate-images` and `owlcal range-images`: detected corners -> FitStereo ->
 // result, per-view residuals, coverage, and a verdict on the set.
 //

@@ -1,5 +1,5 @@
 #pragma once
-// Ranging a target in real stereo pairs (issue 7, item 3): rectify with a stereo
+// Ranging a target in real stereo pairs: rectify with a stereo
 // calibration, match a template along the rectified row (calib/stereo_match.h), triangulate,
 // and predict the range sigma from the calibration covariance and the matching sigma.
 //

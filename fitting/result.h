@@ -1,8 +1,7 @@
 #pragma once
-// The result of a fit, as written to results.json (issue 4, item 5; DESIGN.md
-// "Measurement rules"). Every number is {name, value, sigma, unit} and, on the virtual Owl,
-// its truth. Parameters the data could not determine carry determined = false and a reason
-// instead of a silent number.
+// The result of a fit, as written to results.json. Every number is {name, value, sigma, unit} and,
+// on the virtual Owl, its truth. Parameters the data could not determine carry determined = false
+// and a reason instead of a silent number.
 //
 // Names: left.fx, left.fy, left.cx, left.cy, left.k1 ... ; right.*; stereo.baseline_mm,
 // stereo.rx_deg ...; servo.Rx.centre_us, servo.Rx.deg_per_us, servo.Rx.quad_deg,

@@ -4,8 +4,8 @@
 // Physical bound of a fixation step of A degrees (fitting/ploop_analysis.h PhysicalLowerBoundS):
 //   t_min = A / slew + exposure delay + 1 / fps
 // the servo must turn A degrees at its slew rate, and a frame exposed after that must reach the
-// host (the stream's exposure-to-arrival delay; FACTS.md "Control with latency"). The slew and
-// delay are the ones fitted from the step frames (fitting/servo_motion_fit.h).
+// host (the stream's exposure-to-arrival delay; docs/conventions.md, Facts "Control with latency").
+// The slew and delay are the ones fitted from the step frames (fitting/servo_motion_fit.h).
 //
 // Settling times are the 2 % settling of fitting/step_response.h (band as in
 // fitting/loop_model.h), measured from the first frame of the trial, as for the P-loop trials;

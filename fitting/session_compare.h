@@ -1,10 +1,9 @@
 #pragma once
-// Side-by-side comparison of calibrations of one robot from different sessions (issue 7,
-// item 5): every chosen parameter per session with its sigma, and each pair of sessions'
-// difference in units of its combined sigma, z = (b - a) / sqrt(sigma_a^2 + sigma_b^2)
-// (sessions are independent image sets). |z| > z_changed says the robot (or its set-up)
-// changed beyond the calibrations' noise; a parameter without sigma in either session gives
-// z = NaN ("no sigma") rather than a verdict.
+// Side-by-side comparison of calibrations of one robot from different sessions: every chosen
+// parameter per session with its sigma, and each pair of sessions' difference in units of its
+// combined sigma, z = (b - a) / sqrt(sigma_a^2 + sigma_b^2) (sessions are independent image sets).
+// |z| > z_changed says the robot (or its set-up) changed beyond the calibrations' noise; a
+// parameter without sigma in either session gives z = NaN ("no sigma") rather than a verdict.
 #include <string>
 #include <vector>
 

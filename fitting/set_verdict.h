@@ -28,12 +28,13 @@
 // parts that hold no corner, tilt the board when the focal length is weak, more and more varied
 // views when the halves disagree).
 //
-// Limits, physical: 1.25 px at f ~ 585 px is 0.12 deg of gaze (the Owl's vergence budget is
-// 0.19 deg for 5 % at 1 m, FACTS.md); 0.5 % in f is 0.5 % in every stereo range; halves whose
-// focal lengths differ by 2 % range 2 % apart. Measured (tests/fitting/set_verdict_real_test.cc,
-// opencv5 model): the shared real sets reach at most 0.91 px / 0.34 % / 1.5 % (kit2020's halves
-// differ by 1.3-1.5 % in f although its sigma_f is 0.16 %: covariance_scale about 4); their
-// small, central, fronto-parallel subsets at least 1.8 px / 0.73 %.
+// Limits, physical: 1.25 px at f ~ 585 px is 0.12 deg of gaze (the Owl's vergence budget is 0.19
+// deg for 5 % at 1 m, docs/conventions.md, Facts); 0.5 % in f is 0.5 % in every stereo range;
+// halves whose focal lengths differ by 2 % range 2 % apart. Measured
+// (tests/fitting/set_verdict_real_test.cc, opencv5 model): the shared real sets reach at most 0.91
+// px / 0.34 % / 1.5 % (kit2020's halves differ by 1.3-1.5 % in f although its sigma_f is 0.16 %:
+// covariance_scale about 4); their small, central, fronto-parallel subsets at least 1.8 px / 0.73
+// %.
 #include <string>
 #include <vector>
 

@@ -1,6 +1,6 @@
 #pragma once
 // Step-response metrics of a sampled response, defined like MATLAB's stepinfo(y, t, yfinal,
-// yinit) with an explicit initial value (FACTS.md "Step-response metrics").
+// yinit) with an explicit initial value (docs/conventions.md, Facts "Step-response metrics").
 //
 // Let step = y_final - y_init (y_init defaults to y[0], y_final to the last sample) and
 // e(t) = (y(t) - y_init) / step, the normalised response (0 at rest, 1 at the final value).

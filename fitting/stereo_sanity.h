@@ -21,7 +21,7 @@
 //   principal point [poor]: farther than max_principal_offset_fraction * width from the
 //     image centre.
 //
-// The Owl (RigExpectation::Owl(), FACTS.md): OV5647 with a 3.6 mm lens at 640x480, spec
+// The Owl (RigExpectation::Owl(), docs/conventions.md, Facts): OV5647 with a 3.6 mm lens at 640x480, spec
 // 635 px, real Owls measured 578-591 px -> family 540-680 px at 640 px; design IPD 65 mm,
 // calibrated baselines 62.5-64.9 mm -> 65 +- 8 mm. RigExpectation::Generic(): any side-by-side
 // stereo pair (no IPD, no lens family), e.g. OpenCV's sample set.

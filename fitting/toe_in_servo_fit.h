@@ -18,7 +18,7 @@
 //
 // Weights: each set's yaw sigma from its stereo covariance (typically 0.01-0.03 deg). Sets
 // taken at the same PWM scatter far more than that (servo repeatability, backlash, re-seating:
-// about 1 deg on real Owls, FACTS.md), so the fit reports chi2/dof and scales the parameter
+// about 1 deg on real Owls, docs/conventions.md, Facts), so the fit reports chi2/dof and scales the parameter
 // sigmas by sqrt(chi2/dof) when it exceeds 1 (the scatter between sets then sets the sigma);
 // `repeatability_deg` is the per-set scatter beyond the calibration sigma,
 // sqrt(max(0, RMS residual^2 - mean sigma^2)).

@@ -1,8 +1,8 @@
 #pragma once
-// Every fitted number against the truth of a virtual Owl, in units and in sigma (DESIGN.md
-// "Measurement rules"). The truth comes in as named values in the result's names and units
-// (servo.*, head.* from fitting/head_fit.h HeadParameters in the fit's gauge; left.* / right.*
-// intrinsics; stereo.* from StereoTruthValues) and fills Parameter::truth.
+// Every fitted number against the truth of a virtual Owl, in units and in sigma. The truth comes in
+// as named values in the result's names and units (servo.*, head.* from fitting/head_fit.h
+// HeadParameters in the fit's gauge; left.* / right.* intrinsics; stereo.* from StereoTruthValues)
+// and fills Parameter::truth.
 //
 // z = (value - truth) / sigma. A parameter is "within" when |z| <= 2 (or, with sigma 0 or
 // undetermined, never counted in the z statistics but listed).

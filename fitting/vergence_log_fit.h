@@ -1,6 +1,6 @@
 #pragma once
 // Eye-pan maps from a vergence log: rows of (true distance, Rx, Lx) recorded while both eyes
-// fixate one target (issue 7, item 4; data/owl-real/noble2020-vergence-range).
+// fixate one target (data/owl-real/noble2020-vergence-range).
 //
 // Model (head frame of models/vergence.h: eye rotation centres IPD apart on x, midpoint at
 // the origin, z forward). Run r's target moves along a line from the midpoint at bearing
@@ -10,7 +10,7 @@
 //   theta_L = atan2(x + IPD/2, z),  theta_R = atan2(IPD/2 - x, z)   (inward, rad)
 //   Lx = lx_centre + lx_us_per_deg * deg(theta_L)
 //   Rx = rx_centre - rx_us_per_deg * deg(theta_R)
-// (Converging means Rx down and Lx up, FACTS.md.) Residuals are in PWM space, whitened by
+// (Converging means Rx down and Lx up, docs/conventions.md, Facts.) Residuals are in PWM space, whitened by
 // `pwm_sigma_us`; the reported sigmas are scaled by the fit's own residual spread
 // (sqrt(chi2/dof)) when that is larger than 1, i.e. the data's scatter, not the prior.
 //

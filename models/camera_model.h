@@ -1,6 +1,6 @@
 #pragma once
 // Pinhole camera with OpenCV's 5- or 8-coefficient lens distortion, templated on the scalar
-// so Ceres can differentiate it. Conventions (STYLE.md section 7): camera frame x right,
+// so Ceres can differentiate it. Conventions (docs/conventions.md, Pixels): camera frame x right,
 // y down, z forward; pixel (0,0) is the centre of the top-left pixel, as in OpenCV.
 //
 // params (kNumParams = 4 + N):
@@ -94,7 +94,8 @@ struct OpenCvCamera {
 using Camera5 = OpenCvCamera<5>;
 using Camera8 = OpenCvCamera<8>;
 
-// Run-time choice of the camera model (STYLE.md section 3): the one std::variant.
+// Run-time choice of the camera model: this enum, dispatched to the templated models by
+// VisitCameraModel below (everything else is templated on the model).
 enum class DistortionModel { kOpenCv5, kOpenCv8 };
 
 // A camera as data: model, image size and parameter vector (fx fy cx cy dist...).

@@ -1,6 +1,6 @@
 #pragma once
 // Rigid transform a_from_b, templated on the scalar. Stored as a 7-block
-// [qx, qy, qz, qw, tx, ty, tz] (Eigen quaternion order, STYLE.md section 3), so a pose is
+// [qx, qy, qz, qw, tx, ty, tz] (Eigen quaternion order, docs/conventions.md), so a pose is
 // one Ceres parameter block with ProductManifold<EigenQuaternionManifold, EuclideanManifold<3>>.
 //   x_in_a = a_from_b * x_in_b = q * x_in_b + t
 #include <Eigen/Core>

@@ -20,7 +20,7 @@ struct ServoConfig {
   int max_us = 2000;     // highest pulse width ever sent
   int centre_us = 1500;  // straight ahead / level
   // Sign of the joint angle per increasing PWM, with angles positive to the robot's right
-  // (pan, neck) and up (tilt). Guide and FACTS.md: Rx, Lx +1 (right), Ry +1 (up),
+  // (pan, neck) and up (tilt). Guide and docs/conventions.md, Facts: Rx, Lx +1 (right), Ry +1 (up),
   // Ly -1 (mirrored: increasing PWM moves down), Neck -1 (increasing PWM turns left).
   int direction = 1;
   double nominal_deg_per_us = 0.113;

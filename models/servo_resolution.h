@@ -1,7 +1,7 @@
 #pragma once
 // What a servo makes of a commanded pulse width before it moves: the PWM generator's step and
 // the servo's dead band. pigpio's default sampling makes pulse widths move in 5 us steps; the
-// servo ignores a change smaller than its dead band (FACTS.md, the Owl user guide).
+// servo ignores a change smaller than its dead band (docs/conventions.md, Facts, the Owl user guide).
 //
 // Model (the virtual Owl's truth, sim/servo_dynamics.h, is the case phase = ceil(step / 2)):
 //   Stepped(u)  the pulse the generator produces for a command u [us]: the multiple of step_us in

@@ -130,18 +130,6 @@ class BoardLocator : public TargetLocator {
   cv::Point2d centre_;
 };
 
-class FunctionLocator : public TargetLocator {
- public:
-  FunctionLocator(std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn)
-      : name_(std::move(name)), fn_(std::move(fn)) {}
-  std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int eye) override { return fn_(image, eye); }
-  std::string Name() const override { return name_; }
-
- private:
-  std::string name_;
-  std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn_;
-};
-
 // Half-cycle peak tracker of one error signal.
 struct PeakTracker {
   int sign = 0;
@@ -216,10 +204,6 @@ std::unique_ptr<TargetLocator> MakeTemplateLocator(int half_size, double min_sco
 }
 std::unique_ptr<TargetLocator> MakeBoardLocator(const calib::TargetDefinition& target) {
   return std::make_unique<BoardLocator>(target);
-}
-std::unique_ptr<TargetLocator> MakeFunctionLocator(
-    std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn) {
-  return std::make_unique<FunctionLocator>(std::move(name), std::move(fn));
 }
 
 const char* OutcomeName(FixationResult::Outcome o) {

@@ -9,13 +9,13 @@
 //   pan_err_us  = direction_pan  * deg(atan(e_x / focal_px)) / deg_per_us
 //   tilt_err_us = direction_tilt * deg(atan(-e_y / focal_px)) / deg_per_us
 // and the command moves by gain * error (the course's incremental loop theta += K * error,
-// FACTS.md "Control with latency": with d frames of delay K_crit = 2 sin(pi / (2 (2d + 1))),
-// 0.445 for d = 3; K = 0.1 settles without overshoot). The command is kept as a real number
-// and rounded to whole microseconds when sent. An axis whose offset is within tolerance_px is
-// not updated (a dead zone: with servo backlash an integrating loop would limit-cycle). Once
-// an axis' offset has cycled across the centre (two sign changes within 7 px), its dead zone
-// takes in the plateaus the target jumped between: a servo with a PWM step or dead band cannot
-// put it closer, and the loop would otherwise cycle between two pulses for ever.
+// docs/conventions.md, Facts "Control with latency": with d frames of delay K_crit = 2 sin(pi / (2
+// (2d + 1))), 0.445 for d = 3; K = 0.1 settles without overshoot). The command is kept as a real
+// number and rounded to whole microseconds when sent. An axis whose offset is within tolerance_px
+// is not updated (a dead zone: with servo backlash an integrating loop would limit-cycle). Once an
+// axis' offset has cycled across the centre (two sign changes within 7 px), its dead zone takes in
+// the plateaus the target jumped between: a servo with a PWM step or dead band cannot put it
+// closer, and the loop would otherwise cycle between two pulses for ever.
 //
 // Latency awareness: latency_frames = n > 0 waits n frames after every update (those frames
 // still show the old pose), which makes large gains stable at the cost of a slower loop.
@@ -64,9 +64,6 @@ std::unique_ptr<TargetLocator> MakeTemplateLocator(int half_size = 20, double mi
 // The centre of an AprilTag (or chessboard) board found by calib::DetectTarget: the board
 // centre mapped through the homography fitted to the detected corners (partial views work).
 std::unique_ptr<TargetLocator> MakeBoardLocator(const calib::TargetDefinition& target);
-// Any callable.
-std::unique_ptr<TargetLocator> MakeFunctionLocator(
-    std::string name, std::function<std::optional<Eigen::Vector2d>(const cv::Mat&, int)> fn);
 
 struct FixationOptions {
   bool eyes[2] = {true, true};    // [kLeftEye], [kRightEye]

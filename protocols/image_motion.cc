@@ -57,33 +57,4 @@ double RimFraction(const cv::Mat& eye_image, int band_px, int dark_level) {
   return total ? double(dark) / double(total) : 0.0;
 }
 
-std::vector<cv::Rect> RimSegments(int w, int h, int band) {
-  std::vector<cv::Rect> r;
-  for (int k = 0; k < 4; ++k) r.emplace_back(k * w / 4, 0, (k + 1) * w / 4 - k * w / 4, band);
-  for (int k = 0; k < 4; ++k) r.emplace_back(k * w / 4, h - band, (k + 1) * w / 4 - k * w / 4, band);
-  for (int k = 0; k < 4; ++k) r.emplace_back(0, k * h / 4, band, (k + 1) * h / 4 - k * h / 4);
-  for (int k = 0; k < 4; ++k) r.emplace_back(w - band, k * h / 4, band, (k + 1) * h / 4 - k * h / 4);
-  return r;
-}
-
-RimProfile ComputeRimProfile(const cv::Mat& eye_image, int band_px) {
-  cv::Mat grey;
-  if (eye_image.channels() == 3) {
-    cv::cvtColor(eye_image, grey, cv::COLOR_BGR2GRAY);
-  } else {
-    grey = eye_image;
-  }
-  const double centre = std::max(1.0, cv::mean(grey(cv::Rect(grey.cols / 4, grey.rows / 4, grey.cols / 2, grey.rows / 2)))[0]);
-  RimProfile p;
-  for (const cv::Rect& r : RimSegments(grey.cols, grey.rows, band_px)) p.relative.push_back(cv::mean(grey(r))[0] / centre);
-  return p;
-}
-
-double RimDarkening(const RimProfile& baseline, const RimProfile& current) {
-  double worst = 0;
-  for (size_t i = 0; i < baseline.relative.size() && i < current.relative.size(); ++i)
-    if (baseline.relative[i] > 0) worst = std::max(worst, 1.0 - current.relative[i] / baseline.relative[i]);
-  return worst;
-}
-
 }  // namespace owlcal::protocols

@@ -29,18 +29,4 @@ Shift ThumbShift(const cv::Mat& from_thumb, const cv::Mat& to_thumb, int downsam
 // `dark_level` (0..255 grey): the eye socket rim intruding shows as a growing fraction.
 double RimFraction(const cv::Mat& eye_image, int band_px = 8, int dark_level = 20);
 
-// The border band (band_px wide) cut into 16 segments, 4 per side (top, bottom, left, right,
-// each side's segments from its start), in pixel rectangles of a width x height image.
-std::vector<cv::Rect> RimSegments(int width, int height, int band_px = 8);
-
-// Brightness of each border segment relative to the image centre (the inner half): the
-// socket rim shows as a segment getting darker than it was at the centre pose; lens shading
-// cancels in the comparison.
-struct RimProfile {
-  std::vector<double> relative;  // per RimSegments() entry: segment mean / centre mean
-};
-RimProfile ComputeRimProfile(const cv::Mat& eye_image, int band_px = 8);
-// The largest relative darkening of a segment: max over segments of 1 - current / baseline.
-double RimDarkening(const RimProfile& baseline, const RimProfile& current);
-
 }  // namespace owlcal::protocols

@@ -6,8 +6,8 @@
 //  - every command passes through robot::LimitsGuard built from the robot's configuration:
 //    a value outside the limits is clamped, reported (events.log + progress output, counted
 //    in RunSummary::num_clamped) and never sent out of limits;
-//  - an RAII guard parks the head at its centre pose and closes the dataset (status
-//    "aborted" or "failed") on an exception or a stop request (Ctrl-C: the caller sets
+//  - on an exception or a stop request RunProtocols parks the head at its centre pose (its
+//    catch handlers) and closes the dataset as "aborted" or "failed" (Ctrl-C: the caller sets
 //    *RunOptions::stop_flag, e.g. from a signal handler; see InstallStopSignals()).
 //  - dry-run resolves and prints every planned command and checks it against the limits
 //    before anything moves (no robot needed: PlanRun()).

@@ -1,5 +1,5 @@
 #pragma once
-// The Owl servo packet (guide, Annex 2 and code snippets 3-5; FACTS.md):
+// The Owl servo packet (guide, Annex 2 and code snippets 3-5; docs/conventions.md, Facts):
 // exactly 24 ASCII bytes, five four-digit pulse widths in microseconds separated by single
 // spaces, in the order Rx Ry Lx Ly Neck, e.g. "1545 1530 1545 1580 1530" (24 bytes, no
 // terminator). The course server reads 24 bytes per recv and treats fewer as the end of the

@@ -4,7 +4,7 @@ set -euo pipefail
 pkgs=(cmake g++ make pkg-config
       libopencv-dev libceres-dev libeigen3-dev libapriltag-dev libgtest-dev
       libyaml-cpp-dev nlohmann-json3-dev libcli11-dev gnuplot-nox
-      python3-mrcal
+      python3-mrcal clang-format
       poppler-utils librsvg2-bin)   # pdftoppm / rsvg-convert: the printable-target tests rasterise PDF and SVG
 missing=()
 for p in "${pkgs[@]}"; do

@@ -1,6 +1,6 @@
 #pragma once
 // The served virtual Owl: a real-time VirtualOwl behind the robot's own network protocols,
-// on loopback by default (issue 3, "owlcal sim"):
+// on loopback by default (owlcal sim):
 //   - TCP servo server (robot/servo_server.h: 24-byte packets, "ok" before parsing, the
 //     course server's clamp) -> VirtualOwl::SendServos;
 //   - HTTP (robot/mjpeg_server.h): GET /stream/video.mjpeg, the 1280x480 side-by-side MJPEG

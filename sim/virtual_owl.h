@@ -1,23 +1,22 @@
 #pragma once
-// The virtual Owl: a ground-truth robot behind robot::RobotInterface (DESIGN.md "The
-// virtual Owl"; issue 3). It reads a robot-truth file (sim/robot_truth.h) and a scene file
-// (sim/scene.h), simulates the five servos exactly (sim/servo_dynamics.h) and renders the
-// 1280x480 side-by-side stream (sim/renderer.h) with JPEG artefacts, noise, latency and
-// drops.
+// The virtual Owl: a ground-truth robot behind robot::RobotInterface. It reads a robot-truth file
+// (sim/robot_truth.h) and a scene file (sim/scene.h), simulates the five servos exactly
+// (sim/servo_dynamics.h) and renders the 1280x480 side-by-side stream (sim/renderer.h) with JPEG
+// artefacts, noise, latency and drops.
 //
 // Clock. In-process (default) the clock is VIRTUAL and starts at 0: it advances only in
 // SleepNs, SendServos (by stream.servo_reply_ms, the packet round trip) and GrabFrame.
 // With real_time = true (served mode) NowNs is the host's steady clock since construction
 // and waits really sleep.
 //
-// Stream timing. Frame `seq` (0, 1, ...) is exposed at ExposureNs(seq, eye) = seq / fps
-// (+ stream.eye_offset_ms for the right eye) and received at StampNs(seq) = seq / fps +
-// latency (+ the eye offset if positive: the frame is complete when both eyes are). GrabFrame(after, timeout) returns the newest received frame whose stamp > after;
-// if there is none yet it advances the clock to the delivery of the next one (skipping
-// dropped frames), or by `timeout` and returns nullopt. Each frame shows the servo angles
-// at its exposure time, so a command reaches the image after the latency. Frames depend only
-// on (seed, seq, command history, scene): two runs with the same seed and calls produce
-// identical frames.
+// Stream timing. Frame `seq` (0, 1, ...) is exposed at ExposureNs(seq, eye) = seq / fps (+
+// stream.eye_offset_ms for the right eye) and received at StampNs(seq) = seq / fps + latency (+ the
+// eye offset if positive: the frame is complete when both eyes are). GrabFrame(after, timeout)
+// returns the newest received frame whose stamp > after; if there is none yet it advances the clock
+// to the delivery of the next one (skipping dropped frames), or by `timeout` and returns nullopt.
+// Each frame shows the servo angles at its exposure time, so a command reaches the image after the
+// latency. Frames depend only on (seed, seq, command history, scene): two runs with the same seed
+// and calls produce identical frames.
 //
 // Commands. SendServos clamps each value to the robot file's limits (the course server's
 // clamp; Config() is truth.robot), applies them at NowNs() and answers "ok".

@@ -123,14 +123,16 @@ TEST(Fixation, LostTargetIsReportedAsSuch) {
   FixationOptions o;
   o.max_iterations = 60;
   // The target is found in the first frames, then never again (taken away mid-loop).
-  int calls = 0;
-  auto loc = MakeFunctionLocator("vanishing", [&calls](const cv::Mat& img, int eye) -> std::optional<Eigen::Vector2d> {
-    if (++calls > 6) return std::nullopt;
-    return calib::DetectFixationTarget(img, {}).found ? std::optional(calib::DetectFixationTarget(img, {}).centre)
-                                                      : std::nullopt;
-    (void)eye;
-  });
-  const FixationResult r = RunFixation(o, rig.owl.Config(), *loc, rig.Io());
+  struct VanishingLocator : TargetLocator {
+    int calls = 0;
+    std::optional<Eigen::Vector2d> Locate(const cv::Mat& img, int /*eye*/) override {
+      if (++calls > 6) return std::nullopt;
+      const calib::FixationDetection d = calib::DetectFixationTarget(img, {});
+      return d.found ? std::optional(d.centre) : std::nullopt;
+    }
+    std::string Name() const override { return "vanishing"; }
+  } loc;
+  const FixationResult r = RunFixation(o, rig.owl.Config(), loc, rig.Io());
   std::string reason;
   EXPECT_EQ(FixationStatus(r, o, &reason), calib::TrialStatus::kLostTarget) << OutcomeName(r.outcome) << ": " << reason;
   EXPECT_NE(reason.find("not found"), std::string::npos) << reason;

@@ -8,8 +8,8 @@
 
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
-#include "protocols/robot_factory.h"
 #include "protocols/runner.h"
+#include "robot/owl_link.h"
 #include "sim/sim_server.h"
 
 namespace owlcal::protocols {
@@ -23,9 +23,12 @@ TEST(Loopback, RunsAProtocolAgainstTheServedVirtualOwl) {
   so.http_port = 0;
   sim::SimServer server(so);
   server.Start();
-  RobotFactoryOptions fo;
-  fo.http_port = server.HttpPort();
-  std::unique_ptr<robot::RobotInterface> robot = MakeRobot("127.0.0.1:" + std::to_string(server.ServoPort()), fo);
+  robot::OwlLinkOptions lo;  // as owlcal's robot factory (apps/robot_factory.h) links a HOST:PORT
+  lo.host = "127.0.0.1";
+  lo.servo_port = server.ServoPort();
+  lo.http_port = server.HttpPort();
+  lo.robot = models::DefaultRobotConfig();
+  std::unique_ptr<robot::RobotInterface> robot = std::make_unique<robot::OwlLink>(lo);
   EXPECT_EQ(robot->Scene(), nullptr);  // a networked robot: placements are prompts
   const Protocol p = ParseProtocolYaml(R"(
 name: loopback

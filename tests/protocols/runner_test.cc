@@ -12,8 +12,8 @@
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
-#include "protocols/robot_factory.h"
 #include "robot/robot_file.h"
+#include "sim/virtual_owl.h"
 #include "tests/protocols/fake_robot.h"
 
 namespace owlcal::protocols {
@@ -286,9 +286,12 @@ TEST(Runner, TighterRobotFileOnTheVirtualOwlIsClampedAndReported) {
     std::ofstream out(file);
     out << robot::RobotConfigToYaml(tight);
   }
-  RobotFactoryOptions fo;
-  fo.robot_file = file;
-  std::unique_ptr<robot::RobotInterface> owl = MakeRobot("sim", fo);
+  // The virtual Owl with that robot file, as owlcal's robot factory (apps/robot_factory.h) makes it.
+  sim::VirtualOwlOptions vo;
+  sim::RobotTruth truth = sim::DefaultRobotTruth();
+  truth.robot = robot::LoadRobotFile(file);
+  vo.truth = truth;
+  std::unique_ptr<robot::RobotInterface> owl = std::make_unique<sim::VirtualOwl>(vo);
   EXPECT_EQ(owl->Config().servos[models::kRx].max_us, 1600);
   testing::RecordingRobot robot(owl.get());
   const Protocol p = ParseProtocolYaml(R"(

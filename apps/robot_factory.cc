@@ -1,4 +1,4 @@
-#include "protocols/robot_factory.h"
+#include "apps/robot_factory.h"
 
 #include <stdexcept>
 
@@ -7,7 +7,7 @@
 #include "robot/socket_util.h"
 #include "sim/virtual_owl.h"
 
-namespace owlcal::protocols {
+namespace owlcal::apps {
 
 std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const RobotFactoryOptions& options) {
   if (spec.empty()) throw std::invalid_argument("--robot is empty: give 'sim' or the robot's HOST[:PORT]");
@@ -18,7 +18,8 @@ std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const 
     vo.seed = options.seed;
     if (!options.robot_file.empty()) {
       // The robot file the "server" is configured with (clamp limits) over the truth.
-      sim::RobotTruth truth = options.truth_file.empty() ? sim::DefaultRobotTruth() : sim::LoadRobotTruth(options.truth_file);
+      sim::RobotTruth truth =
+          options.truth_file.empty() ? sim::DefaultRobotTruth() : sim::LoadRobotTruth(options.truth_file);
       truth.robot = robot::LoadRobotFile(options.robot_file);
       vo.truth = truth;
     }
@@ -33,4 +34,4 @@ std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const 
   return std::make_unique<robot::OwlLink>(lo);
 }
 
-}  // namespace owlcal::protocols
+}  // namespace owlcal::apps

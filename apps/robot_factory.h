@@ -13,16 +13,16 @@
 
 #include "robot/robot_interface.h"
 
-namespace owlcal::protocols {
+namespace owlcal::apps {
 
 struct RobotFactoryOptions {
-  std::string robot_file;    // robot file (limits, centres); "" = built-in
-  std::string truth_file;    // sim only: robot-truth file; "" = built-in default truth
-  std::string scene_file;    // sim only
-  uint64_t seed = 1;         // sim only
-  int http_port = 8080;      // real robot: MJPEG stream port
+  std::string robot_file;  // robot file (limits, centres); "" = built-in
+  std::string truth_file;  // sim only: robot-truth file; "" = built-in default truth
+  std::string scene_file;  // sim only
+  uint64_t seed = 1;       // sim only
+  int http_port = 8080;    // real robot: MJPEG stream port
 };
 
 std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const RobotFactoryOptions& options);
 
-}  // namespace owlcal::protocols
+}  // namespace owlcal::apps
