@@ -89,7 +89,7 @@ std::optional<Figure> ViewRmsFigure(const ReportData& d) {
   f.settings.push_back("set offsets 0, 0, graph 0.1, 0");
   std::string names;
   for (size_t k = 0; k < worst.size(); ++k)
-    names += (k ? ", " : "") + std::to_string(k + 1) + " = " + worst[k].view.name + " (" + Fmt(worst[k].view.rms_px, 3) + " px)";
+    names += (k ? ", " : "") + std::to_string(k + 1) + " = " + models::kEyeNames[worst[k].view.eye] + " eye, " + worst[k].view.name + " (" + Fmt(worst[k].view.rms_px, 3) + " px)";
   f.caption = "RMS reprojection error of each calibration view (left eye first, then the right). " +
               (worst.empty() ? std::string("No view stands out above its eye's threshold (median + 3 scaled MADs).")
                              : "Views above the threshold: " + names +

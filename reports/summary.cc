@@ -5,6 +5,7 @@
 
 #include "fitting/projection_uncertainty.h"
 #include "fitting/truth_compare.h"
+#include "models/head_kinematics.h"
 #include "reports/camera_figures.h"
 #include "reports/table.h"
 
@@ -133,7 +134,7 @@ Summary MakeSummary(const ReportData& d) {
   const auto worst = WorstViews(d, 5);
   if (!worst.empty()) {
     std::string names;
-    for (const auto& w : worst) names += (names.empty() ? "" : ", ") + w.view.name;
+    for (const auto& w : worst) names += (names.empty() ? "" : ", ") + std::string(models::kEyeNames[w.view.eye]) + " eye " + w.view.name;
     s.next_steps.push_back("Look at the worst calibration views (" + names +
                            "): retake or drop any with a blurred, moved or partly hidden board.");
   }
