@@ -15,6 +15,8 @@ function(owlcal_library name)
 endfunction()
 
 # owlcal_tests(FOLDER LIBS ...): one GoogleTest executable per tests/FOLDER/*_test.cc.
+set(OWLCAL_TEST_TMPDIR ${CMAKE_BINARY_DIR}/test-tmp)
+file(MAKE_DIRECTORY ${OWLCAL_TEST_TMPDIR})
 function(owlcal_tests folder)
   cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
   file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/${folder}/*_test.cc)
@@ -23,6 +25,8 @@ function(owlcal_tests folder)
     set(exe ${folder}_${stem})
     add_executable(${exe} ${t})
     target_link_libraries(${exe} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
-    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60)
+    # Each build folder gets its own TMPDIR: suites of several checkouts (or a CI and a developer)
+    # running at once never share std::filesystem::temp_directory_path() folders.
+    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60 PROPERTIES ENVIRONMENT "TMPDIR=${OWLCAL_TEST_TMPDIR}")
   endforeach()
 endfunction()
