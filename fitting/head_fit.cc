@@ -256,6 +256,7 @@ bool HeadFitOptions::Check(std::string* why) const {
     return false;
   };
   if (!(corner_sigma_px > 0)) return fail("corner_sigma_px = " + std::to_string(corner_sigma_px) + " must be > 0");
+  if (std::string w; !robot_file_tolerance.Check(&w)) return fail(w);
   if (!(min_corner_sigma_px >= 0 && min_corner_sigma_px < 10))
     return fail("min_corner_sigma_px = " + std::to_string(min_corner_sigma_px) + " must be in [0, 10)");
   if (!(measured_sigma_factor >= 1 && measured_sigma_factor <= 10))
@@ -332,6 +333,8 @@ HeadFit FitHead(const std::vector<calib::View>& views,
 
   // 4. Outputs.
   internal::WriteHeadOutputs(initial, robot, options, s, cov, views.size(), &fit);
+  for (auto& w : RobotFileWarnings(CompareWithRobotFile(fit.result, robot, options.robot_file_tolerance)))
+    fit.result.warnings.push_back(std::move(w));
   if (stats.noise_factor > 1.5)
     fit.result.warnings.push_back("corner errors are " + std::to_string(stats.noise_factor) +
                                   " x corner_sigma_px: the model does not fit or the noise is larger; sigmas are too small");

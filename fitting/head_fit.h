@@ -33,6 +33,7 @@
 #include "fitting/head_gauge.h"
 #include "fitting/observability.h"
 #include "fitting/result.h"
+#include "fitting/robot_file_check.h"
 #include "models/head_model.h"
 #include "models/rigid3.h"
 #include "models/robot_config.h"
@@ -40,6 +41,9 @@
 namespace owlcal::fitting {
 
 struct HeadFitOptions {
+  // A fitted IPD, servo centre or scale this far from the robot file is a warning
+  // (fitting/robot_file_check.h).
+  RobotFileTolerance robot_file_tolerance;
   double corner_sigma_px = 0.15;       // corner noise used to whiten [px], > 0 (with estimate_corner_sigma: the
                                        // first guess, which sets the robust loss and the outlier threshold)
   // Whiten with the noise the data shows: after the solve, each eye's corner sigma per axis is
