@@ -87,6 +87,16 @@ void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereo
   for (const Field& f : fields) {
     const cv::FileNode n = fs[f.name];
     if (n.empty()) continue;
+    // Check the declared shape before OpenCV allocates it: rows/cols from the file went
+    // straight to cv::Mat::create (fuzzing: "<cols>-</cols>" asked for 64 GB).
+    const std::string where = "OpenCV calibration file " + path + ": field " + f.name;
+    if (!n.isMap()) throw std::runtime_error(where + " is not a matrix (rows, cols, dt, data)");
+    const cv::FileNode rows = n["rows"], cols = n["cols"], data = n["data"];
+    if (!rows.isInt() || !cols.isInt() || int(rows) < 1 || int(cols) < 1 || int(rows) > 16 || int(cols) > 16)
+      throw std::runtime_error(where + ": rows and cols must be integers in 1..16");
+    if (!data.isSeq() || data.size() != size_t(int(rows)) * size_t(int(cols)))
+      throw std::runtime_error(where + ": data holds " + std::to_string(data.isSeq() ? data.size() : 0) +
+                               " values, rows x cols = " + std::to_string(int(rows) * int(cols)));
     cv::Mat m;
     try {
       n >> m;

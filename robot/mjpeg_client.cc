@@ -1,5 +1,7 @@
 #include "robot/mjpeg_client.h"
 
+#include <cmath>
+
 #include <algorithm>
 #include <cctype>
 #include <stdexcept>
@@ -7,6 +9,8 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+
+#include "io/strict_number.h"
 
 namespace owlcal::robot {
 namespace {
@@ -202,10 +206,10 @@ std::optional<std::vector<uint8_t>> MjpegClient::ReadPart(Clock::time_point dead
   server_stamp_us->reset();
   const std::string stamp = HeaderValue(head, "x-timestamp");
   if (!stamp.empty()) {
-    try {
-      *server_stamp_us = static_cast<int64_t>(std::stod(stamp) * 1e6 + 0.5);
-    } catch (...) {
-    }
+    // Seconds; a value that is not a finite number within +-1e12 s is ignored (a hostile
+    // "1e300" overflowed the conversion to microseconds: undefined behaviour).
+    const std::optional<double> s = io::ParseFiniteDouble(stamp);
+    if (s && std::abs(*s) < 1e12) *server_stamp_us = static_cast<int64_t>(std::llround(*s * 1e6));
   }
   const std::string length_text = HeaderValue(head, "content-length");
   long long length = -1;

@@ -139,5 +139,25 @@ TEST(OpenCvCalibFile, RefusesNonFiniteValuesBadCameraMatricesAndSizes) {
   EXPECT_THROW(ParseOpenCvCalibration("<?xml version=\"1.0\"?>\n<opencv_storage><M2", "x.xml"), std::runtime_error);
 }
 
+// Found by fuzz/course_xml_fuzz: a matrix whose declared rows/cols are garbage or huge made
+// OpenCV allocate 64 GB before anything was checked.
+TEST(OpenCvCalibFile, DeclaredMatrixShapeIsCheckedBeforeAllocating) {
+  auto xml = [](const std::string& rows, const std::string& cols, const std::string& data) {
+    return "<?xml version=\"1.0\"?>\n<opencv_storage>\n<P1 type_id=\"opencv-matrix\"><rows>" + rows + "</rows><cols>" + cols +
+           "</cols><dt>d</dt><data>" + data + "</data></P1>\n</opencv_storage>\n";
+  };
+  const std::string twelve = "1. 0. 2. 0. 0. 1. 2. 0. 0. 0. 1. 0.";
+  EXPECT_FALSE(ParseOpenCvCalibration(xml("3", "4", twelve), "x.xml").P1.empty());
+  for (const auto& [rows, cols] : {std::pair<std::string, std::string>{"4", "-"}, {"4", "-1"}, {"100000", "100000"},
+                                   {"3", "5"}, {"0", "4"}}) {
+    try {
+      ParseOpenCvCalibration(xml(rows, cols, twelve), "x.xml");
+      ADD_FAILURE() << rows << "x" << cols << ": no error";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("x.xml: field P1"), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace owlcal::fitting
