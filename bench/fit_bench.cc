@@ -89,7 +89,7 @@ void VirtualOwlSection() {
   std::printf("  virtual Owl fit RMS %.4f px\n", fit.rms_px);
 }
 
-// Honest sigma (issue 4): 50 seeds of a synthetic 9x6 board seen in 15 random poses with
+// Honest sigma: 50 seeds of a synthetic 9x6 board seen in 15 random poses with
 // 0.2 px corner noise; fraction of intrinsic parameters whose error is within 1 and 3 sigma.
 void MonteCarloSection() {
   models::CameraIntrinsics truth;

@@ -1,4 +1,4 @@
-// Honest-sigma benchmark for the head fit (issue 4, part 4): over >= 50 seeds, a perturbed
+// Honest-sigma benchmark for the head fit: over >= 50 seeds, a perturbed
 // head (fitting/head_synthetic.h) is swept like the servo-sweep protocol, corners get 0.15 px
 // Gaussian noise, the head is fitted, and every determined parameter is compared with the
 // truth in units of its reported sigma. Prints the fraction within 1 sigma (target 68 +- 7 %)

@@ -1,4 +1,4 @@
-// Where do the pan maps' errors come from? (issue 4: "every servo's map within 0.1 deg RMS
+// Where do the pan maps' errors come from? ("every servo's map within 0.1 deg RMS
 // over its range".) Fits the head on a recorded servo_sweep dataset of the DEFAULT virtual Owl
 // (e.g. CALDIR/datasets/servo_sweep of `owlcal calibrate`) several ways and compares every
 // servo's map with the truth in the fit's gauge (fitting::CanonicalHead) over the robot file's

@@ -3,7 +3,7 @@
 //   2. render + sensor noise + side-by-side composition (encode_jpeg = false),
 //   3. the full stream path: + JPEG encode (quality from the truth) + decode into halves.
 // Prints wall-clock and thread-CPU rates (the CPU figure is robust on a loaded machine).
-// Target (issue 3): >= 60 stereo frames/s so the main job is never render-bound.
+// Target: >= 60 stereo frames/s so the main job is never render-bound.
 #include <time.h>
 
 #include <chrono>

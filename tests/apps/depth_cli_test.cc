@@ -51,7 +51,7 @@ TEST_F(DepthCliTest, KitDistanceSetDepthAtTheTargetAgreesWithTheTape) {
   ASSERT_EQ(j["pairs"].size(), 3u);
   for (const auto& p : j["pairs"]) {
     const double true_m = p["true_m"], depth_m = p["roi_depth"]["depth_m"], sigma_m = p["roi_depth"]["sigma_m"];
-    // Hand-held box, unknown tape datum (FACTS.md: -2..-5 % at 30-60 cm from a ~1.5 cm offset).
+    // Hand-held box, unknown tape datum (docs/conventions.md, Facts: -2..-5 % at 30-60 cm from a ~1.5 cm offset).
     EXPECT_NEAR(depth_m, true_m, 0.06 * true_m) << p["name"];
     EXPECT_GT(sigma_m, 0) << p["name"];
     const double templ = p["template_range_m"];

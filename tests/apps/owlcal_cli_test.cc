@@ -146,7 +146,7 @@ TEST_F(OwlcalCliTest, MoveToAClosedPortFailsWithAClearMessage) {
 }
 
 // detect + fit on the OpenCV stereo sample set (13 pairs, 9x6, square = 1): the left camera's
-// fx should be near OpenCV's 532.8 (FACTS.md) and the baseline near 3.327 squares.
+// fx should be near OpenCV's 532.8 (docs/conventions.md, Facts) and the baseline near 3.327 squares.
 TEST_F(OwlcalCliTest, DetectAndFitOnOpenCvSampleImages) {
   const std::string images = SharedData() + "/opencv-stereo-chessboard";
   if (!fs::exists(images + "/left01.jpg")) GTEST_SKIP() << "shared data not found: " << images;

@@ -292,7 +292,7 @@ TEST(AprilTagFree, MatchesTheRawLibraryOnAPhotoAndKeepsRepeatedIds) {
 namespace owlcal::calib {
 namespace {
 
-// Noise sigma 2 grey levels and JPEG quality 80 (FACTS.md's detector conditions): the refined
+// Noise sigma 2 grey levels and JPEG quality 80 (the detector conditions of docs/conventions.md, Facts): the refined
 // corners' RMS error over several poses stays within 0.1 px and below libapriltag's own.
 TEST(AprilTagFree, RefinedCornersBeatTheLibraryUnderNoiseAndJpeg) {
   const cv::Mat cells = TagCells("tag36h11", 0);

@@ -1,5 +1,5 @@
 // Detectors on rendered targets whose corners are known exactly: pins libapriltag's corner
-// order and pixel origin (STYLE.md section 7) and the chessboard corner accuracy.
+// order and pixel origin (docs/conventions.md, Pixels) and the chessboard corner accuracy.
 #include "calib/detector.h"
 
 #include <cstdlib>

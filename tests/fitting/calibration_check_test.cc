@@ -175,7 +175,7 @@ TEST(CalibrationCheck, RealKitCalibrationPassesAndPerturbedCopiesAreFlagged) {
   EXPECT_EQ(c.verdict, "still valid");
   for (const auto& r : c.reasons) ADD_FAILURE() << r;
   EXPECT_TRUE(c.calibration_has_covariance);
-  // Real Owl corners: 0.25-0.45 px (FACTS.md); the sigma of an RMS over ~1300 corners is small.
+  // Real Owl corners: 0.25-0.45 px (docs/conventions.md, Facts); the sigma of an RMS over ~1300 corners is small.
   EXPECT_LT(c.rms_joint_px, 0.6);
   EXPECT_GT(c.sigma_rms_joint_px, 0);
   EXPECT_LT(c.sigma_rms_joint_px, 0.05 * c.rms_joint_px);

@@ -40,7 +40,7 @@ std::string AllWarnings(const CalibrationResult& r) {
   return s;
 }
 
-// Checks the acceptance criteria of issue 4 for the head and returns the number of
+// Checks the acceptance criteria for the head and returns the number of
 // determined parameters compared with the truth.
 int ExpectAccurate(const HeadFit& fit, const models::HeadModel& truth_canonical, const models::RobotConfig& robot) {
   CalibrationResult r = fit.result;

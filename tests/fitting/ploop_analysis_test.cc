@@ -35,7 +35,7 @@ TEST(DelayedPLoop, SettlesAtFrame49With56PercentOvershootForGainPoint3) {
   EXPECT_NEAR(s.overshoot_pct, 56.0, 0.01);
 }
 
-// FACTS.md "Control with latency" table, row by row.
+// docs/conventions.md, Facts "Control with latency" table, row by row.
 TEST(DelayedPLoop, ReproducesTheControlTable) {
   struct Row {
     int d;

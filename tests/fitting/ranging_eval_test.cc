@@ -115,7 +115,7 @@ TEST(RangingEval, TheoryCurveMatchesTheErrorBudget) {
   const RangingEvaluation ev =
       EvaluateRanging(nominal, Cov(), models::DefaultRobotConfig(), {}, {}, {1.0, 3.0});
   ASSERT_EQ(ev.theory.size(), 2u);
-  // FACTS.md: 1 us on one eye: 3.1 % at 1 m, 10 % at 3 m; 0.5 px both eyes: 2.7 % at 1 m.
+  // docs/conventions.md, Facts: 1 us on one eye: 3.1 % at 1 m, 10 % at 3 m; 0.5 px both eyes: 2.7 % at 1 m.
   EXPECT_NEAR(ev.theory[0].nominal_1us_rel, 0.031, 0.002);
   EXPECT_NEAR(ev.theory[1].nominal_1us_rel, 0.10, 0.01);
   EXPECT_NEAR(ev.theory[0].nominal_half_px_rel, 0.027, 0.002);
@@ -191,7 +191,7 @@ TEST(RangingEval, UncertainAppliedPulseWidensSigma) {
   const auto b = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), {unsure}, {}, {});
   ASSERT_EQ(a.num_ok, 1);
   ASSERT_EQ(b.num_ok, 1);
-  // 1.44 us on each eye at 1 m: about 3 % per us (FACTS.md), so sigma grows to several %.
+  // 1.44 us on each eye at 1 m: about 3 % per us (docs/conventions.md, Facts), so sigma grows to several %.
   EXPECT_GT(b.rows[0].sigma_m, 2 * a.rows[0].sigma_m);
   EXPECT_GT(b.rows[0].sigma_m / b.rows[0].true_m, 0.03);
 }

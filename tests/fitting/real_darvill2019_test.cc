@@ -1,4 +1,4 @@
-// Acceptance (issue 7): darvill2019-chessboard's three sessions of one robot calibrated from
+// Acceptance: darvill2019-chessboard's three sessions of one robot calibrated from
 // their (mirrored) image folders and compared in one table, differences in sigma units.
 #include <cstdlib>
 #include <iostream>

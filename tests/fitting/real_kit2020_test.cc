@@ -1,4 +1,4 @@
-// Acceptance on the course's kit2020 sets (issue 7): stereo calibration from
+// Acceptance on the course's kit2020 sets: stereo calibration from
 // kit2020-chessboard against cv::stereoCalibrate and the students' numbers, ranging of
 // kit2020-distance-target1 with that calibration, and the poor-set verdict.
 #include <cstdlib>

@@ -1,4 +1,4 @@
-// results.json read strictly: issue 15's `report` wrote calibration.yaml full of NaN from fx = 0.
+// results.json read strictly: `report` wrote calibration.yaml full of NaN from fx = 0.
 #include <gtest/gtest.h>
 
 #include <filesystem>

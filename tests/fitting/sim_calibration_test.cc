@@ -1,4 +1,4 @@
-// Detection and calibration on the virtual Owl against its ground truth (issue 4).
+// Detection and calibration on the virtual Owl against its ground truth.
 //
 // SimDetectionTest: corner accuracy of calib::DetectTarget on rendered frames against the
 // true projections of the target corners (chessboard <= 0.1 px RMS, AprilGrid <= 0.2 px RMS).
@@ -199,7 +199,7 @@ TEST(SimDetectionTest, ChessboardInGrabbedStreamFrame) {
 
 
 // ---------------------------------------------------------------------------------------
-// Calibration on the virtual Owl (issue 4): frames grabbed through the robot interface
+// Calibration on the virtual Owl: frames grabbed through the robot interface
 // (SendServos + GrabFrame, JPEG stream with noise), per-eye intrinsics fitted and compared
 // with TruthHeadModel(): fx, fy within 0.2 % and every determined intrinsic within 3 sigma.
 

@@ -1,4 +1,4 @@
-// Stereo fit on the OpenCV sample set (issue 4 acceptance) and degenerate inputs.
+// Stereo fit on the OpenCV sample set and degenerate inputs.
 #include "fitting/stereo_fit.h"
 
 #include <cstdlib>

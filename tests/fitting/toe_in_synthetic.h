@@ -80,7 +80,7 @@ struct Setting {
 };
 
 // Toe-in settings 0/18/36/54 us on both eyes, one eye alone at two settings, and the parallel
-// setting repeated: 8 sets, as FACTS.md's real experiment, with the eyes separable.
+// setting repeated: 8 sets, as the real experiment in docs/conventions.md, Facts, with the eyes separable.
 inline const std::vector<Setting> kSettings = {{1545, 1545}, {1527, 1563}, {1509, 1581}, {1491, 1599},
                                         {1545, 1581}, {1509, 1545}, {1545, 1545}, {1500, 1545}};
 

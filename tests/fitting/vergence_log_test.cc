@@ -116,7 +116,7 @@ std::string ErrorOf(const std::string& path, const VergenceColumnRequest& column
   return "";
 }
 
-// The trap of issue 13: a log with the sheet's own estimate, the program's output and the
+// The trap: a log with the sheet's own estimate, the program's output and the
 // true distance. Without --distance-column it is refused, naming all three and the option;
 // named, the true distance is read and the other two are listed as ignored.
 TEST(VergenceLogColumns, SeveralDistanceColumnsAreRefusedUnlessOneIsNamed) {

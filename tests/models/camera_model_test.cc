@@ -1,4 +1,4 @@
-// Camera model: one typed suite for both distortion models (STYLE.md section 8): round trips,
+// Camera model: one typed suite for both distortion models (the suite every model runs): round trips,
 // limit cases, autodiff vs numeric Jacobians, double/Jet agreement. The comparison with
 // cv::projectPoints lives in tests/robot/camera_model_opencv_test.cc (this folder's tests do
 // not link OpenCV).

@@ -83,7 +83,7 @@ TEST(ServoMap, DirectionIsHonoured) {
 
 TEST(ServoMap, RobotDirectionsFollowTheGuide) {
   // Increasing PWM: Rx, Lx to the robot's right (+pan), Ry up (+tilt), Ly down (mirrored),
-  // neck to the left (FACTS.md).
+  // neck to the left (docs/conventions.md, Facts).
   const HeadModel head = NominalHeadModel(DefaultRobotConfig());
   const PwmVector c = DefaultRobotConfig().Centre();
   auto angles_with = [&](ServoIndex s, int delta) {

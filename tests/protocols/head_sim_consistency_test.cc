@@ -1,4 +1,4 @@
-// Consistency of the virtual Owl's servo-sweep data with models::HeadModel (issue 6 debugging).
+// Consistency of the virtual Owl's servo-sweep data with models::HeadModel.
 //
 // Runs the standard servo_sweep protocol on the in-process virtual Owl, then for every
 // detected corner compares the detected pixel with
@@ -11,7 +11,7 @@
 // servo. Then fits the head (fitting::FitHead, true intrinsics, one board per placement via
 // protocols::ReadViewsByPlacement) and compares it with the truth in the fit's gauge
 // (fitting::CanonicalHead).
-// Found with it (issue 6): frames were exposed before the servos settled (settle 250 ms
+// Found with it: frames were exposed before the servos settled (settle 250 ms
 // minus 100 ms stream latency; 0.1-1.3 deg errors), and the sweep's two placements of one
 // chessboard were fitted as one fixed board (head RMS 0.3 px, IPD 55 mm).
 // Issue 4 acceptance: every servo's map within 0.1 deg RMS over the robot file's whole range and
@@ -171,8 +171,8 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
 }
 
 
-// The head fit against the truth in the fit's gauge (fitting::CanonicalHead), as issue 4
-// accepts it: every servo's map within 0.1 deg RMS over the robot file's WHOLE range (the
+// The head fit against the truth in the fit's gauge (fitting::CanonicalHead), as the
+// acceptance has it: every servo's map within 0.1 deg RMS over the robot file's WHOLE range (the
 // pans' ranges are swept to their limits from the +-25 deg placements) and every determined
 // parameter within 3 sigma. Returns the fit.
 fitting::HeadFit FitAndCompare(const char* label, const std::vector<calib::View>& views, const models::RobotConfig& config,

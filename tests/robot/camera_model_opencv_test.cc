@@ -1,4 +1,4 @@
-// models::OpenCvCamera against cv::projectPoints (issue 2 acceptance: equal to 1e-9 px over
+// models::OpenCvCamera against cv::projectPoints (equal to 1e-9 px over
 // random points and parameters, 5 and 8 coefficients). It lives under tests/robot/ because
 // that test folder links OpenCV and tests/models/ does not.
 #include <gtest/gtest.h>

@@ -155,7 +155,7 @@ TEST(RenderGeometry, AprilTagCornersMatchProjectPointsWithinTwoTenthsPixel) {
         apriltag_detection_t* d;
         zarray_get(detections, i, &d);
         ++found;
-        // libapriltag's corners have (0,0) at a pixel's corner: -0.5 px (FACTS.md).
+        // libapriltag's corners have (0,0) at a pixel's corner: -0.5 px (docs/conventions.md, Facts).
         for (int c = 0; c < 4; ++c) {
           const cv::Point2f p(float(d->p[c][0] - 0.5), float(d->p[c][1] - 0.5));
           double best = 1e9;
