@@ -8,6 +8,7 @@
 #include "apps/command_registry.h"
 #include "apps/robot_factory.h"
 #include "apps/robot_options.h"
+#include "protocols/live_feedback.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
 #include "robot/link_commands.h"
@@ -23,6 +24,7 @@ struct RunCmdOptions {
   bool resume = false;
   bool non_interactive = false;
   bool quiet = false;
+  int live_port = -1;  // -1: no live feedback
 };
 
 int RunRun(const RunCmdOptions& o) {
@@ -57,6 +59,15 @@ int RunRun(const RunCmdOptions& o) {
     return kExitOk;
   }
   std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
+  std::unique_ptr<protocols::LiveFeedback> live;
+  if (o.live_port >= 0) {
+    protocols::LiveFeedbackOptions lo;
+    lo.port = o.live_port;
+    live = std::make_unique<protocols::LiveFeedback>(lo);
+    std::cout << "live capture feedback: " << live->Url() << " (one frame: http://127.0.0.1:" << live->Port()
+              << "/frame.jpg)" << std::endl;
+    ro.on_detection = [&live](const protocols::LiveDetection& d) { live->Update(d); };
+  }
   ro.stop_flag = protocols::InstallStopSignals();
   const protocols::RunSummary s = protocols::RunProtocols(loaded, *robot, ro);
   if (s.status != "complete") {
@@ -85,6 +96,10 @@ const bool kRegistered = RegisterCommand(
       cmd->add_flag("--non-interactive", o->non_interactive,
                     "real robot: do not prompt; assume targets are placed as the protocol says");
       cmd->add_flag("--quiet", o->quiet, "no progress output");
+      cmd->add_option("--live-port", o->live_port,
+                      "serve live capture feedback (detection overlay, coverage bars X/Y/Size/Skew, missing views)\n"
+                      "as MJPEG on 127.0.0.1:PORT (0: any free port, printed)")
+          ->check(CLI::Range(0, 65535));
       return [o] { return RunRun(*o); };
     });
 

@@ -22,6 +22,7 @@
 #include "protocols/fixation.h"
 #include "protocols/image_motion.h"
 #include "protocols/limits_search.h"
+#include "protocols/live_feedback.h"
 #include "protocols/step_plan.h"
 #include "robot/limits_guard.h"
 
@@ -163,16 +164,28 @@ class Runner {
     calib::DetectorOptions opt;
     opt.fast_check = true;
     std::vector<calib::CornerObservation> all;
+    LiveDetection live;
     for (int e = 0; e < 2; ++e) {
       const cv::Mat& img = e == models::kLeftEye ? f.left : f.right;
       const calib::TargetDetection d = calib::DetectTarget(img, target, opt);
+      live.detection[e] = d;
       if (!d.found) continue;
       std::vector<calib::CornerObservation> obs = calib::DetectionToObservations(d, target, int(index), e, cmd_, f.stamp_ns);
       for (auto& o : obs) o.approach = approach_;
       const std::vector<calib::View> views = calib::GroupIntoViews(obs);
       ViewParams vp;
-      if (!views.empty() && ComputeViewParams(views[0], target, img.cols, img.rows, &vp)) coverage_views_[e].push_back(vp);
+      if (!views.empty() && ComputeViewParams(views[0], target, img.cols, img.rows, &vp)) {
+        coverage_views_[e].push_back(vp);
+        live.has_view[e] = true;
+        live.view[e] = vp;
+      }
       all.insert(all.end(), obs.begin(), obs.end());
+    }
+    if (o_.on_detection) {
+      live.left = f.left;
+      live.right = f.right;
+      live.step_name = step_name_;
+      o_.on_detection(live);
     }
     if (!all.empty()) calib::AppendObservationsCsv(writer_->Dir() + "/observations.csv", all);
     detected_any_ = true;

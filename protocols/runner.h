@@ -57,6 +57,8 @@
 
 namespace owlcal::protocols {
 
+struct LiveDetection;  // protocols/live_feedback.h
+
 struct RunOptions {
   std::string out_dir;                 // the dataset folder (required unless dry_run)
   bool dry_run = false;
@@ -74,6 +76,9 @@ struct RunOptions {
   nlohmann::json sim;                  // {"seed", "truth_file"} for the virtual Owl, else null
   // Called after each recorded frame (tests, progress).
   std::function<void(int64_t frame_index)> on_frame;
+  // Called after the detection of every recorded frame of a `detect: true` step (live capture
+  // feedback, protocols/live_feedback.h).
+  std::function<void(const LiveDetection&)> on_detection;
 
   bool Check(std::string* why) const;
 };
