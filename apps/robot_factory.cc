@@ -16,11 +16,10 @@ std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const 
     vo.truth_file = options.truth_file;
     vo.scene_file = options.scene_file;
     vo.seed = options.seed;
-    if (!options.robot_file.empty()) {
+    if (!options.robot_file.empty() || options.robot_config) {
       // The robot file the "server" is configured with (clamp limits) over the truth.
-      sim::RobotTruth truth =
-          options.truth_file.empty() ? sim::DefaultRobotTruth() : sim::LoadRobotTruth(options.truth_file);
-      truth.robot = robot::LoadRobotFile(options.robot_file);
+      sim::RobotTruth truth = options.truth_file.empty() ? sim::DefaultRobotTruth() : sim::LoadRobotTruth(options.truth_file);
+      truth.robot = options.robot_config ? *options.robot_config : robot::LoadRobotFile(options.robot_file);
       vo.truth = truth;
     }
     return std::make_unique<sim::VirtualOwl>(vo);
@@ -30,7 +29,9 @@ std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const 
   lo.host = hp.host;
   lo.servo_port = hp.port;
   lo.http_port = options.http_port;
-  lo.robot = options.robot_file.empty() ? models::DefaultRobotConfig() : robot::LoadRobotFile(options.robot_file);
+  lo.robot = options.robot_config         ? *options.robot_config
+             : options.robot_file.empty() ? models::DefaultRobotConfig()
+                                          : robot::LoadRobotFile(options.robot_file);
   return std::make_unique<robot::OwlLink>(lo);
 }
 

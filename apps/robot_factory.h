@@ -9,6 +9,7 @@
 // bad spec and std::runtime_error (naming the file) for unreadable files.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "robot/robot_interface.h"
@@ -16,11 +17,14 @@
 namespace owlcal::apps {
 
 struct RobotFactoryOptions {
-  std::string robot_file;  // robot file (limits, centres); "" = built-in
-  std::string truth_file;  // sim only: robot-truth file; "" = built-in default truth
-  std::string scene_file;  // sim only
-  uint64_t seed = 1;       // sim only
-  int http_port = 8080;    // real robot: MJPEG stream port
+  std::string robot_file;    // robot file (limits, centres); "" = built-in
+  std::string truth_file;    // sim only: robot-truth file; "" = built-in default truth
+  std::string scene_file;    // sim only
+  uint64_t seed = 1;         // sim only
+  int http_port = 8080;      // real robot: MJPEG stream port
+  // The limits, centres and stream layout to use instead of robot_file's (owlcal jog opens the
+  // limits to its envelope; the re-validation runs on the file it wrote).
+  std::optional<models::RobotConfig> robot_config;
 };
 
 std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const RobotFactoryOptions& options);

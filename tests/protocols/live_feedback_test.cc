@@ -16,8 +16,8 @@
 
 #include "protocols/live_feedback.h"
 #include "protocols/protocol.h"
-#include "protocols/robot_factory.h"
 #include "protocols/runner.h"
+#include "sim/virtual_owl.h"
 
 namespace owlcal::protocols {
 namespace {
@@ -110,7 +110,7 @@ steps:
            frames: 1, settle: {mode: time, time_ms: 250}, detect: true}
 )",
                                        "live.yaml");
-  std::unique_ptr<robot::RobotInterface> owl = MakeRobot("sim", {});
+  std::unique_ptr<robot::RobotInterface> owl = std::make_unique<sim::VirtualOwl>(sim::VirtualOwlOptions{});
   LiveFeedback live(LiveFeedbackOptions{});
   ASSERT_GT(live.Port(), 0);
   EXPECT_EQ(live.Url().rfind("http://127.0.0.1:", 0), 0u);
