@@ -2,6 +2,8 @@
 // (calibrate-images) is "still valid" (exit 0); the same calibration written as an OpenCV file
 // with the right camera's principal point moved by 5 px is "recalibrate" (exit 3), naming what
 // moved. (Independent check sets and every perturbation: tests/fitting/calibration_check_test.cc.)
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 
@@ -23,7 +25,7 @@ class CheckCalibrationCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
     if (test_cli::OwlcalBinary().empty()) GTEST_SKIP() << "the owlcal binary is not built";
-    dir_ = fs::temp_directory_path() / "owlcal_check_calibration_cli";
+    dir_ = fs::temp_directory_path() / ("owlcal_check_calibration_cli_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_ / "new");
     // "New images": eight pairs of the kit set.

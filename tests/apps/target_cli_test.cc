@@ -1,5 +1,7 @@
 // `owlcal target`: the sheet and its YAML are written together, and the YAML drives the
 // detection of the rasterised sheet (pdftoppm, scripts/install-deps.sh) at true scale.
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -23,8 +25,11 @@ class TargetCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
     if (test_cli::OwlcalBinary().empty()) GTEST_SKIP() << "the owlcal binary is not built";
-    dir_ = fs::temp_directory_path() / "owlcal_target_cli";
+    dir_ = fs::temp_directory_path() / ("owlcal_target_cli_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
+  }
+  void TearDown() override {
+    if (!dir_.empty()) fs::remove_all(dir_);
   }
   fs::path dir_;
 };
