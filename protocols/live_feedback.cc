@@ -97,7 +97,6 @@ void DrawPanel(cv::Mat& canvas, int eye, const Coverage& c) {
 std::vector<std::string> MissingViews(const Coverage& c) {
   if (c.num_views == 0) return {"no view of the board yet"};
   std::vector<std::string> out;
-  auto covered = [&](int k) { return " (covered " + F2(c.min[k]) + ".." + F2(c.max[k]) + ")"; };
   // X and Y: the side that is not yet reached (ROS needs a spread of 0.7 of the normalised
   // board position; a side counts as reached within 0.15 of the image edge).
   if (c.progress[0] < 1) {
@@ -105,20 +104,19 @@ std::vector<std::string> MissingViews(const Coverage& c) {
     if (c.min[0] > 0.15) s += "further to the left";
     if (c.max[0] < 0.85) s += std::string(s.empty() ? "" : " and ") + "further to the right";
     if (s.empty()) s = "more spread left-right";
-    out.push_back("X: views " + s + covered(0));
+    out.push_back("X: views " + s);
   }
   if (c.progress[1] < 1) {
     std::string s;
     if (c.min[1] > 0.15) s += "higher (top of the image)";
     if (c.max[1] < 0.85) s += std::string(s.empty() ? "" : " and ") + "lower (bottom of the image)";
     if (s.empty()) s = "more spread up-down";
-    out.push_back("Y: views " + s + covered(1));
+    out.push_back("Y: views " + s);
   }
   if (c.progress[2] < 1)
     out.push_back(std::string("Size: ") +
-                  (c.max[2] < 0.55 ? "the board closer (filling more of the image)" : "the board further away") +
-                  covered(2));
-  if (c.progress[3] < 1) out.push_back("Skew: the board tilted more (about 30 deg about each axis)" + covered(3));
+                  (c.max[2] < 0.55 ? "the board closer (filling more of the image)" : "the board further away"));
+  if (c.progress[3] < 1) out.push_back("Skew: the board tilted more (about 30 deg)");
   return out;
 }
 

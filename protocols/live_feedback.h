@@ -54,7 +54,7 @@ struct LiveState {
 };
 
 // What is still missing for `c` to be good, one line per parameter that is not complete
-// ("X: views further to the left (covered 0.31..0.62)"); {"no view of the board yet"} with no
+// ("X: views further to the left"; the bars show the ranges covered); {"no view of the board yet"} with no
 // views; empty when the coverage is good.
 std::vector<std::string> MissingViews(const Coverage& c);
 
