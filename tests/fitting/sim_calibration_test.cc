@@ -197,7 +197,6 @@ TEST(SimDetectionTest, ChessboardInGrabbedStreamFrame) {
   EXPECT_LE(s.Rms(), 0.2);
 }
 
-
 // ---------------------------------------------------------------------------------------
 // Calibration on the virtual Owl: frames grabbed through the robot interface
 // (SendServos + GrabFrame, JPEG stream with noise), per-eye intrinsics fitted and compared

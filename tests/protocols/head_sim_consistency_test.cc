@@ -170,7 +170,6 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
   for (int s = 0; s < models::kNumServos; ++s) EXPECT_LT(angle_err[s].Value(), 0.02) << models::kServoNames[s];
 }
 
-
 // The head fit against the truth in the fit's gauge (fitting::CanonicalHead), as the
 // acceptance has it: every servo's map within 0.1 deg RMS over the robot file's WHOLE range (the
 // pans' ranges are swept to their limits from the +-25 deg placements) and every determined
