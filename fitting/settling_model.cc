@@ -117,7 +117,9 @@ SettlingStudy CompareSettling(const LoopModel& model,
     std::vector<double> t;
     for (const StepTrace* s : trials) {
       ++r.num_trials;
-      if (s->status != calib::TrialStatus::kOk) continue;
+      // A trial that ran to the end but did not settle is a measurement ("did not settle in the
+      // trial"); a lost target or a skipped trial is not.
+      if (s->status != calib::TrialStatus::kOk && s->status != calib::TrialStatus::kNotSettled) continue;
       ++r.num_ok;
       if (s->info.settled) {
         ++r.num_settled;
@@ -166,7 +168,7 @@ SettlingStudy CompareSettling(const LoopModel& model,
     } else if (std::isfinite(r.ideal_s) && std::isfinite(p.median)) {
       w += "Course model " + F(r.ideal_s, 3) + " s, loop model " + F(p.median, 3) + " s";
       if (std::isfinite(r.no_servo_dynamics_s))
-        w += " (" + F(r.no_servo_dynamics_s, 3) + " s with an ideal servo: slew and lag add " +
+        w += " (" + F(r.no_servo_dynamics_s, 3) + " s with an ideal servo: slew and lag change it by " +
              F(p.median - r.no_servo_dynamics_s, 3) + " s";
       if (std::isfinite(r.no_dead_zone_s))
         w += std::string(std::isfinite(r.no_servo_dynamics_s) ? "; " : " (") + F(r.no_dead_zone_s, 3) +
@@ -190,7 +192,7 @@ SettlingStudy CompareSettling(const LoopModel& model,
     if (r.num_ok < r.num_trials) {
       const std::string n = std::to_string(r.num_trials - r.num_ok), of = std::to_string(r.num_trials);
       w += ' ';
-      w += n + " of " + of + " trials did not run to the end (see the step trials table).";
+      w += n + " of " + of + " trials did not run to the end: lost target or skipped (see the step trials table).";
     }
     r.why = w;
     st.rows.push_back(r);

@@ -36,7 +36,7 @@ struct SettlingOptions {
 
 struct SettlingRow {
   double gain = 0, amplitude_deg = 0;
-  int num_trials = 0, num_ok = 0, num_settled = 0;
+  int num_trials = 0, num_ok = 0, num_settled = 0;  // num_ok: trials that ran to the end (ok or not settled)
   double measured_median_s = 0, measured_lo_s = 0, measured_hi_s = 0;     // NaN: no settled trial
   int predicted_settled = 0, predicted_runs = 0;
   double predicted_median_s = 0, predicted_lo_s = 0, predicted_hi_s = 0;  // NaN: none settled

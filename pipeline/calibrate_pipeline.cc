@@ -1,4 +1,5 @@
 #include "pipeline/calibrate_pipeline.h"
+#include "pipeline/settling_study.h"
 
 #include <algorithm>
 #include <cmath>
@@ -201,13 +202,19 @@ std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset, st
 }
 
 // Median latency in frames from latency.csv; nullopt without data.
-std::optional<int> LatencyFrames(const std::string& dataset, double fps) {
+std::optional<double> MedianLatencyMs(const std::string& dataset) {
   std::vector<double> v;
   for (const protocols::LatencyRow& row : protocols::ReadLatencyCsv(dataset))
     if (row.latency_ms) v.push_back(*row.latency_ms);
   if (v.empty()) return std::nullopt;
   std::sort(v.begin(), v.end());
-  return std::max(1, int(std::lround(v[v.size() / 2] * fps / 1000.0)));
+  return v[v.size() / 2];
+}
+
+std::optional<int> LatencyFrames(const std::string& dataset, double fps) {
+  const std::optional<double> ms = MedianLatencyMs(dataset);
+  if (!ms) return std::nullopt;
+  return std::max(1, int(std::lround(*ms * fps / 1000.0)));
 }
 
 void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
@@ -456,6 +463,18 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
                                     ": " + st.reason);
     progress("step responses: " + std::to_string(d.steps.size()) + " trials; delay " + std::to_string(delay) +
              " frames, K_crit " + Fmt(d.gains->critical_gain, 3));
+    const std::optional<double> latency_ms =
+        dataset("latency").empty() ? std::nullopt : MedianLatencyMs(dataset("latency"));
+    d.settling = StudySettling(dataset("step_response"), d.steps, config, d.result, latency_ms, delay, o.fps,
+                               &d.result.warnings);
+    if (d.settling) {
+      int agree = 0;
+      for (const auto& r : d.settling->rows) agree += r.agreement.rfind("agrees", 0) == 0;
+      progress("settling: loop model (slew " + Fmt(d.settling->model.slew_us_per_s, 4) + " us/s, lag " +
+               Fmt(1000 * d.settling->model.lag_s, 3) + " ms, exposure delay " +
+               Fmt(1000 * d.settling->model.exposure_delay_s, 3) + " ms) agrees with " + std::to_string(agree) + " of " +
+               std::to_string(d.settling->rows.size()) + " (gain, step) groups");
+    }
   }
   if (!dataset("limits").empty()) {
     std::vector<std::string> failed;

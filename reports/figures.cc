@@ -253,6 +253,34 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
     if (!s.simulated && s.status == calib::TrialStatus::kOk && s.controller == "p-loop" && s.info.settled)
       meas.rows.push_back({s.gain, s.info.settling_time});
   if (!meas.rows.empty()) f.series.push_back(meas);
+  if (d.settling) {
+    // The loop model (fitted slew, lag, latency, dead zone) for the 10 deg step, or the largest
+    // amplitude measured, with its range, and the measured medians with their min-max.
+    const auto& st = *d.settling;
+    double amp = 0;
+    for (const auto& r : st.rows) amp = (std::abs(r.amplitude_deg - 10) < std::abs(amp - 10)) ? r.amplitude_deg : amp;
+    Series band{"loop model range, " + Fmt(amp, 3) + "\u00b0", "filledcurves fs transparent solid 0.2 " + Lc(4), "1:2:3",
+                {"gain", "lo_s", "hi_s"}, {}};
+    Series mid{"loop model (fitted slew, lag, latency), " + Fmt(amp, 3) + "\u00b0", "lines lw 2.5 " + Lc(4), "1:2",
+               {"gain", "settling_s"}, {}};
+    for (const auto& c : st.curve)
+      if (c.amplitude_deg == amp) {
+        band.rows.push_back({c.gain, c.lo_s, c.hi_s});
+        mid.rows.push_back({c.gain, c.median_s});
+        if (std::isfinite(c.hi_s)) ymax = std::max(ymax, std::min(c.hi_s, 6.0));
+      }
+    if (!mid.rows.empty()) {
+      f.series.push_back(band);
+      f.series.push_back(mid);
+    }
+    Series med{"measured median (min\u2013max), per gain and step", "yerrorbars pt 9 ps 1.5 " + Lc(1), "1:2:3:4",
+               {"gain", "median_s", "lo_s", "hi_s"}, {}};
+    for (const auto& r : st.rows)
+      if (std::isfinite(r.measured_median_s)) med.rows.push_back({r.gain, r.measured_median_s, r.measured_lo_s, r.measured_hi_s});
+    if (!med.rows.empty()) f.series.push_back(med);
+    f.caption += " The loop model is the measured loop: latency, slew and lag fitted from the step frames, the servo's "
+                 "backlash, the controller's dead zone; the settling table says where it and the measurement differ, and why.";
+  }
   if (g.fastest)
     f.series.push_back({"model fastest: K = " + Fmt(g.fastest->gain, 3) + ", " + Fmt(g.fastest->settling_time_s, 3) + " s",
                         "points pt 5 ps 2 lc rgb 'black'", "1:2", {"gain", "settling_s"},

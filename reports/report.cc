@@ -169,6 +169,37 @@ std::vector<Table> MakeTables(const ReportData& d) {
     }
     out.push_back(t);
   }
+  if (d.settling) {
+    const auto& st = *d.settling;
+    auto range = [](double med, double lo, double hi) {
+      if (!std::isfinite(med)) return std::string("not settled");
+      return Fmt(med, 3) + " (" + Fmt(lo, 3) + "\u2013" + Fmt(hi, 3) + ")";
+    };
+    int agree = 0;
+    for (const auto& r : st.rows) agree += r.agreement.rfind("agrees", 0) == 0;
+    Table t{"settling_model",
+            "Settling: the loop model against the measured trials, per gain and step (" + std::to_string(agree) + " of " +
+                std::to_string(st.rows.size()) + " agree). Loop model: slew " + Fmt(st.model.slew_us_per_s, 4) +
+                " \u00b5s/s, lag " + Fmt(1000 * st.model.lag_s, 3) + " ms, exposure delay " +
+                Fmt(1000 * st.model.exposure_delay_s, 3) + " ms (fitted from the step frames), latency " +
+                Fmt(st.latency_ms, 4) + " ms, backlash " + Fmt(st.model.hysteresis_us, 3) + " \u00b5s; course model: " +
+                "ideal P loop with d = " + std::to_string(st.ideal_delay_frames) + " frames",
+            {"gain", "step [deg]", "band [%]", "trials run of N", "measured [s] median (min\u2013max)",
+             "loop model [s] median (range)", "course model [s]", "agreement", "why"},
+            {}};
+    for (const auto& r : st.rows)
+      t.rows.push_back({Fmt(r.gain, 3), Fmt(r.amplitude_deg, 3), Fmt(100 * r.band, 3),
+                        std::to_string(r.num_ok) + " of " + std::to_string(r.num_trials),
+                        r.num_ok ? range(r.measured_median_s, r.measured_lo_s, r.measured_hi_s) +
+                                       (r.num_settled < r.num_ok ? ", " + std::to_string(r.num_ok - r.num_settled) +
+                                                                       " not settled"
+                                                                 : "")
+                                 : "",
+                        range(r.predicted_median_s, r.predicted_lo_s, r.predicted_hi_s),
+                        r.ideal_stable ? (std::isfinite(r.ideal_s) ? Fmt(r.ideal_s, 3) : "not settled") : "unstable",
+                        r.agreement, r.why});
+    out.push_back(t);
+  }
   if (d.gains) {
     const auto& g = *d.gains;
     Table t{"gain_study", "Incremental P loop with latency (model): gain limits and the fastest stable gain", {"quantity", "value"}, {}};

@@ -155,6 +155,30 @@ json EvaluationToJson(const ReportData& d) {
                   {"lower_bound_fast_s", g.lower_bound_fast_s},
                   {"lower_bound_slow_s", g.lower_bound_slow_s}};
   }
+  if (d.settling) {
+    const auto& st = *d.settling;
+    json rows = json::array(), curve = json::array();
+    for (const auto& r : st.rows)
+      rows.push_back({{"gain", r.gain}, {"amplitude_deg", r.amplitude_deg}, {"num_trials", r.num_trials},
+                      {"num_ok", r.num_ok}, {"num_settled", r.num_settled},
+                      {"measured_median_s", Num(r.measured_median_s)}, {"measured_lo_s", Num(r.measured_lo_s)},
+                      {"measured_hi_s", Num(r.measured_hi_s)}, {"predicted_settled", r.predicted_settled},
+                      {"predicted_runs", r.predicted_runs}, {"predicted_median_s", Num(r.predicted_median_s)},
+                      {"predicted_lo_s", Num(r.predicted_lo_s)}, {"predicted_hi_s", Num(r.predicted_hi_s)},
+                      {"ideal_s", Num(r.ideal_s)}, {"ideal_stable", r.ideal_stable}, {"band", r.band},
+                      {"no_servo_dynamics_s", Num(r.no_servo_dynamics_s)}, {"no_dead_zone_s", Num(r.no_dead_zone_s)},
+                      {"agreement", r.agreement}, {"why", r.why}});
+    for (const auto& c : st.curve)
+      curve.push_back({c.gain, c.amplitude_deg, Num(c.median_s), Num(c.lo_s), Num(c.hi_s), Num(c.ideal_s)});
+    j["settling"] = {{"model", {{"fps", st.model.fps}, {"exposure_delay_s", st.model.exposure_delay_s},
+                                {"slew_us_per_s", st.model.slew_us_per_s}, {"lag_s", st.model.lag_s},
+                                {"hysteresis_us", st.model.hysteresis_us}, {"px_per_us", st.model.px_per_us},
+                                {"nominal_px_per_us", st.model.nominal_px_per_us}, {"noise_px", st.model.noise_px},
+                                {"tolerance_px", st.model.tolerance_px}, {"max_step_us", st.model.max_step_us},
+                                {"latency_frames", st.model.latency_frames}}},
+                     {"latency_ms", Num(st.latency_ms)}, {"ideal_delay_frames", st.ideal_delay_frames},
+                     {"deg_per_us", st.deg_per_us}, {"rows", rows}, {"curve", curve}, {"notes", st.notes}};
+  }
   json res = json::array();
   for (const auto& r : d.residuals) res.push_back({r.eye, r.frame, r.x, r.y, r.dx, r.dy});
   j["residuals"] = res;  // [eye, frame, x, y, dx, dy]
@@ -282,6 +306,56 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     s.lower_bound_fast_s = Vec(g, "lower_bound_fast_s");
     s.lower_bound_slow_s = Vec(g, "lower_bound_slow_s");
     d->gains = s;
+  }
+  d->settling.reset();
+  if (j.contains("settling") && !j.at("settling").is_null()) {
+    const json& js = j.at("settling");
+    fitting::SettlingStudy st;
+    const json& m = js.at("model");
+    st.model.fps = Get(m, "fps", 30);
+    st.model.exposure_delay_s = Get(m, "exposure_delay_s");
+    st.model.slew_us_per_s = Get(m, "slew_us_per_s");
+    st.model.lag_s = Get(m, "lag_s");
+    st.model.hysteresis_us = Get(m, "hysteresis_us", 0);
+    st.model.px_per_us = Get(m, "px_per_us");
+    st.model.nominal_px_per_us = Get(m, "nominal_px_per_us");
+    st.model.noise_px = Get(m, "noise_px");
+    st.model.tolerance_px = Get(m, "tolerance_px");
+    st.model.max_step_us = m.value("max_step_us", 60);
+    st.model.latency_frames = m.value("latency_frames", 0);
+    st.latency_ms = Get(js, "latency_ms");
+    st.ideal_delay_frames = js.value("ideal_delay_frames", 3);
+    st.deg_per_us = Get(js, "deg_per_us");
+    for (const json& r : js.at("rows")) {
+      fitting::SettlingRow x;
+      x.gain = Get(r, "gain");
+      x.amplitude_deg = Get(r, "amplitude_deg");
+      x.num_trials = r.value("num_trials", 0);
+      x.num_ok = r.value("num_ok", 0);
+      x.num_settled = r.value("num_settled", 0);
+      x.measured_median_s = Get(r, "measured_median_s");
+      x.measured_lo_s = Get(r, "measured_lo_s");
+      x.measured_hi_s = Get(r, "measured_hi_s");
+      x.predicted_settled = r.value("predicted_settled", 0);
+      x.predicted_runs = r.value("predicted_runs", 0);
+      x.predicted_median_s = Get(r, "predicted_median_s");
+      x.predicted_lo_s = Get(r, "predicted_lo_s");
+      x.predicted_hi_s = Get(r, "predicted_hi_s");
+      x.ideal_s = Get(r, "ideal_s");
+      x.ideal_stable = r.value("ideal_stable", false);
+      x.band = Get(r, "band", 0.02);
+      x.no_servo_dynamics_s = Get(r, "no_servo_dynamics_s");
+      x.no_dead_zone_s = Get(r, "no_dead_zone_s");
+      x.agreement = r.value("agreement", "");
+      x.why = r.value("why", "");
+      st.rows.push_back(x);
+    }
+    for (const json& c : js.at("curve")) {
+      auto num = [&](int i) { return c.at(i).is_null() ? kNaN : c.at(i).get<double>(); };
+      st.curve.push_back({num(0), num(1), num(2), num(3), num(4), num(5)});
+    }
+    st.notes = js.value("notes", std::vector<std::string>{});
+    d->settling = st;
   }
   d->residuals.clear();
   if (j.contains("residuals"))

@@ -1,0 +1,31 @@
+#pragma once
+// The loop model of the stepped servo, built from what calibrate measured, against the step
+// trials (fitting/settling_model.h): the slew, lag and exposure delay fitted from the trials'
+// frames (fitting/servo_motion_fit.h), the latency protocol's delay, the head fit's backlash
+// and the step protocol's controller settings. Each trial's settling is re-measured with the
+// loop model's band (fitting/loop_model.h SettlingBand) so that measured and predicted use the
+// same criterion.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fitting/result.h"
+#include "fitting/settling_model.h"
+#include "fitting/step_response.h"
+#include "models/robot_config.h"
+
+namespace owlcal::pipeline {
+
+// `dataset`: the step_response dataset folder; `steps`: its trials as calibrate read them
+// (statuses included). Returns nullopt, with the reason in *warnings, when the motion of the
+// servo cannot be fitted (no usable trial) — never a model made up from defaults.
+std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
+                                                    const std::vector<fitting::StepTrace>& steps,
+                                                    const models::RobotConfig& config,
+                                                    const fitting::CalibrationResult& result,
+                                                    std::optional<double> latency_ms,
+                                                    int delay_frames,
+                                                    double fps,
+                                                    std::vector<std::string>* warnings);
+
+}  // namespace owlcal::pipeline
