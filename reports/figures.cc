@@ -233,8 +233,9 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
   if (!d.gains) return std::nullopt;
   const GainStudy& g = *d.gains;
   Figure f{"settling_vs_gain", "2 % settling time vs proportional gain", "gain K [-]", "settling time [s]", {},
-           {"set bmargin 8"}, "outside bottom center horizontal maxrows 3"};
-  f.height_px = 720;
+           {"set bmargin 11"}, "outside bottom center horizontal maxrows 4"};
+  f.height_px = 760;
+  f.width_px = 1100;
   f.caption = "Settling time of the course's incremental P loop with " + std::to_string(g.delay_frames) +
               " frames of delay at " + Fmt(g.fps, 3) + " fps (model), the measured trials, the stability limit K_crit = " +
               Fmt(g.critical_gain, 3) + " and the physical lower bound for a 10 deg step (slew + latency + one frame).";
@@ -248,7 +249,7 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
       model.rows.push_back({r.gain, NAN});
     }
   f.series.push_back(model);
-  Series meas{"measured", "points pt 7 ps 1.5 " + Lc(1), "1:2", {"gain", "settling_s"}, {}};
+  Series meas{"measured trials", "points pt 7 ps 1.5 " + Lc(1), "1:2", {"gain", "settling_s"}, {}};
   for (const auto& s : d.steps)
     if (!s.simulated && s.status == calib::TrialStatus::kOk && s.controller == "p-loop" && s.info.settled)
       meas.rows.push_back({s.gain, s.info.settling_time});
@@ -259,9 +260,9 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
     const auto& st = *d.settling;
     double amp = 0;
     for (const auto& r : st.rows) amp = (std::abs(r.amplitude_deg - 10) < std::abs(amp - 10)) ? r.amplitude_deg : amp;
-    Series band{"loop model range, " + Fmt(amp, 3) + "\u00b0", "filledcurves fs transparent solid 0.2 " + Lc(4), "1:2:3",
+    Series band{"loop model range", "filledcurves fs transparent solid 0.2 " + Lc(4), "1:2:3",
                 {"gain", "lo_s", "hi_s"}, {}};
-    Series mid{"loop model (fitted slew, lag, latency), " + Fmt(amp, 3) + "\u00b0", "lines lw 2.5 " + Lc(4), "1:2",
+    Series mid{"loop model, " + Fmt(amp, 3) + "\u00b0 step", "lines lw 2.5 " + Lc(4), "1:2",
                {"gain", "settling_s"}, {}};
     for (const auto& c : st.curve)
       if (c.amplitude_deg == amp) {
@@ -273,12 +274,12 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
       f.series.push_back(band);
       f.series.push_back(mid);
     }
-    Series med{"measured median (min\u2013max), per gain and step", "yerrorbars pt 9 ps 1.5 " + Lc(1), "1:2:3:4",
+    Series med{"measured median (min\u2013max)", "yerrorbars pt 9 ps 1.5 " + Lc(1), "1:2:3:4",
                {"gain", "median_s", "lo_s", "hi_s"}, {}};
     for (const auto& r : st.rows)
       if (std::isfinite(r.measured_median_s)) med.rows.push_back({r.gain, r.measured_median_s, r.measured_lo_s, r.measured_hi_s});
     if (!med.rows.empty()) f.series.push_back(med);
-    f.caption += " The loop model is the measured loop: latency, slew and lag fitted from the step frames, the servo's "
+    f.caption += " The loop model (purple, for the " + Fmt(amp, 3) + "\u00b0 step) is the measured loop: latency, slew and lag fitted from the step frames, the servo's "
                  "backlash, the controller's dead zone; the settling table says where it and the measurement differ, and why.";
   }
   if (g.fastest)
@@ -288,9 +289,9 @@ std::optional<Figure> MakeSettlingFigure(const ReportData& d) {
   const double xmax = std::max(0.6, g.critical_gain * 1.4);
   for (size_t i = 0; i < g.amplitudes_deg.size(); ++i) {
     if (g.amplitudes_deg[i] != 10.0) continue;
-    f.series.push_back({"bound, 10°: 400 °/s + 100 ms", "lines lw 2 dt 4 " + Lc(2), "1:2",
+    f.series.push_back({"bound 10°: 400 °/s + 100 ms", "lines lw 2 dt 4 " + Lc(2), "1:2",
                         {"gain", "s"}, {{0, g.lower_bound_fast_s[i]}, {xmax, g.lower_bound_fast_s[i]}}});
-    f.series.push_back({"bound, 10°: 300 °/s + 150 ms", "lines lw 2 dt 5 " + Lc(3), "1:2",
+    f.series.push_back({"bound 10°: 300 °/s + 150 ms", "lines lw 2 dt 5 " + Lc(3), "1:2",
                         {"gain", "s"}, {{0, g.lower_bound_slow_s[i]}, {xmax, g.lower_bound_slow_s[i]}}});
   }
   f.series.push_back({"K_crit = " + Fmt(g.critical_gain, 3), "lines lw 2 lc rgb '#888888'", "1:2", {"gain", "s"},
