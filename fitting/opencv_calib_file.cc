@@ -1,6 +1,8 @@
 #include "fitting/opencv_calib_file.h"
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 #include <opencv2/calib3d.hpp>
@@ -242,6 +244,15 @@ void WriteOpenCvSplitFiles(const std::string& intrinsics_path,
 }
 
 OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path) {
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (in) {
+      const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      if (const size_t nul = text.find('\0'); nul != std::string::npos)
+        throw std::runtime_error("OpenCV calibration file " + path + ": not a text file (NUL byte at offset " +
+                                 std::to_string(nul) + ")");
+    }
+  }
   OpenCvStereoCalibration c;
   cv::FileStorage fs;
   try {
@@ -258,6 +269,11 @@ OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path) {
 }
 
 OpenCvStereoCalibration ParseOpenCvCalibration(const std::string& text, const std::string& source) {
+  // OpenCV's FileStorage parser reads C strings: a NUL byte inside made it read past the text
+  // and crash (found by fuzz/course_xml_fuzz). A calibration file is text.
+  if (const size_t nul = text.find('\0'); nul != std::string::npos)
+    throw std::runtime_error("OpenCV calibration file " + source + ": not a text file (NUL byte at offset " +
+                             std::to_string(nul) + ")");
   OpenCvStereoCalibration c;
   cv::FileStorage fs;
   try {

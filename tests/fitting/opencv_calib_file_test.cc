@@ -2,6 +2,9 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -137,6 +140,23 @@ TEST(OpenCvCalibFile, RefusesNonFiniteValuesBadCameraMatricesAndSizes) {
       "<data>500. 0. 320. 0. 500. 240. 0. 0. 1.</data></M2>\n</opencv_storage>\n";
   EXPECT_FALSE(ParseOpenCvCalibration(xml, "x.xml").M2.empty());
   EXPECT_THROW(ParseOpenCvCalibration("<?xml version=\"1.0\"?>\n<opencv_storage><M2", "x.xml"), std::runtime_error);
+}
+
+// Found by fuzz/course_xml_fuzz: NUL bytes inside the text crashed OpenCV's XML parser.
+TEST(OpenCvCalibFile, NulBytesAreRefusedBeforeOpenCvParses) {
+  std::string text = "<?xml version=";
+  text += std::string(10, '\0');
+  text += "\n<opencv_storage>\n<R type_id=\"opencv-matrix\">\n</R>\n</opencv_storage>\n";
+  try {
+    ParseOpenCvCalibration(text, "nul.xml");
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("nul.xml: not a text file (NUL byte at offset 14)"), std::string::npos) << e.what();
+  }
+  const std::string p = (std::filesystem::temp_directory_path() / ("owlcal_nul_" + std::to_string(::getpid()) + ".xml")).string();
+  std::ofstream(p, std::ios::binary) << text;
+  EXPECT_THROW(ReadOpenCvCalibration(p), std::runtime_error);
+  std::filesystem::remove(p);
 }
 
 // Found by fuzz/course_xml_fuzz: a matrix whose declared rows/cols are garbage or huge made
