@@ -34,8 +34,10 @@ struct RobotConfig {
   double ipd_m = 0.065;            // design inter-pupillary distance
   int image_width = 640;           // per eye
   int image_height = 480;
-  bool swap_eyes = false;          // true: left eye = columns 640-1279 of the stream
-  bool mirror_stream = false;      // true: the stream frame is flipped horizontally first
+  // Stream layout. A real Owl's stream arrives mirrored (the course code flips the whole
+  // 1280x480 frame, then left eye = columns 0-639), so mirror_stream is true by default.
+  bool swap_eyes = false;          // true: left eye = columns 640-1279 (after the flip if mirrored)
+  bool mirror_stream = true;       // true: the stream frame is flipped horizontally first
 
   PwmVector Centre() const {
     PwmVector c{};

@@ -96,7 +96,9 @@ TEST(GrabOneFrame, WritesLeftRightAndTheRawFrame) {
   video.Start();
   const auto dir = std::filesystem::temp_directory_path() / "owlcal_grab_test";
   std::filesystem::remove_all(dir);
-  const GrabReport r = GrabOneFrame("127.0.0.1", video.Port(), models::DefaultRobotConfig(), dir.string());
+  models::RobotConfig unmirrored = models::DefaultRobotConfig();
+  unmirrored.mirror_stream = false;  // the default robot streams mirrored like a real Owl
+  const GrabReport r = GrabOneFrame("127.0.0.1", video.Port(), unmirrored, dir.string());
   EXPECT_EQ(r.width, 1280);
   EXPECT_EQ(r.height, 480);
   const cv::Mat left = cv::imread(r.left_png), right = cv::imread(r.right_png), frame = cv::imread(r.frame_jpg);

@@ -218,6 +218,7 @@ TEST(OwlLink, ClampsSendsAndGrabsFrames) {
   o.servo_port = servo->Port();
   o.http_port = video.Port();
   o.log = [&](const std::string& line) { clamp_log.push_back(line); };
+  o.robot.mirror_stream = false;  // the default robot streams mirrored like a real Owl; this frame is not
   OwlLink owl(o);
   EXPECT_NE(owl.Describe().find("127.0.0.1"), std::string::npos);
 
@@ -254,6 +255,7 @@ TEST(OwlLink, SwapEyesFromTheRobotFile) {
   o.servo_port = 1;  // unused here
   o.http_port = video.Port();
   o.robot.swap_eyes = true;
+  o.robot.mirror_stream = false;
   OwlLink owl(o);
   std::optional<StereoFrame> f = owl.GrabFrame(0, 5'000'000'000);
   ASSERT_TRUE(f);

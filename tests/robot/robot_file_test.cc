@@ -30,7 +30,7 @@ void ExpectSameConfig(const models::RobotConfig& a, const models::RobotConfig& b
 
 const char* kGuide = R"(name: guide-owl
 ipd_mm: 65.0
-image: {width: 640, height: 480, swap_eyes: false, mirror: false}
+image: {width: 640, height: 480, swap_eyes: false, mirror: true}
 servos:
   Rx:   {min_us: 1200, max_us: 1890, centre_us: 1545, direction: 1,  deg_per_us: 0.113}
   Ry:   {min_us: 1120, max_us: 2000, centre_us: 1530, direction: 1,  deg_per_us: 0.113}
@@ -70,7 +70,7 @@ TEST(RobotFile, SaveThenLoadRoundTrips) {
   c.name = "my owl";
   c.ipd_m = 0.0649;
   c.swap_eyes = true;
-  c.mirror_stream = true;
+  c.mirror_stream = false;  // not the default (a real Owl streams mirrored)
   c.servos[models::kRx].centre_us = 1502;
   c.servos[models::kLy].nominal_deg_per_us = 0.1017;
   const std::string path = (std::filesystem::temp_directory_path() / "owlcal_robot_file_test.yaml").string();
