@@ -39,14 +39,31 @@ const char* StatusText(int status) {
   }
 }
 
-// Reads one request (headers + Content-Length body). nullopt on EOF, timeout or garbage.
-std::optional<HttpRequest> ReadRequest(int fd, const std::atomic<bool>& stop) {
+bool IsToken(const std::string& s) {
+  if (s.empty() || s.size() > 32) return false;
+  for (unsigned char c : s) {
+    if (!std::isupper(c)) return false;
+  }
+  return true;
+}
+
+// Reads one request (headers + Content-Length body). nullopt on EOF, timeout or garbage; for
+// garbage *bad says why (the caller answers 400), for EOF or an idle timeout it stays empty.
+std::optional<HttpRequest> ReadRequest(int fd,
+                                       const std::atomic<bool>& stop,
+                                       std::chrono::milliseconds timeout,
+                                       std::string* bad) {
   std::string data;
   char buf[4096];
   size_t header_end = std::string::npos;
-  int idle_steps = 0;
+  const int64_t max_idle_steps = std::max<int64_t>(1, timeout.count() / kPollStep.count());
+  int64_t idle_steps = 0;
   while (header_end == std::string::npos) {
-    if (stop || data.size() > kMaxHeaderBytes || idle_steps > 100) return std::nullopt;  // 5 s idle
+    if (data.size() > kMaxHeaderBytes) {
+      *bad = "request headers longer than " + std::to_string(kMaxHeaderBytes) + " bytes";
+      return std::nullopt;
+    }
+    if (stop || idle_steps > max_idle_steps) return std::nullopt;
     const int64_t got = RecvSome(fd, buf, sizeof(buf), kPollStep);
     if (got == -1) {
       ++idle_steps;
@@ -64,9 +81,17 @@ std::optional<HttpRequest> ReadRequest(int fd, const std::atomic<bool>& stop) {
   const std::string request_line = head.substr(0, line_end);
   const size_t sp1 = request_line.find(' ');
   const size_t sp2 = request_line.find(' ', sp1 + 1);
-  if (sp1 == std::string::npos) return std::nullopt;
-  req.method = request_line.substr(0, sp1);
-  std::string target = request_line.substr(sp1 + 1, sp2 == std::string::npos ? std::string::npos : sp2 - sp1 - 1);
+  req.method = request_line.substr(0, sp1 == std::string::npos ? 0 : sp1);
+  std::string target = sp1 == std::string::npos
+                           ? std::string()
+                           : request_line.substr(sp1 + 1, sp2 == std::string::npos ? std::string::npos : sp2 - sp1 - 1);
+  const std::string version = sp2 == std::string::npos ? std::string() : request_line.substr(sp2 + 1);
+  if (!IsToken(req.method) || target.empty() || target[0] != '/' || version.rfind("HTTP/", 0) != 0) {
+    std::string shown;
+    for (unsigned char ch : request_line.substr(0, 60)) shown += std::isprint(ch) ? char(ch) : '?';
+    *bad = "not an HTTP request line (expected 'METHOD /path HTTP/1.x'): '" + shown + "'";
+    return std::nullopt;
+  }
   const size_t q = target.find('?');
   req.path = target.substr(0, q);
   if (q != std::string::npos) req.query = target.substr(q + 1);
@@ -79,16 +104,20 @@ std::optional<HttpRequest> ReadRequest(int fd, const std::atomic<bool>& stop) {
   }
   size_t length = 0;
   if (auto it = req.headers.find("content-length"); it != req.headers.end()) {
-    try {
-      length = std::stoul(it->second);
-    } catch (...) {
+    const std::string& v = it->second;
+    if (v.empty() || v.size() > 12 || v.find_first_not_of("0123456789") != std::string::npos) {
+      *bad = "Content-Length '" + v.substr(0, 20) + "' is not a number";
       return std::nullopt;
     }
+    length = std::stoul(v);
   }
-  if (length > kMaxBodyBytes) return std::nullopt;
+  if (length > kMaxBodyBytes) {
+    *bad = "body of " + std::to_string(length) + " bytes is over " + std::to_string(kMaxBodyBytes);
+    return std::nullopt;
+  }
   idle_steps = 0;
   while (body.size() < length) {
-    if (stop || idle_steps > 100) return std::nullopt;
+    if (stop || idle_steps > max_idle_steps) return std::nullopt;
     const int64_t got = RecvSome(fd, buf, static_cast<int64_t>(std::min(sizeof(buf), length - body.size())), kPollStep);
     if (got == -1) {
       ++idle_steps;
@@ -126,6 +155,8 @@ bool MjpegServerOptions::Check(std::string* why) const {
     return false;
   };
   if (port < 0 || port > 65535) return fail("port = " + std::to_string(port) + " is not 0..65535");
+  if (send_buffer_bytes < 0) return fail("send_buffer_bytes = " + std::to_string(send_buffer_bytes) + " is negative");
+  if (request_timeout.count() <= 0) return fail("request_timeout must be positive");
   if (!(fps > 0 && fps <= 1000)) return fail("fps = " + std::to_string(fps) + " is not in (0, 1000]");
   if (boundary.empty() || boundary.size() > 70) return fail("boundary must be 1..70 characters");
   if (stream_path.empty() || stream_path[0] != '/') return fail("stream_path '" + stream_path + "' must start with /");
@@ -168,12 +199,12 @@ void MjpegServer::Stop() {
   started_ = false;
 }
 
-void MjpegServer::Publish(std::vector<uint8_t> jpeg) {
+void MjpegServer::Publish(std::vector<uint8_t> jpeg, std::optional<int64_t> capture_stamp_us) {
   {
     std::lock_guard<std::mutex> lock(frame_mutex_);
     frame_ = std::make_shared<const std::vector<uint8_t>>(std::move(jpeg));
     ++frame_seq_;
-    frame_stamp_us_ = SteadyUs();
+    frame_stamp_us_ = capture_stamp_us ? *capture_stamp_us : SteadyUs();
   }
   frame_cv_.notify_all();
 }
@@ -234,7 +265,12 @@ void MjpegServer::AcceptLoop() {
 
 void MjpegServer::ServeClient(Client* client) {
   const int fd = client->socket.fd();
-  std::optional<HttpRequest> req = ReadRequest(fd, stop_);
+  std::string bad;
+  std::optional<HttpRequest> req = ReadRequest(fd, stop_, options_.request_timeout, &bad);
+  if (!req && !bad.empty()) {
+    if (options_.log) options_.log("http server: 400 for a client: " + bad);
+    SendResponse(fd, HttpResponse{400, "text/plain", "bad request: " + bad + "\n", {}});
+  }
   if (req) {
     if (req->method == "GET" && req->path == options_.stream_path) {
       Stream(fd);
@@ -264,6 +300,11 @@ void MjpegServer::Stream(int fd) {
       "Pragma: no-cache\r\n"
       "Content-Type: multipart/x-mixed-replace;boundary=" +
       options_.boundary + "\r\n\r\n";
+  if (options_.send_buffer_bytes > 0) {
+    // Bound what can queue for a slow client (see the header); Linux doubles the value.
+    const int bytes = options_.send_buffer_bytes;
+    ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof(bytes));
+  }
   if (!SendAll(fd, header)) return;
   num_stream_clients_.fetch_add(1);
   if (options_.log) options_.log("mjpeg server: stream client connected");

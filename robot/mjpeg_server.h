@@ -9,16 +9,27 @@
 //   --<boundary>\r\n
 //   Content-Type: image/jpeg\r\n
 //   Content-Length: <n>\r\n        (left out when options.send_content_length is false)
-//   X-Timestamp: <sec>.<usec>\r\n  (server's steady clock when the frame was published)
+//   X-Timestamp: <sec>.<usec>\r\n  (steady clock: the capture time given to Publish, else when
+//                                  the frame was published; mjpg-streamer sends the capture time)
 //   \r\n<jpeg bytes>\r\n
 // Frames come either from a FrameSource polled at options.fps on a server thread (nullopt =
-// no frame this tick), or from Publish(jpeg) (push API). Every client gets the newest frame
-// each time a new one is published (a slow client skips frames, as with the real server).
-// One thread per client; any number of clients.
+// no frame this tick), or from Publish(jpeg) (push API). One thread per client; any number of
+// clients.
+//
+// Slow clients (as mjpg-streamer, the Owl's streamer): each client is sent the NEWEST frame
+// whenever it can take one; the frames published while it was busy are dropped for it, never
+// queued. The only queue is the socket buffers: the stream socket's send buffer is set to
+// options.send_buffer_bytes (the kernel doubles it; 0 leaves Linux's autotuning, which lets a
+// slow client fall ~4 MB = ~50 frames = seconds behind) plus the client's receive buffer. So a
+// client that reads one frame per period P receives frames at most about P + latency old.
 //
 // Other routes: any request that is not a GET of the stream path goes to the RouteHandler
 // (e.g. GET /truth, PUT /scene/targets/NAME with a JSON body); nullopt from it, or no
-// handler, gives 404. Those responses close the connection (HTTP/1.0 style).
+// handler, gives 404. Those responses close the connection (HTTP/1.0 style). A request that
+// is not HTTP (no "METHOD /path HTTP/x" line, a bad Content-Length, headers over 64 KiB or a
+// body over 16 MiB) gets 400 naming what was wrong. Idle timeout: a client that has not sent a
+// complete request within options.request_timeout (5 s) is disconnected, so a silent client
+// holds nothing but its own thread.
 //
 // Usage:
 //   MjpegServer server({}, [&] { return std::optional(next_jpeg()); });
@@ -64,6 +75,8 @@ struct MjpegServerOptions {
   std::string boundary = "boundarydonotcross";  // as mjpg-streamer
   double fps = 30.0;                           // FrameSource polling rate [Hz]
   bool send_content_length = true;
+  int send_buffer_bytes = 64 * 1024;           // SO_SNDBUF of a stream socket; 0 = kernel autotuning
+  std::chrono::milliseconds request_timeout{5000};  // idle timeout for the request (headers and body)
   LogSink log;
   bool Check(std::string* why) const;
 };
@@ -84,8 +97,10 @@ class MjpegServer {
   void Stop();
   int Port() const { return port_; }
 
-  // Push API: makes `jpeg` the newest frame; clients receive it once.
-  void Publish(std::vector<uint8_t> jpeg);
+  // Push API: makes `jpeg` the newest frame; clients receive it at most once (a busy client
+  // skips it). capture_stamp_us: when the frame was captured (steady clock, us), sent as
+  // X-Timestamp; default: now.
+  void Publish(std::vector<uint8_t> jpeg, std::optional<int64_t> capture_stamp_us = std::nullopt);
   int NumStreamClients() const { return num_stream_clients_.load(); }
   int64_t NumFramesPublished() const;
   int64_t NumFramesSent() const { return num_frames_sent_.load(); }

@@ -3,6 +3,7 @@
 // and the HTTP scene/truth routes work. Loopback (127.0.0.1) and ephemeral ports only.
 #include "sim/sim_server.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <random>
@@ -189,6 +190,58 @@ TEST_F(SimServerTest, HttpTruthAndSceneRoutes) {
   const std::string hide = Http("PUT", "/scene/targets/aprilgrid", R"({"visible": false})");
   EXPECT_NE(hide.find(" 200 "), std::string::npos) << hide;
   EXPECT_FALSE(server_->Owl().SceneState().Find("aprilgrid")->visible);
+}
+
+// Issue 19: like mjpg-streamer, a client that reads slower than the stream gets the newest frame
+// each time and the rest are dropped, instead of a queue of seconds-old frames. A client reading
+// at 5 fps: every frame it receives was exposed at most latency + 2 x its own frame period ago
+// (one period in the socket buffers, one in transit). Ages come from the frame's X-Timestamp
+// (its exposure on the steady clock) and the arrival stamp; the bound uses the client's actual
+// periods, so a slow test machine widens it instead of failing. Before the fix the ages grew to
+// seconds (~4 MB, ~50 frames queued in the kernel's autotuned send buffer).
+TEST_F(SimServerTest, AFiveFpsClientGetsRecentFramesNotAQueue) {
+  robot::MjpegClientOptions co;
+  co.port = server_->HttpPort();
+  co.decode = false;
+  robot::MjpegClient client(co);
+  const double latency_ms = server_->Owl().Truth().stream.latency_ms;
+  auto first = client.Next(3000ms);
+  ASSERT_TRUE(first.has_value());
+  int64_t previous_arrival_ns = first->stereo.stamp_ns;
+  double worst_age_ms = 0, worst_margin_ms = 1e9;
+  for (int i = 0; i < 20; ++i) {
+    std::this_thread::sleep_for(200ms);  // the client's processing: 5 fps
+    auto f = client.Next(3000ms);
+    ASSERT_TRUE(f.has_value()) << "frame " << i;
+    ASSERT_TRUE(f->server_stamp_us.has_value());
+    const double age_ms = (double(f->stereo.stamp_ns) / 1000.0 - double(*f->server_stamp_us)) / 1000.0;
+    const double period_ms = double(f->stereo.stamp_ns - previous_arrival_ns) / 1e6;
+    previous_arrival_ns = f->stereo.stamp_ns;
+    const double bound_ms = latency_ms + 2 * period_ms;
+    EXPECT_LE(age_ms, bound_ms) << "frame " << i << " is " << age_ms << " ms old; the client reads every " << period_ms
+                                << " ms";
+    EXPECT_GE(age_ms, latency_ms - 1) << "frame " << i;  // a frame cannot arrive before its latency
+    worst_age_ms = std::max(worst_age_ms, age_ms);
+    worst_margin_ms = std::min(worst_margin_ms, bound_ms - age_ms);
+  }
+  std::printf("5 fps client: oldest frame received %.0f ms after exposure (latency %.0f ms), smallest margin to "
+              "the bound %.0f ms\n",
+              worst_age_ms, latency_ms, worst_margin_ms);
+}
+
+TEST_F(SimServerTest, HttpGarbageGetsA400AndASilentClientBlocksNoOne) {
+  robot::Socket silent = robot::ConnectTcp("127.0.0.1", server_->HttpPort(), 2000ms);  // sends nothing
+  {
+    robot::Socket s = robot::ConnectTcp("127.0.0.1", server_->HttpPort(), 2000ms);
+    ASSERT_TRUE(robot::SendAll(s.fd(), std::string("\x16\x03\x01" "garbage\r\n\r\n")));
+    char buf[512];
+    const int64_t n = robot::RecvSome(s.fd(), buf, sizeof buf, 3000ms);
+    ASSERT_GT(n, 0);
+    const std::string r(buf, size_t(n));
+    EXPECT_EQ(r.rfind("HTTP/1.0 400 ", 0), 0u) << r;
+    EXPECT_NE(r.find("not an HTTP request line"), std::string::npos) << r;
+  }
+  EXPECT_NE(Http("GET", "/truth").find(" 200 "), std::string::npos);
 }
 
 }  // namespace
