@@ -24,7 +24,10 @@ int RunCentre(const CentreOptions& o) {
 
 const bool kRegistered = RegisterCommand(
     "centre",
-    "Send the robot's centre pose (centre_us of every servo in the robot file) and print the reply.",
+    "Send the robot's centre pose (centre_us of every servo in the robot file) and print the reply.\n"
+    "One connection per run: a one-client server (the course's C server, MRSsocket.c, or\n"
+    "`owlcal sim --server c`) exits when this run closes; script moves, waits and centre over one\n"
+    "connection with `owlcal shell`.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<CentreOptions>();
       cmd->add_option("--robot", o->robot, "robot servo server HOST[:PORT] (port 12345 if omitted; no default host)")

@@ -34,7 +34,10 @@ int RunMove(const MoveOptions& o) {
 const bool kRegistered = RegisterCommand(
     "move",
     "Send one servo command (pulse widths in us, wire order Rx Ry Lx Ly Neck), clamped to the\n"
-    "robot file's limits; prints what was sent, any clamp and the server's reply.",
+    "robot file's limits; prints what was sent, any clamp and the server's reply.\n"
+    "One connection per run: connect, send, close. A one-client server (the course's C server,\n"
+    "MRSsocket.c, or `owlcal sim --server c`) exits when this run closes, so a second move or\n"
+    "centre is refused; send several commands over one connection with `owlcal shell`.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<MoveOptions>();
       cmd->add_option("--robot", o->robot, "robot servo server HOST[:PORT] (port 12345 if omitted; no default host)")

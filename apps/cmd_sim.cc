@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "apps/command_registry.h"
+#include "robot/socket_util.h"
 #include "sim/sim_server.h"
 
 namespace owlcal::apps {
@@ -37,8 +38,34 @@ struct SimCommandOptions {
   double drop_probability = -1;
   int jpeg_quality = 0;
   int quantum_us = 0;
+  std::string server = "owlcal";
+  double idle_timeout_s = 5;
+  int mirror = -1;  // -1: as the truth file says (default: mirrored, as a real Owl); 0/1: --no-mirror/--mirror
+  int swap = -1;    // -1: as the truth file says (default: not swapped); 0/1: --no-swap/--swap
   bool quiet = false;
 };
+
+// How a client must read the stream of a robot with this layout (printed at start).
+std::string LayoutText(const models::RobotConfig& r) {
+  std::string s = r.mirror_stream ? "mirrored like a real Owl's (flip the whole frame, then " : "not mirrored (";
+  s += r.swap_eyes ? "left eye = columns 640-1279)" : "left eye = columns 0-639)";
+  return s;
+}
+
+std::string ServerText(robot::ServoServerOptions::Mode mode, std::chrono::milliseconds idle_timeout) {
+  switch (mode) {
+    case robot::ServoServerOptions::Mode::kPython:
+      return "python (the guide's Annex 2 server: one client; a short packet or a bad field ends it)";
+    case robot::ServoServerOptions::Mode::kC:
+      return "c (MRSsocket.c: per-field parse and clamp, replies with the Rx value; exits when its one client "
+             "leaves)";
+    case robot::ServoServerOptions::Mode::kOwlcal: break;
+  }
+  char seconds[32];
+  std::snprintf(seconds, sizeof seconds, "%g", double(idle_timeout.count()) / 1000.0);
+  return std::string("owlcal (clients one after another; a session silent for ") + seconds +
+         " s is closed when another client waits)";
+}
 
 int RunSim(const SimCommandOptions& o) {
   sim::SimServerOptions so;
@@ -50,7 +77,22 @@ int RunSim(const SimCommandOptions& o) {
   if (o.drop_probability >= 0) so.owl.drop_probability = o.drop_probability;
   if (o.jpeg_quality > 0) so.owl.jpeg_quality = o.jpeg_quality;
   if (o.quantum_us > 0) so.owl.quantum_us = o.quantum_us;
+  if (o.mirror >= 0 || o.swap >= 0) {
+    sim::RobotTruth truth = o.truth_file.empty() ? sim::DefaultRobotTruth() : sim::LoadRobotTruth(o.truth_file);
+    if (o.mirror >= 0) truth.robot.mirror_stream = o.mirror == 1;
+    if (o.swap >= 0) truth.robot.swap_eyes = o.swap == 1;
+    so.owl.truth = truth;
+  }
   so.bind_address = o.bind;
+  try {
+    so.servo_mode = robot::ParseServerMode(o.server);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--server: ") + e.what());
+  }
+  if (!(o.idle_timeout_s > 0 && o.idle_timeout_s <= 86400)) {
+    throw UsageError("--idle-timeout " + std::to_string(o.idle_timeout_s) + " is not in (0, 86400] s");
+  }
+  so.idle_timeout = std::chrono::milliseconds(static_cast<int64_t>(o.idle_timeout_s * 1000));
   so.servo_port = o.servo_port;
   so.http_port = o.http_port;
   if (!o.quiet) so.log = [](const std::string& m) { std::cerr << "owlcal sim: " << m << "\n"; };
@@ -71,16 +113,20 @@ int RunSim(const SimCommandOptions& o) {
     return kExitOk;
   }
 
-  if (o.bind != "127.0.0.1" && o.bind != "localhost") {
+  if (!robot::IsLoopbackAddress(o.bind)) {
     std::cerr << "owlcal sim: warning: binding " << o.bind << " exposes the virtual Owl beyond this machine\n";
   }
   sim::SimServer server(so);
   server.Start();
+  // An IPv6 literal goes in brackets in a URL.
+  const std::string host = o.bind.find(':') != std::string::npos && o.bind.front() != '[' ? "[" + o.bind + "]" : o.bind;
   std::cout << server.Owl().Describe() << "\n"
-            << "  servo packets: " << o.bind << ":" << server.ServoPort() << "\n"
-            << "  stream:        http://" << o.bind << ":" << server.HttpPort() << "/stream/video.mjpeg\n"
-            << "  truth:         http://" << o.bind << ":" << server.HttpPort() << "/truth\n"
-            << "  move a target: PUT http://" << o.bind << ":" << server.HttpPort()
+            << "  stream layout: " << LayoutText(server.Owl().Config()) << "\n"
+            << "  servo server:  " << ServerText(so.servo_mode, so.idle_timeout) << "\n"
+            << "  servo packets: " << host << ":" << server.ServoPort() << "\n"
+            << "  stream:        http://" << host << ":" << server.HttpPort() << "/stream/video.mjpeg\n"
+            << "  truth:         http://" << host << ":" << server.HttpPort() << "/truth\n"
+            << "  move a target: PUT http://" << host << ":" << server.HttpPort()
             << "/scene/targets/NAME  {\"t_m\": [x, y, z], \"rpy_deg\": [r, p, y]}\n"
             << (o.duration_s > 0 ? "" : "Ctrl-C stops.\n") << std::flush;
   g_stop = false;
@@ -96,6 +142,9 @@ int RunSim(const SimCommandOptions& o) {
   std::cout << "served " << server.NumFramesPublished() << " frames, " << stats.num_packets << " servo packets ("
             << stats.num_malformed << " malformed, " << stats.num_clamped << " clamped) in " << stats.num_sessions
             << " sessions\n";
+  if (server.ServoServerExited()) {
+    std::cout << "the " << o.server << " servo server had exited: " << server.ServoServerExitReason() << "\n";
+  }
   return kExitOk;
 }
 
@@ -107,7 +156,15 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--robot-truth", o->truth_file, "robot-truth YAML (default: built-in = data/sim/owl_default_truth.yaml)")
           ->check(CLI::ExistingFile);
       cmd->add_option("--scene", o->scene_file, "scene YAML (default: built-in)")->check(CLI::ExistingFile);
-      cmd->add_option("--bind", o->bind, "address to listen on")->capture_default_str();
+      cmd->add_option("--bind", o->bind, "address to listen on (IPv4, or an IPv6 literal such as ::1)")
+          ->capture_default_str();
+      cmd->add_option("--server", o->server,
+                      "servo server: owlcal (robust, default), python (the guide's Annex 2 server) or c (the course's "
+                      "MRSsocket.c: one client per launch)")
+          ->capture_default_str();
+      cmd->add_option("--idle-timeout", o->idle_timeout_s,
+                      "owlcal server: close a session silent this many seconds when another client is waiting")
+          ->capture_default_str();
       cmd->add_option("--servo-port", o->servo_port, "servo TCP port (0 = any free)")->capture_default_str();
       cmd->add_option("--http-port", o->http_port, "MJPEG/HTTP port (0 = any free)")->capture_default_str();
       cmd->add_option("--seed", o->seed, "noise/drop seed")->capture_default_str();
@@ -118,6 +175,11 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--drop-probability", o->drop_probability, "override the frame drop probability");
       cmd->add_option("--jpeg-quality", o->jpeg_quality, "override the JPEG quality (1-100)");
       cmd->add_option("--quantum-us", o->quantum_us, "override the PWM quantum of all servos (1, or 5 as pigpio)");
+      cmd->add_flag_callback("--mirror", [o] { o->mirror = 1; },
+                             "stream mirrored like a real Owl's (the default): the course code flips the frame");
+      cmd->add_flag_callback("--no-mirror", [o] { o->mirror = 0; }, "stream not mirrored (eyes the right way round)");
+      cmd->add_flag_callback("--swap", [o] { o->swap = 1; }, "left eye in columns 640-1279 (after any flip)");
+      cmd->add_flag_callback("--no-swap", [o] { o->swap = 0; }, "left eye in columns 0-639 (after any flip; the default)");
       cmd->add_flag("--quiet", o->quiet, "no per-session log lines");
       return [o] { return RunSim(*o); };
     });

@@ -1,5 +1,6 @@
 #include "apps/robot_factory.h"
 
+#include <iostream>
 #include <stdexcept>
 
 #include "robot/owl_link.h"
@@ -32,6 +33,7 @@ std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const 
   lo.robot = options.robot_config         ? *options.robot_config
              : options.robot_file.empty() ? models::DefaultRobotConfig()
                                           : robot::LoadRobotFile(options.robot_file);
+  lo.log = options.log ? options.log : [](const std::string& line) { std::cerr << "owlcal: " << line << "\n"; };
   return std::make_unique<robot::OwlLink>(lo);
 }
 

@@ -8,6 +8,7 @@
 // There is no default address: an empty spec is an error. Throws std::invalid_argument for a
 // bad spec and std::runtime_error (naming the file) for unreadable files.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -25,6 +26,9 @@ struct RobotFactoryOptions {
   // The limits, centres and stream layout to use instead of robot_file's (owlcal jog opens the
   // limits to its envelope; the re-validation runs on the file it wrote).
   std::optional<models::RobotConfig> robot_config;
+  // Real robot: clamps and link events (a lost and re-opened servo connection). Default:
+  // stderr, prefixed "owlcal: ", so a reconnect is never silent.
+  std::function<void(const std::string&)> log;
 };
 
 std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const RobotFactoryOptions& options);

@@ -56,7 +56,15 @@ void OwlLink::Close() {
 
 ServoReply OwlLink::SendServos(const PwmVector& pwm_us) {
   const ClampResult clamp = guard_.Clamp(pwm_us);
+  const int64_t connects_before = servo_.NumConnects();
   const ServoClientReply r = servo_.Send(clamp.pwm_us);
+  if (connects_before > 0 && servo_.NumConnects() > connects_before && options_.log) {
+    // One connection per run is the rule (a one-client server, such as the course's C server,
+    // refuses a second one); a reconnect is never silent.
+    options_.log("servo link: the connection to " + options_.host + ":" + std::to_string(options_.servo_port) +
+                 " was lost and has been re-opened (" + std::to_string(servo_.NumConnects()) +
+                 " connections in this run); a one-client server such as the course's C server refuses this");
+  }
   if (!r.ok) {
     std::string sent;
     for (int i = 0; i < models::kNumServos; ++i) {

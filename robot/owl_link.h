@@ -6,6 +6,8 @@
 // so GrabFrame never returns a stale buffered one. Left/right follow the robot file's
 // swap_eyes / mirror options (robot/mjpeg_client.h).
 // Clock: the host's steady clock (NowNs, SleepNs). No scene control (Scene() is nullptr).
+// One servo connection for the whole life of the link (the course's C server serves one client
+// per launch); if it is lost the ServoClient reconnects once, and the link logs that it did.
 //
 // Usage:
 //   OwlLinkOptions o;

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "robot/course_server_parse.h"
 #include "robot/packet_assembler.h"
 #include "robot/packet_codec.h"
 
@@ -28,7 +29,27 @@ bool ServoServerOptions::Check(std::string* why) const {
     if (why) *why = "servo server: partial_timeout must be positive";
     return false;
   }
+  if (idle_timeout.count() <= 0) {
+    if (why) *why = "servo server: idle_timeout must be positive";
+    return false;
+  }
   return true;
+}
+
+std::string ModeName(ServoServerOptions::Mode mode) {
+  switch (mode) {
+    case ServoServerOptions::Mode::kPython: return "python";
+    case ServoServerOptions::Mode::kC: return "c";
+    case ServoServerOptions::Mode::kOwlcal: break;
+  }
+  return "owlcal";
+}
+
+ServoServerOptions::Mode ParseServerMode(const std::string& text) {
+  if (text == "owlcal") return ServoServerOptions::Mode::kOwlcal;
+  if (text == "python") return ServoServerOptions::Mode::kPython;
+  if (text == "c") return ServoServerOptions::Mode::kC;
+  throw std::invalid_argument("servo server mode '" + text + "' is not one of owlcal, python, c");
 }
 
 ServoServer::ServoServer(ServoServerOptions options, PacketHandler on_packet, RawHandler on_raw)
@@ -61,8 +82,28 @@ ServoServerStats ServoServer::Stats() const {
   return stats_;
 }
 
+std::string ServoServer::ExitReason() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return exit_reason_;
+}
+
+void ServoServer::Count(int64_t ServoServerStats::*field) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++(stats_.*field);
+}
+
+void ServoServer::Exit(const std::string& why) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    exit_reason_ = why;
+  }
+  if (options_.log) options_.log(ModeName(options_.mode) + " servo server exited: " + why);
+  listener_.Close();  // as the course's process would: connecting is refused from now on
+  exited_ = true;
+}
+
 void ServoServer::Loop() {
-  while (!stop_) {
+  while (!stop_ && !exited_) {
     if (!WaitReadable(listener_.fd(), kPollStep)) continue;
     Socket client(::accept4(listener_.fd(), nullptr, nullptr, SOCK_CLOEXEC));
     if (!client.valid()) continue;
@@ -73,9 +114,94 @@ void ServoServer::Loop() {
       ++stats_.num_sessions;
     }
     if (options_.log) options_.log("servo server: client connected");
+    if (options_.mode == ServoServerOptions::Mode::kPython) {
+      ServePython(std::move(client));
+      return;  // the Python server accepts one client; its script then ends
+    }
+    if (options_.mode == ServoServerOptions::Mode::kC) {
+      if (ServeC(std::move(client))) return;
+      continue;
+    }
     Serve(std::move(client));
     if (options_.log) options_.log("servo server: session ended");
   }
+}
+
+bool ServoServer::ServePython(Socket client) {
+  const int fd = client.fd();
+  while (!stop_) {
+    char buf[kPacketBytes];
+    const int64_t got = RecvSome(fd, buf, kPacketBytes, kPollStep);  // comm.recv(24): one read
+    if (got == -1) continue;
+    const std::string packet(buf, got > 0 ? size_t(got) : 0);
+    if (on_raw_ && !packet.empty()) on_raw_(packet);
+    SendAll(fd, "ok");  // comm.send('ok') before anything is checked
+    if (packet.size() < size_t(kPacketBytes)) {
+      if (!packet.empty()) Count(&ServoServerStats::num_short);
+      Exit("received NULL packet, quitting (recv gave " + std::to_string(packet.size()) +
+           " bytes; PFCsocket.py ends on len(packet) < 24)");
+      return true;
+    }
+    const PythonServerParse parsed = ParseLikePythonServer(packet);
+    if (!parsed.pwm_us) {
+      Count(&ServoServerStats::num_malformed);
+      Exit("Traceback: " + parsed.exception + " (packet " + PythonRepr(packet) +
+           "; PFCsocket.py does not catch it, so the server dies)");
+      return true;
+    }
+    const ClampResult clamped = guard_.Clamp(*parsed.pwm_us);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++stats_.num_packets;
+      if (clamped.any_clamped) ++stats_.num_clamped;
+    }
+    if (on_packet_) on_packet_(clamped.pwm_us);
+  }
+  return true;
+}
+
+bool ServoServer::ServeC(Socket client) {
+  const int fd = client.fd();
+  while (!stop_) {
+    char buf[32];
+    const int64_t got = RecvSome(fd, buf, sizeof(buf), kPollStep);  // read(sockfd, buffer, 32)
+    if (got == -1) continue;
+    if (got <= 0) {
+      // read() gives 0 at the client's close; MRSsocket.c then sets the same servos again and
+      // replies into the closed socket: SIGPIPE ends the process.
+      Exit("the client left; MRSsocket.c's next reply hits the closed socket and SIGPIPE (broken pipe) "
+           "kills it: one client per launch");
+      return true;
+    }
+    const std::string bytes(buf, size_t(got));
+    if (on_raw_) on_raw_(bytes);
+    const CServerScan scan = ScanLikeCServer(bytes, &c_globals_);
+    if (scan.num_fields < models::kNumServos) {
+      Count(&ServoServerStats::num_malformed);
+      if (options_.log) {
+        options_.log("c servo server: " + std::to_string(scan.num_fields) + " of 5 fields parsed from " +
+                     PythonRepr(bytes) + "; the others keep their previous values");
+      }
+    }
+    const ClampResult clamped = guard_.Clamp(c_globals_);
+    c_globals_ = clamped.pwm_us;  // MRSsocket.c clamps its globals in place
+    if (scan.data < 0) {
+      if (scan.data == -2) {
+        Exit("the client sent -2: MRSsocket.c stops");
+        return true;
+      }
+      if (options_.log) options_.log("c servo server: the client sent a negative first field: session closed");
+      return false;
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++stats_.num_packets;
+      if (clamped.any_clamped) ++stats_.num_clamped;
+    }
+    if (on_packet_) on_packet_(clamped.pwm_us);
+    SendAll(fd, std::to_string(scan.data) + "\n\r");  // sendData(newsockfd, data): "%d\n\r"
+  }
+  return true;
 }
 
 void ServoServer::Serve(Socket client) {
@@ -110,15 +236,25 @@ void ServoServer::Serve(Socket client) {
   };
   char buf[4096];
   auto partial_since = std::chrono::steady_clock::now();
+  auto last_activity = partial_since;
   while (!stop_) {
     const int64_t got = RecvSome(fd, buf, sizeof(buf), kPollStep);
     if (got == -1) {  // no data yet: keep waiting, unless a partial packet went stale
-      if (assembler.Pending() > 0 &&
-          std::chrono::steady_clock::now() - partial_since > options_.partial_timeout) {
+      const auto now = std::chrono::steady_clock::now();
+      if (assembler.Pending() > 0 && now - partial_since > options_.partial_timeout) {
         break;
+      }
+      if (now - last_activity > options_.idle_timeout && WaitReadable(listener_.fd(), std::chrono::milliseconds(0))) {
+        Count(&ServoServerStats::num_idle_closed);
+        if (options_.log) {
+          options_.log("servo server: closing a session silent for " + std::to_string(options_.idle_timeout.count()) +
+                       " ms: another client is waiting");
+        }
+        return;
       }
       continue;
     }
+    last_activity = std::chrono::steady_clock::now();
     if (got <= 0) break;  // EOF (the host closed: the "NULL packet") or error
     const size_t pending_before = assembler.Pending();
     int num_completed = 0;

@@ -17,6 +17,41 @@ namespace {
 
 std::string Errno() { return std::strerror(errno); }
 
+// An IPv4 or IPv6 socket address.
+struct Address {
+  sockaddr_storage storage{};
+  socklen_t length = 0;
+  int family = AF_INET;
+  sockaddr* get() { return reinterpret_cast<sockaddr*>(&storage); }
+};
+
+// An IPv6 literal ("::1", or "[::1]") as a socket address; false for anything else.
+bool ResolveIpv6Literal(const std::string& host, int port, Address* out) {
+  std::string h = host;
+  if (h.size() >= 2 && h.front() == '[' && h.back() == ']') h = h.substr(1, h.size() - 2);
+  sockaddr_in6 a6{};
+  a6.sin6_family = AF_INET6;
+  a6.sin6_port = htons(static_cast<uint16_t>(port));
+  if (inet_pton(AF_INET6, h.c_str(), &a6.sin6_addr) != 1) return false;
+  std::memcpy(&out->storage, &a6, sizeof(a6));
+  out->length = sizeof(a6);
+  out->family = AF_INET6;
+  return true;
+}
+
+sockaddr_in Resolve(const std::string& host, int port);
+
+// IPv6 literals as IPv6, everything else as Resolve (IPv4 literal or name).
+Address ResolveAny(const std::string& host, int port) {
+  Address a;
+  if (ResolveIpv6Literal(host, port, &a)) return a;
+  const sockaddr_in a4 = Resolve(host, port);
+  std::memcpy(&a.storage, &a4, sizeof(a4));
+  a.length = sizeof(a4);
+  a.family = AF_INET;
+  return a;
+}
+
 sockaddr_in Resolve(const std::string& host, int port) {
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
@@ -51,27 +86,31 @@ void Socket::Shutdown() {
 Socket Listen(const std::string& address, int port, int* bound_port, int backlog) {
   const std::string where = address + ":" + std::to_string(port);
   if (port < 0 || port > 65535) throw std::invalid_argument(where + ": port out of range");
-  Socket s(::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0));
+  Address addr = ResolveAny(address, port);
+  Socket s(::socket(addr.family, SOCK_STREAM | SOCK_CLOEXEC, 0));
   if (!s.valid()) throw std::runtime_error(where + ": socket() failed: " + Errno());
   const int one = 1;
   ::setsockopt(s.fd(), SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
-  sockaddr_in addr = Resolve(address, port);
-  if (::bind(s.fd(), reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
+  if (addr.family == AF_INET6) ::setsockopt(s.fd(), IPPROTO_IPV6, IPV6_V6ONLY, &one, sizeof(one));
+  if (::bind(s.fd(), addr.get(), addr.length) != 0) {
     throw std::runtime_error(where + ": bind failed: " + Errno());
   }
   if (::listen(s.fd(), backlog) != 0) throw std::runtime_error(where + ": listen failed: " + Errno());
-  socklen_t len = sizeof(addr);
-  ::getsockname(s.fd(), reinterpret_cast<sockaddr*>(&addr), &len);
-  if (bound_port) *bound_port = ntohs(addr.sin_port);
+  socklen_t len = sizeof(addr.storage);
+  ::getsockname(s.fd(), addr.get(), &len);
+  if (bound_port) {
+    *bound_port = addr.family == AF_INET6 ? ntohs(reinterpret_cast<sockaddr_in6*>(addr.get())->sin6_port)
+                                          : ntohs(reinterpret_cast<sockaddr_in*>(addr.get())->sin_port);
+  }
   return s;
 }
 
 Socket ConnectTcp(const std::string& host, int port, std::chrono::milliseconds timeout) {
   const std::string where = host + ":" + std::to_string(port);
-  sockaddr_in addr = Resolve(host, port);
-  Socket s(::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0));
+  Address addr = ResolveAny(host, port);
+  Socket s(::socket(addr.family, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0));
   if (!s.valid()) throw std::runtime_error(where + ": socket() failed: " + Errno());
-  int rc = ::connect(s.fd(), reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
+  int rc = ::connect(s.fd(), addr.get(), addr.length);
   if (rc != 0 && errno != EINPROGRESS) throw std::runtime_error(where + ": connect failed: " + Errno());
   if (rc != 0) {
     pollfd p{s.fd(), POLLOUT, 0};
@@ -142,6 +181,20 @@ HostPort ParseHostPort(const std::string& text, int default_port) {
   }
   if (hp.host.empty()) throw std::invalid_argument("robot address '" + text + "': empty host");
   return hp;
+}
+
+bool IsLoopbackAddress(const std::string& address) {
+  if (address == "localhost") return true;
+  std::string h = address;
+  if (h.size() >= 2 && h.front() == '[' && h.back() == ']') h = h.substr(1, h.size() - 2);
+  in_addr a4{};
+  if (inet_pton(AF_INET, h.c_str(), &a4) == 1) return (ntohl(a4.s_addr) >> 24) == 127;  // 127.0.0.0/8
+  in6_addr a6{};
+  if (inet_pton(AF_INET6, h.c_str(), &a6) == 1) {
+    if (IN6_IS_ADDR_LOOPBACK(&a6)) return true;
+    return IN6_IS_ADDR_V4MAPPED(&a6) && a6.s6_addr[12] == 127;  // ::ffff:127.x.y.z
+  }
+  return false;
 }
 
 }  // namespace owlcal::robot

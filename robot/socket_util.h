@@ -1,5 +1,6 @@
 #pragma once
-// Small POSIX TCP helpers shared by the robot link's clients and loopback servers (IPv4).
+// Small POSIX TCP helpers shared by the robot link's clients and loopback servers (IPv4; an
+// IPv6 literal such as "::1" or "[::1]" also works for Listen and ConnectTcp).
 // All functions throw std::runtime_error naming the address and the errno text on failure,
 // except where a return value says otherwise. Sockets are plain fds wrapped in Socket (RAII).
 #include <chrono>
@@ -40,6 +41,9 @@ class Socket {
  private:
   int fd_ = -1;
 };
+
+// True for a loopback address: "localhost", 127.0.0.0/8, ::1 (also "[::1]") and ::ffff:127.x.
+bool IsLoopbackAddress(const std::string& address);
 
 // A listening socket bound to address:port (port 0 = ephemeral); *bound_port gets the port.
 Socket Listen(const std::string& address, int port, int* bound_port, int backlog = 8);

@@ -1,5 +1,6 @@
 #include "sim/sim_server.h"
 
+#include <chrono>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -18,6 +19,10 @@ bool SimServerOptions::Check(std::string* why) const {
   }
   if (bind_address.empty()) {
     if (why) *why = "bind_address is empty";
+    return false;
+  }
+  if (idle_timeout.count() <= 0) {
+    if (why) *why = "idle_timeout must be positive";
     return false;
   }
   return true;
@@ -40,6 +45,8 @@ void SimServer::Start() {
   so.port = options_.servo_port;
   so.robot = owl_->Config();
   so.log = options_.log;
+  so.mode = options_.servo_mode;
+  so.idle_timeout = options_.idle_timeout;
   servo_server_ = std::make_unique<robot::ServoServer>(so, [this](const models::PwmVector& pwm) { owl_->SendServos(pwm); });
   robot::MjpegServerOptions ho;
   ho.bind_address = options_.bind_address;
@@ -72,7 +79,13 @@ void SimServer::StreamLoop() {
     auto frame = owl_->GrabFrame(after, 100'000'000);
     if (!frame) continue;
     after = frame->stamp_ns;
-    http_server_->Publish(std::move(frame->jpeg));
+    // X-Timestamp = the left eye's exposure on the steady clock (mjpg-streamer sends the capture
+    // time), so a client can tell a frame's age: now - X-Timestamp = latency + time in transit.
+    const int64_t exposure_ns = owl_->ExposureNs(frame->seq, models::kLeftEye);
+    const int64_t steady_us =
+        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
+            .count();
+    http_server_->Publish(std::move(frame->jpeg), steady_us - (owl_->NowNs() - exposure_ns) / 1000);
   }
 }
 
