@@ -18,7 +18,10 @@ std::vector<std::string> Words(const std::string& s) {
 
 std::string PwmText(const PwmVector& p) {
   std::string s;
-  for (int i = 0; i < models::kNumServos; ++i) s += (i ? " " : "") + std::to_string(p[i]);
+  for (int i = 0; i < models::kNumServos; ++i) {
+    if (i) s += ' ';
+    s += std::to_string(p[i]);
+  }
   return s;
 }
 
@@ -51,7 +54,10 @@ std::optional<ShellCommand> ParseShellLine(const std::string& raw, int line_numb
   if (w.empty()) return std::nullopt;
   ShellCommand c;
   c.line = line_number;
-  for (size_t i = 0; i < w.size(); ++i) c.text += (i ? " " : "") + w[i];
+  for (size_t i = 0; i < w.size(); ++i) {
+    if (i) c.text += ' ';
+    c.text += w[i];
+  }
   const std::string& verb = w[0];
   auto expect_args = [&](size_t n, const char* usage) {
     if (w.size() - 1 != n) {

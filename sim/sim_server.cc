@@ -85,7 +85,11 @@ void SimServer::StreamLoop() {
     const int64_t steady_us =
         std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
             .count();
-    http_server_->Publish(std::move(frame->jpeg), steady_us - (owl_->NowNs() - exposure_ns) / 1000);
+    const int64_t age_us = (owl_->NowNs() - exposure_ns) / 1000;
+    // Beyond the configured latency: rendering and encoding (a loaded machine falls behind).
+    const int64_t lag_us = age_us - static_cast<int64_t>(owl_->Truth().stream.latency_ms * 1000);
+    if (lag_us > max_publish_lag_us_.load()) max_publish_lag_us_ = lag_us;
+    http_server_->Publish(std::move(frame->jpeg), steady_us - age_us);
   }
 }
 

@@ -63,6 +63,9 @@ class SimServer {
   bool ServoServerExited() const { return servo_server_ && servo_server_->Exited(); }
   std::string ServoServerExitReason() const { return servo_server_ ? servo_server_->ExitReason() : ""; }
   int64_t NumFramesPublished() const;
+  // The largest delay of a frame's publication beyond the configured latency (rendering and
+  // JPEG encoding; ~tens of ms, more on a loaded machine) [ms].
+  double MaxPublishLagMs() const { return double(max_publish_lag_us_.load()) / 1000.0; }
 
  private:
   std::optional<robot::HttpResponse> Route(const robot::HttpRequest& request);
@@ -74,6 +77,7 @@ class SimServer {
   std::unique_ptr<robot::MjpegServer> http_server_;
   std::thread stream_thread_;
   std::atomic<bool> stop_{false};
+  std::atomic<int64_t> max_publish_lag_us_{0};
 };
 
 }  // namespace owlcal::sim

@@ -194,10 +194,12 @@ TEST_F(SimServerTest, HttpTruthAndSceneRoutes) {
 
 // Issue 19: like mjpg-streamer, a client that reads slower than the stream gets the newest frame
 // each time and the rest are dropped, instead of a queue of seconds-old frames. A client reading
-// at 5 fps: every frame it receives was exposed at most latency + 2 x its own frame period ago
-// (one period in the socket buffers, one in transit). Ages come from the frame's X-Timestamp
-// (its exposure on the steady clock) and the arrival stamp; the bound uses the client's actual
-// periods, so a slow test machine widens it instead of failing. Before the fix the ages grew to
+// at 5 fps: after a 1 s warm-up every frame it receives was exposed at most latency + 2 x its own
+// frame period ago
+// (one period in the socket buffers, one in transit), plus the simulator's own rendering lag
+// beyond the latency, which the server measures. Ages come from the frame's X-Timestamp (its
+// exposure on the steady clock) and the arrival stamp; the bound uses the client's actual periods,
+// so a slow test machine widens it instead of failing. Before the fix the ages grew to
 // seconds (~4 MB, ~50 frames queued in the kernel's autotuned send buffer).
 TEST_F(SimServerTest, AFiveFpsClientGetsRecentFramesNotAQueue) {
   robot::MjpegClientOptions co;
@@ -217,16 +219,22 @@ TEST_F(SimServerTest, AFiveFpsClientGetsRecentFramesNotAQueue) {
     const double age_ms = (double(f->stereo.stamp_ns) / 1000.0 - double(*f->server_stamp_us)) / 1000.0;
     const double period_ms = double(f->stereo.stamp_ns - previous_arrival_ns) / 1e6;
     previous_arrival_ns = f->stereo.stamp_ns;
-    const double bound_ms = latency_ms + 2 * period_ms;
+    // The simulator's own rendering delay (measured by the server) is not the stream's queue.
+    const double render_lag_ms = server_->MaxPublishLagMs();
+    // The first second is TCP's receive-buffer autotuning on the client: its window grows while
+    // it reads, and one extra frame may slip into its buffer; then the bound is 2 periods.
+    const bool warm_up = i < 5;
+    const double bound_ms = latency_ms + render_lag_ms + (warm_up ? 4 : 2) * period_ms;
     EXPECT_LE(age_ms, bound_ms) << "frame " << i << " is " << age_ms << " ms old; the client reads every " << period_ms
-                                << " ms";
+                                << " ms; rendering lagged up to " << render_lag_ms << " ms";
     EXPECT_GE(age_ms, latency_ms - 1) << "frame " << i;  // a frame cannot arrive before its latency
+    if (warm_up) continue;
     worst_age_ms = std::max(worst_age_ms, age_ms);
     worst_margin_ms = std::min(worst_margin_ms, bound_ms - age_ms);
   }
-  std::printf("5 fps client: oldest frame received %.0f ms after exposure (latency %.0f ms), smallest margin to "
-              "the bound %.0f ms\n",
-              worst_age_ms, latency_ms, worst_margin_ms);
+  std::printf("5 fps client: oldest frame received %.0f ms after exposure (latency %.0f ms, rendering lag up to %.0f "
+              "ms), smallest margin to the bound %.0f ms\n",
+              worst_age_ms, latency_ms, server_->MaxPublishLagMs(), worst_margin_ms);
 }
 
 TEST_F(SimServerTest, HttpGarbageGetsA400AndASilentClientBlocksNoOne) {
