@@ -58,7 +58,7 @@ TEST_F(SimShellCliTest, ShellMovesWaitsAndCentresOverOneConnectionToACServer) {
   std::ofstream(script) << "move 1600 1530 1545 1580 1530\nwait 0.2\nmove 1500 1530 1545 1580 2500\ncentre\n";
   const auto r = RunOwlcal("shell --robot 127.0.0.1:" + std::to_string(server.ServoPort()) + " " + script.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("reply \"1600\\n\\r\""), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("reply \"1600\""), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("3 servo commands (1 clamped)"), std::string::npos) << r.output;
   EXPECT_EQ(server.ServoStats().num_sessions, 1);
   EXPECT_EQ(server.ServoStats().num_packets, 3);
