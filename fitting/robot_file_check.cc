@@ -28,10 +28,8 @@ bool RobotFileTolerance::Check(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (!(ipd_mm > 0) || !(centre_us > 0) || !(scale_fraction > 0) || !(n_sigma > 0))
-    return bad("robot-file tolerances must be positive and finite");
-  if (!std::isfinite(ipd_mm) || !std::isfinite(centre_us) || !std::isfinite(scale_fraction) || !std::isfinite(n_sigma))
-    return bad("robot-file tolerances must be positive and finite");
+  for (double v : {ipd_mm, centre_us, scale_fraction, n_sigma})
+    if (!(v > 0) || !std::isfinite(v)) return bad("robot-file tolerances must be positive and finite");
   return true;
 }
 
