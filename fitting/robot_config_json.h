@@ -2,7 +2,7 @@
 // A robot configuration (models/robot_config.h) as JSON: {"name", "servos": [{"name", "min_us",
 // "max_us", "centre_us", "direction", "nominal_deg_per_us"} x 5 in wire order], "ipd_m",
 // "image_width", "image_height", "swap_eyes", "mirror_stream"}. The same object is a dataset
-// manifest's robot.config (protocols/runner.cc) and evaluation.json's robot.
+// manifest's robot.config (protocols/run_manifest.cc) and evaluation.json's robot.
 #include <nlohmann/json.hpp>
 
 #include "models/robot_config.h"

@@ -12,6 +12,11 @@
 //  - dry-run resolves and prints every planned command and checks it against the limits
 //    before anything moves (no robot needed: PlanRun()).
 //
+// Layout: runner.cc is the step loop; each measurement procedure is a function in its own
+// protocols/*_step.h working through protocols/run_context.h (robot I/O, recording, settling);
+// run_manifest.h writes the manifest and run_plan.cc the dry-run plan. A new step kind adds a
+// *_step.h/.cc pair and one case in Runner::RunStep (and in PlanRun).
+//
 // Resume: a dataset whose run was interrupted is repaired (CheckDataset/RepairDataset) and
 // continued from the first step without a "done" line in steps.csv; the frames of a partly
 // run step stay in the dataset (they are valid frames with their commands) and the step is

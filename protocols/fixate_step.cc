@@ -1,0 +1,97 @@
+#include "protocols/fixate_step.h"
+
+#include "calib/trial_status.h"
+
+namespace owlcal::protocols {
+
+using models::kNumServos;
+using models::PwmVector;
+
+std::unique_ptr<TargetLocator> MakeStepLocator(const Protocol& p, Locator kind) {
+  switch (kind) {
+    case Locator::kFixation:
+      return MakeFixationLocator();
+    case Locator::kTemplate:
+      return MakeTemplateLocator();
+    case Locator::kAprilTag: {
+      // The board centre of the protocol's target (its geometry from `targets`).
+      auto it = p.targets.find(p.target);
+      if (it == p.targets.end() || it->second.kind == calib::TargetKind::kFixation)
+        throw std::runtime_error(p.file + ": locator apriltag needs the protocol's target '" + p.target +
+                                 "' defined under 'targets' (aprilgrid or chessboard)");
+      return MakeBoardLocator(it->second);
+    }
+  }
+  return MakeFixationLocator();
+}
+
+FixationOptions FixationFromStep(const Step& s, const models::RobotConfig& robot) {
+  FixationOptions fo;
+  fo.gain = s.gain;
+  fo.max_iterations = s.max_iterations;
+  fo.tolerance_px = s.tolerance_px;
+  fo.still_frames = s.still_frames;
+  fo.latency_frames = s.latency_frames;
+  fo.max_step_us = s.max_step_us;
+  fo.limit_margin_us = s.limit_margin_us;
+  fo.focal_px = 585.0 * robot.image_width / 640.0;
+  fo.eyes[models::kLeftEye] = s.eyes != "right";
+  fo.eyes[models::kRightEye] = s.eyes != "left";
+  return fo;
+}
+
+void RunFixateStep(RunContext& run, const Protocol& p, const Step& s) {
+  if (s.from_centre) {
+    run.Send(run.config().Centre());
+    run.Settle(s.settle);
+  }
+  auto loc = MakeStepLocator(p, s.locator);
+  const FixationOptions fo = FixationFromStep(s, run.config());
+  const FixationResult r = run.Fixate(fo, *loc, s.record_frames, nullptr);
+  // The settled fixation itself is always recorded (one frame).
+  const int64_t frame_index = run.Record(run.Grab());
+  const PlacementRecord* pl =
+      run.placement_index() >= 0 && run.placement_index() < int(run.writer().Placements().size())
+          ? &run.writer().Placements()[run.placement_index()]
+          : nullptr;
+  std::vector<std::string> row = {std::to_string(run.step_index()),
+                                  run.step_name(),
+                                  std::to_string(run.placement_index()),
+                                  pl ? pl->target : "",
+                                  pl ? FixedText(pl->distance_m, 6) : "",
+                                  s.eyes,
+                                  FixedText(s.gain, 4),
+                                  OutcomeName(r.outcome),
+                                  std::to_string(r.iterations)};
+  for (int i = 0; i < kNumServos; ++i) row.push_back(std::to_string(r.final_pwm_us[i]));
+  for (int e = 0; e < 2; ++e) {
+    row.push_back(r.found[e] ? "1" : "0");
+    row.push_back(FixedText(r.residual_px[e].x(), 3));
+    row.push_back(FixedText(r.residual_px[e].y(), 3));
+  }
+  row.push_back(std::to_string(run.robot().NowNs()));
+  // The approach of the settled command: backlash shifts the eyes by the hysteresis (~0.25 deg
+  // each), which ranging must account for (a vergence run moves both eyes outward in turn).
+  for (int i = 0; i < kNumServos; ++i) row.push_back(std::to_string(int(run.approach()[i])));
+  // Every fixation is a row with its status (calib/trial_status.h); only "ok" may be ranged.
+  std::string reason;
+  const calib::TrialStatus status = FixationStatus(r, fo, &reason);
+  row.push_back(calib::TrialStatusName(status));
+  row.push_back(CsvSafe(reason));
+  run.writer().AppendRow(
+      "fixations.csv",
+      "step_index,step_name,placement_index,target,distance_m,eyes,gain,outcome,iterations,Rx_us,Ry_us,"
+      "Lx_us,Ly_us,Neck_us,left_found,left_dx_px,left_dy_px,right_found,right_dx_px,right_dy_px,stamp_ns,"
+      "approach_Rx,approach_Ry,approach_Lx,approach_Ly,approach_Neck,status,reason",
+      row);
+  run.Event("fixate",
+            std::string(calib::TrialStatusName(status)) + " (" + OutcomeName(r.outcome) + "): " + r.message +
+                " (frame " + std::to_string(frame_index) + ")");
+  if (run.options().progress)
+    *run.options().progress << "  fixate " << s.eyes << " gain " << s.gain << ": " << calib::TrialStatusName(status)
+                            << (reason.empty() ? "" : " (" + reason + ")") << " after " << r.iterations
+                            << " frames, residual L " << FixedText(r.residual_px[0].norm(), 2) << " px R "
+                            << FixedText(r.residual_px[1].norm(), 2) << " px\n";
+}
+
+}  // namespace owlcal::protocols

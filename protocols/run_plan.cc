@@ -1,0 +1,95 @@
+#include "protocols/run_plan.h"
+
+#include <string>
+
+#include "protocols/run_context.h"
+#include "protocols/runner.h"
+#include "protocols/step_plan.h"
+#include "robot/limits_guard.h"
+
+namespace owlcal::protocols {
+
+using models::PwmVector;
+
+void CheckProtocolsForRobot(const std::vector<Protocol>& protocols, const models::RobotConfig& robot) {
+  for (const Protocol& p : protocols)
+    for (const Step& s : p.steps) {
+      const std::string why = CheckStepForRobot(s, robot);
+      if (!why.empty()) throw ProtocolError(why);
+    }
+}
+
+std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols,
+                                 const models::RobotConfig& robot,
+                                 int64_t* num_clamped) {
+  CheckProtocolsForRobot(protocols, robot);
+  robot::LimitsGuard guard(robot);
+  std::vector<std::string> out;
+  int64_t clamped = 0;
+  int index = 0;
+  auto line = [&](const PwmVector& p, const std::string& what) {
+    const robot::ClampResult c = guard.Clamp(p);
+    std::string l = "    " + PwmText(p) + "  " + what;
+    if (c.any_clamped) {
+      ++clamped;
+      l += "  CLAMPED -> " + PwmText(c.pwm_us) + " (" + c.message + ")";
+    }
+    out.push_back(l);
+  };
+  for (const Protocol& p : protocols) {
+    out.push_back("protocol " + p.name + (p.file.empty() ? "" : " (" + p.file + ")") + ", target '" + p.target + "'");
+    for (const Step& s : p.steps) {
+      out.push_back("  step " + std::to_string(index++) + " " + StepKindName(s.kind) + " '" + s.name + "'");
+      switch (s.kind) {
+        case StepKind::kMoveTo:
+          line(s.pose.Resolve(robot), "move, capture " + std::to_string(s.frames));
+          break;
+        case StepKind::kSweep:
+        case StepKind::kGrid:
+          for (const PlannedPose& pp : PlanPoses(s, robot))
+            line(pp.pwm_us, pp.capture ? "capture " + std::to_string(s.frames) : "approach");
+          break;
+        case StepKind::kPlaceTarget:
+          out.push_back("    place: " + PlacementPrompt(p, s));
+          break;
+        case StepKind::kCapture:
+          out.push_back("    capture " + std::to_string(s.frames) + " frames");
+          break;
+        case StepKind::kFixate:
+        case StepKind::kStepResponse:
+          out.push_back("    closed loop (" + std::string(LocatorName(s.locator)) +
+                        "): commands computed at run time, stopped " + std::to_string(s.limit_margin_us) +
+                        " us inside every limit");
+          break;
+        case StepKind::kLimits:
+          for (int servo : s.servos) {
+            PwmVector c = robot.Centre();
+            c[servo] = robot.servos[servo].max_us;
+            line(c, std::string("outermost probe ") + models::kServoNames[servo] + " max");
+            c[servo] = robot.servos[servo].min_us;
+            line(c, std::string("outermost probe ") + models::kServoNames[servo] + " min");
+          }
+          break;
+        case StepKind::kAlignment:
+          line(robot.Centre(), "centre, capture " + std::to_string(s.frames));
+          break;
+        case StepKind::kLatency: {
+          PwmVector a = robot.Centre(), b = robot.Centre();
+          a[s.servo] -= s.amplitude_us / 2;
+          b[s.servo] += s.amplitude_us - s.amplitude_us / 2;
+          line(a, "latency step from");
+          line(b, "latency step to");
+          break;
+        }
+        case StepKind::kWait:
+          out.push_back("    wait " + std::to_string(s.wait_ms) + " ms");
+          break;
+      }
+    }
+  }
+  out.push_back(std::to_string(clamped) + " planned commands would be clamped to the robot's limits");
+  if (num_clamped) *num_clamped = clamped;
+  return out;
+}
+
+}  // namespace owlcal::protocols
