@@ -9,8 +9,9 @@
 // Usage: robot_prior_mc_bench [num_robots=30] [first_seed=1] [protocol ...]
 //        robot_prior_mc_bench shipped [seeds_per_robot=1] [first_seed=1] [protocol ...]
 // `shipped`: the three robots in data/sim (default, variant a, variant b) instead of drawn ones.
-// OWLCAL_MC_KEEP=1 keeps each robot's observations (not the frames) under the temp folder, for
-// refits; OWLCAL_MC_PER_PARAMETER=1 adds the per-parameter table.
+// OWLCAL_MC_KEEP=1 keeps each robot's observations and manifests (not the frames) under the temp
+// folder, for refits (`owlcal fit-datasets DIR/cal --out ...`); OWLCAL_MC_PER_PARAMETER=1 adds
+// the per-parameter table.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -95,7 +96,8 @@ int main(int argc, char** argv) {
     // Keep results.json and the log, not the frames (OWLCAL_MC_KEEP: the observations too).
     if (std::getenv("OWLCAL_MC_KEEP")) {
       for (const auto& e : fs::recursive_directory_iterator(dir / "cal" / "datasets"))
-        if (e.is_regular_file() && e.path().extension() != ".csv") fs::remove(e.path());
+        if (e.is_regular_file() && e.path().extension() != ".csv" && e.path().filename() != "manifest.json")
+          fs::remove(e.path());
     } else {
       fs::remove_all(dir / "cal" / "datasets");
     }

@@ -310,6 +310,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   internal::HoldWhatTheDataCannotDetermine(views, prepared, robot, options, &s);
   internal::InitialiseBoards(views, &prepared, &s, &fit.result.warnings);
   if (prepared.empty()) return fail("head fit: no board pose could be initialised (PnP failed for every target)");
+  internal::InitialiseWarps(views, prepared, options, &s);
 
   // 2. Solve.
   std::unique_ptr<ceres::Problem> problem;

@@ -62,6 +62,10 @@ struct HeadFitOptions {
   // A view whose RMS corner error after the robust solve exceeds this many times the median
   // view's is dropped whole (and named in warnings); 0 = off.
   double view_outlier_factor = 5.0;
+  // Fit each physical board's bow (fitting/board_warp.h) with the head; false: boards are flat.
+  // A bow of a few tenths of a millimetre fitted as flat biases the focal lengths, the servo
+  // scales and the IPD together (owlcal calibrate turns it on).
+  bool fit_board_warp = false;
   bool fit_intrinsics = false;         // false: intrinsics held at the initial head's
   // Prior covariance of each eye's intrinsics params (fx fy cx cy dist..., physical units),
   // used when fit_intrinsics; empty = no prior (intrinsics free).

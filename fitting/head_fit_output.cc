@@ -98,6 +98,7 @@ void ReportBlockParameters(const HeadState& s, const HeadCovariance& cov, bool w
     add_block_params(s.mount[e], true);
     add_block_params(s.camera[e], with_intrinsics);
   }
+  for (const auto& [id, b] : s.warps) add_block_params(b, !b.AllFixed());
   const int nf = static_cast<int>(flat_tangent.size());
   fit.covariance.resize(nf, nf);
   for (int a = 0; a < nf; ++a)
@@ -200,6 +201,7 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
                                {"whitening_sigma_px", {fit.corner_sigma_px[0], fit.corner_sigma_px[1]}},
                                {"measured_corner_sigma_px", {fit.measured_corner_sigma_px[0], fit.measured_corner_sigma_px[1]}},
                                {"fit_intrinsics", options.fit_intrinsics},
+                               {"fit_board_warp", options.fit_board_warp},
                                {"fit_nonlinear", options.fit_nonlinear},
                                {"fit_hysteresis", options.fit_hysteresis},
                                {"huber_sigma", options.huber_sigma},

@@ -227,4 +227,20 @@ void InitialiseBoards(const std::vector<calib::View>& views,
                  prepared.end());
 }
 
+void InitialiseWarps(const std::vector<calib::View>& views,
+                     const std::vector<PreparedView>& prepared,
+                     const HeadFitOptions& options,
+                     HeadState* s) {
+  for (const PreparedView& p : prepared) {
+    const std::string board = BoardOfTarget(p.target_id);
+    if (s->warps.count(board)) continue;
+    s->warp_spans[board] = WarpSpanOfViews(views, board);
+    Block b = MakeBlock({0.0, 0.0}, {"head.board_warp_x_mm", "head.board_warp_y_mm"}, {1000.0, 1000.0}, {"mm", "mm"});
+    if (board != "chessboard")
+      for (std::string& n : b.names) n = "head." + board + n.substr(4);  // "head.<board>.board_warp_x_mm"
+    if (!options.fit_board_warp) b.FixAll("held flat (option fit_board_warp = false)");
+    s->warps.emplace(board, std::move(b));
+  }
+}
+
 }  // namespace owlcal::fitting::internal

@@ -66,6 +66,7 @@ std::vector<Block*> HeadState::HeadBlocks() {
   for (Block& b : mount) out.push_back(&b);
   out.push_back(&centres);
   for (Block& b : camera) out.push_back(&b);
+  for (auto& [id, b] : warps) out.push_back(&b);
   return out;
 }
 
@@ -109,8 +110,11 @@ std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v) {
   models::CameraIntrinsics cam;
   cam.model = s.camera_model[v.command.eye];
   cam.params = s.camera[v.command.eye].values;
+  const std::string board = BoardOfTarget(v.target_id);
+  const double* warp = s.warps.at(board).data();
+  const WarpSpan& span = s.warp_spans.at(board);
   for (size_t i = 0; i < v.pixels.size(); ++i) {
-    const Eigen::Vector3d p = cam_from_target * v.points[i];
+    const Eigen::Vector3d p = cam_from_target * WarpedPoint(warp, v.points[i], span);
     Eigen::Vector2d px;
     if (cam.Project(p.data(), px.data())) err[i] = (px - v.pixels[i]).norm();
   }
@@ -132,18 +136,22 @@ int BuildHeadProblem(HeadState* state,
                            ? std::max<int>(1, static_cast<int>(v.pixels.size()) / max_corners_per_view)
                            : 1;
     Block& board = s.boards.at(v.target_id);
-    double* blocks[7] = {s.servo[models::kPanServo[eye]].data(),
+    const std::string board_name = BoardOfTarget(v.target_id);
+    Block& warp = s.warps.at(board_name);
+    double* blocks[8] = {s.servo[models::kPanServo[eye]].data(),
                          s.servo[models::kTiltServo[eye]].data(),
                          s.servo[kNeck].data(),
                          s.mount[eye].data(),
                          s.centres.data(),
                          board.data(),
-                         s.camera[eye].data()};
+                         s.camera[eye].data(),
+                         warp.data()};
     ceres::CostFunction* cost = models::VisitCameraModel(s.camera_model[eye], [&]<typename Camera>() -> ceres::CostFunction* {
       auto* f = new HeadViewResidual<Camera>;
       f->command = v.command;
       f->sigma_px = sigma_px[eye];
       f->huber_k = huber_k;
+      f->span = s.warp_spans.at(board_name);
       for (size_t i = 0; i < v.pixels.size(); ++i) {
         if (!v.inlier[i] || i % stride != 0) continue;
         f->points_in_target.push_back(v.points[i]);
@@ -154,12 +162,20 @@ int BuildHeadProblem(HeadState* state,
         return nullptr;
       }
       num_corners += static_cast<int>(f->pixels.size());
-      return new ceres::AutoDiffCostFunction<HeadViewResidual<Camera>, ceres::DYNAMIC, ServoMap::kNumParams,
-                                             ServoMap::kNumParams, ServoMap::kNumParams, kMountParams,
-                                             kCentresParams, 7, Camera::kNumParams>(f, f->NumResiduals());
+      return new ceres::AutoDiffCostFunction<HeadViewResidual<Camera>,
+                                             ceres::DYNAMIC,
+                                             ServoMap::kNumParams,
+                                             ServoMap::kNumParams,
+                                             ServoMap::kNumParams,
+                                             kMountParams,
+                                             kCentresParams,
+                                             7,
+                                             Camera::kNumParams,
+                                             2>(f, f->NumResiduals());
     });
     if (cost == nullptr) continue;
-    problem->AddResidualBlock(cost, nullptr, blocks[0], blocks[1], blocks[2], blocks[3], blocks[4], blocks[5], blocks[6]);
+    problem->AddResidualBlock(
+        cost, nullptr, blocks[0], blocks[1], blocks[2], blocks[3], blocks[4], blocks[5], blocks[6], blocks[7]);
   }
   // Priors on the intrinsics.
   for (int e = 0; e < 2; ++e) {
@@ -203,6 +219,7 @@ int BuildHeadProblem(HeadState* state,
   for (Block& b : s.mount) configure(b);
   configure(s.centres);
   for (Block& b : s.camera) configure(b);
+  for (auto& [id, b] : s.warps) configure(b);
   for (auto& [id, b] : s.boards) configure(b);
   return num_corners;
 }

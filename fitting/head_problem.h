@@ -74,10 +74,14 @@ struct HeadState {
   Block centres;
   std::array<Block, 2> camera;
   std::map<std::string, Block> boards;
+  // The bow of each physical board (fitting/board_warp.h; "chessboard" for the placements
+  // "chessboard@placementN"): [warp_x, warp_y] in m, held at 0 unless options.fit_board_warp.
+  std::map<std::string, Block> warps;
+  std::map<std::string, WarpSpan> warp_spans;
   models::DistortionModel camera_model[2];
 
   // The blocks in the order of the observability analysis and the covariance: servos, mounts,
-  // centres, cameras (`head_blocks`), then the boards.
+  // centres, cameras, warps (`head_blocks`), then the boards.
   std::vector<Block*> HeadBlocks();
   std::vector<Block*> BoardBlocks();
 };
@@ -124,6 +128,13 @@ void InitialiseBoards(const std::vector<calib::View>& views,
                       std::vector<PreparedView>* prepared,
                       HeadState* s,
                       std::vector<std::string>* warnings);
+
+// One warp block per physical board of `prepared` (fitting/board_warp.h), its span over `views`;
+// held at 0 (whole block constant) unless options.fit_board_warp.
+void InitialiseWarps(const std::vector<calib::View>& views,
+                     const std::vector<PreparedView>& prepared,
+                     const HeadFitOptions& options,
+                     HeadState* s);
 
 // The observability analysis of the free head blocks (boards eliminated).
 struct HeadCovariance {

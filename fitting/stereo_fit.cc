@@ -16,6 +16,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "fitting/board_warp.h"
 #include "fitting/intrinsics_residual.h"
 #include "fitting/observability.h"
 
@@ -82,6 +83,8 @@ struct StereoProblemData {
   std::map<int, int> pose_of_left_frame, pose_of_right_only_frame;
   std::vector<StereoObs> obs;                     // minus each eye's rejected outliers
   double sigma_used[2] = {1, 1};
+  std::array<double, 2> warp = {0, 0};  // board bow (options.fit_board_warp)
+  WarpSpan span;
 };
 
 // Initial right_from_left: sign-aligned quaternion mean and median translation over pairs.
@@ -121,6 +124,9 @@ StereoProblemData BuildStereoData(const std::vector<calib::View>* views[2],
                                   StereoFit* fit) {
   StereoProblemData d;
   d.np = 4 + fit->per_eye[0].camera.NumDistortion();
+  std::vector<calib::View> all = *views[0];
+  all.insert(all.end(), views[1]->begin(), views[1]->end());
+  d.span = WarpSpanOfViews(all);
   for (int e = 0; e < 2; ++e) d.cam[e] = fit->per_eye[e].camera.params;
   right_from_left.ToArray(d.ext.data());
   const std::vector<int>& fl = fit->per_eye[0].frame_indices;
@@ -176,6 +182,8 @@ std::vector<std::string> StereoTangentNames(const StereoFitOptions& options, int
     for (int i = 0; i < np; ++i)
       if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) out.push_back(std::string(kEye[e]) + "." + names[i]);
   for (const char* n : {"stereo.rx", "stereo.ry", "stereo.rz", "stereo.tx", "stereo.ty", "stereo.tz"}) out.push_back(n);
+  if (options.fit_board_warp)
+    for (const char* n : {"stereo.board_warp_x", "stereo.board_warp_y"}) out.push_back(n);
   return out;
 }
 
@@ -205,7 +213,17 @@ Observability SolveStereo(const StereoFitOptions& options, StereoProblemData* d,
     const double inv = 1.0 / d->sigma_used[o.eye];
     const bool on_left_pose = d->pose_of_left_frame.count(o.frame) > 0;
     double* pose = d->poses[on_left_pose ? d->pose_of_left_frame.at(o.frame) : d->pose_of_right_only_frame.at(o.frame)].data();
-    if (o.eye == 1 && on_left_pose) {
+    if (options.fit_board_warp && o.eye == 1 && on_left_pose) {
+      ceres::CostFunction* c = models::VisitCameraModel(model, [&]<typename Cam>() {
+        return internal::WarpedStereoCornerResidual<Cam>::Create(o.pixel, o.point, d->span, inv, tie);
+      });
+      problem.AddResidualBlock(c, loss, d->cam[1].data(), d->ext.data(), pose, d->warp.data());
+    } else if (options.fit_board_warp) {
+      ceres::CostFunction* c = models::VisitCameraModel(model, [&]<typename Cam>() {
+        return internal::WarpedCornerResidual<Cam>::Create(o.pixel, o.point, d->span, inv, tie);
+      });
+      problem.AddResidualBlock(c, loss, d->cam[o.eye].data(), pose, d->warp.data());
+    } else if (o.eye == 1 && on_left_pose) {
       ceres::CostFunction* c = models::VisitCameraModel(model, [&]<typename Cam>() {
         return internal::StereoCornerResidual<Cam>::Create(o.pixel, o.point, inv, tie);
       });
@@ -230,8 +248,10 @@ Observability SolveStereo(const StereoFitOptions& options, StereoProblemData* d,
   ceres::Solve(so, &problem, summary);
   std::vector<double*> locals;
   for (auto& p : d->poses) locals.push_back(p.data());
-  return AnalyseObservability(&problem, {d->cam[0].data(), d->cam[1].data(), d->ext.data()}, locals,
-                              StereoTangentNames(options, d->np), options.intrinsics.rank_tolerance);
+  std::vector<double*> globals = {d->cam[0].data(), d->cam[1].data(), d->ext.data()};
+  if (options.fit_board_warp) globals.push_back(d->warp.data());
+  return AnalyseObservability(
+      &problem, globals, locals, StereoTangentNames(options, d->np), options.intrinsics.rank_tolerance);
 }
 
 // RMS per camera and joint (pixel errors, OpenCV's definition); returns the corners per eye.
@@ -243,7 +263,7 @@ std::array<int, 2> MeasureStereoRms(const StereoProblemData& d, StereoFit* fit) 
     models::Rigid3d cam_from_target = models::Rigid3d::Map(
         d.poses[on_left_pose ? d.pose_of_left_frame.at(o.frame) : d.pose_of_right_only_frame.at(o.frame)].data());
     if (o.eye == 1 && on_left_pose) cam_from_target = fit->right_from_left * cam_from_target;
-    const Eigen::Vector3d p = cam_from_target * o.point;
+    const Eigen::Vector3d p = cam_from_target * WarpedPoint(d.warp.data(), o.point, d.span);
     double px[2] = {kNaN, kNaN};
     fit->cameras[o.eye].Project(p.data(), px);
     sum_sq[o.eye] += (Eigen::Vector2d(px[0], px[1]) - o.pixel).squaredNorm();
@@ -290,8 +310,15 @@ void ReportStereoCovariance(const Observability& obs, double scale, const Stereo
   fit->sigmas.assign(ng, kNaN);
   fit->determined.assign(ng, false);
   std::vector<std::string> reasons(ng);
-  if (obs.ok && obs.covariance.rows() == tangent) {
-    Eigen::MatrixXd c = obs.covariance * scale;
+  const int num_warp = options.fit_board_warp ? 2 : 0;
+  fit->board_warp_fitted = options.fit_board_warp;
+  for (int j = 0; j < 2; ++j) fit->board_warp_sigma[j] = num_warp ? kNaN : 0.0;
+  if (obs.ok && obs.covariance.rows() == tangent + num_warp) {
+    // The bow is marginalised: its rows are left out, its sigma kept apart.
+    for (int j = 0; j < num_warp; ++j)
+      if (obs.determined[tangent + j])
+        fit->board_warp_sigma[j] = std::sqrt(scale * obs.covariance(tangent + j, tangent + j));
+    Eigen::MatrixXd c = obs.covariance.topLeftCorner(tangent, tangent) * scale;
     for (int k = 0; k < tangent; ++k) {
       if (obs.determined[k]) continue;
       c.row(k).setZero();
@@ -442,6 +469,7 @@ StereoFit FitStereo(const std::vector<calib::View>& left_views,
     fit.cameras[e].params = d.cam[e];
   }
   fit.right_from_left = models::Rigid3d::Map(d.ext.data());
+  for (int j = 0; j < 2; ++j) fit.board_warp[j] = d.warp[j];
 
   // 4. Outputs. chi^2 / dof of the whitened residuals is the posterior noise scale when sigma
   // was estimated.
@@ -449,7 +477,8 @@ StereoFit FitStereo(const std::vector<calib::View>& left_views,
   fit.summary.rms_px = fit.rms_joint_px;
   fit.summary.num_outliers = int(fit.rejected.size());
   const int num_fixed = int(internal::FixedIntrinsicIndices(options.intrinsics).size());
-  const int num_free = (options.fix_intrinsics ? 0 : 2 * (d.np - num_fixed)) + 6 + 6 * int(d.poses.size());
+  const int num_free = (options.fix_intrinsics ? 0 : 2 * (d.np - num_fixed)) + 6 + 6 * int(d.poses.size()) +
+                       (options.fit_board_warp ? 2 : 0);
   const int dof = 2 * (n[0] + n[1]) - num_free;
   double scale = 1.0;
   if (options.intrinsics.corner_sigma_px <= 0 && dof > 0) scale = 2.0 * summary.final_cost / dof;

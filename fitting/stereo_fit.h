@@ -34,6 +34,9 @@ struct StereoFitOptions {
   std::string length_unit = "m";     // unit of the target's sizes: "m" -> baseline in mm
   double rectify_alpha = -1;         // cv::stereoRectify alpha (-1 = OpenCV's default scaling)
   int max_iterations = 200;
+  // Fit the board's bow with the cameras (fitting/board_warp.h; one board for every view). Off:
+  // the board is flat. owlcal calibrate turns it on (pipeline/calibrate_pipeline.h).
+  bool fit_board_warp = false;
 
   bool Check(std::string* why) const;
 };
@@ -55,6 +58,11 @@ struct StereoFit {
   std::vector<bool> determined;
   std::vector<std::string> undetermined; // "name: why"
   double corner_sigma_px[2] = {0, 0};
+  // The board's bow (options.fit_board_warp) in the target's length unit, its sigma (NaN when
+  // not determined) and the span it is defined over; not in `covariance` (marginalised).
+  bool board_warp_fitted = false;
+  double board_warp[2] = {0, 0};
+  double board_warp_sigma[2] = {0, 0};
   double rms_px[2] = {0, 0};             // per camera, sqrt(sum |e|^2 / corners)
   double rms_joint_px = 0;               // both cameras (stereoCalibrate's RMS)
   SolveSummary summary;

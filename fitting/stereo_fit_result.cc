@@ -73,6 +73,21 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   result->Set({metres ? "stereo.baseline_mm" : "stereo.baseline_" + unit, b * f,
                t_ok ? std::sqrt(g.dot(Ct * g)) * f : kNaN, unit, std::nullopt, t_ok,
                t_ok ? "" : "translation not determined"});
+  if (fit.board_warp_fitted) {
+    // The board's bow (fitting/board_warp.h), fitted so that it does not bias the focal lengths.
+    const char* wn[2] = {"stereo.board_warp_x", "stereo.board_warp_y"};
+    for (int j = 0; j < 2; ++j) {
+      const bool ok = std::isfinite(fit.board_warp_sigma[j]);
+      result->Set(
+          {std::string(wn[j]) + (metres ? "_mm" : "_" + unit),
+           fit.board_warp[j] * f,
+           fit.board_warp_sigma[j] * f,
+           unit,
+           std::nullopt,
+           ok,
+           ok ? "bow of the board towards the camera across its corner grid (mrcal's model)" : "not determined"});
+    }
+  }
   for (const auto& u : fit.undetermined) result->warnings.push_back(u);
   if (!metres)
     result->warnings.push_back("stereo translation is in " + unit + " (target unit '" + fit.length_unit +

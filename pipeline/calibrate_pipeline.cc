@@ -237,6 +237,14 @@ void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
 
 }  // namespace
 
+fitting::StereoFitOptions CalibratePipelineOptions::CalibrateStereoFitOptions() {
+  fitting::StereoFitOptions so;
+  // A real course board bows by about 1 mm; fitted as flat, a bow of 0.25-0.55 mm put the
+  // focal lengths 0.6-1.2 % short (20-30 sigma) on robots of the prior (fitting/board_warp.h).
+  so.fit_board_warp = true;
+  return so;
+}
+
 fitting::HeadFitOptions CalibratePipelineOptions::CalibrateHeadFitOptions() {
   fitting::HeadFitOptions ho;
   // The intrinsics start from the stereo fit and are refined on the sweep (boards at four
@@ -257,6 +265,10 @@ fitting::HeadFitOptions CalibratePipelineOptions::CalibrateHeadFitOptions() {
   // and 97-100 % within 3 (slightly conservative, to cover the rougher robots' larger bias).
   // Hysteresis is floored at 0.01 us: frames exposed before a servo fully settled read as
   // extra backlash (+0.001-0.006 us on every servo of a slow robot), and lag is not modelled.
+  // The board's bow is fitted (fitting/board_warp.h): the prior's robots bow their boards by up
+  // to 1.2 mm like the course's, and a bow fitted as flat moved the focal lengths, servo scales
+  // and IPD together by 20-30 sigma.
+  ho.fit_board_warp = true;
   ho.estimate_corner_sigma = true;
   ho.measured_sigma_factor = 2.0;
   ho.hysteresis_sigma_floor_us = 0.01;
@@ -289,6 +301,7 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
                       {"hysteresis_sigma_floor_us", head.hysteresis_sigma_floor_us},
                       {"view_outlier_factor", head.view_outlier_factor},
                       {"fit_intrinsics", head.fit_intrinsics},
+                      {"fit_board_warp", head.fit_board_warp},
                       {"intrinsics_prior", head.intrinsics_prior_covariance[0].has_value() ||
                                                head.intrinsics_prior_covariance[1].has_value()},
                       {"fit_nonlinear", head.fit_nonlinear},
@@ -319,6 +332,7 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
                       {"width", stereo.width},
                       {"height", stereo.height},
                       {"fix_intrinsics", stereo.fix_intrinsics},
+                      {"fit_board_warp", stereo.fit_board_warp},
                       {"length_unit", stereo.length_unit},
                       {"rectify_alpha", stereo.rectify_alpha},
                       {"max_iterations", stereo.max_iterations}};

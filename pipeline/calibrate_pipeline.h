@@ -41,7 +41,7 @@ struct CalibratePipelineOptions {
   std::optional<models::HeadModel> truth;
   double fps = 30.0;                  // stream frame rate (latency in frames, gain study)
   int default_delay_frames = 3;       // loop delay when no latency dataset measured it
-  fitting::StereoFitOptions stereo;
+  fitting::StereoFitOptions stereo = CalibrateStereoFitOptions();
   fitting::HeadFitOptions head = CalibrateHeadFitOptions();
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
@@ -50,6 +50,8 @@ struct CalibratePipelineOptions {
 
   // The head-fit options `owlcal calibrate` uses (why each: calibrate_pipeline.cc).
   static fitting::HeadFitOptions CalibrateHeadFitOptions();
+  // The stereo-fit options `owlcal calibrate` uses (the board's bow fitted).
+  static fitting::StereoFitOptions CalibrateStereoFitOptions();
   bool Check(std::string* why) const;
   // Every option above but `truth` and `progress`, for results.json's inputs.
   nlohmann::json ToJson() const;
