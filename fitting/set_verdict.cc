@@ -37,6 +37,33 @@ double P90Within(const std::vector<Eigen::Vector2d>& px, const std::vector<doubl
   return p >= 1e300 ? std::numeric_limits<double>::infinity() : p;
 }
 
+struct TrustedRegion {
+  std::vector<bool> trusted;
+  double fraction = 0, working_fraction = 0;
+};
+
+// Grid pixels with sigma below `limit` (NaN/inf: not trusted); fractions of the whole grid and of
+// the pixels within `r` of the half-diagonal.
+TrustedRegion TrustedRegionOf(
+    const std::vector<Eigen::Vector2d>& px, const std::vector<double>& v, int w, int h, double limit, double r) {
+  const Eigen::Vector2d c((w - 1) / 2.0, (h - 1) / 2.0);
+  TrustedRegion t;
+  int n = 0, in = 0, in_ok = 0, ok = 0;
+  for (size_t i = 0; i < px.size() && i < v.size(); ++i) {
+    const bool good = std::isfinite(v[i]) && v[i] < limit;
+    t.trusted.push_back(good);
+    ++n;
+    ok += good;
+    if ((px[i] - c).norm() <= r * c.norm()) {
+      ++in;
+      in_ok += good;
+    }
+  }
+  t.fraction = n ? double(ok) / n : 0.0;
+  t.working_fraction = in ? double(in_ok) / in : 0.0;
+  return t;
+}
+
 std::string Join(const std::vector<std::string>& v) {
   std::string s;
   for (size_t i = 0; i < v.size(); ++i) s += (i == 0 ? "" : (i + 1 == v.size() ? " and " : ", ")) + v[i];
@@ -62,8 +89,10 @@ bool SetVerdictOptions::Check(std::string* why) const {
     return false;
   };
   if (min_pairs < 1 || min_pairs_to_split < 2) return fail("min_pairs must be >= 1 and min_pairs_to_split >= 2");
-  if (!(max_projection_sigma_px > 0 && max_relative_focal_sigma > 0 && max_principal_sigma_px > 0 &&
-        max_half_diff_px > 0 && max_half_focal_diff > 0))
+  if (!(judged_range_m >= 0 && trust_threshold_noise > 0 && min_trusted_working_fraction >= 0 &&
+        min_trusted_working_fraction <= 1))
+    return fail("judged_range_m must be >= 0, trust_threshold_noise > 0, min_trusted_working_fraction in [0, 1]");
+  if (!(max_relative_focal_sigma > 0 && max_principal_sigma_px > 0 && max_half_diff_px > 0 && max_half_focal_diff > 0))
     return fail("every verdict limit must be > 0");
   if (!(working_radius_fraction > 0 && working_radius_fraction <= 1))
     return fail("working_radius_fraction must be in (0, 1]");
@@ -80,6 +109,9 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
   std::string why;
   if (!vo.Check(&why)) throw std::invalid_argument("SetVerdictOptions: " + why);
   v.num_pairs = static_cast<int>(fit.paired_frames.size());
+  v.judged_range_m = length_unit_m > 0 ? vo.judged_range_m : 0.0;
+  v.trust_threshold_noise = vo.trust_threshold_noise;
+  v.working_radius_fraction = vo.working_radius_fraction;
   bool unusable = false, poor = false;
   // Advice, most useful first: the mirror/swap fix, tilt, where to fill, closer, more views.
   std::map<int, std::vector<std::string>> advice;
@@ -145,13 +177,41 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
     const auto& p = f.camera.params;
     m.relative_focal_sigma = std::max(std::sqrt(CovOf(m.at_infinity, 0)) / p[0], std::sqrt(CovOf(m.at_infinity, 1)) / p[1]);
     m.principal_sigma_px = std::max(std::sqrt(CovOf(m.at_infinity, 2)), std::sqrt(CovOf(m.at_infinity, 3)));
-    if (!(m.working_p90_px <= vo.max_projection_sigma_px)) {
+    // The trusted region: predicted uncertainty at the judged range against the observed noise.
+    m.noise_px = f.corner_sigma_px;
+    m.trust_limit_px = vo.trust_threshold_noise * m.noise_px;
+    m.judged_distance = length_unit_m > 0 ? vo.judged_range_m / length_unit_m : 0.0;
+    if (m.judged_distance > 0) {
+      UncertaintyMapOptions ur = uo;
+      ur.distance_m = m.judged_distance;
+      m.at_range = ComputeUncertaintyMap(f, views[e], fixed, ur);
+    } else {
+      m.at_range = m.at_infinity;
+    }
+    const std::string range_text =
+        m.judged_distance > 0 ? "at " + FixedOrDash(vo.judged_range_m, 2) + " m" : "at infinity";
+    if (!m.at_range.ok) {
       thin_coverage = true;
-      add_reason(false, eye + " eye: the predicted projection uncertainty (points at infinity) reaches " +
-                            FixedOrDash(m.working_p90_px, 2) + " px over 10 % of the working region (" + region +
-                            "; limit " + FixedOrDash(vo.max_projection_sigma_px, 2) + " px; " +
-                            FixedOrDash(m.at_infinity.centre_px, 2) + " px at the centre; " +
-                            FixedOrDash(100 * m.image_fraction_within_1px, 0) + " % of the image within 1 px)");
+      add_reason(false, eye + " eye: no projection uncertainty " + range_text + ": " + m.at_range.message);
+      continue;
+    }
+    const TrustedRegion t =
+        TrustedRegionOf(m.at_range.pixels, m.at_range.sigma_px, W, H, m.trust_limit_px, vo.working_radius_fraction);
+    m.trusted = t.trusted;
+    m.trusted_fraction = t.fraction;
+    m.trusted_working_fraction = t.working_fraction;
+    m.working_p90_range_px = P90Within(m.at_range.pixels, m.at_range.sigma_px, W, H, vo.working_radius_fraction);
+    if (!(m.trusted_working_fraction >= vo.min_trusted_working_fraction)) {
+      thin_coverage = true;
+      add_reason(false,
+                 eye + " eye: the model is trusted over " + FixedOrDash(100 * m.trusted_working_fraction, 0) +
+                     " % of the working region only (" + region + "; limit " +
+                     FixedOrDash(100 * vo.min_trusted_working_fraction, 0) +
+                     " %): there the predicted projection "
+                     "uncertainty " +
+                     range_text + " exceeds " + FixedOrDash(vo.trust_threshold_noise, 1) + " x the corner noise (" +
+                     FixedOrDash(m.trust_limit_px, 2) + " px; p90 " + FixedOrDash(m.working_p90_range_px, 2) + " px; " +
+                     FixedOrDash(100 * m.trusted_fraction, 0) + " % of the whole image trusted)");
       if (m.working_p90_px > 2 * m.working_p90_boards_px) weak_focal = true;  // fine at the boards, not beyond
     }
     if (m.relative_focal_sigma > vo.max_relative_focal_sigma) {
@@ -277,6 +337,28 @@ nlohmann::json SetVerdict::ToJson() const {
       h = {{"p90_px", m.halves.p90_px}, {"max_px", m.halves.max_px}, {"median_px", m.halves.median_px},
            {"focal_diff", m.half_focal_diff}};
     if (m.halves.ok) h["working_p90_px"] = m.halves_working_p90_px;
+    nlohmann::json trusted = nlohmann::json::object();
+    if (m.at_range.ok) {
+      std::vector<double> xs, ys, sig;
+      for (size_t i = 0; i < m.at_range.pixels.size(); ++i) {
+        xs.push_back(m.at_range.pixels[i].x());
+        ys.push_back(m.at_range.pixels[i].y());
+        sig.push_back(std::isfinite(m.at_range.sigma_px[i]) ? m.at_range.sigma_px[i] : -1.0);
+      }
+      trusted = {{"range_m", judged_range_m},
+                 {"noise_px", m.noise_px},
+                 {"threshold_noise", trust_threshold_noise},
+                 {"limit_px", m.trust_limit_px},
+                 {"working_radius_fraction", working_radius_fraction},
+                 {"fraction", m.trusted_fraction},
+                 {"working_fraction", m.trusted_working_fraction},
+                 {"working_p90_px", m.working_p90_range_px},
+                 {"grid_cols", m.at_range.grid_cols},
+                 {"grid_rows", m.at_range.grid_rows},
+                 {"x_px", xs},
+                 {"y_px", ys},
+                 {"sigma_px", sig}};
+    }
     eyes[kEye[e]] = {{"projection_sigma_at_infinity", StatsJson(m.at_infinity)},
                      {"projection_sigma_at_boards", StatsJson(m.at_boards)},
                      {"working_p90_px", m.working_p90_px},
@@ -287,6 +369,7 @@ nlohmann::json SetVerdict::ToJson() const {
                      {"relative_focal_sigma", m.relative_focal_sigma},
                      {"principal_sigma_px", m.principal_sigma_px},
                      {"halves", h},
+                     {"trusted_region", trusted},
                      {"corners_per_zone", m.corners_per_zone}};
   }
   return {{"status", status},

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 
+#include "fitting/format.h"
 #include "fitting/projection_uncertainty.h"
 #include "reports/table.h"
 
@@ -214,15 +215,50 @@ std::vector<Figure> UncertaintyFigures(const ReportData& d) {
       for (const auto& p : v.contour) c.rows.push_back({p.x(), p.y()});
       f.series.push_back(c);
     }
+    // The set verdict's trusted region (fitting/set_verdict.h), when the result has one: the
+    // region the verdict judged, marked on the same image.
+    std::string verdict_text;
+    const nlohmann::json& sv = d.result.verdict;
+    if (sv.is_object() && sv.contains("metrics") && sv.at("metrics").contains("eyes") &&
+        sv.at("metrics").at("eyes").contains(eye) && sv.at("metrics").at("eyes").at(eye).contains("trusted_region") &&
+        sv.at("metrics").at("eyes").at(eye).at("trusted_region").contains("sigma_px")) {
+      const auto& tr = sv.at("metrics").at("eyes").at(eye).at("trusted_region");
+      const auto xs = tr.at("x_px").get<std::vector<double>>(), ys = tr.at("y_px").get<std::vector<double>>();
+      const auto sg = tr.at("sigma_px").get<std::vector<double>>();
+      const double limit = tr.value("limit_px", 0.0), range = tr.value("range_m", 0.0);
+      Series t{"trusted by the set verdict", "points pt 7 ps 0.8 lc rgb '#ffffff'", "1:2", {"x_px", "y_px"}, {}};
+      for (size_t k = 0; k < xs.size() && k < ys.size() && k < sg.size(); ++k)
+        if (sg[k] >= 0 && sg[k] < limit) t.rows.push_back({xs[k], ys[k]});
+      if (!t.rows.empty()) f.series.push_back(t);
+      verdict_text =
+          " White dots: the set verdict's trusted region, the figure the verdict judges (its own map, board "
+          "poses in the state, " +
+          (range > 0 ? "at " + fitting::FixedOrDash(range, 2) + " m" : std::string("at infinity")) + ": \u03c3 < " +
+          fitting::FixedOrDash(tr.value("threshold_noise", 0.0), 1) + " \u00d7 the corner noise " +
+          fitting::FixedOrDash(tr.value("noise_px", 0.0), 3) + " px = " + fitting::FixedOrDash(limit, 2) +
+          " px): " + fitting::FixedOrDash(100 * tr.value("working_fraction", 0.0), 0) + " % of the working region, " +
+          fitting::FixedOrDash(100 * tr.value("fraction", 0.0), 0) +
+          " % of the image. mrcal's own default (1 \u00d7 noise) is "
+          "stricter and is what the exported .cameramodel carries.";
+    }
     f.width_px = 900;
     f.height_px = 760;
-    f.caption = "How far a point at infinity may land from where the " + eye + " model projects it (1\u03c3, worst "
-                "direction; the colour scale stops at the 95th percentile, " + Fmt(smax, 3) + " px), from the intrinsics "
-                "covariance (" + source + "), a common camera rotation removed (it "
-                "is absorbed by the extrinsics, as in mrcal). Orange: mrcal's valid-intrinsics region (uncertainty "
-                "< 1 \u00d7 the corner noise " + Fmt(sigma, 3) + " px, |mean residual| < 0.5 px, stdev < 1.5 \u00d7 "
-                "noise, > 3 residuals per cell): " + Fmt(100 * v.valid_fraction, 3) + " % of the image. Outside it, "
-                "add views whose board reaches there.";
+    f.caption =
+        "How far a point at infinity may land from where the " + eye +
+        " model projects it (1\u03c3, worst "
+        "direction; the colour scale stops at the 95th percentile, " +
+        Fmt(smax, 3) +
+        " px), from the intrinsics "
+        "covariance (" +
+        source +
+        "), a common camera rotation removed (it "
+        "is absorbed by the extrinsics, as in mrcal). Orange: mrcal's valid-intrinsics region (uncertainty "
+        "< 1 \u00d7 the corner noise " +
+        Fmt(sigma, 3) +
+        " px, |mean residual| < 0.5 px, stdev < 1.5 \u00d7 "
+        "noise, > 3 residuals per cell): " +
+        Fmt(100 * v.valid_fraction, 3) + " % of the image." +
+        (verdict_text.empty() ? std::string(" Outside it, add views whose board reaches there.") : verdict_text);
     out.push_back(f);
   }
   return out;

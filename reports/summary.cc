@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fitting/format.h"
 #include "fitting/projection_uncertainty.h"
 #include "fitting/truth_compare.h"
 #include "models/head_kinematics.h"
@@ -153,6 +154,31 @@ Summary MakeSummary(const ReportData& d) {
         s2 += p.dx * p.dx + p.dy * p.dy;
       }
     const models::CameraIntrinsics* cam = r.cameras[e] ? &*r.cameras[e] : (r.head ? &r.head->intrinsics[e] : nullptr);
+    // With a set verdict, its trusted region is the one figure (fitting/set_verdict.h): the same
+    // numbers the verdict judged, so the summary never contradicts it.
+    const nlohmann::json* tr = nullptr;
+    if (has_set_verdict && set_verdict.contains("metrics") && set_verdict.at("metrics").contains("eyes")) {
+      const nlohmann::json& eyes = set_verdict.at("metrics").at("eyes");
+      if (eyes.contains(models::kEyeNames[e]) && eyes.at(models::kEyeNames[e]).contains("trusted_region") &&
+          eyes.at(models::kEyeNames[e]).at("trusted_region").contains("fraction"))
+        tr = &eyes.at(models::kEyeNames[e]).at("trusted_region");
+    }
+    if (tr) {
+      const double frac = tr->value("fraction", 0.0), work = tr->value("working_fraction", 0.0);
+      const double range = tr->value("range_m", 0.0);
+      if (frac < 0.6)
+        s.next_steps.push_back(
+            std::string("The ") + models::kEyeNames[e] + " model is trusted over " +
+            fitting::FixedOrDash(100 * work, 0) + " % of the working region and " +
+            fitting::FixedOrDash(100 * frac, 0) +
+            " % of the whole image (the set verdict's trusted region: projection uncertainty " +
+            (range > 0 ? "at " + fitting::FixedOrDash(range, 2) + " m" : std::string("at infinity")) + " below " +
+            fitting::FixedOrDash(tr->value("threshold_noise", 0.0), 1) + " \u00d7 the corner noise, " +
+            fitting::FixedOrDash(tr->value("limit_px", 0.0), 2) +
+            " px): to use the image edges, add views whose "
+            "board reaches them.");
+      continue;
+    }
     if (!cam || res.empty()) continue;
     const auto v = fitting::ComputeValidIntrinsicsRegion(*cam, fitting::IntrinsicsCovariance(r, e), res,
                                                          std::sqrt(s2 / (2.0 * res.size())));

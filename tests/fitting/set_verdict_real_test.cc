@@ -12,6 +12,7 @@
 
 #include "calib/image_pairs.h"
 #include "fitting/range_images_calib.h"
+#include "reports/summary.h"
 #include "reports/verdict_tables.h"
 #include "tests/shared_data.h"
 
@@ -118,6 +119,24 @@ void CheckSet(const RealSet& s, int min_pairs, bool expect_poor = true) {
   EXPECT_TRUE(c.set_verdict.split) << c.set_verdict.split_message;
   ASSERT_FALSE(c.result.verdict.is_null());
   EXPECT_EQ(c.result.verdict.at("status"), "good");
+  // The trusted region is what the verdict judged, and the report's summary quotes it: a good set
+  // is trusted over (at least) 90 % of its working region, and the summary says no less.
+  reports::ReportData rd;
+  rd.result = c.result;
+  const reports::Summary summary = reports::MakeSummary(rd);
+  for (int e = 0; e < 2; ++e) {
+    const EyeVerdictMetrics& m = c.set_verdict.eye[e];
+    EXPECT_GE(m.trusted_working_fraction, 0.9) << s.dir << " eye " << e;
+    const auto& tr = c.result.verdict.at("metrics").at("eyes").at(e == 0 ? "left" : "right").at("trusted_region");
+    EXPECT_DOUBLE_EQ(tr.at("working_fraction").get<double>(), m.trusted_working_fraction);
+    EXPECT_DOUBLE_EQ(tr.at("fraction").get<double>(), m.trusted_fraction);
+  }
+  for (const auto& step : summary.next_steps) {
+    EXPECT_EQ(step.find("valid-intrinsics region"), std::string::npos) << step;
+    if (step.find("trusted over") != std::string::npos) {
+      EXPECT_NE(step.find("set verdict's trusted region"), std::string::npos) << step;
+    }
+  }
 
   std::set<int> kept;
   const auto flat = PoorSubset(l, c.fit, &kept);
@@ -128,6 +147,8 @@ void CheckSet(const RealSet& s, int min_pairs, bool expect_poor = true) {
   EXPECT_FALSE(p.set_verdict.advice.empty());
   if (expect_poor) {
     EXPECT_EQ(p.set_verdict.status, "poor") << s.dir;
+    // The trusted region alone already says so (ratio sigma / noise 19-126 against 10).
+    for (int e = 0; e < 2; ++e) EXPECT_LT(p.set_verdict.eye[e].trusted_working_fraction, 0.9) << s.dir << " eye " << e;
     bool tilt = false;
     for (const auto& a : p.set_verdict.advice) tilt |= a.find("tilt the board") != std::string::npos;
     EXPECT_TRUE(tilt) << "no tilt advice for a set of flat views";
