@@ -26,7 +26,7 @@ namespace fs = std::filesystem;
 struct FitDatasetsOptions {
   std::string dir;
   std::string out;
-  double measured_sigma_factor = 2.0;
+  double measured_sigma_factor = 1.4;
   bool hold_intrinsics = false;
   bool no_nonlinear = false;
   bool no_hysteresis = false;
@@ -131,8 +131,9 @@ const bool kRegistered = RegisterCommand(
       auto o = std::make_shared<FitDatasetsOptions>();
       cmd->add_option("DIR", o->dir, "a folder owlcal calibrate wrote (holds datasets/)")->required()->check(CLI::ExistingDirectory);
       cmd->add_option("--out", o->out, "report folder to create")->required();
-      cmd->add_option("--sigma-factor", o->measured_sigma_factor,
-                      "head fit: factor on the measured corner sigma (calibrate: 2)")
+      cmd->add_option("--sigma-factor",
+                      o->measured_sigma_factor,
+                      "head fit: factor on the measured corner sigma (calibrate: 1.4)")
           ->check(CLI::Range(0.1, 100.0));
       cmd->add_flag("--hold-intrinsics", o->hold_intrinsics, "head fit: hold the intrinsics at the stereo fit's");
       cmd->add_flag("--no-nonlinear", o->no_nonlinear, "head fit: servo maps linear (quad and cubic held at 0)");

@@ -27,7 +27,7 @@ struct FitHeadArgs {
   std::string intrinsics_json;
   double sigma_px = 0;          // 0: measured from the residuals (HeadFitOptions::estimate_corner_sigma)
   double min_sigma_px = 0.0;
-  double bias_factor = 2.0;     // measured sigma x this for the detector bias (as owlcal calibrate)
+  double bias_factor = 1.4;  // measured sigma x this for the detector bias (as owlcal calibrate)
   bool fit_intrinsics = false;
   bool linear = false;
 };

@@ -70,8 +70,8 @@ TEST(FitDatasetsCli, ARefitOfACalibrateFolderReproducesEveryValueAndSigma) {
   EXPECT_FALSE(a.at("inputs").at("software").at("git").get<std::string>().empty());
   EXPECT_EQ(a.at("inputs").at("command").at("command"), "owlcal calibrate");
   EXPECT_EQ(b.at("inputs").at("command").at("command"), "owlcal fit-datasets");
-  EXPECT_EQ(b.at("inputs").at("command").at("sigma_factor"), 2.0);
-  EXPECT_EQ(a.at("inputs").at("pipeline").at("head").at("measured_sigma_factor"), 2.0);
+  EXPECT_EQ(b.at("inputs").at("command").at("sigma_factor"), 1.4);
+  EXPECT_EQ(a.at("inputs").at("pipeline").at("head").at("measured_sigma_factor"), 1.4);
   EXPECT_TRUE(fs::exists(root / "refit" / "calibration.yaml"));
   EXPECT_TRUE(fs::exists(root / "refit" / "report" / "index.html"));
 

@@ -75,9 +75,9 @@ TEST(CalibratePipeline, OptionsAreCheckedAndRecorded) {
   std::string why;
   EXPECT_TRUE(o.Check(&why)) << why;
   EXPECT_TRUE(o.head.fit_intrinsics);
-  EXPECT_EQ(o.head.measured_sigma_factor, 2.0);
+  EXPECT_EQ(o.head.measured_sigma_factor, 1.4);
   const nlohmann::json j = o.ToJson();
-  EXPECT_EQ(j.at("head").at("measured_sigma_factor"), 2.0);
+  EXPECT_EQ(j.at("head").at("measured_sigma_factor"), 1.4);
   EXPECT_EQ(j.at("stereo").at("intrinsics").at("model"), "opencv5");
   EXPECT_EQ(j.at("truth"), false);
   o.fps = 0;
