@@ -11,8 +11,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const protocols::Protocol p = protocols::ParseProtocolYaml(fuzz::Text(data, size), "fuzz.yaml");
     OWLCAL_FUZZ_ASSERT(int64_t(p.steps.size()) <= protocols::kMaxPlanSteps);
     for (const protocols::Step& s : p.steps) {
-      OWLCAL_FUZZ_ASSERT(s.step_us >= 1 && s.step_us <= protocols::kMaxPulseUs);
-      OWLCAL_FUZZ_ASSERT(s.amplitude_us >= 1 && s.amplitude_us <= protocols::kMaxPulseUs);
+      if (const auto* sweep = std::get_if<protocols::SweepStep>(&s.params))
+        OWLCAL_FUZZ_ASSERT(sweep->step_us >= 1 && sweep->step_us <= protocols::kMaxPulseUs);
+      if (const auto* latency = std::get_if<protocols::LatencyStep>(&s.params))
+        OWLCAL_FUZZ_ASSERT(latency->amplitude_us >= 1 && latency->amplitude_us <= protocols::kMaxPulseUs);
       (void)protocols::CheckStepForRobot(s, models::DefaultRobotConfig());
     }
   } catch (const protocols::ProtocolError&) {

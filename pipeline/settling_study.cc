@@ -82,7 +82,7 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
   const fitting::ServoMotionFit motion = fitting::FitServoMotion(segments, mo);
   if (!motion.ok) return refuse("the servo motion fit failed: " + motion.message);
 
-  const protocols::Step step_defaults;  // the step protocol's controller settings
+  const protocols::ClosedLoopSettings step_defaults;  // the step protocol's controller settings
   fitting::LoopModel m;
   m.fps = fps;
   m.exposure_delay_s = motion.exposure_delay_s;

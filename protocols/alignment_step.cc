@@ -12,7 +12,7 @@ namespace owlcal::protocols {
 using models::kNumServos;
 using models::PwmVector;
 
-void RunAlignmentStep(RunContext& run, const Protocol& p, const Step& s) {
+void RunAlignmentStep(RunContext& run, const Protocol& p, const AlignmentStep& s) {
   run.Send(run.config().Centre());
   run.Settle(s.settle);
   const calib::TargetDefinition* def = nullptr;

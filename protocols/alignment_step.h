@@ -7,6 +7,6 @@
 
 namespace owlcal::protocols {
 
-void RunAlignmentStep(RunContext& run, const Protocol& p, const Step& s);
+void RunAlignmentStep(RunContext& run, const Protocol& p, const AlignmentStep& s);
 
 }  // namespace owlcal::protocols

@@ -25,29 +25,29 @@ std::unique_ptr<TargetLocator> MakeStepLocator(const Protocol& p, Locator kind) 
   return MakeFixationLocator();
 }
 
-FixationOptions FixationFromStep(const Step& s, const models::RobotConfig& robot) {
+FixationOptions FixationFromLoop(const ClosedLoopSettings& loop, const models::RobotConfig& robot) {
   FixationOptions fo;
-  fo.gain = s.gain;
-  fo.max_iterations = s.max_iterations;
-  fo.tolerance_px = s.tolerance_px;
-  fo.still_frames = s.still_frames;
-  fo.latency_frames = s.latency_frames;
-  fo.max_step_us = s.max_step_us;
-  fo.limit_margin_us = s.limit_margin_us;
+  fo.max_iterations = loop.max_iterations;
+  fo.tolerance_px = loop.tolerance_px;
+  fo.still_frames = loop.still_frames;
+  fo.latency_frames = loop.latency_frames;
+  fo.max_step_us = loop.max_step_us;
+  fo.limit_margin_us = loop.limit_margin_us;
   fo.focal_px = 585.0 * robot.image_width / 640.0;
-  fo.eyes[models::kLeftEye] = s.eyes != "right";
-  fo.eyes[models::kRightEye] = s.eyes != "left";
   return fo;
 }
 
-void RunFixateStep(RunContext& run, const Protocol& p, const Step& s) {
+void RunFixateStep(RunContext& run, const Protocol& p, const FixateStep& s) {
   if (s.from_centre) {
     run.Send(run.config().Centre());
-    run.Settle(s.settle);
+    run.Settle(SettleRule{});
   }
-  auto loc = MakeStepLocator(p, s.locator);
-  const FixationOptions fo = FixationFromStep(s, run.config());
-  const FixationResult r = run.Fixate(fo, *loc, s.record_frames, nullptr);
+  auto loc = MakeStepLocator(p, s.loop.locator);
+  FixationOptions fo = FixationFromLoop(s.loop, run.config());
+  fo.gain = s.gain;
+  fo.eyes[models::kLeftEye] = Includes(s.eyes, models::kLeftEye);
+  fo.eyes[models::kRightEye] = Includes(s.eyes, models::kRightEye);
+  const FixationResult r = run.Fixate(fo, *loc, s.loop.record_frames, nullptr);
   // The settled fixation itself is always recorded (one frame).
   const int64_t frame_index = run.Record(run.Grab());
   const PlacementRecord* pl =
@@ -59,7 +59,7 @@ void RunFixateStep(RunContext& run, const Protocol& p, const Step& s) {
                                   std::to_string(run.placement_index()),
                                   pl ? pl->target : "",
                                   pl ? FixedText(pl->distance_m, 6) : "",
-                                  s.eyes,
+                                  EyeSetName(s.eyes),
                                   FixedText(s.gain, 4),
                                   OutcomeName(r.outcome),
                                   std::to_string(r.iterations)};
@@ -88,9 +88,10 @@ void RunFixateStep(RunContext& run, const Protocol& p, const Step& s) {
             std::string(calib::TrialStatusName(status)) + " (" + OutcomeName(r.outcome) + "): " + r.message +
                 " (frame " + std::to_string(frame_index) + ")");
   if (run.options().progress)
-    *run.options().progress << "  fixate " << s.eyes << " gain " << s.gain << ": " << calib::TrialStatusName(status)
-                            << (reason.empty() ? "" : " (" + reason + ")") << " after " << r.iterations
-                            << " frames, residual L " << FixedText(r.residual_px[0].norm(), 2) << " px R "
+    *run.options().progress << "  fixate " << EyeSetName(s.eyes) << " gain " << s.gain << ": "
+                            << calib::TrialStatusName(status) << (reason.empty() ? "" : " (" + reason + ")")
+                            << " after " << r.iterations << " frames, residual L "
+                            << FixedText(r.residual_px[0].norm(), 2) << " px R "
                             << FixedText(r.residual_px[1].norm(), 2) << " px\n";
 }
 

@@ -9,7 +9,7 @@ namespace owlcal::protocols {
 using models::kNumServos;
 using models::PwmVector;
 
-void RunLatencyStep(RunContext& run, const Step& s) {
+void RunLatencyStep(RunContext& run, const LatencyStep& s) {
   const models::ServoConfig& sc = run.config().servos[s.servo];
   const int eye = ServoEye(s.servo);
   const int axis = ServoAxis(s.servo);

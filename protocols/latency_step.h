@@ -6,6 +6,6 @@
 
 namespace owlcal::protocols {
 
-void RunLatencyStep(RunContext& run, const Step& s);
+void RunLatencyStep(RunContext& run, const LatencyStep& s);
 
 }  // namespace owlcal::protocols

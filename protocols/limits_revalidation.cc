@@ -30,7 +30,7 @@ RunSummary SetUpLimitsScene(robot::RobotInterface& robot, const RunOptions& opti
   Protocol setup = LoadProtocolFile(ResolveProtocolPath("limits"));
   std::vector<Step> steps;
   for (const Step& st : setup.steps) {
-    if (st.kind == StepKind::kLimits) break;
+    if (st.kind() == StepKind::kLimits) break;
     steps.push_back(st);
   }
   setup.steps = steps;
@@ -44,8 +44,8 @@ std::vector<ServoRevalidation> RevalidateLimits(robot::RobotInterface& robot, co
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
   bool found = false;
   for (Step& s : p.steps)
-    if (s.kind == StepKind::kLimits) {
-      s.servos = options.servos;
+    if (s.kind() == StepKind::kLimits) {
+      s.As<LimitsStep>().servos = options.servos;
       found = true;
     }
   if (!found) throw std::runtime_error(p.file + ": the limits protocol has no limits step");

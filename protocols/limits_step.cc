@@ -10,7 +10,7 @@ namespace owlcal::protocols {
 using models::kNumServos;
 using models::PwmVector;
 
-void RunLimitsStep(RunContext& run, const Step& s) {
+void RunLimitsStep(RunContext& run, const LimitsStep& s) {
   // protocols/limits_search.h: works with any PWM step and dead band; a black, covered or
   // frozen camera fails the step (after its rows are written), never passes as "configured".
   const double focal_px = 585.0 * run.config().image_width / 640.0;

@@ -7,6 +7,6 @@
 
 namespace owlcal::protocols {
 
-void RunLimitsStep(RunContext& run, const Step& s);
+void RunLimitsStep(RunContext& run, const LimitsStep& s);
 
 }  // namespace owlcal::protocols

@@ -9,7 +9,7 @@ namespace owlcal::protocols {
 using models::kNumServos;
 using models::PwmVector;
 
-void RunPlaceTargetStep(RunContext& run, const Protocol& p, const Step& s) {
+void RunPlaceTargetStep(RunContext& run, const Protocol& p, const PlaceTargetStep& s) {
   PlacementRecord rec;
   rec.step_index = run.step_index();
   rec.target = s.target;
@@ -43,7 +43,7 @@ void RunPlaceTargetStep(RunContext& run, const Protocol& p, const Step& s) {
       const double mm = std::stod(answer, &used);
       if (used > 0 && mm > 0) {
         rec.distance_m = mm / 1000.0;
-        Step moved = s;
+        PlaceTargetStep moved = s;
         moved.distance_m = rec.distance_m;
         rec.base_from_target = PlacementPose(moved, def);
       }

@@ -7,6 +7,6 @@
 
 namespace owlcal::protocols {
 
-void RunPlaceTargetStep(RunContext& run, const Protocol& p, const Step& s);
+void RunPlaceTargetStep(RunContext& run, const Protocol& p, const PlaceTargetStep& s);
 
 }  // namespace owlcal::protocols

@@ -110,6 +110,50 @@ const char* LocatorName(Locator locator) {
   return "?";
 }
 
+// StepKind(params.index()) is the kind: the alternatives follow the enum.
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kMoveTo), StepParams>, MoveToStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kSweep), StepParams>, SweepStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kGrid), StepParams>, GridStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kPlaceTarget), StepParams>, PlaceTargetStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kCapture), StepParams>, CaptureStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kFixate), StepParams>, FixateStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kStepResponse), StepParams>, StepResponseStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kLimits), StepParams>, LimitsStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kAlignment), StepParams>, AlignmentStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kLatency), StepParams>, LatencyStep>);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kWait), StepParams>, WaitStep>);
+static_assert(std::variant_size_v<StepParams> == int(StepKind::kWait) + 1);
+
+const char* EyeSetName(EyeSet eyes) {
+  switch (eyes) {
+    case EyeSet::kBoth:
+      return "both";
+    case EyeSet::kLeft:
+      return "left";
+    case EyeSet::kRight:
+      return "right";
+  }
+  return "?";
+}
+
+bool Includes(EyeSet eyes, models::Eye eye) {
+  return eyes == EyeSet::kBoth || (eyes == EyeSet::kLeft) == (eye == models::kLeftEye);
+}
+
+const char* AxisName(Axis axis) { return axis == Axis::kPan ? "pan" : "tilt"; }
+
+bool Step::Detects() const {
+  if (const auto* s = std::get_if<SweepStep>(&params)) return s->detect;
+  if (const auto* s = std::get_if<GridStep>(&params)) return s->detect;
+  if (const auto* s = std::get_if<CaptureStep>(&params)) return s->detect;
+  return false;
+}
+
+std::string Step::Where() const {
+  return file + (file_line > 0 ? ":" + std::to_string(file_line) : std::string()) + ": step " +
+         std::to_string(file_index) + " (" + StepKindName(kind()) + ")";
+}
+
 int ServoIndexFromName(const std::string& name) {
   for (int i = 0; i < models::kNumServos; ++i) {
     std::string a = name, b = models::kServoNames[i];
@@ -125,11 +169,21 @@ namespace {
 // Reads fields of one YAML map, naming the context in every error and rejecting unknown keys.
 class Fields {
  public:
-  Fields(const YAML::Node& node, std::string context) : node_(node), context_(std::move(context)) {
-    if (!node_.IsMap()) throw ProtocolError(context_ + ": expected a map of fields");
+  // Messages read "SOURCE:LINE: WHERE: field 'KEY': ..." (LINE of the field, else of the map).
+  // fallback_line (0-based) stands for a node without a position (an empty step body).
+  Fields(const YAML::Node& node, std::string source, std::string where, int fallback_line = -1)
+      : node_(node), source_(std::move(source)), where_(std::move(where)), fallback_line_(fallback_line) {
+    if (!node_.IsMap()) throw ProtocolError(At(node_) + "expected a map of fields");
   }
   [[noreturn]] void Fail(const std::string& key, const std::string& what) const {
-    throw ProtocolError(context_ + ": field '" + key + "': " + what);
+    const YAML::Node n = node_[key];
+    throw ProtocolError(At(n ? n : node_) + "field '" + key + "': " + what);
+  }
+  // "SOURCE:LINE: WHERE: " for a node of this map.
+  std::string At(const YAML::Node& n) const {
+    const int line = n.IsDefined() && n.Mark().line >= 0 ? n.Mark().line : fallback_line_;
+    return source_ + (line >= 0 ? ":" + std::to_string(line + 1) : std::string()) + ": " + where_ +
+           (where_.empty() ? "" : ": ");
   }
   bool Has(const std::string& key) const { return static_cast<bool>(node_[key]); }
   YAML::Node Get(const std::string& key) {
@@ -237,33 +291,38 @@ class Fields {
     if (i < 0) Fail(key, "'" + s + "' is not a servo (Rx, Ry, Lx, Ly, Neck)");
     return i;
   }
-  std::string OneOf(const std::string& key, const std::string& def, std::initializer_list<const char*> allowed) {
-    const std::string v = Value<std::string>(key, def);
-    std::string list;
-    for (const char* a : allowed) {
-      if (v == a) return v;
-      list += std::string(list.empty() ? "" : ", ") + a;
-    }
-    Fail(key, "'" + v + "' is not one of " + list);
-  }
   void RejectUnknown() const {
     for (const auto& kv : node_) {
       const std::string k = kv.first.as<std::string>();
-      if (!used_.count(k)) throw ProtocolError(context_ + ": unknown field '" + k + "'");
+      if (!used_.count(k)) throw ProtocolError(At(kv.first) + "unknown field '" + k + "'");
     }
   }
-  const std::string& Context() const { return context_; }
+  // An enum from one of its names.
+  template <typename E>
+  E Enum(const std::string& key, E def, std::initializer_list<std::pair<const char*, E>> names) {
+    const char* def_name = "";
+    for (const auto& [name, value] : names)
+      if (value == def) def_name = name;
+    const std::string v = Value<std::string>(key, def_name);
+    std::string list;
+    for (const auto& [name, value] : names) {
+      if (v == name) return value;
+      list += std::string(list.empty() ? "" : ", ") + name;
+    }
+    Fail(key, "'" + v + "' is not one of " + list);
+  }
 
  private:
   YAML::Node node_;
-  std::string context_;
+  std::string source_, where_;
+  int fallback_line_ = -1;
   std::set<std::string> used_;
 };
 
-PoseSpec ParsePose(const YAML::Node& node, const std::string& context) {
+PoseSpec ParsePose(const YAML::Node& node, const std::string& source, const std::string& where) {
   PoseSpec pose;
   if (!node) return pose;
-  Fields f(node, context);
+  Fields f(node, source, where);
   for (int i = 0; i < models::kNumServos; ++i) {
     const std::string name = models::kServoNames[i];
     if (f.Has(name)) pose.servo[i] = f.Pwm(name, {});
@@ -272,13 +331,12 @@ PoseSpec ParsePose(const YAML::Node& node, const std::string& context) {
   return pose;
 }
 
-SettleRule ParseSettle(const YAML::Node& node, const std::string& context, SettleRule def) {
+SettleRule ParseSettle(const YAML::Node& node, const std::string& source, const std::string& where) {
+  const SettleRule def;
   if (!node) return def;
-  Fields f(node, context);
+  Fields f(node, source, where);
   SettleRule s = def;
-  s.mode = f.OneOf("mode", def.mode == SettleRule::Mode::kImage ? "image" : "time", {"image", "time"}) == "image"
-               ? SettleRule::Mode::kImage
-               : SettleRule::Mode::kTime;
+  s.mode = f.Enum("mode", def.mode, {{"image", SettleRule::Mode::kImage}, {"time", SettleRule::Mode::kTime}});
   s.time_ms = f.PositiveInt("time_ms", def.time_ms, 0);
   s.min_ms = f.PositiveInt("min_ms", def.min_ms, 0);
   s.max_ms = f.PositiveInt("max_ms", def.max_ms, 1);
@@ -289,18 +347,20 @@ SettleRule ParseSettle(const YAML::Node& node, const std::string& context, Settl
   return s;
 }
 
-calib::TargetDefinition ParseTarget(const YAML::Node& node, const std::string& name, const std::string& context) {
-  Fields f(node, context);
+calib::TargetDefinition ParseTarget(const YAML::Node& node, const std::string& name, const std::string& source) {
+  Fields f(node, source, "targets." + name);
   calib::TargetDefinition t;
   t.id = name;
-  const std::string type = f.OneOf("target_type", "chessboard", {"chessboard", "aprilgrid", "fixation"});
-  if (type == "chessboard") {
-    t.kind = calib::TargetKind::kChessboard;
+  t.kind = f.Enum("target_type",
+                  calib::TargetKind::kChessboard,
+                  {{"chessboard", calib::TargetKind::kChessboard},
+                   {"aprilgrid", calib::TargetKind::kAprilGrid},
+                   {"fixation", calib::TargetKind::kFixation}});
+  if (t.kind == calib::TargetKind::kChessboard) {
     t.cols = f.PositiveInt("cols", t.cols, 2);
     t.rows = f.PositiveInt("rows", t.rows, 2);
     t.square_m = f.PositiveDouble("square_size_m", t.square_m);
-  } else if (type == "aprilgrid") {
-    t.kind = calib::TargetKind::kAprilGrid;
+  } else if (t.kind == calib::TargetKind::kAprilGrid) {
     t.tag_cols = f.PositiveInt("tagCols", t.tag_cols);
     t.tag_rows = f.PositiveInt("tagRows", t.tag_rows);
     t.tag_size_m = f.PositiveDouble("tagSize", t.tag_size_m);
@@ -308,48 +368,70 @@ calib::TargetDefinition ParseTarget(const YAML::Node& node, const std::string& n
     t.first_id = f.PositiveInt("first_id", t.first_id, 0);
     t.family = f.Value<std::string>("family", t.family);
   } else {
-    t.kind = calib::TargetKind::kFixation;
     t.fixation_radius_m = f.PositiveDouble("fixation_radius_m", t.fixation_radius_m);
   }
   f.RejectUnknown();
   return t;
 }
 
-void ParseSteps(const YAML::Node& list, const std::string& source, const std::string& prefix, Protocol* p, int depth);
+EyeSet ParseEyeSet(Fields& f) {
+  return f.Enum("eyes", EyeSet::kBoth, {{"both", EyeSet::kBoth}, {"left", EyeSet::kLeft}, {"right", EyeSet::kRight}});
+}
 
-Step ParseStep(const std::string& kind, const YAML::Node& body, const std::string& context) {
-  Step s;
-  Fields f(body.IsNull() ? YAML::Node(YAML::NodeType::Map) : body, context);
-  s.name = f.Value<std::string>("name", "");
+ClosedLoopSettings ParseClosedLoop(Fields& f) {
+  ClosedLoopSettings l;
+  l.locator =
+      f.Enum("locator",
+             Locator::kFixation,
+             {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+  l.max_iterations = f.PositiveInt("max_iterations", l.max_iterations);
+  l.tolerance_px = f.PositiveDouble("tolerance_px", l.tolerance_px);
+  l.still_frames = f.PositiveInt("still_frames", l.still_frames);
+  l.latency_frames = f.PositiveInt("latency_frames", 0, 0);
+  l.max_step_us = f.PulseUs("max_step_us", l.max_step_us);
+  l.limit_margin_us = f.PulseUs("limit_margin_us", l.limit_margin_us, 0);
+  l.record_frames = f.Value<bool>("record_frames", false);
+  return l;
+}
+
+// The fields of one step of kind `kind` (`where` names it in errors).
+StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string& source, const std::string& where) {
+  auto settle = [&] { return ParseSettle(f.Get("settle"), source, where + " settle"); };
   if (kind == "move-to") {
-    s.kind = StepKind::kMoveTo;
-    s.pose = ParsePose(f.Get("pose"), context + " pose");
-    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+    MoveToStep s;
+    s.pose = ParsePose(f.Get("pose"), source, where + " pose");
+    s.settle = settle();
     s.frames = f.PositiveInt("frames", 0, 0);
-  } else if (kind == "sweep") {
-    s.kind = StepKind::kSweep;
+    return s;
+  }
+  if (kind == "sweep") {
+    SweepStep s;
     s.servo = f.Servo("servo");
-    s.from = f.Pwm("from", {PwmExpr::Base::kMin, 0});
-    s.to = f.Pwm("to", {PwmExpr::Base::kMax, 0});
-    s.step_us = f.PulseUs("step_us", 20);
+    s.from = f.Pwm("from", s.from);
+    s.to = f.Pwm("to", s.to);
+    s.step_us = f.PulseUs("step_us", s.step_us);
     s.both_directions = f.Value<bool>("both_directions", true);
     s.pre_approach = f.Value<bool>("pre_approach", true);
     s.detect = f.Value<bool>("detect", false);
     s.frames = f.PositiveInt("frames", 1);
-    s.pose = ParsePose(f.Get("hold"), context + " hold");
-    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
-  } else if (kind == "grid") {
-    s.kind = StepKind::kGrid;
-    s.eyes = f.OneOf("eyes", "both", {"both", "left", "right"});
+    s.hold = ParsePose(f.Get("hold"), source, where + " hold");
+    s.settle = settle();
+    return s;
+  }
+  if (kind == "grid") {
+    GridStep s;
+    s.eyes = ParseEyeSet(f);
     s.pan_us = f.PulseOffsets("pan_us", {0});
     s.tilt_us = f.PulseOffsets("tilt_us", {0});
     s.neck_us = f.PulseOffsets("neck_us", {0});
     s.frames = f.PositiveInt("frames", 1);
-    s.pose = ParsePose(f.Get("hold"), context + " hold");
-    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+    s.hold = ParsePose(f.Get("hold"), source, where + " hold");
+    s.settle = settle();
     s.detect = f.Value<bool>("detect", false);
-  } else if (kind == "place-target") {
-    s.kind = StepKind::kPlaceTarget;
+    return s;
+  }
+  if (kind == "place-target") {
+    PlaceTargetStep s;
     s.target = f.Scalar("target");
     s.distance_m = f.PositiveDouble("distance_m", 0.6);
     const auto off = f.List<double>("offset_m", {0, 0});
@@ -360,41 +442,41 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
     s.rpy_deg = Eigen::Vector3d(rpy[0], rpy[1], rpy[2]);
     s.hide_others = f.Value<bool>("hide_others", true);
     s.prompt = f.Value<std::string>("prompt", "");
-  } else if (kind == "capture") {
-    s.kind = StepKind::kCapture;
+    return s;
+  }
+  if (kind == "capture") {
+    CaptureStep s;
     s.frames = f.PositiveInt("frames", 1);
-    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
+    s.settle = settle();
     s.detect = f.Value<bool>("detect", false);
-  } else if (kind == "fixate" || kind == "step-response") {
-    s.kind = kind == "fixate" ? StepKind::kFixate : StepKind::kStepResponse;
-    const std::string loc = f.OneOf("locator", "fixation", {"fixation", "template", "apriltag"});
-    s.locator = loc == "fixation" ? Locator::kFixation : loc == "template" ? Locator::kTemplate : Locator::kAprilTag;
-    s.max_iterations = f.PositiveInt("max_iterations", s.max_iterations);
-    s.tolerance_px = f.PositiveDouble("tolerance_px", s.tolerance_px);
-    s.still_frames = f.PositiveInt("still_frames", s.still_frames);
-    s.latency_frames = f.PositiveInt("latency_frames", 0, 0);
-    s.max_step_us = f.PulseUs("max_step_us", s.max_step_us);
-    s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
-    s.record_frames = f.Value<bool>("record_frames", false);
-    if (kind == "fixate") {
-      s.eyes = f.OneOf("eyes", "both", {"both", "left", "right"});
-      s.gain = f.PositiveDouble("gain", 0.1);
-      s.from_centre = f.OneOf("from", "current", {"current", "centre"}) == "centre";
-    } else {
-      s.eye = f.OneOf("eye", "right", {"left", "right"});
-      s.axis = f.OneOf("axis", "pan", {"pan", "tilt"});
-      s.amplitudes_deg = f.List<double>("amplitudes_deg", s.amplitudes_deg);
-      s.gains = f.List<double>("gains", s.gains);
-      for (double g : s.gains)
-        if (!(g > 0)) f.Fail("gains", std::to_string(g) + " must be > 0");
-      for (double a : s.amplitudes_deg)
-        if (!(a > 0 && a <= 45)) f.Fail("amplitudes_deg", std::to_string(a) + " must be in (0, 45]");
-      s.frames = f.PositiveInt("frames", 45, 2);
-      s.trials = f.PositiveInt("trials", 1);
-      s.max_iterations = s.frames;
-    }
-  } else if (kind == "limits") {
-    s.kind = StepKind::kLimits;
+    return s;
+  }
+  if (kind == "fixate") {
+    FixateStep s;
+    s.loop = ParseClosedLoop(f);
+    s.eyes = ParseEyeSet(f);
+    s.gain = f.PositiveDouble("gain", 0.1);
+    s.from_centre = f.Enum("from", false, {{"current", false}, {"centre", true}});
+    return s;
+  }
+  if (kind == "step-response") {
+    StepResponseStep s;
+    s.loop = ParseClosedLoop(f);
+    s.eye = f.Enum("eye", models::kRightEye, {{"left", models::kLeftEye}, {"right", models::kRightEye}});
+    s.axis = f.Enum("axis", Axis::kPan, {{"pan", Axis::kPan}, {"tilt", Axis::kTilt}});
+    s.amplitudes_deg = f.List<double>("amplitudes_deg", s.amplitudes_deg);
+    s.gains = f.List<double>("gains", s.gains);
+    for (double g : s.gains)
+      if (!(g > 0)) f.Fail("gains", std::to_string(g) + " must be > 0");
+    for (double a : s.amplitudes_deg)
+      if (!(a > 0 && a <= 45)) f.Fail("amplitudes_deg", std::to_string(a) + " must be in (0, 45]");
+    s.frames = f.PositiveInt("frames", 45, 2);
+    s.trials = f.PositiveInt("trials", 1);
+    s.loop.max_iterations = s.frames;
+    return s;
+  }
+  if (kind == "limits") {
+    LimitsStep s;
     if (f.Has("servos")) {
       s.servos.clear();
       for (const std::string& n : f.List<std::string>("servos", {})) {
@@ -410,27 +492,41 @@ Step ParseStep(const std::string& kind, const YAML::Node& body, const std::strin
     s.moved_fraction = f.PositiveDouble("moved_fraction", s.moved_fraction);
     s.rim_fraction = f.PositiveDouble("rim_fraction", s.rim_fraction);
     s.record_frames = f.Value<bool>("record_frames", true);
-    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
-  } else if (kind == "alignment") {
-    s.kind = StepKind::kAlignment;
+    s.settle = settle();
+    return s;
+  }
+  if (kind == "alignment") {
+    AlignmentStep s;
     s.frames = f.PositiveInt("frames", 3);
-    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
-  } else if (kind == "latency") {
-    s.kind = StepKind::kLatency;
+    s.settle = settle();
+    return s;
+  }
+  if (kind == "latency") {
+    LatencyStep s;
     s.servo = f.Servo("servo");
     s.amplitude_us = f.PulseUs("amplitude_us", s.amplitude_us);
     s.trials = f.PositiveInt("trials", 5);
     s.max_frames = f.PositiveInt("max_frames", s.max_frames);
     s.record_frames = f.Value<bool>("record_frames", false);
-    s.settle = ParseSettle(f.Get("settle"), context + " settle", s.settle);
-  } else if (kind == "wait") {
-    s.kind = StepKind::kWait;
-    s.wait_ms = f.PositiveInt("ms", 0, 0);
-  } else {
-    throw ProtocolError(context + ": unknown step kind '" + kind +
-                        "' (move-to, sweep, grid, place-target, capture, fixate, step-response, limits, "
-                        "alignment, latency, wait, repeat)");
+    s.settle = settle();
+    return s;
   }
+  if (kind == "wait") {
+    WaitStep s;
+    s.ms = f.PositiveInt("ms", 0, 0);
+    return s;
+  }
+  throw ProtocolError(f.At(YAML::Node(YAML::NodeType::Undefined)) + "unknown step kind '" + kind +
+                      "' (move-to, sweep, grid, place-target, capture, fixate, step-response, limits, "
+                      "alignment, latency, wait, repeat)");
+}
+
+Step ParseStep(
+    const std::string& kind, const YAML::Node& body, const std::string& source, const std::string& where, int line) {
+  Step s;
+  Fields f(body.IsNull() ? YAML::Node(YAML::NodeType::Map) : body, source, where, line);
+  s.name = f.Value<std::string>("name", "");
+  s.params = ParseStepParams(kind, f, source, where);
   f.RejectUnknown();
   return s;
 }
@@ -460,15 +556,17 @@ void ParseSteps(const YAML::Node& list, const std::string& source, const std::st
   if (!list || !list.IsSequence()) throw ProtocolError(source + ": field 'steps': expected a list of steps");
   if (depth > 4) throw ProtocolError(source + ": repeat nested too deeply");
   for (size_t i = 0; i < list.size(); ++i) {
-    const std::string where = source + ": step " + prefix + std::to_string(i);
     const YAML::Node item = list[i];
+    const int line = item.Mark().line;  // 0-based, -1 unknown
+    const std::string at = source + (line >= 0 ? ":" + std::to_string(line + 1) : std::string()) + ": ";
+    const std::string where = "step " + prefix + std::to_string(i);
     if (!item.IsMap() || item.size() != 1)
-      throw ProtocolError(where + ": expected one key naming the step kind, e.g. '- sweep: {...}'");
+      throw ProtocolError(at + where + ": expected one key naming the step kind, e.g. '- sweep: {...}'");
     const std::string kind = item.begin()->first.as<std::string>();
     const YAML::Node body = item.begin()->second;
     const std::string context = where + " (" + kind + ")";
     if (kind == "repeat") {
-      Fields f(body, context);
+      Fields f(body, source, context, line);
       const int times = f.PositiveInt("times", 1);
       const YAML::Node inner = f.Get("steps");
       f.Value<std::string>("name", "");
@@ -490,9 +588,10 @@ void ParseSteps(const YAML::Node& list, const std::string& source, const std::st
       }
       continue;
     }
-    Step s = ParseStep(kind, body, context);
+    Step s = ParseStep(kind, body, source, context, line);
     s.file = source;
     s.file_index = static_cast<int>(i);
+    s.file_line = line + 1;
     if (s.name.empty()) s.name = kind + std::to_string(p->steps.size());
     p->steps.push_back(std::move(s));
   }
@@ -508,7 +607,7 @@ Protocol ParseProtocolYaml(const std::string& yaml_text, const std::string& sour
     throw ProtocolError(source + ": not valid YAML: " + e.what());
   }
   if (!root.IsMap()) throw ProtocolError(source + ": expected a map with name, target and steps");
-  Fields f(root, source);
+  Fields f(root, source, "");
   Protocol p;
   p.text = yaml_text;
   p.name = f.Scalar("name");
@@ -521,7 +620,7 @@ Protocol ParseProtocolYaml(const std::string& yaml_text, const std::string& sour
     if (!t.IsMap()) f.Fail("targets", "expected a map name -> target definition");
     for (const auto& kv : t) {
       const std::string name = kv.first.as<std::string>();
-      p.targets[name] = ParseTarget(kv.second, name, source + ": targets." + name);
+      p.targets[name] = ParseTarget(kv.second, name, source);
     }
   }
   ParseSteps(f.Get("steps"), source, "", &p, 0);
@@ -549,7 +648,7 @@ std::vector<std::string> StandardProtocolNames() {
 }
 
 std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
-  const std::string where = s.file + ": step " + std::to_string(s.file_index) + " (" + StepKindName(s.kind) + "): field '";
+  const std::string where = s.Where() + ": field '";
   auto range = [&](int servo) { return robot.servos[servo].max_us - robot.servos[servo].min_us; };
   auto at_most = [&](const char* field, int value, int servo) -> std::string {
     if (value <= range(servo)) return "";
@@ -560,28 +659,20 @@ std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
   auto first = [&](const std::string& w) {
     if (why.empty()) why = w;
   };
-  switch (s.kind) {
-    case StepKind::kSweep:
-      first(at_most("step_us", s.step_us, s.servo));
-      break;
-    case StepKind::kLatency:
-      first(at_most("amplitude_us", s.amplitude_us, s.servo));
-      break;
-    case StepKind::kLimits:
-      for (int servo : s.servos) first(at_most("coarse_us", s.coarse_us, servo));
-      break;
-    case StepKind::kFixate:
-    case StepKind::kStepResponse:
-      for (int servo = 0; servo < models::kNumServos; ++servo) {
-        first(at_most("max_step_us", s.max_step_us, servo));
-        if (2 * s.limit_margin_us >= range(servo))
-          first(where + "limit_margin_us': " + std::to_string(s.limit_margin_us) + " us leaves no room in " +
-                models::kServoNames[servo] + "'s range of " + std::to_string(range(servo)) + " us");
-      }
-      break;
-    default:
-      break;
-  }
+  auto loop = [&](const ClosedLoopSettings& l) {
+    for (int servo = 0; servo < models::kNumServos; ++servo) {
+      first(at_most("max_step_us", l.max_step_us, servo));
+      if (2 * l.limit_margin_us >= range(servo))
+        first(where + "limit_margin_us': " + std::to_string(l.limit_margin_us) + " us leaves no room in " +
+              models::kServoNames[servo] + "'s range of " + std::to_string(range(servo)) + " us");
+    }
+  };
+  if (const auto* sw = std::get_if<SweepStep>(&s.params)) first(at_most("step_us", sw->step_us, sw->servo));
+  if (const auto* la = std::get_if<LatencyStep>(&s.params)) first(at_most("amplitude_us", la->amplitude_us, la->servo));
+  if (const auto* li = std::get_if<LimitsStep>(&s.params))
+    for (int servo : li->servos) first(at_most("coarse_us", li->coarse_us, servo));
+  if (const auto* fx = std::get_if<FixateStep>(&s.params)) loop(fx->loop);
+  if (const auto* sr = std::get_if<StepResponseStep>(&s.params)) loop(sr->loop);
   return why;
 }
 

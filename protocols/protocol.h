@@ -50,18 +50,23 @@
 //          still_frames: 2}. image = wait at least min_ms, then until the image moved less
 // than still_px between still_frames consecutive frame pairs (or max_ms passed, reported).
 //
-// Parse errors throw ProtocolError naming the file, the step index and the field, e.g.
-// "servo_sweep.yaml: step 3 (sweep): field 'step_us': -5 must be > 0".
+// A loaded step is a Step: its name and place in the file, and a std::variant of one struct per
+// kind (StepParams) holding that kind's fields, with enums for every choice.
+//
+// Parse errors throw ProtocolError naming the file, the line, the step index and the field, e.g.
+// "servo_sweep.yaml:12: step 3 (sweep): field 'step_us': -5 must be > 0".
 #include <array>
 #include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "calib/target.h"
+#include "models/head_kinematics.h"
 #include "models/robot_config.h"
 
 namespace owlcal::protocols {
@@ -108,6 +113,7 @@ struct SettleRule {
   int still_frames = 2;  // kImage: consecutive still frame pairs needed
 };
 
+// The step kinds, in the order of the alternatives of StepParams.
 enum class StepKind {
   kMoveTo,
   kSweep,
@@ -124,71 +130,160 @@ enum class StepKind {
 const char* StepKindName(StepKind kind);  // "move-to", "sweep", ...
 
 enum class Locator { kFixation, kTemplate, kAprilTag };
-const char* LocatorName(Locator locator);
+const char* LocatorName(Locator locator);  // "fixation", "template", "apriltag"
 
-struct Step {
-  StepKind kind = StepKind::kWait;
-  std::string name;
-  std::string file;      // the protocol file it came from
-  int file_index = 0;    // index in that file's (expanded) steps, for messages
-  SettleRule settle;
-  int frames = 1;        // frames recorded per pose (capture, sweep, grid, limits)
-  bool record_frames = true;
+// Which eyes a grid moves or a fixation controls.
+enum class EyeSet { kBoth, kLeft, kRight };
+const char* EyeSetName(EyeSet eyes);  // "both", "left", "right"
+bool Includes(EyeSet eyes, models::Eye eye);
 
-  // move-to; sweep/grid: the pose of the servos not moved (hold)
+// The axis a step response steps.
+enum class Axis { kPan, kTilt };
+const char* AxisName(Axis axis);  // "pan", "tilt"
+
+// move-to: one pose, then `frames` recorded frames.
+struct MoveToStep {
   PoseSpec pose;
+  SettleRule settle;
+  int frames = 0;
+};
 
-  // sweep
+// sweep: one servo from `from` to `to` in step_us steps (and back), the others at `hold`.
+struct SweepStep {
   int servo = 0;
-  PwmExpr from, to;
+  PwmExpr from{PwmExpr::Base::kMin, 0}, to{PwmExpr::Base::kMax, 0};
   int step_us = 20;
   bool both_directions = true;
   bool pre_approach = true;  // start one step before `from` so every point has a known approach
+  PoseSpec hold;
+  SettleRule settle;
+  int frames = 1;
+  bool detect = false;
+};
 
-  // grid (offsets in us toward right / up, relative to the hold pose)
-  std::string eyes = "both";  // both | left | right
+// grid: offsets in us toward the robot's right / up, relative to the hold pose.
+struct GridStep {
+  EyeSet eyes = EyeSet::kBoth;
   std::vector<int> pan_us{0}, tilt_us{0}, neck_us{0};
+  PoseSpec hold;
+  SettleRule settle;
+  int frames = 1;
+  bool detect = false;
+};
 
-  // place-target
+struct PlaceTargetStep {
   std::string target;
   double distance_m = 0.6;
   Eigen::Vector2d offset_m = Eigen::Vector2d::Zero();  // x right, y down, of the target centre
   Eigen::Vector3d rpy_deg = Eigen::Vector3d::Zero();   // roll (about z), pitch (about x), yaw (about y)
   bool hide_others = true;
   std::string prompt;  // custom prompt text; default built from target and distance
+};
 
-  // capture
+struct CaptureStep {
+  SettleRule settle;
+  int frames = 1;
   bool detect = false;
+};
 
-  // fixate / step-response
+// The closed loop's settings shared by fixate and step-response (protocols/fixation.h).
+struct ClosedLoopSettings {
   Locator locator = Locator::kFixation;
-  double gain = 0.1;
   int max_iterations = 90;
   double tolerance_px = 0.5;
   int still_frames = 4;
-  int latency_frames = 0;   // 0: update every frame (the course's loop); n: wait n frames per update
+  int latency_frames = 0;  // 0: update every frame (the course's loop); n: wait n frames per update
   int max_step_us = 60;
   int limit_margin_us = 20;
-  bool from_centre = false;
-  std::string eye = "right";  // step-response / latency
-  std::string axis = "pan";   // pan | tilt
+  bool record_frames = false;
+};
+
+struct FixateStep {
+  ClosedLoopSettings loop;
+  EyeSet eyes = EyeSet::kBoth;
+  double gain = 0.1;
+  bool from_centre = false;  // `from: centre`: start at the centre pose (default settle rule)
+};
+
+struct StepResponseStep {
+  ClosedLoopSettings loop;  // loop.max_iterations = frames
+  models::Eye eye = models::kRightEye;
+  Axis axis = Axis::kPan;
   std::vector<double> amplitudes_deg{5, 10, 20};
   std::vector<double> gains{0.1};
+  int frames = 45;
   int trials = 1;
+};
 
-  // limits
+struct LimitsStep {
   std::vector<int> servos{0, 1, 2, 3, 4};
   int coarse_us = 20;
   int fine_us = 2;
+  int frames = 1;
   double moved_fraction = 0.3;
   double rim_fraction = 0.02;  // growth of the dark fraction of the border band (RimFraction)
+  bool record_frames = true;
+  SettleRule settle;
+};
 
-  // latency
+struct AlignmentStep {
+  int frames = 3;
+  SettleRule settle;
+};
+
+struct LatencyStep {
+  int servo = 0;
   int amplitude_us = 40;
+  int trials = 5;
   int max_frames = 20;
+  bool record_frames = false;
+  SettleRule settle;
+};
 
-  // wait
-  int wait_ms = 0;
+struct WaitStep {
+  int ms = 0;
+};
+
+// One alternative per StepKind, in its order: StepKind(params.index()) is the kind.
+using StepParams = std::variant<MoveToStep,
+                                SweepStep,
+                                GridStep,
+                                PlaceTargetStep,
+                                CaptureStep,
+                                FixateStep,
+                                StepResponseStep,
+                                LimitsStep,
+                                AlignmentStep,
+                                LatencyStep,
+                                WaitStep>;
+
+// For std::visit on StepParams: Overloaded{[](const SweepStep& s) {...}, ...}.
+template <typename... F>
+struct Overloaded : F... {
+  using F::operator()...;
+};
+
+struct Step {
+  std::string name;
+  std::string file;    // the protocol file it came from
+  int file_index = 0;  // index in that file's (expanded) steps, for messages
+  int file_line = 0;   // its line in the file (1-based; 0 = unknown), for messages
+  StepParams params;
+
+  StepKind kind() const { return static_cast<StepKind>(params.index()); }
+  // The kind's fields; std::bad_variant_access when the step is of another kind.
+  template <typename T>
+  const T& As() const {
+    return std::get<T>(params);
+  }
+  template <typename T>
+  T& As() {
+    return std::get<T>(params);
+  }
+  // True when the step's recorded frames are searched for the protocol's target (`detect`).
+  bool Detects() const;
+  // "FILE:LINE: step INDEX (KIND)": where the step is, for messages.
+  std::string Where() const;
 };
 
 struct Protocol {
@@ -207,8 +302,9 @@ Protocol LoadProtocolFile(const std::string& path);
 
 // "" if the step's pulse-width quantities fit the robot file: step_us, amplitude_us,
 // coarse_us and max_step_us no larger than the servo's range (max_us - min_us),
-// limit_margin_us below half of it (grid offsets beyond the range are clamped and reported). Else why, naming the file, step and field
-// ("wide.yaml: step 0 (sweep): field 'step_us': 5000 us is more than Rx's range of 1000 us").
+// limit_margin_us below half of it (grid offsets beyond the range are clamped and reported).
+// Else why, naming the file, line, step and field
+// ("wide.yaml:4: step 0 (sweep): field 'step_us': 5000 us is more than Rx's range of 1000 us").
 // The runner and the dry-run plan refuse a protocol that does not fit, before anything moves.
 std::string CheckStepForRobot(const Step& step, const models::RobotConfig& robot);
 // Parses protocol YAML text; `source` names it in errors.

@@ -92,7 +92,7 @@ int64_t RunContext::Record(const robot::StereoFrame& f) {
     index = writer_->AppendFrame(jpeg, r);
   }
   ++step_frames_;
-  if (cur_step_ && cur_step_->detect) Detect(f, index);
+  if (cur_step_ && cur_step_->Detects()) Detect(f, index);
   if (o_.on_frame) o_.on_frame(index);
   Progress(false);
   return index;

@@ -38,7 +38,7 @@ nlohmann::json NewRunManifest(const std::vector<Protocol>& protocols,
   size_t i = 0;
   for (const Protocol& p : protocols)
     for (const Step& s : p.steps)
-      steps.push_back({{"step_index", i++}, {"name", s.name}, {"kind", StepKindName(s.kind)}, {"protocol", p.name}});
+      steps.push_back({{"step_index", i++}, {"name", s.name}, {"kind", StepKindName(s.kind())}, {"protocol", p.name}});
   m["num_steps"] = i;
   m["steps"] = steps;
   if (!options.sim.is_null()) {

@@ -36,55 +36,48 @@ std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols,
     }
     out.push_back(l);
   };
+  auto poses = [&](const std::vector<PlannedPose>& planned, int frames) {
+    for (const PlannedPose& pp : planned)
+      line(pp.pwm_us, pp.capture ? "capture " + std::to_string(frames) : "approach");
+  };
+  auto closed_loop = [&](const ClosedLoopSettings& loop) {
+    out.push_back("    closed loop (" + std::string(LocatorName(loop.locator)) +
+                  "): commands computed at run time, stopped " + std::to_string(loop.limit_margin_us) +
+                  " us inside every limit");
+  };
   for (const Protocol& p : protocols) {
     out.push_back("protocol " + p.name + (p.file.empty() ? "" : " (" + p.file + ")") + ", target '" + p.target + "'");
     for (const Step& s : p.steps) {
-      out.push_back("  step " + std::to_string(index++) + " " + StepKindName(s.kind) + " '" + s.name + "'");
-      switch (s.kind) {
-        case StepKind::kMoveTo:
-          line(s.pose.Resolve(robot), "move, capture " + std::to_string(s.frames));
-          break;
-        case StepKind::kSweep:
-        case StepKind::kGrid:
-          for (const PlannedPose& pp : PlanPoses(s, robot))
-            line(pp.pwm_us, pp.capture ? "capture " + std::to_string(s.frames) : "approach");
-          break;
-        case StepKind::kPlaceTarget:
-          out.push_back("    place: " + PlacementPrompt(p, s));
-          break;
-        case StepKind::kCapture:
-          out.push_back("    capture " + std::to_string(s.frames) + " frames");
-          break;
-        case StepKind::kFixate:
-        case StepKind::kStepResponse:
-          out.push_back("    closed loop (" + std::string(LocatorName(s.locator)) +
-                        "): commands computed at run time, stopped " + std::to_string(s.limit_margin_us) +
-                        " us inside every limit");
-          break;
-        case StepKind::kLimits:
-          for (int servo : s.servos) {
-            PwmVector c = robot.Centre();
-            c[servo] = robot.servos[servo].max_us;
-            line(c, std::string("outermost probe ") + models::kServoNames[servo] + " max");
-            c[servo] = robot.servos[servo].min_us;
-            line(c, std::string("outermost probe ") + models::kServoNames[servo] + " min");
-          }
-          break;
-        case StepKind::kAlignment:
-          line(robot.Centre(), "centre, capture " + std::to_string(s.frames));
-          break;
-        case StepKind::kLatency: {
-          PwmVector a = robot.Centre(), b = robot.Centre();
-          a[s.servo] -= s.amplitude_us / 2;
-          b[s.servo] += s.amplitude_us - s.amplitude_us / 2;
-          line(a, "latency step from");
-          line(b, "latency step to");
-          break;
-        }
-        case StepKind::kWait:
-          out.push_back("    wait " + std::to_string(s.wait_ms) + " ms");
-          break;
-      }
+      out.push_back("  step " + std::to_string(index++) + " " + StepKindName(s.kind()) + " '" + s.name + "'");
+      std::visit(
+          Overloaded{
+              [&](const MoveToStep& m) { line(m.pose.Resolve(robot), "move, capture " + std::to_string(m.frames)); },
+              [&](const SweepStep& m) { poses(PlanPoses(m, robot), m.frames); },
+              [&](const GridStep& m) { poses(PlanPoses(m, robot), m.frames); },
+              [&](const PlaceTargetStep& m) { out.push_back("    place: " + PlacementPrompt(p, m)); },
+              [&](const CaptureStep& m) { out.push_back("    capture " + std::to_string(m.frames) + " frames"); },
+              [&](const FixateStep& m) { closed_loop(m.loop); },
+              [&](const StepResponseStep& m) { closed_loop(m.loop); },
+              [&](const LimitsStep& m) {
+                for (int servo : m.servos) {
+                  PwmVector c = robot.Centre();
+                  c[servo] = robot.servos[servo].max_us;
+                  line(c, std::string("outermost probe ") + models::kServoNames[servo] + " max");
+                  c[servo] = robot.servos[servo].min_us;
+                  line(c, std::string("outermost probe ") + models::kServoNames[servo] + " min");
+                }
+              },
+              [&](const AlignmentStep& m) { line(robot.Centre(), "centre, capture " + std::to_string(m.frames)); },
+              [&](const LatencyStep& m) {
+                PwmVector a = robot.Centre(), b = robot.Centre();
+                a[m.servo] -= m.amplitude_us / 2;
+                b[m.servo] += m.amplitude_us - m.amplitude_us / 2;
+                line(a, "latency step from");
+                line(b, "latency step to");
+              },
+              [&](const WaitStep& m) { out.push_back("    wait " + std::to_string(m.ms) + " ms"); },
+          },
+          s.params);
     }
   }
   out.push_back(std::to_string(clamped) + " planned commands would be clamped to the robot's limits");

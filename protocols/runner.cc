@@ -71,48 +71,33 @@ class Runner : public RunContext {
 };
 
 void Runner::RunStep(const FlatStep& fs) {
-  const Step& s = *fs.step;
   const Protocol& p = *fs.protocol;
-  switch (s.kind) {
-    case StepKind::kMoveTo:
-      MoveSettleCapture(s.pose.Resolve(config_), s.settle, s.frames);
-      break;
-    case StepKind::kSweep:
-    case StepKind::kGrid: {
-      const std::vector<PlannedPose> poses = PlanPoses(s, config_);
-      for (size_t i = 0; i < poses.size(); ++i) {
-        step_work_fraction_ = double(i) / poses.size();
-        MoveSettleCapture(poses[i].pwm_us, s.settle, poses[i].capture ? s.frames : 0);
-      }
-      break;
+  auto move_through = [&](const std::vector<PlannedPose>& poses, const SettleRule& settle, int frames) {
+    for (size_t i = 0; i < poses.size(); ++i) {
+      step_work_fraction_ = double(i) / poses.size();
+      MoveSettleCapture(poses[i].pwm_us, settle, poses[i].capture ? frames : 0);
     }
-    case StepKind::kPlaceTarget:
-      RunPlaceTargetStep(*this, p, s);
-      break;
-    case StepKind::kCapture:
-      Settle(s.settle);
-      CaptureFrames(s.frames);
-      break;
-    case StepKind::kFixate:
-      RunFixateStep(*this, p, s);
-      break;
-    case StepKind::kStepResponse:
-      RunStepResponseStep(*this, p, s);
-      break;
-    case StepKind::kLimits:
-      RunLimitsStep(*this, s);
-      break;
-    case StepKind::kAlignment:
-      RunAlignmentStep(*this, p, s);
-      break;
-    case StepKind::kLatency:
-      RunLatencyStep(*this, s);
-      break;
-    case StepKind::kWait:
-      CheckStop();
-      robot_.SleepNs(int64_t(s.wait_ms) * 1'000'000);
-      break;
-  }
+  };
+  std::visit(Overloaded{
+                 [&](const MoveToStep& s) { MoveSettleCapture(s.pose.Resolve(config_), s.settle, s.frames); },
+                 [&](const SweepStep& s) { move_through(PlanPoses(s, config_), s.settle, s.frames); },
+                 [&](const GridStep& s) { move_through(PlanPoses(s, config_), s.settle, s.frames); },
+                 [&](const PlaceTargetStep& s) { RunPlaceTargetStep(*this, p, s); },
+                 [&](const CaptureStep& s) {
+                   Settle(s.settle);
+                   CaptureFrames(s.frames);
+                 },
+                 [&](const FixateStep& s) { RunFixateStep(*this, p, s); },
+                 [&](const StepResponseStep& s) { RunStepResponseStep(*this, p, s); },
+                 [&](const LimitsStep& s) { RunLimitsStep(*this, s); },
+                 [&](const AlignmentStep& s) { RunAlignmentStep(*this, p, s); },
+                 [&](const LatencyStep& s) { RunLatencyStep(*this, s); },
+                 [&](const WaitStep& s) {
+                   CheckStop();
+                   robot_.SleepNs(int64_t(s.ms) * 1'000'000);
+                 },
+             },
+             fs.step->params);
 }
 
 RunSummary Runner::Run() {
@@ -176,10 +161,10 @@ RunSummary Runner::Run() {
     // On resume, restore the placement in force (re-run the last place-target before first_step).
     if (first_step > 0) {
       for (int i = first_step - 1; i >= 0; --i) {
-        if (steps_[i].step->kind == StepKind::kPlaceTarget) {
+        if (steps_[i].step->kind() == StepKind::kPlaceTarget) {
           step_index_ = i;
           step_name_ = steps_[i].step->name;
-          RunPlaceTargetStep(*this, *steps_[i].protocol, *steps_[i].step);
+          RunPlaceTargetStep(*this, *steps_[i].protocol, steps_[i].step->As<PlaceTargetStep>());
           break;
         }
       }
@@ -195,10 +180,13 @@ RunSummary Runner::Run() {
       step_work_fraction_ = 0;
       Progress(true);
       const int64_t t0 = robot_.NowNs();
-      writer_->Event(t0, "step", "start " + std::to_string(i) + " " + StepKindName(steps_[i].step->kind) + " '" +
-                                     step_name_ + "' (" + steps_[i].protocol->name + ")");
+      writer_->Event(t0,
+                     "step",
+                     "start " + std::to_string(i) + " " + StepKindName(steps_[i].step->kind()) + " '" + step_name_ +
+                         "' (" + steps_[i].protocol->name + ")");
       RunStep(steps_[i]);
-      writer_->AppendStep({i, step_name_, StepKindName(steps_[i].step->kind), "done", t0, robot_.NowNs(), step_frames_});
+      writer_->AppendStep(
+          {i, step_name_, StepKindName(steps_[i].step->kind()), "done", t0, robot_.NowNs(), step_frames_});
       done_work_ += work[i];
       current_work_ = 0;
       summary_.steps_done = i + 1;
@@ -220,8 +208,13 @@ RunSummary Runner::Run() {
     if (status == "complete") status = "failed";
   }
   if (status != "complete" && step_index_ >= 0 && step_index_ < int(steps_.size()))
-    writer_->AppendStep({step_index_, step_name_, StepKindName(steps_[step_index_].step->kind), "failed", t_start,
-                         robot_.NowNs(), step_frames_});
+    writer_->AppendStep({step_index_,
+                         step_name_,
+                         StepKindName(steps_[step_index_].step->kind()),
+                         "failed",
+                         t_start,
+                         robot_.NowNs(),
+                         step_frames_});
   writer_->Event(robot_.NowNs(), "finish", status + (message.empty() ? "" : ": " + message));
   writer_->Finish(status, message);
   summary_.status = status;

@@ -6,65 +6,68 @@
 
 namespace owlcal::protocols {
 
-std::vector<PlannedPose> PlanPoses(const Step& s, const models::RobotConfig& robot) {
+std::vector<PlannedPose> PlanPoses(const SweepStep& s, const models::RobotConfig& robot) {
   std::vector<PlannedPose> out;
-  const models::PwmVector hold = s.pose.Resolve(robot);
-  if (s.kind == StepKind::kSweep) {
-    const int from = s.from.Resolve(robot.servos[s.servo]);
-    const int to = s.to.Resolve(robot.servos[s.servo]);
-    const int dir = to >= from ? 1 : -1;
-    std::vector<int> values;
-    for (int v = from; dir > 0 ? v < to : v > to; v += dir * s.step_us) values.push_back(v);
-    values.push_back(to);
-    auto add = [&](int v, bool capture) {
-      PlannedPose p;
-      p.pwm_us = hold;
-      p.pwm_us[s.servo] = v;
-      p.capture = capture;
-      out.push_back(p);
-    };
-    // Pre-approach points are the planner's own: kept inside the limits (dropped when the
-    // sweep starts at the limit itself).
-    const models::ServoConfig& sc = robot.servos[s.servo];
-    auto pre = [&](int end, int v) {
-      const int c = sc.Clamp(v);
-      if (s.pre_approach && c != end) add(c, false);
-    };
-    pre(from, from - dir * s.step_us);
-    for (int v : values) add(v, true);
-    if (s.both_directions) {
-      pre(to, to + dir * s.step_us);
-      for (auto it = values.rbegin(); it != values.rend(); ++it) add(*it, true);
-    }
-  } else if (s.kind == StepKind::kGrid) {
-    const bool left = s.eyes != "right", right = s.eyes != "left";
-    int row = 0;
-    for (int neck : s.neck_us) {
-      for (int tilt : s.tilt_us) {
-        std::vector<int> pans = s.pan_us;
-        if (row++ % 2 == 1) std::reverse(pans.begin(), pans.end());
-        for (int pan : pans) {
-          PlannedPose p;
-          p.pwm_us = hold;
-          auto add = [&](int servo, int offset) { p.pwm_us[servo] += robot.servos[servo].direction * offset; };
-          if (left) {
-            add(models::kLx, pan);
-            add(models::kLy, tilt);
-          }
-          if (right) {
-            add(models::kRx, pan);
-            add(models::kRy, tilt);
-          }
-          add(models::kNeck, neck);
-          out.push_back(p);
+  const models::PwmVector hold = s.hold.Resolve(robot);
+  const int from = s.from.Resolve(robot.servos[s.servo]);
+  const int to = s.to.Resolve(robot.servos[s.servo]);
+  const int dir = to >= from ? 1 : -1;
+  std::vector<int> values;
+  for (int v = from; dir > 0 ? v < to : v > to; v += dir * s.step_us) values.push_back(v);
+  values.push_back(to);
+  auto add = [&](int v, bool capture) {
+    PlannedPose p;
+    p.pwm_us = hold;
+    p.pwm_us[s.servo] = v;
+    p.capture = capture;
+    out.push_back(p);
+  };
+  // Pre-approach points are the planner's own: kept inside the limits (dropped when the
+  // sweep starts at the limit itself).
+  const models::ServoConfig& sc = robot.servos[s.servo];
+  auto pre = [&](int end, int v) {
+    const int c = sc.Clamp(v);
+    if (s.pre_approach && c != end) add(c, false);
+  };
+  pre(from, from - dir * s.step_us);
+  for (int v : values) add(v, true);
+  if (s.both_directions) {
+    pre(to, to + dir * s.step_us);
+    for (auto it = values.rbegin(); it != values.rend(); ++it) add(*it, true);
+  }
+  return out;
+}
+
+std::vector<PlannedPose> PlanPoses(const GridStep& s, const models::RobotConfig& robot) {
+  std::vector<PlannedPose> out;
+  const models::PwmVector hold = s.hold.Resolve(robot);
+  const bool left = Includes(s.eyes, models::kLeftEye), right = Includes(s.eyes, models::kRightEye);
+  int row = 0;
+  for (int neck : s.neck_us) {
+    for (int tilt : s.tilt_us) {
+      std::vector<int> pans = s.pan_us;
+      if (row++ % 2 == 1) std::reverse(pans.begin(), pans.end());
+      for (int pan : pans) {
+        PlannedPose p;
+        p.pwm_us = hold;
+        auto add = [&](int servo, int offset) { p.pwm_us[servo] += robot.servos[servo].direction * offset; };
+        if (left) {
+          add(models::kLx, pan);
+          add(models::kLy, tilt);
         }
+        if (right) {
+          add(models::kRx, pan);
+          add(models::kRy, tilt);
+        }
+        add(models::kNeck, neck);
+        out.push_back(p);
       }
     }
   }
   return out;
 }
 
-Eigen::Isometry3d PlacementPose(const Step& s, const calib::TargetDefinition* target) {
+Eigen::Isometry3d PlacementPose(const PlaceTargetStep& s, const calib::TargetDefinition* target) {
   const double d2r = M_PI / 180.0;
   const Eigen::Matrix3d r = (Eigen::AngleAxisd(s.rpy_deg.z() * d2r, Eigen::Vector3d::UnitY()) *
                              Eigen::AngleAxisd(s.rpy_deg.y() * d2r, Eigen::Vector3d::UnitX()) *
@@ -88,7 +91,7 @@ Eigen::Isometry3d HiddenPose() {
   return pose;
 }
 
-std::string PlacementPrompt(const Protocol& p, const Step& s) {
+std::string PlacementPrompt(const Protocol& p, const PlaceTargetStep& s) {
   if (!s.prompt.empty()) return s.prompt;
   std::ostringstream o;
   std::string what = p.target_description.empty() ? s.target : p.target_description;
@@ -102,28 +105,32 @@ std::string PlacementPrompt(const Protocol& p, const Step& s) {
   return o.str();
 }
 
-double StepWork(const Step& s) {
-  switch (s.kind) {
+double StepWork(const Step& step) {
+  switch (step.kind()) {
     case StepKind::kSweep: {
       const int n = 2 * 13;  // typical; refined below when resolvable without a robot
-      return n * (4 + s.frames);
+      return n * (4 + step.As<SweepStep>().frames);
     }
-    case StepKind::kGrid:
+    case StepKind::kGrid: {
+      const GridStep& s = step.As<GridStep>();
       return double(s.pan_us.size() * s.tilt_us.size() * s.neck_us.size()) * (4 + s.frames);
+    }
     case StepKind::kMoveTo:
-      return 4 + s.frames;
+      return 4 + step.As<MoveToStep>().frames;
     case StepKind::kCapture:
-      return 2 + s.frames;
+      return 2 + step.As<CaptureStep>().frames;
     case StepKind::kFixate:
-      return s.max_iterations / 2.0;
-    case StepKind::kStepResponse:
+      return step.As<FixateStep>().loop.max_iterations / 2.0;
+    case StepKind::kStepResponse: {
+      const StepResponseStep& s = step.As<StepResponseStep>();
       return double(s.gains.size() * s.amplitudes_deg.size() * s.trials) * (s.frames + 40);
+    }
     case StepKind::kLimits:
-      return s.servos.size() * 2 * 40.0;
+      return step.As<LimitsStep>().servos.size() * 2 * 40.0;
     case StepKind::kAlignment:
-      return 4 + s.frames;
+      return 4 + step.As<AlignmentStep>().frames;
     case StepKind::kLatency:
-      return s.trials * 15.0;
+      return step.As<LatencyStep>().trials * 15.0;
     case StepKind::kPlaceTarget:
     case StepKind::kWait:
       return 1;

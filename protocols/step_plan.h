@@ -24,17 +24,18 @@ struct PlannedPose {
 // the servo's limits (and dropped when that makes them equal to the end). Grid: for each neck offset, each
 // tilt offset, the pan offsets in serpentine order; offsets toward right/up times each
 // servo's direction, added to the hold pose for the eyes selected.
-std::vector<PlannedPose> PlanPoses(const Step& step, const models::RobotConfig& robot);
+std::vector<PlannedPose> PlanPoses(const SweepStep& step, const models::RobotConfig& robot);
+std::vector<PlannedPose> PlanPoses(const GridStep& step, const models::RobotConfig& robot);
 
 // base_from_target for a place-target step: the target's centre at (offset_x, offset_y,
 // distance) in the base frame, rotated by R = RotY(yaw) RotX(pitch) RotZ(roll) from facing
 // the robot; with a target definition the origin (first corner) is placed so that the
 // pattern's centre lands there, else the origin itself does.
-Eigen::Isometry3d PlacementPose(const Step& step, const calib::TargetDefinition* target);
+Eigen::Isometry3d PlacementPose(const PlaceTargetStep& step, const calib::TargetDefinition* target);
 // Where targets not in use are put on a virtual robot: far to the side, out of every view.
 Eigen::Isometry3d HiddenPose();
 // "Place the chessboard target 600 mm in front of the neck axis ..., then press Enter".
-std::string PlacementPrompt(const Protocol& protocol, const Step& step);
+std::string PlacementPrompt(const Protocol& protocol, const PlaceTargetStep& step);
 
 // Rough relative cost of a step (frames it will grab), for the ETA.
 double StepWork(const Step& step);

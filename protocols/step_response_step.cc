@@ -10,31 +10,32 @@ namespace owlcal::protocols {
 using models::kNumServos;
 using models::PwmVector;
 
-void RunStepResponseStep(RunContext& run, const Protocol& p, const Step& s) {
-  const int eye = s.eye == "left" ? models::kLeftEye : models::kRightEye;
-  const int servo = s.axis == "pan" ? models::kPanServo[eye] : models::kTiltServo[eye];
+void RunStepResponseStep(RunContext& run, const Protocol& p, const StepResponseStep& s) {
+  const int eye = s.eye;
+  const bool pan = s.axis == Axis::kPan;
+  const int servo = pan ? models::kPanServo[eye] : models::kTiltServo[eye];
   const models::ServoConfig& sc = run.config().servos[servo];
-  auto loc = MakeStepLocator(p, s.locator);
+  auto loc = MakeStepLocator(p, s.loop.locator);
   int trial_counter = 0;
   for (double gain : s.gains) {
     for (double amp : s.amplitudes_deg) {
       for (int trial = 0; trial < s.trials; ++trial, ++trial_counter) {
         // 1) Fixate with a safe, latency-aware loop.
-        FixationOptions acquire = FixationFromStep(s, run.config());
+        FixationOptions acquire = FixationFromLoop(s.loop, run.config());
         acquire.eyes[0] = eye == models::kLeftEye;
         acquire.eyes[1] = eye == models::kRightEye;
         acquire.gain = 0.3;
         acquire.latency_frames = 4;
         acquire.max_iterations = 150;
-        acquire.tolerance_px = std::max(1.0, s.tolerance_px);
+        acquire.tolerance_px = std::max(1.0, s.loop.tolerance_px);
         const FixationResult a = run.Fixate(acquire, *loc, false, nullptr);
         const PwmVector fix = run.cmd();
         std::vector<std::string> trial_row = {std::to_string(run.step_index()),
                                               FixedText(gain, 4),
                                               FixedText(amp, 3),
                                               std::to_string(trial),
-                                              s.eye,
-                                              s.axis,
+                                              models::kEyeNames[eye],
+                                              AxisName(s.axis),
                                               models::kServoNames[servo]};
         std::string acquire_reason;
         const calib::TrialStatus acquired = FixationStatus(a, acquire, &acquire_reason);
@@ -74,16 +75,16 @@ void RunStepResponseStep(RunContext& run, const Protocol& p, const Step& s) {
         run.Settle(rest);
         const PwmVector start = run.cmd();
         // 3) Closed loop for a fixed number of frames, logging every frame.
-        FixationOptions fo = FixationFromStep(s, run.config());
+        FixationOptions fo = FixationFromLoop(s.loop, run.config());
         fo.eyes[0] = eye == models::kLeftEye;
         fo.eyes[1] = eye == models::kRightEye;
-        fo.pan = s.axis == "pan";
-        fo.tilt = s.axis == "tilt";
+        fo.pan = pan;
+        fo.tilt = !pan;
         fo.gain = gain;
         fo.max_iterations = s.frames;
         fo.stop_when_converged = false;
         std::vector<int64_t> frames;
-        const FixationResult r = run.Fixate(fo, *loc, s.record_frames, &frames);
+        const FixationResult r = run.Fixate(fo, *loc, s.loop.record_frames, &frames);
         const int64_t t0 = r.trace.empty() ? 0 : r.trace.front().stamp_ns;
         for (size_t k = 0; k < r.trace.size(); ++k) {
           const FixationSample& fs = r.trace[k];
@@ -97,14 +98,13 @@ void RunStepResponseStep(RunContext& run, const Protocol& p, const Step& s) {
                std::to_string(trial),
                std::to_string(k),
                FixedText((fs.stamp_ns - t0) * 1e-9, 6),
-               FixedText(s.axis == "pan" ? off.x() : off.y(), 3),
-               FixedText(s.axis == "pan" ? off.y() : off.x(), 3),
+               FixedText(pan ? off.x() : off.y(), 3),
+               FixedText(pan ? off.y() : off.x(), 3),
                std::to_string(fs.pwm_us[servo]),
                fs.found[eye] ? "1" : "0",
                std::to_string(k < frames.size() ? frames[k] : -1)});
         }
-        const double final_off =
-            r.found[eye] ? (s.axis == "pan" ? r.residual_px[eye].x() : r.residual_px[eye].y()) : NAN;
+        const double final_off = r.found[eye] ? (pan ? r.residual_px[eye].x() : r.residual_px[eye].y()) : NAN;
         std::string reason;
         const calib::TrialStatus status = FixationStatus(r, fo, &reason);
         trial_row.insert(trial_row.end(),

@@ -8,6 +8,6 @@
 
 namespace owlcal::protocols {
 
-void RunStepResponseStep(RunContext& run, const Protocol& p, const Step& s);
+void RunStepResponseStep(RunContext& run, const Protocol& p, const StepResponseStep& s);
 
 }  // namespace owlcal::protocols

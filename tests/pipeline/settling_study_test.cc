@@ -74,7 +74,7 @@ TEST(SettlingStudy, ARobotThatIsTheLoopModelAgreesWithTheModelFittedFromItsSteps
   robot.slew_us_per_s = 3300;
   robot.nominal_px_per_us = 585.0 * std::tan(0.113 * M_PI / 180);
   robot.px_per_us = robot.nominal_px_per_us;
-  robot.tolerance_px = protocols::Step{}.tolerance_px;
+  robot.tolerance_px = protocols::ClosedLoopSettings{}.tolerance_px;
   const fs::path dir = TempDir("agree");
   const auto steps = Record(dir, robot, 0.113);
   std::vector<std::string> warnings;

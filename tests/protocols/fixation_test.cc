@@ -35,7 +35,7 @@ struct Rig {
     return io;
   }
   void PlaceFixation(double distance_m, double x_m = 0) {
-    Step s;
+    PlaceTargetStep s;
     s.target = "fixation";
     s.distance_m = distance_m;
     s.offset_m = Eigen::Vector2d(x_m, 0);
@@ -173,7 +173,7 @@ TEST(Fixation, ConvergesOnTheAprilGridCentre) {
   grid.tag_rows = 6;
   grid.tag_size_m = 0.024;
   grid.tag_spacing = 0.3;
-  Step s;
+  PlaceTargetStep s;
   s.target = "aprilgrid";
   s.distance_m = 0.7;
   s.offset_m = Eigen::Vector2d(0.04, 0.02);

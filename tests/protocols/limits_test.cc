@@ -93,7 +93,7 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, cons
                  int max_error_us = 10) {
   sim::VirtualOwl owl(vo);
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
-  if (!servos.empty()) p.steps[1].servos = servos;
+  if (!servos.empty()) p.steps[1].As<LimitsStep>().servos = servos;
   RunOptions o;
   o.out_dir = (fs::temp_directory_path() / ("owlcal_limits_" + name + "_" + std::to_string(::getpid()))).string();
   fs::remove_all(o.out_dir);
@@ -108,7 +108,7 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, cons
     ASSERT_TRUE(row.measured_us) << what;
     const int measured = *row.measured_us;
     std::string cause;
-    const int truth = TruthEnd(owl, servo, d, p.steps[1].rim_fraction, &cause);
+    const int truth = TruthEnd(owl, servo, d, p.steps[1].As<LimitsStep>().rim_fraction, &cause);
     std::cout << name << " " << what << ": measured " << measured << " (" << row.cause << "), truth " << truth << " ("
               << cause << "), error " << measured - truth << " us\n";
     EXPECT_LE(std::abs(measured - truth), max_error_us) << what;
@@ -116,7 +116,7 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, cons
     EXPECT_EQ(row.status, calib::TrialStatus::kOk) << what;
     ++rows;
   }
-  EXPECT_EQ(rows, 2 * int(p.steps[1].servos.size()));
+  EXPECT_EQ(rows, 2 * int(p.steps[1].As<LimitsStep>().servos.size()));
   fs::remove_all(o.out_dir);
 }
 
@@ -186,7 +186,7 @@ TEST(Limits, BlackCameraFailsWithAMessageAndNeverPassesAsConfigured) {
   sim::VirtualOwl owl(sim::VirtualOwlOptions{});
   BlackEyeRobot robot(&owl, models::kLeftEye);
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
-  p.steps[1].servos = {models::kLx, models::kRx};
+  p.steps[1].As<LimitsStep>().servos = {models::kLx, models::kRx};
   RunOptions o;
   o.out_dir = (fs::temp_directory_path() / ("owlcal_limits_black_" + std::to_string(::getpid()))).string();
   fs::remove_all(o.out_dir);

@@ -51,21 +51,33 @@ steps:
                                        "all.yaml");
   EXPECT_EQ(p.name, "all");
   ASSERT_EQ(p.steps.size(), 14u);
-  EXPECT_EQ(p.steps[0].kind, StepKind::kMoveTo);
-  EXPECT_EQ(p.steps[0].pose.Resolve(models::DefaultRobotConfig())[models::kRx], 1555);
-  EXPECT_EQ(p.steps[0].pose.Resolve(models::DefaultRobotConfig())[models::kLy], 1580);
-  EXPECT_EQ(p.steps[1].servo, models::kLx);
-  EXPECT_EQ(p.steps[4].settle.mode, SettleRule::Mode::kTime);
-  EXPECT_DOUBLE_EQ(p.steps[5].gain, 0.2);
-  EXPECT_EQ(p.steps[7].servos, (std::vector<int>{models::kRx, models::kNeck}));
-  EXPECT_EQ(p.steps[10].kind, StepKind::kWait);
+  EXPECT_EQ(p.steps[0].kind(), StepKind::kMoveTo);
+  EXPECT_EQ(p.steps[0].As<MoveToStep>().pose.Resolve(models::DefaultRobotConfig())[models::kRx], 1555);
+  EXPECT_EQ(p.steps[0].As<MoveToStep>().pose.Resolve(models::DefaultRobotConfig())[models::kLy], 1580);
+  EXPECT_EQ(p.steps[1].As<SweepStep>().servo, models::kLx);
+  EXPECT_EQ(p.steps[2].As<GridStep>().eyes, EyeSet::kLeft);
+  EXPECT_EQ(p.steps[4].As<CaptureStep>().settle.mode, SettleRule::Mode::kTime);
+  EXPECT_DOUBLE_EQ(p.steps[5].As<FixateStep>().gain, 0.2);
+  EXPECT_EQ(p.steps[5].As<FixateStep>().eyes, EyeSet::kRight);
+  EXPECT_EQ(p.steps[6].As<StepResponseStep>().eye, models::kRightEye);
+  EXPECT_EQ(p.steps[6].As<StepResponseStep>().axis, Axis::kPan);
+  EXPECT_EQ(p.steps[7].As<LimitsStep>().servos, (std::vector<int>{models::kRx, models::kNeck}));
+  EXPECT_EQ(p.steps[9].As<LatencyStep>().servo, models::kRy);
+  EXPECT_EQ(p.steps[10].kind(), StepKind::kWait);
+  EXPECT_EQ(p.steps[10].As<WaitStep>().ms, 5);
+  EXPECT_THROW(p.steps[10].As<CaptureStep>(), std::bad_variant_access);
+  for (const Step& s : p.steps) EXPECT_EQ(s.Detects(), false) << s.name;
+  // Each step knows its line: the 11 listed steps are on lines 7..17, a repeat's on its line.
+  EXPECT_EQ(p.steps[0].file_line, 7);
+  EXPECT_EQ(p.steps[9].file_line, 16);
+  EXPECT_EQ(p.steps[9].Where(), "all.yaml:16: step 9 (latency)");
   EXPECT_EQ(p.steps[13].name, "capture13#2");
   EXPECT_EQ(p.targets.at("chessboard").cols, 9);
 }
 
 TEST(Protocol, ErrorsNameFileStepAndField) {
   std::string e = ErrorOf("name: x\nsteps:\n  - capture: {frames: 1}\n  - sweep: {servo: Rx, step_us: -5}\n");
-  EXPECT_NE(e.find("p.yaml: step 1 (sweep): field 'step_us'"), std::string::npos) << e;
+  EXPECT_NE(e.find("p.yaml:4: step 1 (sweep): field 'step_us'"), std::string::npos) << e;
   e = ErrorOf("name: x\nsteps:\n  - sweep: {servo: Qx}\n");
   EXPECT_NE(e.find("step 0 (sweep): field 'servo': 'Qx'"), std::string::npos) << e;
   e = ErrorOf("name: x\nsteps:\n  - move-to: {pose: {Rx: centre*3}}\n");
@@ -73,7 +85,13 @@ TEST(Protocol, ErrorsNameFileStepAndField) {
   e = ErrorOf("name: x\nsteps:\n  - capture: {frames: 1, colour: red}\n");
   EXPECT_NE(e.find("unknown field 'colour'"), std::string::npos) << e;
   e = ErrorOf("name: x\nsteps:\n  - jump: {}\n");
-  EXPECT_NE(e.find("unknown step kind 'jump'"), std::string::npos) << e;
+  EXPECT_NE(e.find("p.yaml:3: step 0 (jump): unknown step kind 'jump'"), std::string::npos) << e;
+  // A field on its own line is named with that line; an enum names the values it takes.
+  e = ErrorOf("name: x\nsteps:\n  - grid:\n      frames: 1\n      eyes: three\n");
+  EXPECT_NE(e.find("p.yaml:5: step 0 (grid): field 'eyes': 'three' is not one of both, left, right"), std::string::npos)
+      << e;
+  e = ErrorOf("name: x\nsteps:\n  - step-response: {axis: roll}\n");
+  EXPECT_NE(e.find("field 'axis': 'roll' is not one of pan, tilt"), std::string::npos) << e;
   e = ErrorOf("steps: []\n");
   EXPECT_NE(e.find("field 'name'"), std::string::npos) << e;
   e = ErrorOf("name: x\nsteps:\n  - step-response: {gains: [0.1, -1]}\n");
@@ -85,7 +103,7 @@ TEST(Protocol, ErrorsNameFileStepAndField) {
 // Issue 15: a repeat of 2e9, or three nested repeats of 1000, ended in a bare std::bad_alloc.
 TEST(Protocol, PlanSizeIsCappedWithAClearError) {
   std::string e = ErrorOf("name: x\nsteps:\n  - repeat: {times: 2000000000, steps: [{wait: {ms: 1}}]}\n");
-  EXPECT_NE(e.find("p.yaml: step 0 (repeat): field 'times'"), std::string::npos) << e;
+  EXPECT_NE(e.find("p.yaml:3: step 0 (repeat): field 'times'"), std::string::npos) << e;
   e = ErrorOf("name: x\nsteps:\n  - repeat: {times: 1000, steps: [{wait: {ms: 1}}]}\n");
   EXPECT_EQ(e, "");  // 1000 steps is fine
   e = ErrorOf(
@@ -111,7 +129,7 @@ TEST(Protocol, PulseWidthQuantitiesCannotOverflow) {
                            "  - grid: {tilt_us: [-99999]}\n",
                            "  - fixate: {max_step_us: 10000}\n"}) {
     const std::string e = ErrorOf(std::string("name: x\nsteps:\n") + yaml);
-    EXPECT_NE(e.find("p.yaml: step 0"), std::string::npos) << yaml << " -> " << e;
+    EXPECT_NE(e.find("p.yaml:3: step 0"), std::string::npos) << yaml << " -> " << e;
     EXPECT_NE(e.find("_us'"), std::string::npos) << yaml << " -> " << e;
   }
   // Strict numbers: hex, nan and fractions are not integers.
@@ -124,7 +142,8 @@ TEST(Protocol, PulseWidthQuantitiesCannotOverflow) {
   const Protocol p = ParseProtocolYaml("name: x\nsteps:\n  - sweep: {servo: Rx, step_us: 5000}\n", "p.yaml");
   const models::RobotConfig robot = models::DefaultRobotConfig();
   const std::string why = CheckStepForRobot(p.steps[0], robot);
-  EXPECT_NE(why.find("p.yaml: step 0 (sweep): field 'step_us': 5000 us is more than Rx's range of"), std::string::npos)
+  EXPECT_NE(why.find("p.yaml:3: step 0 (sweep): field 'step_us': 5000 us is more than Rx's range of"),
+            std::string::npos)
       << why;
   const Protocol ok = ParseProtocolYaml("name: x\nsteps:\n  - sweep: {servo: Rx, step_us: 25}\n", "p.yaml");
   EXPECT_EQ(CheckStepForRobot(ok.steps[0], robot), "");
@@ -144,7 +163,7 @@ TEST(Protocol, EveryStandardProtocolLoads) {
 
 TEST(StepPlan, SweepPreApproachesAndReturns) {
   const Protocol p = ParseProtocolYaml("name: s\nsteps:\n  - sweep: {servo: Rx, from: 1500, to: 1560, step_us: 30}\n", "s");
-  const auto poses = PlanPoses(p.steps[0], models::DefaultRobotConfig());
+  const auto poses = PlanPoses(p.steps[0].As<SweepStep>(), models::DefaultRobotConfig());
   std::vector<int> rx;
   std::vector<bool> cap;
   for (const auto& pp : poses) {
@@ -158,7 +177,7 @@ TEST(StepPlan, SweepPreApproachesAndReturns) {
 
 TEST(StepPlan, GridOffsetsFollowServoDirections) {
   const Protocol p = ParseProtocolYaml("name: g\nsteps:\n  - grid: {pan_us: [0], tilt_us: [50]}\n", "g");
-  const auto poses = PlanPoses(p.steps[0], models::DefaultRobotConfig());
+  const auto poses = PlanPoses(p.steps[0].As<GridStep>(), models::DefaultRobotConfig());
   ASSERT_EQ(poses.size(), 1u);
   EXPECT_EQ(poses[0].pwm_us[models::kRy], 1580);  // up = +PWM on Ry
   EXPECT_EQ(poses[0].pwm_us[models::kLy], 1530);  // up = -PWM on the mirrored Ly
@@ -170,13 +189,14 @@ TEST(StepPlan, PlacementCentresTheBoard) {
       "steps:\n  - place-target: {target: b, distance_m: 0.5}\n",
       "g");
   const calib::TargetDefinition& def = p.targets.at("b");
-  const Eigen::Isometry3d pose = PlacementPose(p.steps[0], &def);
+  const Eigen::Isometry3d pose = PlacementPose(p.steps[0].As<PlaceTargetStep>(), &def);
   const Eigen::Vector4d e = def.Extent();
   const Eigen::Vector3d centre = pose * Eigen::Vector3d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0);
   EXPECT_NEAR(centre.x(), 0, 1e-12);
   EXPECT_NEAR(centre.y(), 0, 1e-12);
   EXPECT_NEAR(centre.z(), 0.5, 1e-12);
-  EXPECT_NE(PlacementPrompt(p, p.steps[0]).find("500 mm in front of the neck axis"), std::string::npos);
+  EXPECT_NE(PlacementPrompt(p, p.steps[0].As<PlaceTargetStep>()).find("500 mm in front of the neck axis"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -167,7 +167,8 @@ TEST(Runner, StepLargerThanTheRobotRangeIsRefusedBeforeMoving) {
     RunProtocols({p}, robot, o);
     ADD_FAILURE() << "no error";
   } catch (const ProtocolError& e) {
-    EXPECT_NE(std::string(e.what()).find("big.yaml: step 0 (sweep): field 'step_us': 400 us is more than Neck's range of 150 us"),
+    EXPECT_NE(std::string(e.what()).find(
+                  "big.yaml:3: step 0 (sweep): field 'step_us': 400 us is more than Neck's range of 150 us"),
               std::string::npos)
         << e.what();
   }
