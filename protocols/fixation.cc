@@ -1,6 +1,8 @@
 #include "protocols/fixation.h"
 
 #include <algorithm>
+#include <array>
+#include <optional>
 #include <cmath>
 #include <vector>
 
@@ -194,6 +196,122 @@ struct CrossingTracker {
   }
 };
 
+// Seats a converged command (FixationOptions seat_*, protocols/fixation.h): snaps each controlled
+// servo to the seating grid, reaches it with one move of seat_back_us from a known side, waits,
+// and measures the residual offsets there. r->outcome becomes kLost when the target is not
+// found in a controlled eye at the end.
+void SeatCommand(const FixationOptions& o, const models::RobotConfig& robot, TargetLocator& locator,
+                 const FixationIo& io, const std::array<int, models::kNumServos>& approach, FixationResult* r) {
+  const models::PwmVector sent = r->final_pwm_us;
+  models::PwmVector target = sent;
+  std::vector<int> seat;  // the controlled servos
+  for (int e = 0; e < 2; ++e) {
+    if (!o.eyes[e]) continue;
+    if (o.pan) seat.push_back(models::kPanServo[e]);
+    if (o.tilt) seat.push_back(models::kTiltServo[e]);
+  }
+  // The grid pulse nearest to u inside the limits' margin; nullopt when there is none.
+  auto grid = [&](int i, double u) -> std::optional<int> {
+    const models::ServoConfig& c = robot.servos[i];
+    const int lo = c.min_us + o.limit_margin_us, hi = c.max_us - o.limit_margin_us;
+    int g = int(std::lround(u / o.seat_grid_us)) * o.seat_grid_us;
+    if (g < lo) g += o.seat_grid_us;
+    if (g > hi) g -= o.seat_grid_us;
+    if (g < lo || g > hi) return std::nullopt;
+    return g;
+  };
+  bool any = false;
+  for (int i : seat)
+    if (const auto g = grid(i, sent[i])) {
+      target[i] = *g;
+      any = true;
+    }
+  if (!any) return;
+  auto grab = [&](int n, std::vector<FixationSample>* kept) {
+    for (int k = 0; k < n; ++k) {
+      const robot::StereoFrame frame = io.grab();
+      FixationSample s;
+      s.k = r->iterations++;
+      s.stamp_ns = frame.stamp_ns;
+      s.pwm_us = io.command();
+      for (int e = 0; e < 2; ++e) {
+        if (!o.eyes[e]) continue;
+        const cv::Mat img = e == models::kLeftEye ? frame.left : frame.right;
+        if (const auto p = locator.Locate(img, e)) {
+          s.found[e] = true;
+          s.offset_px[e] = *p - Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
+        }
+      }
+      r->trace.push_back(s);
+      if (kept) kept->push_back(s);
+    }
+  };
+  // Each servo approaches its grid pulse from the side the loop came from (same backlash as the
+  // loop's, so the image moves by the snap only); below when unknown, above near the lower limit.
+  auto seat_at = [&](const models::PwmVector& at, std::vector<FixationSample>* after) {
+    models::PwmVector pre = at;
+    for (int i : seat) {
+      const models::ServoConfig& c = robot.servos[i];
+      const int side = approach[i] < 0 ? 1 : -1;
+      pre[i] = at[i] + side * o.seat_back_us;
+      if (pre[i] < c.min_us || pre[i] > c.max_us) pre[i] = at[i] - side * o.seat_back_us;
+    }
+    io.send(pre);
+    grab(2, nullptr);
+    io.send(at);
+    after->clear();
+    grab(std::max(o.seat_frames, o.seat_average), after);
+  };
+  std::vector<FixationSample> after;
+  seat_at(target, &after);
+  // One correction: an axis whose seated offset is more than half a grid step away moves by
+  // whole grid steps (the offset converted with the nominal scale) and is seated again.
+  {
+    models::PwmVector again = target;
+    for (int e = 0; e < 2; ++e) {
+      if (!o.eyes[e] || !after.back().found[e]) continue;
+      const Eigen::Vector2d err_us = OffsetToPulseError(after.back().offset_px[e], e, robot, o.focal_px);
+      const int servos[2] = {models::kPanServo[e], models::kTiltServo[e]};
+      for (int a = 0; a < 2; ++a) {
+        if ((a == 0 && !o.pan) || (a == 1 && !o.tilt) || std::abs(err_us[a]) <= 0.5 * o.seat_grid_us) continue;
+        if (const auto g = grid(servos[a], target[servos[a]] + err_us[a])) again[servos[a]] = *g;
+      }
+    }
+    if (again != target) {
+      target = again;
+      seat_at(target, &after);
+    }
+  }
+  r->final_pwm_us = io.command();
+  r->seated = true;
+  const int n = std::max(1, o.seat_average);
+  // The residual: the mean offset over the last n frames that found the target (a single missed
+  // detection is noise); lost when none of them found it.
+  for (int e = 0; e < 2; ++e) {
+    if (!o.eyes[e]) continue;
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int m = 0;
+    for (size_t k = after.size() - std::min(after.size(), size_t(n)); k < after.size(); ++k)
+      if (after[k].found[e]) {
+        sum += after[k].offset_px[e];
+        ++m;
+      }
+    r->found[e] = m > 0;
+    if (m == 0) {
+      r->outcome = FixationResult::Outcome::kLost;
+      r->message = std::string("target not found in the ") + models::kEyeNames[e] + " eye in the last " +
+                   std::to_string(n) + " frames after seating the command at " + std::to_string(r->final_pwm_us[0]) +
+                   " " + std::to_string(r->final_pwm_us[1]) + " " + std::to_string(r->final_pwm_us[2]) + " " +
+                   std::to_string(r->final_pwm_us[3]) + " us (Rx Ry Lx Ly)";
+      continue;
+    }
+    r->residual_px[e] = sum / m;
+  }
+  if (r->outcome == FixationResult::Outcome::kConverged)
+    r->message += ", seated on a " + std::to_string(o.seat_grid_us) + " us grid with a " +
+                  std::to_string(o.seat_back_us) + " us approach";
+}
+
 }  // namespace
 
 std::unique_ptr<TargetLocator> MakeFixationLocator(const calib::FixationDetectorOptions& options) {
@@ -252,6 +370,8 @@ bool FixationOptions::Check(std::string* why) const {
   if (latency_frames < 0) return fail("latency_frames must be >= 0");
   if (max_step_us < 1) return fail("max_step_us must be >= 1");
   if (!(focal_px > 0)) return fail("focal_px must be > 0");
+  if (seat_grid_us < 0 || seat_back_us < 1 || seat_frames < 1 || seat_average < 1)
+    return fail("seat_grid_us must be >= 0 and seat_back_us, seat_frames, seat_average >= 1");
   return true;
 }
 
@@ -281,6 +401,7 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
   CrossingTracker crossings[2][2];
   double initial_err[2] = {-1, -1};
   int lost = 0, still = 0, wait = 0;
+  std::array<int, models::kNumServos> last_dir{};  // sign of each servo's last command change
   for (int k = 0; k < o.max_iterations; ++k) {
     const robot::StereoFrame frame = io.grab();
     if (k == 0 && !locator.Prepare(frame, &why)) {
@@ -312,7 +433,7 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       if (initial_err[e] < 0) initial_err[e] = err;
       peaks[e][0].Add(s.offset_px[e].x(), o.tolerance_px);
       peaks[e][1].Add(s.offset_px[e].y(), o.tolerance_px);
-      for (int a = 0; a < 2; ++a) crossings[e][a].Add(s.offset_px[e][a], std::max(3 * o.tolerance_px, 7.0));
+      for (int a = 0; a < 2; ++a) crossings[e][a].Add(s.offset_px[e][a], std::max(3 * o.tolerance_px, 16.0));
     }
     r.trace.push_back(s);
     r.iterations = k + 1;
@@ -402,12 +523,15 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
                            " px (the target jumps across the centre by " +
                            std::to_string(crossings[e][a].min_jump).substr(0, 4) + " px: PWM step or dead band)";
         r.final_pwm_us = sent;
+        if (o.seat_grid_us > 0) SeatCommand(o, robot, locator, io, last_dir, &r);
         return r;
       }
     } else {
       still = 0;
     }
     if (!unchanged) {
+      for (int i = 0; i < models::kNumServos; ++i)
+        if (next[i] != sent[i]) last_dir[i] = next[i] > sent[i] ? 1 : -1;
       io.send(next);
       sent = io.command();
       wait = o.latency_frames;

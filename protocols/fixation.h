@@ -13,12 +13,29 @@
 // (2d + 1))), 0.445 for d = 3; K = 0.1 settles without overshoot). The command is kept as a real
 // number and rounded to whole microseconds when sent. An axis whose offset is within tolerance_px
 // is not updated (a dead zone: with servo backlash an integrating loop would limit-cycle). Once an
-// axis' offset has cycled across the centre (two sign changes within 7 px), its dead zone takes in
+// axis' offset has cycled across the centre (two sign changes within 16 px: a reversal smaller than
+// the backlash makes the virtual Owl's joint jump the wrong way by up to 2 hysteresis - 1 step, 13 px
+// on variant A), its dead zone takes in
 // the plateaus the target jumped between: a servo with a PWM step or dead band cannot put it
 // closer, and the loop would otherwise cycle between two pulses for ever.
 //
 // Latency awareness: latency_frames = n > 0 waits n frames after every update (those frames
 // still show the old pose), which makes large gains stable at the cost of a slower loop.
+//
+// Seating (seat_grid_us > 0): a servo with a PWM step or a dead band applies a pulse that
+// differs from the last command by up to half a step or the dead band, and which one depends on
+// the commands before (models/servo_resolution.h); ranging at the command is then off by about
+// 3 % per us of pan at 1 m (and by up to 2 % from the tilt: the gaze ray through an off-centre
+// pixel turns with it). Once converged, each controlled servo's command is snapped to the
+// nearest multiple of seat_grid_us (a multiple of the PWM step is produced exactly, whatever the
+// generator's rounding) and reached with one move of seat_back_us, larger than any dead band up
+// to seat_back_us, from the side the loop last came from (the same backlash; below when
+// unknown, the other side near a limit). The servo then applies exactly the command with a
+// known approach: the settled command IS the applied pulse on every robot whose PWM step
+// divides seat_grid_us (1 or 5 us) and whose dead band is at most seat_back_us. An axis left
+// more than half a grid step off is moved by whole grid steps and seated once more. The mean
+// offsets of the last seat_average of seat_frames frames are the residuals that ranging refines
+// the gaze with; the target not found in any of them is a lost target.
 //
 // Divergence stop: the loop stops (and reports why) BEFORE sending a command that would come
 // within limit_margin_us of a servo's limit, when the error's half-cycle peaks grow twice in
@@ -78,6 +95,10 @@ struct FixationOptions {
   int limit_margin_us = 20;
   int lost_frames = 5;
   double focal_px = 585;          // nominal focal length (models::NominalHeadModel)
+  int seat_grid_us = 5;           // 0: no seating (see the header comment)
+  int seat_back_us = 10;
+  int seat_frames = 12;           // frames after the seating move: latency + slew + lag
+  int seat_average = 3;
 
   bool Check(std::string* why) const;
 };
@@ -99,6 +120,7 @@ struct FixationResult {
   bool found[2] = {false, false};
   Eigen::Vector2d residual_px[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};  // last offsets
   std::vector<FixationSample> trace;
+  bool seated = false;            // the settled command was seated (see FixationOptions)
 };
 const char* OutcomeName(FixationResult::Outcome outcome);
 

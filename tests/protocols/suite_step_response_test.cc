@@ -36,10 +36,11 @@ TEST(StandardSuite, StepResponseLogsEveryGain) {
   }
   // The steps are in pan only, so the located disc stays on its row: a vertical offset of more
   // than a few pixels means the tracker latched onto something else (a background spot once
-  // gave 8 px here, with a 7 deg false horizontal offset).
+  // gave 8 px here, with a 7 deg false horizontal offset). The fixation before each trial is
+  // seated on the 5 us grid (protocols/fixation.h): up to 2.9 px of tilt offset to start with.
   for (const auto& row : rows) {
     if (row[9] == "1") {
-      EXPECT_LT(std::abs(std::stod(row[7])), 4.0) << "gain " << row[1] << " amplitude " << row[2] << " frame " << row[4];
+      EXPECT_LT(std::abs(std::stod(row[7])), 6.0) << "gain " << row[1] << " amplitude " << row[2] << " frame " << row[4];
     }
   }
 }

@@ -25,8 +25,10 @@ TEST(StandardSuite, VergenceFixatesAtEveryDistance) {
     EXPECT_LT(vergence, prev_vergence + 1) << at;
     prev_vergence = vergence;
     ASSERT_TRUE(row.offset_px[0] && row.offset_px[1]) << at;
-    EXPECT_LT(std::abs(row.offset_px[0]->x()), 1.5) << at;
-    EXPECT_LT(std::abs(row.offset_px[1]->x()), 1.5) << at;
+    // Seated on the 5 us grid (protocols/fixation.h): within half a grid step (2.9 px at
+    // 1.15 px/us) plus noise.
+    EXPECT_LT(std::abs(row.offset_px[0]->x()), 3.2) << at;
+    EXPECT_LT(std::abs(row.offset_px[1]->x()), 3.2) << at;
   }
 }
 
