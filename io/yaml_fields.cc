@@ -4,6 +4,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <yaml-cpp/eventhandler.h>
+
 #include "io/strict_number.h"
 
 namespace owlcal::io {
@@ -21,6 +23,21 @@ std::string At(const std::string& source, int line) {
   return out;
 }
 
+// Counts documents and remembers where each starts; builds nothing.
+class DocumentMarks : public YAML::EventHandler {
+ public:
+  std::vector<YAML::Mark> starts;
+  void OnDocumentStart(const YAML::Mark& mark) override { starts.push_back(mark); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
 int LineOf(const YAML::Node& n) {
   if (!n.IsDefined()) return 0;
   const YAML::Mark m = n.Mark();
@@ -30,17 +47,34 @@ int LineOf(const YAML::Node& n) {
 }  // namespace
 
 YAML::Node LoadYamlText(const std::string& text, const std::string& source) {
-  std::vector<YAML::Node> docs;
+  // Not YAML::LoadAll: yaml-cpp 0.7 yields an empty document for a stray top-level ',' forever
+  // without consuming it (found by fuzz/robot_truth_fuzz: LoadAll(",") never returns). Count at
+  // most two documents with the event parser, and call a document that starts where the previous
+  // one started what it is: no progress.
+  YAML::Node root;
   try {
-    docs = YAML::LoadAll(text);
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    DocumentMarks marks;
+    while (marks.starts.size() < 2 && parser.HandleNextDocument(marks)) {
+    }
+    if (marks.starts.size() == 2) {
+      const YAML::Mark& second = marks.starts[1];
+      if (second.pos == marks.starts[0].pos) {
+        const char c = second.pos >= 0 && static_cast<size_t>(second.pos) < text.size() ? text[second.pos] : '?';
+        Throw(source + ":" + std::to_string(second.line + 1) + ":" + std::to_string(second.column + 1) +
+              ": not valid YAML: unexpected '" + Printable(std::string(1, c)) + "'");
+      }
+      Throw(At(source, second.line + 1) + ": a second YAML document ('---') is not allowed");
+    }
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     // yaml-cpp's own message repeats the position; keep only its reason.
     Throw(source + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
           ": not valid YAML: " + e.msg);
   }
-  if (docs.empty() || docs[0].IsNull()) Throw(source + ": the file is empty");
-  if (docs.size() > 1) Throw(At(source, LineOf(docs[1])) + ": a second YAML document ('---') is not allowed");
-  return docs[0];
+  if (!root.IsDefined() || root.IsNull()) Throw(source + ": the file is empty");
+  return root;
 }
 
 YAML::Node LoadYamlFile(const std::string& path, const std::string& what) {
