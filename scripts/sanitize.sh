@@ -2,14 +2,16 @@
 # The whole test suite under AddressSanitizer + UndefinedBehaviorSanitizer (issue 15, item 6).
 #   bash scripts/sanitize.sh [CTEST ARGS...]     e.g. bash scripts/sanitize.sh -R robot_
 # Builds in build-asan/ (GCC by default; CXX=clang++ to use clang) with
-# -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer, then runs
-# ctest there. Any sanitizer report fails the test that triggered it. A full build from cold
-# takes about twice as long as the normal one; run it at nice 10 on a shared machine.
+# -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer and line
+# tables only (-g1: stack traces keep file:line, compiling and linking are much faster), -O1 and
+# -DNDEBUG as in the release build (build type "Sanitize": no other flags), without the
+# benchmarks, then runs ctest there. Any sanitizer report fails the test that triggered it.
+# A full build from cold takes about twice as long as the normal one; it runs at nice 10.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build-asan
-flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g -O1"
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g1 -O1 -DNDEBUG"
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Sanitize -DOWLCAL_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null
 nice -n 10 cmake --build "$build" -j2
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
