@@ -8,6 +8,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "io/xml_check.h"
+
 namespace owlcal::fitting {
 namespace {
 
@@ -243,15 +245,29 @@ void WriteOpenCvSplitFiles(const std::string& intrinsics_path,
   WriteFile(extrinsics_path, mm, false, true);
 }
 
+namespace {
+
+// OpenCV's FileStorage parsers trust their input: a NUL byte made the XML parser read past the
+// text, and a truncated XML declaration ("<?xml t_idversn=") made it dereference a null pointer
+// (both found by fuzz/course_xml_fuzz). A calibration file is text, and XML must be well formed
+// before FileStorage sees it.
+void CheckFileStorageText(const std::string& text, const std::string& source) {
+  if (const size_t nul = text.find('\0'); nul != std::string::npos)
+    throw std::runtime_error("OpenCV calibration file " + source + ": not a text file (NUL byte at offset " +
+                             std::to_string(nul) + ")");
+  const size_t first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && text[first] == '<') {
+    if (const std::string e = io::XmlWellFormedError(text); !e.empty())
+      throw std::runtime_error("OpenCV calibration file " + source + ":" + e + " (not well-formed XML)");
+  }
+}
+
+}  // namespace
+
 OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path) {
   {
     std::ifstream in(path, std::ios::binary);
-    if (in) {
-      const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-      if (const size_t nul = text.find('\0'); nul != std::string::npos)
-        throw std::runtime_error("OpenCV calibration file " + path + ": not a text file (NUL byte at offset " +
-                                 std::to_string(nul) + ")");
-    }
+    if (in) CheckFileStorageText(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), path);
   }
   OpenCvStereoCalibration c;
   cv::FileStorage fs;
@@ -269,11 +285,7 @@ OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path) {
 }
 
 OpenCvStereoCalibration ParseOpenCvCalibration(const std::string& text, const std::string& source) {
-  // OpenCV's FileStorage parser reads C strings: a NUL byte inside made it read past the text
-  // and crash (found by fuzz/course_xml_fuzz). A calibration file is text.
-  if (const size_t nul = text.find('\0'); nul != std::string::npos)
-    throw std::runtime_error("OpenCV calibration file " + source + ": not a text file (NUL byte at offset " +
-                             std::to_string(nul) + ")");
+  CheckFileStorageText(text, source);
   OpenCvStereoCalibration c;
   cv::FileStorage fs;
   try {

@@ -159,6 +159,25 @@ TEST(OpenCvCalibFile, NulBytesAreRefusedBeforeOpenCvParses) {
   std::filesystem::remove(p);
 }
 
+// Found by fuzz/course_xml_fuzz: a truncated XML declaration made OpenCV's parser dereference a
+// null pointer. Malformed or truncated XML is refused, naming the line, before OpenCV parses it.
+TEST(OpenCvCalibFile, MalformedXmlIsRefusedBeforeOpenCvParses) {
+  const std::string good =
+      "<?xml version=\"1.0\"?>\n<opencv_storage>\n<M2 type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols><dt>d</dt>\n"
+      "<data>500. 0. 320. 0. 500. 240. 0. 0. 1.</data></M2>\n</opencv_storage>\n";
+  EXPECT_FALSE(ParseOpenCvCalibration(good, "x.xml").M2.empty());
+  for (size_t cut : {size_t{16}, size_t{30}, good.size() / 2, good.size() - 3}) {
+    EXPECT_THROW(ParseOpenCvCalibration(good.substr(0, cut), "x.xml"), std::runtime_error) << cut;
+  }
+  try {
+    ParseOpenCvCalibration("<?xml t_idversn=", "crash.xml");
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("crash.xml:1:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not well-formed XML"), std::string::npos) << e.what();
+  }
+}
+
 // Found by fuzz/course_xml_fuzz: a matrix whose declared rows/cols are garbage or huge made
 // OpenCV allocate 64 GB before anything was checked.
 TEST(OpenCvCalibFile, DeclaredMatrixShapeIsCheckedBeforeAllocating) {
