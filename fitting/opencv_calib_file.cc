@@ -267,7 +267,8 @@ void CheckFileStorageText(const std::string& text, const std::string& source) {
 OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path) {
   {
     std::ifstream in(path, std::ios::binary);
-    if (in) CheckFileStorageText(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), path);
+    if (in)
+      CheckFileStorageText(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), path);
   }
   OpenCvStereoCalibration c;
   cv::FileStorage fs;

@@ -27,7 +27,8 @@ class Scanner {
     bool had_root = false;
     while (i_ < t_.size()) {
       if (t_[i_] != '<') {
-        if (open.empty() && !std::isspace(static_cast<unsigned char>(t_[i_]))) return Fail("text outside the root element");
+        if (open.empty() && !std::isspace(static_cast<unsigned char>(t_[i_])))
+          return Fail("text outside the root element");
         ++i_;
         continue;
       }
@@ -75,7 +76,8 @@ class Scanner {
   }
   static bool NameChar(char c, bool first) {
     const unsigned char u = static_cast<unsigned char>(c);
-    return std::isalpha(u) || c == '_' || c == ':' || u >= 0x80 || (!first && (std::isdigit(u) || c == '-' || c == '.'));
+    return std::isalpha(u) || c == '_' || c == ':' || u >= 0x80 ||
+           (!first && (std::isdigit(u) || c == '-' || c == '.'));
   }
   std::string Name() {
     const size_t start = i_;
@@ -101,7 +103,8 @@ class Scanner {
       if (!Starts("=")) return Fail("attribute '" + name + "' without '=\"value\"'");
       ++i_;
       SkipSpace();
-      if (i_ >= t_.size() || (t_[i_] != '"' && t_[i_] != '\'')) return Fail("attribute '" + name + "' value not quoted");
+      if (i_ >= t_.size() || (t_[i_] != '"' && t_[i_] != '\''))
+        return Fail("attribute '" + name + "' value not quoted");
       const size_t close = t_.find(t_[i_], i_ + 1);
       if (close == std::string_view::npos) return Fail("attribute '" + name + "' value not closed");
       if (t_.substr(i_ + 1, close - i_ - 1).find('<') != std::string_view::npos)

@@ -163,7 +163,8 @@ TEST(OpenCvCalibFile, NulBytesAreRefusedBeforeOpenCvParses) {
 // null pointer. Malformed or truncated XML is refused, naming the line, before OpenCV parses it.
 TEST(OpenCvCalibFile, MalformedXmlIsRefusedBeforeOpenCvParses) {
   const std::string good =
-      "<?xml version=\"1.0\"?>\n<opencv_storage>\n<M2 type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols><dt>d</dt>\n"
+      "<?xml version=\"1.0\"?>\n<opencv_storage>\n<M2 "
+      "type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols><dt>d</dt>\n"
       "<data>500. 0. 320. 0. 500. 240. 0. 0. 1.</data></M2>\n</opencv_storage>\n";
   EXPECT_FALSE(ParseOpenCvCalibration(good, "x.xml").M2.empty());
   for (size_t cut : {size_t{16}, size_t{30}, good.size() / 2, good.size() - 3}) {

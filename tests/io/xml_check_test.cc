@@ -6,10 +6,11 @@ namespace owlcal::io {
 namespace {
 
 TEST(XmlWellFormed, AcceptsOpenCvFileStorageXml) {
-  EXPECT_EQ(XmlWellFormedError("<?xml version=\"1.0\"?>\n<opencv_storage>\n<!-- a comment -->\n"
-                               "<M1 type_id=\"opencv-matrix\"><rows>1</rows><cols>1</cols><dt>d</dt><data>1.</data></M1>\n"
-                               "<empty/><unit>mm</unit>\n</opencv_storage>\n"),
-            "");
+  EXPECT_EQ(
+      XmlWellFormedError("<?xml version=\"1.0\"?>\n<opencv_storage>\n<!-- a comment -->\n"
+                         "<M1 type_id=\"opencv-matrix\"><rows>1</rows><cols>1</cols><dt>d</dt><data>1.</data></M1>\n"
+                         "<empty/><unit>mm</unit>\n</opencv_storage>\n"),
+      "");
 }
 
 TEST(XmlWellFormed, NamesTheLineOfTheFirstProblem) {
