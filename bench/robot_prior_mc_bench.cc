@@ -87,11 +87,32 @@ int main(int argc, char** argv) {
       if (std::abs(z) > std::abs(worst)) worst = z, worst_name = p.name;
     }
     const auto& t = robot.truth;
-    std::printf("%s: f %.0f/%.0f px, quantum %d us, dead band %.1f us, noise %.1f, jpeg %d, warp %.2f mm | %d scored, "
-                "RMS(z) %.2f, worst %s z = %+.2f\n",
+    // The worst servo map against the truth over the robot file's range (tables/servo_map_truth.csv:
+    // servo, range, RMS [deg], ...; acceptance: 0.05 deg) and the fitted bow against the board's.
+    double worst_map = NAN;
+    std::string worst_servo;
+    {
+      std::ifstream csv((dir / "cal" / "tables" / "servo_map_truth.csv").string());
+      std::string line;
+      std::getline(csv, line);
+      while (std::getline(csv, line)) {
+        std::vector<std::string> f;
+        for (size_t a = 0, b; a <= line.size(); a = b + 1) {
+          b = std::min(line.find(',', a), line.size());
+          f.push_back(line.substr(a, b - a));
+        }
+        if (f.size() < 3) continue;
+        const double rms = std::atof(f[2].c_str());
+        if (!(rms <= worst_map)) worst_map = rms, worst_servo = f[0];
+      }
+    }
+    const fitting::Parameter* bow = r.Find("head.board_warp_x_mm");
+    std::printf("%s: f %.0f/%.0f px, quantum %d us, dead band %.1f us, noise %.1f, jpeg %d, warp %.2f mm (fitted %.3f) | "
+                "%d scored, RMS(z) %.2f, worst %s z = %+.2f | servo maps worst %.4f deg RMS (%s)\n",
                 name.c_str(), t.intrinsics[0].params[0], t.intrinsics[1].params[0], t.servos[0].quantum_us,
                 t.servos[0].dead_band_us, t.stream.noise_sigma, t.stream.jpeg_quality,
-                1000 * robot.scene.Find("chessboard")->warp_m.x(), n, n ? std::sqrt(sum / n) : NAN, worst_name.c_str(), worst);
+                1000 * robot.scene.Find("chessboard")->warp_m.x(), bow ? bow->value : NAN, n, n ? std::sqrt(sum / n) : NAN,
+                worst_name.c_str(), worst, worst_map, worst_servo.c_str());
     std::fflush(stdout);
     // Keep results.json and the log, not the frames (OWLCAL_MC_KEEP: the observations too).
     if (std::getenv("OWLCAL_MC_KEEP")) {
