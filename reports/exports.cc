@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "fitting/opencv_calib_file.h"
+#include "fitting/pixel_pwm_map.h"
 #include "fitting/projection_uncertainty.h"
 #include "fitting/radtan_refit.h"
 #include "models/head_kinematics.h"
@@ -242,7 +243,13 @@ ExportSet WriteCalibrationFiles(const ReportData& d, const std::string& dir) {
   attempt("exports/kalibr_camchain.yaml", "Kalibr", [&](const std::string& p) { return WriteKalibrCamchain(r, p); });
   attempt("exports/owl-pwm.h", "C/C++", [&](const std::string& p) {
     WriteOwlPwmHeader(r, d.config, d.limits ? &*d.limits : nullptr, p);
-    return std::string("limits, centres and servo maps; valid C99 and C++");
+    return std::string("limits, centres, servo maps and the pixel -> PWM map; valid C99 and C++");
+  });
+  attempt("exports/pixel_pwm.csv", "CSV", [&](const std::string& p) {
+    if (!r.head || !r.Find("servo.Lx.deg_per_us") || !r.Find("servo.Lx.deg_per_us")->determined)
+      throw std::runtime_error("no eye servo map was fitted (no servo sweep in this calibration)");
+    WriteTextFile(p, fitting::PixelPwmGridCsv(fitting::MakePixelPwmGrid(*r.head, d.config, 40)));
+    return std::string("pixel -> PWM map: pan/tilt pulse widths that centre each pixel, every 40 px, centre pose");
   });
   return out;
 }

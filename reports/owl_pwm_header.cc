@@ -4,6 +4,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "fitting/pixel_pwm_map.h"
 #include "models/servo_map.h"
 #include "reports/table.h"
 
@@ -21,6 +22,8 @@ const fitting::Parameter* Determined(const fitting::CalibrationResult& r, int se
   const fitting::Parameter* p = r.Find(std::string("servo.") + models::kServoNames[servo] + "." + field);
   return p && p->determined && std::isfinite(p->value) ? p : nullptr;
 }
+
+constexpr int kPixelGridStepPx = 40;
 
 }  // namespace
 
@@ -147,6 +150,61 @@ std::string OwlPwmHeader(const fitting::CalibrationResult& r,
     << "  }\n"
     << "  u = (int)(0.5 * (lo + hi) + 0.5);\n"
     << "  return u < m->min_us ? m->min_us : (u > m->max_us ? m->max_us : u);\n"
+    << "}\n\n";
+  // The pixel -> PWM map (fitting/pixel_pwm_map.h) as a grid of pulse-width changes.
+  const fitting::PixelPwmGrid g = fitting::MakePixelPwmGrid(h, config, kPixelGridStepPx);
+  o << "/* Pixel -> PWM (the course's \"calibrate servo to cameras ... give a map\"): the change of an eye's\n"
+    << " * pan and tilt pulse widths [us] that brings what the eye sees at pixel (x, y) to its image centre\n"
+    << " * (principal point), for a distant target, computed with the fitted head at the centre pose on a\n"
+    << " * grid every " << kPixelGridStepPx
+    << " px (owlcal exports/pixel_pwm.csv has the same grid with the exact pulse widths).\n"
+    << " * OwlPixelToPwm interpolates it bilinearly and adds the change to the current pulse widths: exact\n"
+    << " * at the centre pose, a small-angle approximation elsewhere (repeat the step once the eye has moved).\n"
+    << " * Results are clamped to the servo limits. eye: 0 left (Lx, Ly), 1 right (Rx, Ry). */\n"
+    << "#define OWL_PIXEL_GRID_COLS " << g.cols << "\n#define OWL_PIXEL_GRID_ROWS " << g.rows << "\n"
+    << "static const double OwlPixelGridX[OWL_PIXEL_GRID_COLS] = {";
+  for (int i = 0; i < g.cols; ++i) o << (i ? ", " : "") << FloatLiteral(g.xs[i]);
+  o << "};\nstatic const double OwlPixelGridY[OWL_PIXEL_GRID_ROWS] = {";
+  for (int i = 0; i < g.rows; ++i) o << (i ? ", " : "") << FloatLiteral(g.ys[i]);
+  o << "};\n/* [eye][row][col][0 = pan change, 1 = tilt change] in us */\n"
+    << "static const double OwlPixelGridDeltaUs[2][OWL_PIXEL_GRID_ROWS][OWL_PIXEL_GRID_COLS][2] = {\n";
+  for (int e = 0; e < 2; ++e) {
+    o << "  {\n";
+    for (int row = 0; row < g.rows; ++row) {
+      o << "    {";
+      for (int col = 0; col < g.cols; ++col) {
+        const auto& cell = g.rows_data[(e * g.rows + row) * g.cols + col];
+        o << (col ? ", " : "") << "{" << FloatLiteral(cell.ok ? cell.delta_pan_us : 0.0) << ", "
+          << FloatLiteral(cell.ok ? cell.delta_tilt_us : 0.0) << "}";
+      }
+      o << "}" << (row + 1 < g.rows ? "," : "") << "\n";
+    }
+    o << "  }" << (e == 0 ? "," : "") << "\n";
+  }
+  o << "};\n\n"
+    << "static inline int OwlClampUs(const OwlServoMap* m, double us) {\n"
+    << "  const int u = (int)(us + (us >= 0.0 ? 0.5 : -0.5));\n"
+    << "  return u < m->min_us ? m->min_us : (u > m->max_us ? m->max_us : u);\n"
+    << "}\n\n"
+    << "/* Pulse widths that centre pixel (x_px, y_px) of `eye`, from its current pan_now_us, tilt_now_us. */\n"
+    << "static inline void OwlPixelToPwm(int eye, double x_px, double y_px, int pan_now_us, int tilt_now_us,\n"
+    << "                                 int* pan_us, int* tilt_us) {\n"
+    << "  int i = 0, j = 0, k;\n"
+    << "  double fx, fy, d[2];\n"
+    << "  const OwlServoMap* pan = eye ? &OwlRx : &OwlLx;\n"
+    << "  const OwlServoMap* tilt = eye ? &OwlRy : &OwlLy;\n"
+    << "  const int e = eye ? 1 : 0;\n"
+    << "  while (i < OWL_PIXEL_GRID_COLS - 2 && x_px > OwlPixelGridX[i + 1]) ++i;\n"
+    << "  while (j < OWL_PIXEL_GRID_ROWS - 2 && y_px > OwlPixelGridY[j + 1]) ++j;\n"
+    << "  fx = (x_px - OwlPixelGridX[i]) / (OwlPixelGridX[i + 1] - OwlPixelGridX[i]);\n"
+    << "  fy = (y_px - OwlPixelGridY[j]) / (OwlPixelGridY[j + 1] - OwlPixelGridY[j]);\n"
+    << "  for (k = 0; k < 2; ++k)\n"
+    << "    d[k] = (1 - fy) * ((1 - fx) * OwlPixelGridDeltaUs[e][j][i][k] + fx * OwlPixelGridDeltaUs[e][j][i + 1][k]) "
+       "+\n"
+    << "           fy * ((1 - fx) * OwlPixelGridDeltaUs[e][j + 1][i][k] + fx * OwlPixelGridDeltaUs[e][j + 1][i + "
+       "1][k]);\n"
+    << "  *pan_us = OwlClampUs(pan, pan_now_us + d[0]);\n"
+    << "  *tilt_us = OwlClampUs(tilt, tilt_now_us + d[1]);\n"
     << "}\n\n#endif /* OWL_PWM_H */\n";
   return o.str();
 }
