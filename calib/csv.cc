@@ -1,5 +1,7 @@
 #include "calib/csv.h"
 
+#include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -114,6 +116,13 @@ std::vector<std::string> SplitCsvLine(const std::string& line, bool trim, const 
   if (!r.error.empty()) Throw(where, r.error);
   if (r.terminated) Throw(where, "line break inside a record");
   return r.cells;
+}
+
+std::string CsvFixed(double v, int decimals) {
+  if (!std::isfinite(v)) return "";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
 }
 
 std::string CsvCell(const std::string& text) {

@@ -35,6 +35,10 @@ std::vector<std::string> SplitCsvLine(const std::string& line, bool trim = false
 // break, or spaces at either end; as is otherwise.
 std::string CsvCell(const std::string& text);
 
+// A number cell with `decimals` digits after the point; an empty cell for NaN or infinity (a
+// measurement not made: readers take an empty cell as "none", never a "nan" text).
+std::string CsvFixed(double v, int decimals);
+
 // cells[col] as a finite number within [min, max]. Throws std::runtime_error
 // "WHERE: missing field FIELD" or "WHERE: field FIELD = 'x' is not a finite decimal number";
 // WHERE is usually "path:line".

@@ -9,6 +9,7 @@
 #include "fitting/loop_model.h"
 #include "fitting/servo_motion_fit.h"
 #include "protocols/dataset_tables.h"
+#include "protocols/fixation.h"
 #include "protocols/protocol.h"
 
 namespace owlcal::pipeline {
@@ -90,7 +91,7 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
   m.lag_s = motion.lag_s;
   m.hysteresis_us = mo.hysteresis_us;
   m.px_per_us = std::abs(motion.px_per_us);
-  const double focal_px = 585.0 * config.image_width / 640.0;  // the fixation controller's nominal focal length
+  const double focal_px = protocols::NominalFocalPx(config);
   m.nominal_px_per_us = focal_px * std::tan(sc.nominal_deg_per_us * kDeg);
   m.noise_px = std::max(0.05, motion.rms_px);
   m.tolerance_px = step_defaults.tolerance_px;

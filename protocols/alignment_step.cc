@@ -75,9 +75,9 @@ void RunAlignmentStep(RunContext& run, const Protocol& p, const AlignmentStep& s
                            {std::to_string(run.step_index()),
                             std::to_string(index),
                             method,
-                            FixedText(roll, 4),
-                            FixedText(dy, 3),
-                            FixedText(dx, 3),
+                            calib::CsvFixed(roll, 4),
+                            calib::CsvFixed(dy, 3),
+                            calib::CsvFixed(dx, 3),
                             std::to_string(corners)});
     if (run.options().progress && i == 0)
       *run.options().progress << "  alignment (" << method << "): roll " << FixedText(roll, 3)

@@ -239,12 +239,6 @@ std::string FramePath(const std::string& dir, int64_t frame_index) {
   return (fs::path(dir) / "frames" / name).string();
 }
 
-std::string CsvSafe(std::string text) {
-  for (char& c : text)
-    if (c == ',' || c == '\n' || c == '\r') c = ';';
-  return text;
-}
-
 // ---------------------------------------------------------------- writer
 
 std::unique_ptr<DatasetWriter> DatasetWriter::Create(const std::string& dir, nlohmann::json manifest) {

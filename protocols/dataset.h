@@ -197,8 +197,4 @@ calib::CsvTable ReadAppendedCsv(const std::string& path);
 // Reads frame `frame_index`'s JPEG bytes.
 std::vector<uint8_t> ReadFrameJpeg(const std::string& dir, int64_t frame_index);
 
-// Replaces commas and newlines in free text (one-line messages). Not needed for CSV cells:
-// AppendRow quotes any cell that needs it (calib::CsvCell).
-std::string CsvSafe(std::string text);
-
 }  // namespace owlcal::protocols

@@ -60,15 +60,34 @@ class Rows {
   calib::CsvTable table_;
 };
 
+// Every row of DIR/NAME as Row: its line and step_index, then fill(t, r, row) for the rest.
+template <typename Row, typename Fill>
+std::vector<Row> ReadTable(const std::string& dir, const char* name, Fill fill) {
+  const Rows t(dir, name);
+  std::vector<Row> out;
+  out.reserve(t.Size());
+  for (size_t r = 0; r < t.Size(); ++r) {
+    Row row;
+    row.line = t.Line(r);
+    row.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+    fill(t, r, row);
+    out.push_back(std::move(row));
+  }
+  return out;
+}
+
+// The columns naming a step-response trial: gain, amplitude_deg, trial.
+template <typename Row>
+void ReadTrialKey(const Rows& t, size_t r, Row& row) {
+  row.gain = t.Number(r, "gain", -kMaxGain, kMaxGain);
+  row.amplitude_deg = t.Number(r, "amplitude_deg", -kMaxDeg, kMaxDeg);
+  row.trial = t.Int(r, "trial", 0, INT32_MAX);
+}
+
 }  // namespace
 
 std::vector<FixationRow> ReadFixationsCsv(const std::string& dir) {
-  const Rows t(dir, "fixations.csv");
-  std::vector<FixationRow> out;
-  for (size_t r = 0; r < t.Size(); ++r) {
-    FixationRow f;
-    f.line = t.Line(r);
-    f.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+  return ReadTable<FixationRow>(dir, "fixations.csv", [](const Rows& t, size_t r, FixationRow& f) {
     f.step_name = t.Text(r, "step_name");
     f.placement_index = t.Int(r, "placement_index", -1, INT32_MAX);
     f.target = t.Text(r, "target");
@@ -95,21 +114,12 @@ std::vector<FixationRow> ReadFixationsCsv(const std::string& dir) {
     f.stamp_ns = t.Int64(r, "stamp_ns");
     f.status = t.Status(r);
     f.reason = t.TextOr(r, "reason");
-    out.push_back(std::move(f));
-  }
-  return out;
+  });
 }
 
 std::vector<StepResponseRow> ReadStepResponseCsv(const std::string& dir) {
-  const Rows t(dir, "step_response.csv");
-  std::vector<StepResponseRow> out;
-  for (size_t r = 0; r < t.Size(); ++r) {
-    StepResponseRow s;
-    s.line = t.Line(r);
-    s.step_index = t.Int(r, "step_index", 0, INT32_MAX);
-    s.gain = t.Number(r, "gain", -kMaxGain, kMaxGain);
-    s.amplitude_deg = t.Number(r, "amplitude_deg", -kMaxDeg, kMaxDeg);
-    s.trial = t.Int(r, "trial", 0, INT32_MAX);
+  return ReadTable<StepResponseRow>(dir, "step_response.csv", [](const Rows& t, size_t r, StepResponseRow& s) {
+    ReadTrialKey(t, r, s);
     s.k = t.Int(r, "k", 0, INT32_MAX);
     s.t_s = t.Number(r, "t_s", -1e9, 1e9);
     s.offset_px = t.Optional(r, "offset_px", -kMaxPx, kMaxPx);
@@ -117,21 +127,12 @@ std::vector<StepResponseRow> ReadStepResponseCsv(const std::string& dir) {
     s.pwm_us = t.Int(r, "pwm_us", 0, kMaxPwm);
     s.found = t.Flag(r, "found");
     s.frame_index = t.Int64(r, "frame_index");
-    out.push_back(s);
-  }
-  return out;
+  });
 }
 
 std::vector<StepTrialRow> ReadStepTrialsCsv(const std::string& dir) {
-  const Rows t(dir, "step_trials.csv");
-  std::vector<StepTrialRow> out;
-  for (size_t r = 0; r < t.Size(); ++r) {
-    StepTrialRow s;
-    s.line = t.Line(r);
-    s.step_index = t.Int(r, "step_index", 0, INT32_MAX);
-    s.gain = t.Number(r, "gain", -kMaxGain, kMaxGain);
-    s.amplitude_deg = t.Number(r, "amplitude_deg", -kMaxDeg, kMaxDeg);
-    s.trial = t.Int(r, "trial", 0, INT32_MAX);
+  return ReadTable<StepTrialRow>(dir, "step_trials.csv", [](const Rows& t, size_t r, StepTrialRow& s) {
+    ReadTrialKey(t, r, s);
     s.eye = t.Text(r, "eye");
     s.axis = t.Text(r, "axis");
     s.servo = t.Text(r, "servo");
@@ -141,18 +142,11 @@ std::vector<StepTrialRow> ReadStepTrialsCsv(const std::string& dir) {
     s.message = t.TextOr(r, "message");
     s.status = t.Status(r);
     s.reason = t.TextOr(r, "reason");
-    out.push_back(std::move(s));
-  }
-  return out;
+  });
 }
 
 std::vector<LimitRow> ReadLimitsCsv(const std::string& dir) {
-  const Rows t(dir, "limits.csv");
-  std::vector<LimitRow> out;
-  for (size_t r = 0; r < t.Size(); ++r) {
-    LimitRow l;
-    l.line = t.Line(r);
-    l.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+  return ReadTable<LimitRow>(dir, "limits.csv", [](const Rows& t, size_t r, LimitRow& l) {
     l.servo = t.Text(r, "servo");
     l.end = t.Text(r, "end");
     l.configured_us = t.Int(r, "configured_us", 0, kMaxPwm);
@@ -162,27 +156,18 @@ std::vector<LimitRow> ReadLimitsCsv(const std::string& dir) {
     l.rim_darkening = t.Newer(r, "rim_darkening", -1e3, 1e3);
     l.status = t.Status(r);
     l.message = t.TextOr(r, "message");
-    out.push_back(std::move(l));
-  }
-  return out;
+  });
 }
 
 std::vector<LatencyRow> ReadLatencyCsv(const std::string& dir) {
-  const Rows t(dir, "latency.csv");
-  std::vector<LatencyRow> out;
-  for (size_t r = 0; r < t.Size(); ++r) {
-    LatencyRow l;
-    l.line = t.Line(r);
-    l.step_index = t.Int(r, "step_index", 0, INT32_MAX);
+  return ReadTable<LatencyRow>(dir, "latency.csv", [](const Rows& t, size_t r, LatencyRow& l) {
     l.trial = t.Int(r, "trial", 0, INT32_MAX);
     l.servo = t.Text(r, "servo");
     l.amplitude_us = t.Int(r, "amplitude_us", -kMaxPwm, kMaxPwm);
     l.latency_ms = t.Optional(r, "latency_ms", 0, 1e7);
     l.frames_waited = t.Int(r, "frames_waited", 0, INT32_MAX);
     l.shift_px = t.Optional(r, "shift_px", -kMaxPx, kMaxPx);
-    out.push_back(l);
-  }
-  return out;
+  });
 }
 
 }  // namespace owlcal::protocols

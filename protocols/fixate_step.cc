@@ -33,7 +33,7 @@ FixationOptions FixationFromLoop(const ClosedLoopSettings& loop, const models::R
   fo.latency_frames = loop.latency_frames;
   fo.max_step_us = loop.max_step_us;
   fo.limit_margin_us = loop.limit_margin_us;
-  fo.focal_px = 585.0 * robot.image_width / 640.0;
+  fo.focal_px = NominalFocalPx(robot);
   return fo;
 }
 
@@ -58,16 +58,16 @@ void RunFixateStep(RunContext& run, const Protocol& p, const FixateStep& s) {
                                   run.step_name(),
                                   std::to_string(run.placement_index()),
                                   pl ? pl->target : "",
-                                  pl ? FixedText(pl->distance_m, 6) : "",
+                                  pl ? calib::CsvFixed(pl->distance_m, 6) : "",
                                   EyeSetName(s.eyes),
-                                  FixedText(s.gain, 4),
+                                  calib::CsvFixed(s.gain, 4),
                                   OutcomeName(r.outcome),
                                   std::to_string(r.iterations)};
   for (int i = 0; i < kNumServos; ++i) row.push_back(std::to_string(r.final_pwm_us[i]));
   for (int e = 0; e < 2; ++e) {
     row.push_back(r.found[e] ? "1" : "0");
-    row.push_back(FixedText(r.residual_px[e].x(), 3));
-    row.push_back(FixedText(r.residual_px[e].y(), 3));
+    row.push_back(calib::CsvFixed(r.residual_px[e].x(), 3));
+    row.push_back(calib::CsvFixed(r.residual_px[e].y(), 3));
   }
   row.push_back(std::to_string(run.robot().NowNs()));
   // The approach of the settled command: backlash shifts the eyes by the hysteresis (~0.25 deg
@@ -77,7 +77,7 @@ void RunFixateStep(RunContext& run, const Protocol& p, const FixateStep& s) {
   std::string reason;
   const calib::TrialStatus status = FixationStatus(r, fo, &reason);
   row.push_back(calib::TrialStatusName(status));
-  row.push_back(CsvSafe(reason));
+  row.push_back(reason);
   run.writer().AppendRow(
       "fixations.csv",
       "step_index,step_name,placement_index,target,distance_m,eyes,gain,outcome,iterations,Rx_us,Ry_us,"

@@ -324,6 +324,8 @@ std::unique_ptr<TargetLocator> MakeBoardLocator(const calib::TargetDefinition& t
   return std::make_unique<BoardLocator>(target);
 }
 
+double NominalFocalPx(const models::RobotConfig& robot) { return 585.0 * robot.image_width / 640.0; }
+
 const char* OutcomeName(FixationResult::Outcome o) {
   switch (o) {
     case FixationResult::Outcome::kConverged: return "converged";

@@ -94,7 +94,7 @@ struct FixationOptions {
   int max_step_us = 60;           // per update and servo
   int limit_margin_us = 20;
   int lost_frames = 5;
-  double focal_px = 585;          // nominal focal length (models::NominalHeadModel)
+  double focal_px = 585;          // nominal focal length: NominalFocalPx()
   int seat_grid_us = 5;           // 0: no seating (see the header comment)
   int seat_back_us = 10;
   int seat_frames = 12;           // frames after the seating move: latency + slew + lag
@@ -123,6 +123,12 @@ struct FixationResult {
   bool seated = false;            // the settled command was seated (see FixationOptions)
 };
 const char* OutcomeName(FixationResult::Outcome outcome);
+
+// The nominal focal length [px] the controllers turn image offsets into angles with: 585 px at
+// 640 columns (docs/conventions.md, "Ranging error budget"), scaled with the image width. The
+// fixation loop, the limits and latency steps, jog's image check and the settling study's loop
+// model all use it.
+double NominalFocalPx(const models::RobotConfig& robot);
 
 // The trial status (calib/trial_status.h) of a fixation and why: converged with the target
 // found in every controlled eye = ok; out of frames, diverged or stopped before a limit = not

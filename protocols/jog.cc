@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "models/head_kinematics.h"
+#include "protocols/fixation.h"
 #include "protocols/image_motion.h"
 
 namespace owlcal::protocols {
@@ -187,7 +188,7 @@ bool JogSession::Anchor(int servo, int direction) {
   deficits_.clear();
   image_check_ = false;
   if (!textured_[ServoEye(servo)] || inside == lim) return false;
-  const double focal_px = 585.0 * file_.image_width / 640.0;
+  const double focal_px = NominalFocalPx(file_);
   const double nominal = file_.servos[servo].nominal_deg_per_us * M_PI / 180.0 * focal_px;
   const double shift = ThumbShift(a, anchor_thumb_, kDownsample).px[ServoAxis(servo)];
   if (std::abs(shift) < kMovedFraction * nominal * std::abs(lim - inside)) {

@@ -13,7 +13,7 @@ void RunLatencyStep(RunContext& run, const LatencyStep& s) {
   const models::ServoConfig& sc = run.config().servos[s.servo];
   const int eye = ServoEye(s.servo);
   const int axis = ServoAxis(s.servo);
-  const double px_per_us = sc.nominal_deg_per_us * M_PI / 180.0 * 585.0 * run.config().image_width / 640.0;
+  const double px_per_us = sc.nominal_deg_per_us * M_PI / 180.0 * NominalFocalPx(run.config());
   const double threshold = std::max(1.0, 0.2 * s.amplitude_us * px_per_us);
   PwmVector base = run.config().Centre();
   for (int trial = 0; trial < s.trials; ++trial) {
@@ -44,9 +44,9 @@ void RunLatencyStep(RunContext& run, const LatencyStep& s) {
                             std::to_string(trial),
                             models::kServoNames[s.servo],
                             std::to_string(s.amplitude_us),
-                            FixedText(latency_ms, 2),
+                            calib::CsvFixed(latency_ms, 2),
                             std::to_string(waited + 1),
-                            FixedText(shift, 2)});
+                            calib::CsvFixed(shift, 2)});
     if (run.options().progress)
       *run.options().progress << "  latency trial " << trial << ": " << FixedText(latency_ms, 1) << " ms ("
                               << (waited + 1) << " frames)\n";

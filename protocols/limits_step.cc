@@ -13,7 +13,7 @@ using models::PwmVector;
 void RunLimitsStep(RunContext& run, const LimitsStep& s) {
   // protocols/limits_search.h: works with any PWM step and dead band; a black, covered or
   // frozen camera fails the step (after its rows are written), never passes as "configured".
-  const double focal_px = 585.0 * run.config().image_width / 640.0;
+  const double focal_px = NominalFocalPx(run.config());
   std::vector<std::string> failed;
   int ends = 0;
   for (int servo : s.servos) {
@@ -54,10 +54,10 @@ void RunLimitsStep(RunContext& run, const LimitsStep& s) {
            std::to_string(limit),
            ok ? std::to_string(r.measured_us) : "",
            r.cause,
-           FixedText(r.last_shift_px, 3),
-           FixedText(r.rim, 4),
+           calib::CsvFixed(r.last_shift_px, 3),
+           calib::CsvFixed(r.rim, 4),
            calib::TrialStatusName(r.status),
-           CsvSafe(r.message)});
+           r.message});
       const std::string what = std::string(models::kServoNames[servo]) + " " + end;
       if (!ok) failed.push_back(what + ": " + r.message);
       run.Event("limits",

@@ -143,9 +143,9 @@ void RunContext::WriteCoverage() {
     const Coverage c = ComputeCoverage(coverage_views_[e]);
     std::vector<std::string> row = {models::kEyeNames[e], std::to_string(c.num_views)};
     for (int k = 0; k < 4; ++k) {
-      row.push_back(FixedText(c.min[k], 4));
-      row.push_back(FixedText(c.max[k], 4));
-      row.push_back(FixedText(c.progress[k], 4));
+      row.push_back(calib::CsvFixed(c.min[k], 4));
+      row.push_back(calib::CsvFixed(c.max[k], 4));
+      row.push_back(calib::CsvFixed(c.progress[k], 4));
     }
     row.push_back(c.Good() ? "1" : "0");
     writer_->AppendRow("coverage.csv",

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/csv.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"
 #include "protocols/coverage.h"

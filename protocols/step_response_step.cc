@@ -31,8 +31,8 @@ void RunStepResponseStep(RunContext& run, const Protocol& p, const StepResponseS
         const FixationResult a = run.Fixate(acquire, *loc, false, nullptr);
         const PwmVector fix = run.cmd();
         std::vector<std::string> trial_row = {std::to_string(run.step_index()),
-                                              FixedText(gain, 4),
-                                              FixedText(amp, 3),
+                                              calib::CsvFixed(gain, 4),
+                                              calib::CsvFixed(amp, 3),
                                               std::to_string(trial),
                                               models::kEyeNames[eye],
                                               AxisName(s.axis),
@@ -49,9 +49,9 @@ void RunStepResponseStep(RunContext& run, const Protocol& p, const StepResponseS
                             "no-fixation",
                             "0",
                             "",
-                            CsvSafe(a.message),
+                            a.message,
                             calib::TrialStatusName(calib::TrialStatus::kSkipped),
-                            CsvSafe(why)});
+                            why});
           run.writer().AppendRow(
               "step_trials.csv",
               "step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,"
@@ -93,13 +93,13 @@ void RunStepResponseStep(RunContext& run, const Protocol& p, const StepResponseS
               "step_response.csv",
               "step_index,gain,amplitude_deg,trial,k,t_s,offset_px,offset_y_px,pwm_us,found,frame_index",
               {std::to_string(run.step_index()),
-               FixedText(gain, 4),
-               FixedText(amp, 3),
+               calib::CsvFixed(gain, 4),
+               calib::CsvFixed(amp, 3),
                std::to_string(trial),
                std::to_string(k),
-               FixedText((fs.stamp_ns - t0) * 1e-9, 6),
-               FixedText(pan ? off.x() : off.y(), 3),
-               FixedText(pan ? off.y() : off.x(), 3),
+               calib::CsvFixed((fs.stamp_ns - t0) * 1e-9, 6),
+               calib::CsvFixed(pan ? off.x() : off.y(), 3),
+               calib::CsvFixed(pan ? off.y() : off.x(), 3),
                std::to_string(fs.pwm_us[servo]),
                fs.found[eye] ? "1" : "0",
                std::to_string(k < frames.size() ? frames[k] : -1)});
@@ -112,10 +112,10 @@ void RunStepResponseStep(RunContext& run, const Protocol& p, const StepResponseS
                           std::to_string(fix[servo]),
                           OutcomeName(r.outcome),
                           std::to_string(r.iterations),
-                          FixedText(final_off, 3),
-                          CsvSafe(r.message),
+                          calib::CsvFixed(final_off, 3),
+                          r.message,
                           calib::TrialStatusName(status),
-                          CsvSafe(reason)});
+                          reason});
         run.writer().AppendRow(
             "step_trials.csv",
             "step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,"
