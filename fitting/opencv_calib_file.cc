@@ -255,8 +255,13 @@ void CheckFileStorageText(const std::string& text, const std::string& source) {
   if (const size_t nul = text.find('\0'); nul != std::string::npos)
     throw std::runtime_error("OpenCV calibration file " + source + ": not a text file (NUL byte at offset " +
                              std::to_string(nul) + ")");
-  const size_t first = text.find_first_not_of(" \t\r\n");
-  if (first != std::string::npos && text[first] == '<') {
+  // OpenCV takes a file named *.xml as XML whatever it holds, and detects XML in memory by its
+  // first character after a UTF-8 byte order mark and white space: check both ways (a BOM in
+  // front of malformed XML got past a check of the first byte alone: fuzz/course_xml_fuzz).
+  const size_t bom = text.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+  const size_t first = text.find_first_not_of(" \t\r\n", bom);
+  const bool xml_name = source.size() >= 4 && source.compare(source.size() - 4, 4, ".xml") == 0;
+  if (xml_name || (first != std::string::npos && text[first] == '<')) {
     if (const std::string e = io::XmlWellFormedError(text); !e.empty())
       throw std::runtime_error("OpenCV calibration file " + source + ":" + e + " (not well-formed XML)");
   }

@@ -170,6 +170,11 @@ TEST(OpenCvCalibFile, MalformedXmlIsRefusedBeforeOpenCvParses) {
   for (size_t cut : {size_t{16}, size_t{30}, good.size() / 2, good.size() - 3}) {
     EXPECT_THROW(ParseOpenCvCalibration(good.substr(0, cut), "x.xml"), std::runtime_error) << cut;
   }
+  // The second: a UTF-8 byte order mark in front of a malformed tag.
+  EXPECT_THROW(ParseOpenCvCalibration("\xEF\xBB\xBF<?xml version=\"0.0\"?>\n<opencv_storal version=", "x.txt"),
+               std::runtime_error);
+  EXPECT_FALSE(ParseOpenCvCalibration("\xEF\xBB\xBF" + good, "x.txt").M2.empty());
+  EXPECT_THROW(ParseOpenCvCalibration("not xml <", "x.xml"), std::runtime_error);
   try {
     ParseOpenCvCalibration("<?xml t_idversn=", "crash.xml");
     ADD_FAILURE() << "no error";
