@@ -33,6 +33,7 @@ struct CalibrateOptions {
   bool non_interactive = false;
   bool no_figures = false;
   bool quiet = false;
+  std::string lens_model = "auto";
 };
 
 int RunCalibrate(const CalibrateOptions& o) {
@@ -88,6 +89,7 @@ int RunCalibrate(const CalibrateOptions& o) {
     dataset[p.name] = dir;
   }
   settings["runs"] = run_info;
+  settings["lens_model"] = o.lens_model;
 
   // 2) Everything after recording: the pipeline.
   pipeline::CalibratePipelineOptions po;
@@ -97,6 +99,8 @@ int RunCalibrate(const CalibrateOptions& o) {
     po.fps = truth->stream.fps;
   }
   po.progress = progress;
+  std::string why;
+  if (!pipeline::SetLensModel(o.lens_model, &po, &why)) throw UsageError(why);
   fitting::CalibrationRun d = pipeline::CalibrateFromDatasets(dataset, po);
   d.result.warnings.insert(d.result.warnings.begin(), warnings.begin(), warnings.end());
   d.settings = settings;
@@ -124,6 +128,12 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--out", o->out, "report folder to create")->required();
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
       cmd->add_flag("--quiet", o->quiet, "no progress output");
+      cmd->add_option("--lens-model",
+                      o->lens_model,
+                      "lens model of both eyes: auto (opencv5 or the rational opencv8, chosen by 5-fold "
+                      "cross-validation over the "
+                      "chessboard views: the smaller held-out RMS), opencv5 or opencv8")
+          ->capture_default_str();
       return [o] { return RunCalibrate(*o); };
     });
 

@@ -34,6 +34,7 @@ struct FitDatasetsOptions {
   double view_outlier_factor = 5.0;
   bool no_figures = false;
   bool quiet = false;
+  std::string lens_model = "auto";
 };
 
 // The virtual Owl's truth the datasets were recorded with, rebuilt as the robot factory built it
@@ -100,6 +101,7 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
   po.head.hysteresis_sigma_floor_us = o.hysteresis_sigma_floor_us;
   po.head.view_outlier_factor = o.view_outlier_factor;
   std::string why;
+  if (!pipeline::SetLensModel(o.lens_model, &po, &why)) throw UsageError(why);
   if (!po.Check(&why)) throw UsageError(why);
   po.progress = progress;
   progress("robot: " + po.config.name + (truth ? " (virtual Owl, truth from the manifest)" : ""));
@@ -114,6 +116,7 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
                   {"hysteresis_floor", o.hysteresis_sigma_floor_us},
                   {"view_outlier_factor", o.view_outlier_factor},
                   {"no_figures", o.no_figures},
+                  {"lens_model", o.lens_model},
                   {"owlcal_version", OWLCAL_VERSION}};
   run.result.inputs["command"] = run.settings;
   fs::create_directories(o.out);
@@ -145,6 +148,12 @@ const bool kRegistered = RegisterCommand(
           ->check(CLI::Range(0.0, 1e6));
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
       cmd->add_flag("--quiet", o->quiet, "no progress output");
+      cmd->add_option("--lens-model",
+                      o->lens_model,
+                      "lens model of both eyes: auto (opencv5 or the rational opencv8, chosen by 5-fold "
+                      "cross-validation over the "
+                      "chessboard views: the smaller held-out RMS), opencv5 or opencv8")
+          ->capture_default_str();
       return [o] { return RunFitDatasets(*o); };
     });
 

@@ -111,6 +111,8 @@ bool IntrinsicsFitOptions::Check(std::string* why) const {
   if (!(max_sigma_px > 0)) return fail("max_sigma_px must be > 0, got " + Fmt(max_sigma_px));
   if (!(max_sigma_distortion > 0)) return fail("max_sigma_distortion must be > 0, got " + Fmt(max_sigma_distortion));
   if (!(rank_tolerance > 0 && rank_tolerance < 1)) return fail("rank_tolerance must be in (0, 1), got " + Fmt(rank_tolerance));
+  if (!(solver_tolerance > 0 && solver_tolerance < 1e-3))
+    return fail("solver_tolerance must be in (0, 1e-3), got " + Fmt(solver_tolerance));
   return true;
 }
 
@@ -264,9 +266,9 @@ Observability Solve(const IntrinsicsFitOptions& options,
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_SCHUR;
   so.max_num_iterations = options.max_iterations;
-  so.function_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-12;
-  so.gradient_tolerance = 1e-12;
+  so.function_tolerance = options.solver_tolerance;
+  so.parameter_tolerance = options.solver_tolerance;
+  so.gradient_tolerance = options.solver_tolerance;
   so.num_threads = 1;
   ceres::Solve(so, &problem, summary);
   if (!want_observability) return {};
@@ -443,7 +445,9 @@ IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
   const double sigma_used =
       RejectOutliers(Residuals(fit.camera, *st, options.fix_aspect_ratio), *st, options, &inlier, &fit);
   // 3. Observability (in the final solve).
-  const Observability obs = Solve(options, sigma_used, robust, inlier, true, fit.param_names, &*st, &s2);
+  Observability obs =
+      Solve(options, sigma_used, robust, inlier, options.compute_covariance, fit.param_names, &*st, &s2);
+  if (!options.compute_covariance) obs.message = "not computed (compute_covariance off)";
   fit.summary = internal::ToSolveSummary("intrinsics", &s2);
   if (options.fix_aspect_ratio) st->params[1] = st->params[0];
   fit.camera.params = st->params;

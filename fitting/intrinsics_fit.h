@@ -51,6 +51,13 @@ struct IntrinsicsFitOptions {
   double max_sigma_distortion = 5.0;
   // Null-space threshold of the observability rule (fitting/observability.h, rule 4).
   double rank_tolerance = kDefaultRankTolerance;
+  // false: no observability analysis and no covariance (every sigma NaN, every free parameter
+  // listed as undetermined "covariance not computed"); for the many refits of a cross-validation
+  // (fitting/lens_model_choice.h), which only need the estimates.
+  bool compute_covariance = true;
+  // Ceres function, parameter and gradient tolerance of the solves (the refits of a
+  // cross-validation need less than the final fit).
+  double solver_tolerance = 1e-12;
 
   bool Check(std::string* why) const;
 };

@@ -38,13 +38,24 @@ std::vector<std::pair<int, double>> ViewTilts(const StereoFit& fit, int eye) {
 }
 
 ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation>& observations,
-                                      const StereoFitOptions& options,
-                                      const SetVerdictOptions& vo) {
+                                      const StereoFitOptions& options_in,
+                                      const SetVerdictOptions& vo,
+                                      const LensModelChoiceOptions& lens) {
   ImageSetCalibration c;
   std::vector<calib::View> views[2];
   for (const auto& v : calib::GroupIntoViews(observations)) views[v.eye == 0 ? 0 : 1].push_back(v);
-  c.fit = FitStereo(views[0], views[1], options);
+  StereoFitOptions options = options_in;
+  if (lens.enabled) {
+    // The chosen model's fit on all views is the fit (same options, covariance included).
+    c.lens_choice = ChooseStereoLensModel(views[0], views[1], options, lens);
+    options.intrinsics.model = c.lens_choice->chosen;
+    const LensModelScore* s = c.lens_choice->Score(c.lens_choice->chosen);
+    c.fit = s ? s->full : FitStereo(views[0], views[1], options);
+  } else {
+    c.fit = FitStereo(views[0], views[1], options);
+  }
   if (c.fit.ok) AppendStereoToResult(c.fit, &c.result);
+  if (c.lens_choice) AppendLensModelChoiceToResult(*c.lens_choice, &c.result);
   c.result.inputs["num_observations"] = observations.size();
 
   // Coverage per eye.

@@ -12,12 +12,14 @@
 // Verdict: fitting/set_verdict.h (from what the set leaves uncertain: predicted projection
 // uncertainty, sigma of f and c, two halves of the set calibrated alone, physical sanity),
 // written to results.json as `verdict` and at the top of the Markdown.
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "calib/observation.h"
+#include "fitting/lens_model_choice.h"
 #include "fitting/result.h"
 #include "fitting/set_verdict.h"
 #include "fitting/stereo_fit.h"
@@ -40,12 +42,19 @@ struct ImageSetCalibration {
   SetVerdict set_verdict;
   bool poor = false;                 // set_verdict.status != "good"
   std::vector<std::string> verdict;  // set_verdict.reasons: empty = good
+  // The lens model chosen by cross-validation (fitting/lens_model_choice.h); empty when the
+  // choice was off (the configured model was fitted).
+  std::optional<LensModelChoice> lens_choice;
 };
 
 // observations: as from calib::DetectImagePairs. options.length_unit: the target file's unit.
+// lens.enabled: the lens model is chosen by cross-validation (options.intrinsics.model is then
+// only the fallback), written to results.json (diagnostics.lens_model_choice) and used for the
+// fit, the verdict's refits and everything after; off (the default here): options' model.
 ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation>& observations,
                                       const StereoFitOptions& options,
-                                      const SetVerdictOptions& verdict_options = {});
+                                      const SetVerdictOptions& verdict_options = {},
+                                      const LensModelChoiceOptions& lens = LensModelChoiceOptions::Off());
 
 // Board tilt [deg] of each view of one eye of a fit (frame index -> tilt), from per_eye poses.
 std::vector<std::pair<int, double>> ViewTilts(const StereoFit& fit, int eye);

@@ -242,10 +242,15 @@ Observability SolveStereo(const StereoFitOptions& options, StereoProblemData* d,
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_SCHUR;
   so.max_num_iterations = options.max_iterations;
-  so.function_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-12;
-  so.gradient_tolerance = 1e-12;
+  so.function_tolerance = options.intrinsics.solver_tolerance;
+  so.parameter_tolerance = options.intrinsics.solver_tolerance;
+  so.gradient_tolerance = options.intrinsics.solver_tolerance;
   ceres::Solve(so, &problem, summary);
+  if (!options.intrinsics.compute_covariance) {
+    Observability none;
+    none.message = "not computed (compute_covariance off)";
+    return none;
+  }
   std::vector<double*> locals;
   for (auto& p : d->poses) locals.push_back(p.data());
   std::vector<double*> globals = {d->cam[0].data(), d->cam[1].data(), d->ext.data()};

@@ -292,6 +292,7 @@ bool CalibratePipelineOptions::Check(std::string* why) const {
     return false;
   }
   if (!stereo.Check(why)) return false;
+  if (!lens_choice.Check(why)) return false;
   return head.Check(why);
 }
 
@@ -339,13 +340,31 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
                       {"length_unit", stereo.length_unit},
                       {"rectify_alpha", stereo.rectify_alpha},
                       {"max_iterations", stereo.max_iterations}};
+  const nlohmann::json lens = {{"enabled", lens_choice.enabled},
+                               {"folds", lens_choice.folds},
+                               {"min_frames", lens_choice.min_frames},
+                               {"min_relative_gain", lens_choice.min_relative_gain}};
   return {{"robot", fitting::RobotConfigToJson(config)},
+          {"lens_choice", lens},
           {"truth", truth.has_value()},
           {"fps", fps},
           {"default_delay_frames", default_delay_frames},
           {"stereo", s},
           {"head", h},
           {"theory_distances_m", {theory_min_m, theory_max_m, theory_step_m}}};
+}
+
+bool SetLensModel(const std::string& value, CalibratePipelineOptions* o, std::string* why) {
+  o->lens_choice.enabled = value == "auto";
+  if (value == "opencv5" || value == "auto")
+    o->stereo.intrinsics.model = models::DistortionModel::kOpenCv5;
+  else if (value == "opencv8")
+    o->stereo.intrinsics.model = models::DistortionModel::kOpenCv8;
+  else {
+    if (why) *why = "--lens-model = '" + value + "': use auto, opencv5 or opencv8";
+    return false;
+  }
+  return true;
 }
 
 fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
@@ -387,7 +406,20 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     SplitEyes(views, &l, &r);
     progress("stereo fit: " + std::to_string(l.size()) + " left and " + std::to_string(r.size()) + " right views");
     if (!l.empty() && !r.empty()) {
-      stereo = fitting::FitStereo(l, r, o.stereo);
+      std::optional<fitting::LensModelChoice> lens;
+      if (o.lens_choice.enabled) {
+        // The lens model by cross-validation; the chosen model's fit on all views is the fit.
+        lens = fitting::ChooseStereoLensModel(l, r, o.stereo, o.lens_choice);
+        progress("  lens model: " + lens->reason + " [" + Fmt(lens->time_s, 3) + " s]");
+        const fitting::LensModelScore* s = lens->Score(lens->chosen);
+        if (s) stereo = s->full;
+      }
+      if (!stereo) {
+        fitting::StereoFitOptions so = o.stereo;
+        if (lens) so.intrinsics.model = lens->chosen;
+        stereo = fitting::FitStereo(l, r, so);
+      }
+      if (lens) fitting::AppendLensModelChoiceToResult(*lens, &d.result);
       if (stereo->ok) {
         fitting::AppendStereoToResult(*stereo, &d.result);
         // Physical sanity against this robot (fitting/stereo_sanity.h): a mirrored or swapped

@@ -10,7 +10,8 @@
 //
 // Steps, each on the datasets present (a protocol that did not run is skipped, and said so):
 //   1. intrinsics + stereo from `intrinsics` (eyes moving: each eye's intrinsics only) and
-//      `stereo` (eyes fixed: left and right paired), with the physical sanity of the rig;
+//      `stereo` (eyes fixed: left and right paired), the lens model chosen by cross-validation
+//      over those views, with the physical sanity of the rig;
 //   2. the head (servo maps, eye centres, intrinsics refined) from `servo_sweep`, one board per
 //      placement;
 //   3. the truth in the fit's gauge (virtual Owl only: CalibratePipelineOptions::truth);
@@ -28,6 +29,7 @@
 
 #include "fitting/calibration_run.h"
 #include "fitting/head_fit.h"
+#include "fitting/lens_model_choice.h"
 #include "fitting/stereo_fit.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"
@@ -42,6 +44,10 @@ struct CalibratePipelineOptions {
   double fps = 30.0;                  // stream frame rate (latency in frames, gain study)
   int default_delay_frames = 3;       // loop delay when no latency dataset measured it
   fitting::StereoFitOptions stereo = CalibrateStereoFitOptions();
+  // The lens model of both eyes (and so of the head fit): chosen by cross-validation over the
+  // intrinsics and stereo views (fitting/lens_model_choice.h); enabled = false keeps
+  // stereo.intrinsics.model.
+  fitting::LensModelChoiceOptions lens_choice;
   fitting::HeadFitOptions head = CalibrateHeadFitOptions();
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
@@ -56,6 +62,10 @@ struct CalibratePipelineOptions {
   // Every option above but `truth` and `progress`, for results.json's inputs.
   nlohmann::json ToJson() const;
 };
+
+// `--lens-model` of calibrate and fit-datasets: "auto" (cross-validation, the default), "opencv5"
+// or "opencv8" (that model, no cross-validation). False (and why) for another value.
+bool SetLensModel(const std::string& value, CalibratePipelineOptions* options, std::string* why);
 
 // Runs the steps above on `datasets` (protocol name -> dataset folder; names the pipeline does
 // not know are listed in a warning). Failures of a fit are warnings in the result, never a

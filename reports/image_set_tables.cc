@@ -18,6 +18,28 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
   md << "Pairs used: " << c.fit.paired_frames.size() << "; RMS left " << FixedOrDash(c.fit.rms_px[0], 3) << " px, right "
      << FixedOrDash(c.fit.rms_px[1], 3) << " px, joint " << FixedOrDash(c.fit.rms_joint_px, 3) << " px; rectified |dy| mean "
      << FixedOrDash(c.fit.rectified_dy_mean_px, 3) << " px, max " << FixedOrDash(c.fit.rectified_dy_max_px, 3) << " px.\n\n";
+  if (c.lens_choice) {
+    const fitting::LensModelChoice& l = *c.lens_choice;
+    md << "## Lens model: " << l.chosen_name << "\n\n" << l.reason << ".\n\n";
+    if (!l.scores.empty()) {
+      md << "| model | fit RMS (px) | held-out RMS (px) | held-out left / right (px) | held-out corners | per fold "
+            "(px) "
+            "|\n|---|---|---|---|---|---|\n";
+      for (const auto& s : l.scores) {
+        std::string folds;
+        for (double f : s.fold_rms_px) {
+          if (!folds.empty()) folds += ' ';
+          folds += FixedOrDash(f, 3);
+        }
+        md << "| " << s.name << (s.model == l.chosen ? " (chosen)" : "") << " | " << FixedOrDash(s.fit_rms_px, 4)
+           << " | " << (s.ok ? FixedOrDash(s.heldout_rms_px, 4) : "failed: " + s.message) << " | "
+           << FixedOrDash(s.heldout_rms_eye_px[0], 4) << " / " << FixedOrDash(s.heldout_rms_eye_px[1], 4) << " | "
+           << s.num_heldout_corners << " | " << folds << " |\n";
+      }
+      md << "\nHeld-out RMS: each fold's pairs are left out of the fit, then placed by their board pose alone with "
+            "the fitted cameras and extrinsics; a richer model that only fits the noise predicts them worse.\n\n";
+    }
+  }
   md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
   for (const auto& p : c.result.parameters)
     md << "| " << p.name << " | " << FixedOrDash(p.value, 4) << " | " << (p.determined ? FixedOrDash(p.sigma, 4) : "not determined")

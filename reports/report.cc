@@ -56,6 +56,45 @@ std::vector<Table> MakeTables(const ReportData& d) {
     }
     out.push_back(t);
   }
+  if (d.result.diagnostics.contains("lens_model_choice")) {
+    // The lens model choice by cross-validation (fitting/lens_model_choice.h).
+    const nlohmann::json& l = d.result.diagnostics["lens_model_choice"];
+    Table t{"lens_model",
+            "Lens model: " + l.value("reason", std::string()),
+            {"model",
+             "chosen",
+             "fit RMS [px]",
+             "held-out RMS [px]",
+             "held-out left [px]",
+             "held-out right [px]",
+             "held-out corners",
+             "per fold [px]",
+             "note"},
+            {}};
+    auto num = [](const nlohmann::json& j, const char* k) {
+      return j.contains(k) && j[k].is_number() ? j[k].get<double>() : NAN;
+    };
+    for (const auto& c : l.value("candidates", nlohmann::json::array())) {
+      std::string folds;
+      for (const auto& f : c.value("fold_rms_px", nlohmann::json::array())) {
+        if (!folds.empty()) folds += ' ';
+        folds += Fmt(f.get<double>(), 3);
+      }
+      const std::string name = c.value("model", std::string());
+      t.rows.push_back({name,
+                        Bool(name == l.value("chosen", std::string())),
+                        Fmt(num(c, "fit_rms_px"), 4),
+                        Fmt(num(c, "heldout_rms_px"), 4),
+                        Fmt(num(c, "heldout_rms_left_px"), 4),
+                        Fmt(num(c, "heldout_rms_right_px"), 4),
+                        std::to_string(c.value("num_heldout_corners", 0)),
+                        folds,
+                        c.value("message", std::string())});
+    }
+    if (t.rows.empty())
+      t.rows.push_back({l.value("chosen", std::string()), "yes", "", "", "", "", "", "", "not cross-validated"});
+    out.push_back(t);
+  }
   if (!d.result.summaries.empty()) {
     Table t{"solver", "Solver summaries", {"problem", "termination", "iterations", "RMS [px]", "residuals", "outliers", "time [s]", "usable"}, {}};
     for (const auto& s : d.result.summaries)

@@ -1,0 +1,422 @@
+#include "fitting/lens_model_choice.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <ceres/ceres.h>
+#include <ceres/manifold.h>
+#include <ceres/product_manifold.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include "fitting/format.h"
+#include "fitting/intrinsics_residual.h"
+
+namespace owlcal::fitting {
+namespace {
+
+using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
+using models::DistortionModel;
+
+constexpr DistortionModel kCandidates[2] = {DistortionModel::kOpenCv5, DistortionModel::kOpenCv8};
+// Solver tolerance of the fold refits: a held-out RMS needs 4 digits, not the final fit's 12.
+constexpr double kRefitTolerance = 1e-8;
+
+// The sums of one held-out frame: squared pixel errors and corners, per eye.
+struct FrameError {
+  double sum_sq[2] = {0, 0};
+  int n[2] = {0, 0};
+};
+
+// Initial cam_from_target of a view through a fitted camera (solvePnP with its distortion).
+bool InitialPose(const calib::View& v, const models::CameraIntrinsics& cam, models::Rigid3d* pose) {
+  std::vector<cv::Point3d> op;
+  std::vector<cv::Point2d> ip;
+  for (size_t i = 0; i < v.pixels.size(); ++i) {
+    op.emplace_back(v.points_in_target[i].x(), v.points_in_target[i].y(), v.points_in_target[i].z());
+    ip.emplace_back(v.pixels[i].x(), v.pixels[i].y());
+  }
+  const cv::Mat k =
+      (cv::Mat_<double>(3, 3) << cam.params[0], 0, cam.params[2], 0, cam.params[1], cam.params[3], 0, 0, 1);
+  const std::vector<double> d = cam.Distortion();
+  cv::Mat rvec, tvec;
+  try {
+    if (!cv::solvePnP(op, ip, k, cv::Mat(d, true).reshape(1, 1), rvec, tvec)) return false;
+  } catch (const cv::Exception&) {
+    return false;
+  }
+  if (tvec.at<double>(2) <= 0) return false;
+  cv::Mat r;
+  cv::Rodrigues(rvec, r);
+  Eigen::Matrix3d re;
+  cv::cv2eigen(r, re);
+  *pose = models::Rigid3d(Eigen::Quaterniond(re),
+                          Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
+  return true;
+}
+
+// Places one held-out frame by its board pose alone (cameras and right_from_left fixed) and
+// returns its pixel errors. view[e] may be null (that eye did not see the frame). The pose is
+// left cam_from_target when the left eye saw it, else right cam_from_target.
+std::optional<FrameError> HeldOutError(const calib::View* view[2],
+                                       const models::CameraIntrinsics cams[2],
+                                       const models::Rigid3d& right_from_left) {
+  const int anchor = view[0] ? 0 : 1;
+  models::Rigid3d pose;
+  if (!InitialPose(*view[anchor], cams[anchor], &pose)) return std::nullopt;
+  std::array<double, 7> p, ext;
+  pose.ToArray(p.data());
+  right_from_left.ToArray(ext.data());
+  std::vector<double> cam[2] = {cams[0].params, cams[1].params};
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  PoseManifold manifold;
+  problem.AddParameterBlock(p.data(), 7, &manifold);
+  for (int e = 0; e < 2; ++e) {
+    if (!view[e]) continue;
+    problem.AddParameterBlock(cam[e].data(), int(cam[e].size()));
+    problem.SetParameterBlockConstant(cam[e].data());
+  }
+  const bool via_ext = anchor == 0 && view[1];
+  if (via_ext) {
+    problem.AddParameterBlock(ext.data(), 7);
+    problem.SetParameterBlockConstant(ext.data());
+  }
+  for (int e = 0; e < 2; ++e) {
+    if (!view[e]) continue;
+    const calib::View& v = *view[e];
+    for (size_t i = 0; i < v.pixels.size(); ++i) {
+      if (e == 1 && via_ext) {
+        ceres::CostFunction* c = models::VisitCameraModel(cams[1].model, [&]<typename Cam>() {
+          return internal::StereoCornerResidual<Cam>::Create(v.pixels[i], v.points_in_target[i], 1.0, false);
+        });
+        problem.AddResidualBlock(c, nullptr, cam[1].data(), ext.data(), p.data());
+      } else {
+        ceres::CostFunction* c = models::VisitCameraModel(cams[e].model, [&]<typename Cam>() {
+          return internal::CornerResidual<Cam>::Create(v.pixels[i], v.points_in_target[i], 1.0, false);
+        });
+        problem.AddResidualBlock(c, nullptr, cam[e].data(), p.data());
+      }
+    }
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 50;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return std::nullopt;
+  FrameError fe;
+  const models::Rigid3d placed = models::Rigid3d::Map(p.data());
+  for (int e = 0; e < 2; ++e) {
+    if (!view[e]) continue;
+    const models::Rigid3d cam_from_target = (e == anchor) ? placed : right_from_left * placed;
+    for (size_t i = 0; i < view[e]->pixels.size(); ++i) {
+      const Eigen::Vector3d x = cam_from_target * view[e]->points_in_target[i];
+      double px[2];
+      if (!cams[e].Project(x.data(), px)) return std::nullopt;
+      fe.sum_sq[e] += (Eigen::Vector2d(px[0], px[1]) - view[e]->pixels[i]).squaredNorm();
+      ++fe.n[e];
+    }
+  }
+  return fe;
+}
+
+// The trained model a fold's held-out frames are placed with.
+struct Trained {
+  bool ok = false;
+  std::string message;
+  models::CameraIntrinsics cams[2];
+  models::Rigid3d right_from_left;
+};
+
+// Runs the k-fold cross-validation of one model. views[e]: all views of eye e (views[1] empty
+// for one camera). train(model, train_views) fits; returns the per-frame errors by frame.
+template <typename TrainFn>
+void CrossValidate(const std::vector<calib::View>* views[2],
+                   const std::vector<int>& frames,
+                   int folds,
+                   TrainFn train,
+                   LensModelScore* score,
+                   std::map<int, FrameError>* per_frame) {
+  std::map<int, int> fold_of;
+  for (size_t i = 0; i < frames.size(); ++i) fold_of[frames[i]] = int(i) % folds;
+  double total_sq[2] = {0, 0};
+  int total_n[2] = {0, 0};
+  score->ok = true;
+  for (int k = 0; k < folds; ++k) {
+    std::vector<calib::View> train_views[2];
+    std::map<int, const calib::View*> held[2];
+    for (int e = 0; e < 2; ++e)
+      for (const calib::View& v : *views[e]) {
+        if (fold_of.at(v.frame_index) == k)
+          held[e][v.frame_index] = &v;
+        else
+          train_views[e].push_back(v);
+      }
+    const Trained t = train(train_views);
+    if (!t.ok) {
+      score->ok = false;
+      score->message = "fold " + std::to_string(k + 1) + " of " + std::to_string(folds) + ": fit failed: " + t.message;
+      return;
+    }
+    double fold_sq = 0;
+    int fold_n = 0;
+    for (size_t i = k; i < frames.size(); i += folds) {
+      const int f = frames[i];
+      const calib::View* v[2] = {held[0].count(f) ? held[0][f] : nullptr, held[1].count(f) ? held[1][f] : nullptr};
+      const std::optional<FrameError> fe = HeldOutError(v, t.cams, t.right_from_left);
+      if (!fe) {
+        score->ok = false;
+        score->message = "fold " + std::to_string(k + 1) + ": held-out frame " + std::to_string(f) +
+                         " could not be placed with the trained model";
+        return;
+      }
+      (*per_frame)[f] = *fe;
+      for (int e = 0; e < 2; ++e) {
+        total_sq[e] += fe->sum_sq[e];
+        total_n[e] += fe->n[e];
+        fold_sq += fe->sum_sq[e];
+        fold_n += fe->n[e];
+      }
+    }
+    score->fold_rms_px.push_back(std::sqrt(fold_sq / std::max(1, fold_n)));
+  }
+  for (int e = 0; e < 2; ++e) score->heldout_rms_eye_px[e] = std::sqrt(total_sq[e] / std::max(1, total_n[e]));
+  score->num_heldout_corners = total_n[0] + total_n[1];
+  score->heldout_rms_px = std::sqrt((total_sq[0] + total_sq[1]) / std::max(1, score->num_heldout_corners));
+}
+
+// Frames (sorted, unique) over both eyes' views.
+std::vector<int> FramesOf(const std::vector<calib::View>* views[2]) {
+  std::set<int> s;
+  for (int e = 0; e < 2; ++e)
+    for (const auto& v : *views[e]) s.insert(v.frame_index);
+  return {s.begin(), s.end()};
+}
+
+// The choice from the two scores; fills gain, its standard error and the reason.
+void Decide(const std::map<int, FrameError> per_frame[2], const LensModelChoiceOptions& o, LensModelChoice* c) {
+  const LensModelScore& s5 = c->scores[0];
+  const LensModelScore& s8 = c->scores[1];
+  c->gain_px = s5.heldout_rms_px - s8.heldout_rms_px;
+  // Mean-square difference per corner D = sum_f d_f / N, d_f = S5_f - S8_f; its standard error
+  // from the spread of d_f - n_f D over frames; in RMS by the delta method.
+  double sum_d = 0;
+  int n = 0;
+  for (const auto& [f, e5] : per_frame[0]) {
+    const auto it = per_frame[1].find(f);
+    if (it == per_frame[1].end()) continue;
+    sum_d += e5.sum_sq[0] + e5.sum_sq[1] - it->second.sum_sq[0] - it->second.sum_sq[1];
+    n += e5.n[0] + e5.n[1];
+  }
+  const double d_mean = sum_d / std::max(1, n);
+  double var = 0;
+  int num_frames = 0;
+  for (const auto& [f, e5] : per_frame[0]) {
+    const auto it = per_frame[1].find(f);
+    if (it == per_frame[1].end()) continue;
+    const double d = e5.sum_sq[0] + e5.sum_sq[1] - it->second.sum_sq[0] - it->second.sum_sq[1];
+    const double r = d - (e5.n[0] + e5.n[1]) * d_mean;
+    var += r * r;
+    ++num_frames;
+  }
+  const double se_ms = num_frames > 1 ? std::sqrt(var * num_frames / (num_frames - 1)) / std::max(1, n) : NAN;
+  c->gain_se_px = se_ms / std::max(1e-12, s5.heldout_rms_px + s8.heldout_rms_px);
+  const bool richer = s8.heldout_rms_px < s5.heldout_rms_px * (1 - o.min_relative_gain);
+  c->chosen = richer ? DistortionModel::kOpenCv8 : DistortionModel::kOpenCv5;
+  c->chosen_name = DistortionModelName(c->chosen);
+  std::ostringstream r;
+  r << c->chosen_name << " chosen by " << c->folds << "-fold cross-validation over " << c->num_frames
+    << " frames: held-out RMS opencv5 " << FixedOrDash(s5.heldout_rms_px, 4) << " px, opencv8 "
+    << FixedOrDash(s8.heldout_rms_px, 4) << " px (difference " << FixedOrDash(c->gain_px, 3) << " +- "
+    << FixedOrDash(c->gain_se_px, 2) << " px; fit RMS " << FixedOrDash(s5.fit_rms_px, 4) << " / "
+    << FixedOrDash(s8.fit_rms_px, 4) << " px)";
+  if (!richer)
+    r << (s8.heldout_rms_px < s5.heldout_rms_px
+              ? "; the rational model's gain is below the " + FixedOrDash(100 * o.min_relative_gain, 2) +
+                    " % a richer model must earn"
+              : "; the rational model predicts held-out views no better");
+  c->reason = r.str();
+}
+
+// Shared driver: `train(model, views)` returns a Trained; `full(model, score)` fits all views.
+template <typename TrainFn, typename FullFn>
+LensModelChoice Choose(const std::vector<calib::View>* views[2],
+                       DistortionModel configured,
+                       const LensModelChoiceOptions& o,
+                       TrainFn train,
+                       FullFn full) {
+  const auto t0 = std::chrono::steady_clock::now();
+  LensModelChoice c;
+  c.chosen = configured;
+  c.chosen_name = DistortionModelName(configured);
+  std::string why;
+  const std::vector<int> frames = FramesOf(views);
+  c.num_frames = int(frames.size());
+  if (!o.Check(&why)) {
+    c.reason = "lens model not chosen (" + why + "): " + c.chosen_name + " as configured";
+  } else if (!o.enabled) {
+    c.reason = c.chosen_name + " as configured (cross-validation off)";
+  } else if (c.num_frames < o.min_frames) {
+    c.reason = c.chosen_name + " as configured: " + std::to_string(c.num_frames) +
+               " frames are too few to cross-validate (at least " + std::to_string(o.min_frames) + ")";
+  } else {
+    c.folds = std::min(o.folds, c.num_frames);
+    std::map<int, FrameError> per_frame[2];
+    for (int m = 0; m < 2; ++m) {
+      LensModelScore s;
+      s.model = kCandidates[m];
+      s.name = DistortionModelName(s.model);
+      CrossValidate(
+          views,
+          frames,
+          c.folds,
+          [&](const std::vector<calib::View>* tv) { return train(s.model, tv); },
+          &s,
+          &per_frame[m]);
+      full(&s);
+      c.scores.push_back(std::move(s));
+    }
+    std::string failed;
+    for (const auto& s : c.scores) {
+      if (s.ok) continue;
+      if (!failed.empty()) failed += "; ";
+      failed += s.name + ": " + s.message;
+    }
+    if (failed.empty()) {
+      c.cross_validated = true;
+      Decide(per_frame, o, &c);
+    } else {
+      c.reason = c.chosen_name + " as configured: cross-validation failed (" + failed + ")";
+    }
+  }
+  c.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return c;
+}
+
+}  // namespace
+
+bool LensModelChoiceOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = "LensModelChoiceOptions." + m;
+    return false;
+  };
+  if (folds < 2) return fail("folds must be >= 2, got " + std::to_string(folds));
+  if (min_frames < folds) return fail("min_frames must be >= folds, got " + std::to_string(min_frames));
+  if (!(min_relative_gain >= 0 && min_relative_gain < 0.5))
+    return fail("min_relative_gain must be in [0, 0.5), got " + FixedOrDash(min_relative_gain, 4));
+  return true;
+}
+
+const LensModelScore* LensModelChoice::Score(models::DistortionModel m) const {
+  for (const auto& s : scores)
+    if (s.model == m) return &s;
+  return nullptr;
+}
+
+std::string DistortionModelName(models::DistortionModel m) {
+  return m == DistortionModel::kOpenCv8 ? "opencv8" : "opencv5";
+}
+
+LensModelChoice ChooseStereoLensModel(const std::vector<calib::View>& left_views,
+                                      const std::vector<calib::View>& right_views,
+                                      const StereoFitOptions& options,
+                                      const LensModelChoiceOptions& choice) {
+  const std::vector<calib::View>* views[2] = {&left_views, &right_views};
+  auto opts = [&](DistortionModel m, bool covariance) {
+    StereoFitOptions so = options;
+    so.intrinsics.model = m;
+    so.intrinsics.compute_covariance = covariance;
+    if (!covariance) so.intrinsics.solver_tolerance = kRefitTolerance;
+    return so;
+  };
+  auto train = [&](DistortionModel m, const std::vector<calib::View>* tv) {
+    Trained t;
+    const StereoFit f = FitStereo(tv[0], tv[1], opts(m, false));
+    t.ok = f.ok;
+    t.message = f.message;
+    if (f.ok) {
+      t.cams[0] = f.cameras[0];
+      t.cams[1] = f.cameras[1];
+      t.right_from_left = f.right_from_left;
+    }
+    return t;
+  };
+  auto full = [&](LensModelScore* s) {
+    s->full = FitStereo(left_views, right_views, opts(s->model, options.intrinsics.compute_covariance));
+    if (!s->full.ok) {
+      s->ok = false;
+      s->message = "fit on all views failed: " + s->full.message;
+    }
+    s->fit_rms_px = s->full.rms_joint_px;
+  };
+  return Choose(views, options.intrinsics.model, choice, train, full);
+}
+
+LensModelChoice ChooseIntrinsicsLensModel(const std::vector<calib::View>& views_in,
+                                          int width,
+                                          int height,
+                                          const IntrinsicsFitOptions& options,
+                                          const LensModelChoiceOptions& choice) {
+  const std::vector<calib::View> none;
+  const std::vector<calib::View>* views[2] = {&views_in, &none};
+  auto opts = [&](DistortionModel m, bool covariance) {
+    IntrinsicsFitOptions io = options;
+    io.model = m;
+    io.compute_covariance = covariance;
+    if (!covariance) io.solver_tolerance = kRefitTolerance;
+    return io;
+  };
+  auto train = [&](DistortionModel m, const std::vector<calib::View>* tv) {
+    Trained t;
+    const IntrinsicsFit f = FitIntrinsics(tv[0], width, height, opts(m, false));
+    t.ok = f.ok;
+    t.message = f.message;
+    t.cams[0] = t.cams[1] = f.camera;
+    return t;
+  };
+  auto full = [&](LensModelScore* s) {
+    s->full_intrinsics = FitIntrinsics(views_in, width, height, opts(s->model, options.compute_covariance));
+    if (!s->full_intrinsics.ok) {
+      s->ok = false;
+      s->message = "fit on all views failed: " + s->full_intrinsics.message;
+    }
+    s->fit_rms_px = s->full_intrinsics.rms_px;
+  };
+  return Choose(views, options.model, choice, train, full);
+}
+
+nlohmann::json LensModelChoiceToJson(const LensModelChoice& c) {
+  nlohmann::json cands = nlohmann::json::array();
+  for (const auto& s : c.scores)
+    cands.push_back({{"model", s.name},
+                     {"ok", s.ok},
+                     {"message", s.message},
+                     {"fit_rms_px", s.fit_rms_px},
+                     {"heldout_rms_px", s.heldout_rms_px},
+                     {"heldout_rms_left_px", s.heldout_rms_eye_px[0]},
+                     {"heldout_rms_right_px", s.heldout_rms_eye_px[1]},
+                     {"fold_rms_px", s.fold_rms_px},
+                     {"num_heldout_corners", s.num_heldout_corners}});
+  return {{"cross_validated", c.cross_validated},
+          {"chosen", c.chosen_name},
+          {"reason", c.reason},
+          {"folds", c.folds},
+          {"num_frames", c.num_frames},
+          {"gain_px", c.gain_px},
+          {"gain_se_px", std::isfinite(c.gain_se_px) ? nlohmann::json(c.gain_se_px) : nlohmann::json()},
+          {"candidates", cands}};
+}
+
+void AppendLensModelChoiceToResult(const LensModelChoice& c, CalibrationResult* result) {
+  result->diagnostics["lens_model_choice"] = LensModelChoiceToJson(c);
+  result->inputs["lens_model"] = (c.cross_validated ? "auto: " : "") + c.reason;
+}
+
+}  // namespace owlcal::fitting

@@ -1,0 +1,109 @@
+#pragma once
+// Choosing the lens model by cross-validation over views (issue 11, item 3).
+//
+// A richer lens model always fits the views it was fitted to at least as well; whether it
+// describes the lens better shows only on views it has not seen (mrcal's argument for richer
+// models, and its caution about overfitting). So each candidate model (OpenCV 5-coefficient
+// k1 k2 p1 p2 k3, and the rational 8-coefficient model with k4 k5 k6) is judged by k-fold
+// cross-validation over frames:
+//   1. the frames (a stereo pair counts as one frame: both eyes are held out together) are
+//      sorted by frame index and dealt into `folds` folds (frame i of the sorted list goes to
+//      fold i mod folds), so every fold samples the whole capture;
+//   2. for each fold, the fit (FitStereo, or FitIntrinsics for one camera) runs on the other
+//      folds' views, without covariance;
+//   3. each held-out frame is then placed by its own board pose only (6 parameters, Ceres,
+//      the trained cameras and right_from_left held fixed; a pair's two eyes share one pose, so
+//      the held-out error also tests the extrinsics), and its corners' pixel errors are pooled;
+//   4. held-out RMS = sqrt(sum |e|^2 / corners) over every held-out corner of every fold.
+// The candidate with the smaller held-out RMS is chosen; the simpler model wins unless the
+// richer one is better by more than `min_relative_gain` (a tie is parsimony's). The standard
+// error of the difference (from the per-frame differences of the squared error sums) is
+// reported beside it, so a reader sees whether the margin is more than noise.
+//
+// Each candidate is also fitted on all views (fit RMS, and the cameras, for comparisons such as
+// the difference from a reference calibration); the caller's final fit uses `chosen`.
+//
+// Not possible (fewer than `min_frames` frames, a candidate's fit failing in a fold): the
+// configured model is kept, `cross_validated` is false and `reason` says why; never throws for
+// bad data.
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/observation.h"
+#include "fitting/result.h"
+#include "fitting/stereo_fit.h"
+#include "models/camera_model.h"
+
+namespace owlcal::fitting {
+
+struct LensModelChoiceOptions {
+  bool enabled = true;               // false: keep the configured model, no cross-validation
+  int folds = 5;                     // k of k-fold (at most the number of frames)
+  int min_frames = 6;                // fewer frames: no cross-validation (the configured model)
+  double min_relative_gain = 0.002;  // the richer model must cut held-out RMS by more than this
+  bool Check(std::string* why) const;
+  static LensModelChoiceOptions Off() {
+    LensModelChoiceOptions o;
+    o.enabled = false;
+    return o;
+  }
+};
+
+// One candidate model's numbers.
+struct LensModelScore {
+  models::DistortionModel model = models::DistortionModel::kOpenCv5;
+  std::string name;                       // "opencv5" or "opencv8"
+  bool ok = false;                        // every fold and the full fit worked
+  std::string message;                    // why not, naming the fold
+  double fit_rms_px = 0;                  // all views, the fit's own RMS (joint for stereo)
+  double heldout_rms_px = 0;              // pooled over all held-out corners
+  double heldout_rms_eye_px[2] = {0, 0};  // per eye (stereo); [0] only for one camera
+  std::vector<double> fold_rms_px;        // per fold
+  int num_heldout_corners = 0;
+  StereoFit full;                 // the fit on all views (stereo only)
+  IntrinsicsFit full_intrinsics;  // the fit on all views (one camera only)
+};
+
+struct LensModelChoice {
+  bool cross_validated = false;  // false: `chosen` is the configured model, `reason` why
+  models::DistortionModel chosen = models::DistortionModel::kOpenCv5;
+  std::string chosen_name = "opencv5";
+  std::string reason;  // one sentence with the numbers
+  int folds = 0;
+  int num_frames = 0;
+  std::vector<LensModelScore> scores;  // [opencv5, opencv8] when cross-validated
+  double gain_px = 0;                  // heldout RMS opencv5 - opencv8
+  double gain_se_px = 0;               // its standard error (delta method over frames)
+  double time_s = 0;
+
+  const LensModelScore* Score(models::DistortionModel m) const;
+};
+
+// Stereo: left_views (eye 0) and right_views (eye 1) as for FitStereo; options.intrinsics.model
+// is the model kept when the choice is off or not possible.
+LensModelChoice ChooseStereoLensModel(const std::vector<calib::View>& left_views,
+                                      const std::vector<calib::View>& right_views,
+                                      const StereoFitOptions& options,
+                                      const LensModelChoiceOptions& choice);
+
+// One camera (FitIntrinsics), views all of one eye.
+LensModelChoice ChooseIntrinsicsLensModel(const std::vector<calib::View>& views,
+                                          int width,
+                                          int height,
+                                          const IntrinsicsFitOptions& options,
+                                          const LensModelChoiceOptions& choice);
+
+std::string DistortionModelName(models::DistortionModel m);  // "opencv5" / "opencv8"
+
+// {cross_validated, chosen, reason, folds, num_frames, gain_px, gain_se_px, candidates: [{model,
+// ok, message, fit_rms_px, heldout_rms_px, heldout_rms_left_px, heldout_rms_right_px,
+// fold_rms_px, num_heldout_corners}]}
+nlohmann::json LensModelChoiceToJson(const LensModelChoice& c);
+
+// results.json: diagnostics.lens_model_choice (the JSON above) and inputs.lens_model
+// ("auto: opencv8 chosen by 5-fold cross-validation" or why not).
+void AppendLensModelChoiceToResult(const LensModelChoice& c, CalibrationResult* result);
+
+}  // namespace owlcal::fitting

@@ -1,0 +1,162 @@
+// Lens model chosen by cross-validation over held-out views (issue 11, item 3): on the OpenCV
+// sample set (data/opencv-stereo-chessboard), and on synthetic views whose lens is known to be
+// 5- or 8-coefficient.
+#include "fitting/lens_model_choice.h"
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/detector.h"
+#include "calib/target.h"
+#include "tests/shared_data.h"
+
+namespace owlcal::fitting {
+namespace {
+
+using models::DistortionModel;
+using ::owlcal::test_data::SharedData;
+
+std::vector<calib::View> OpenCvViews(const std::string& prefix, int eye) {
+  calib::TargetDefinition board;
+  board.id = "opencv-sample";
+  board.square_m = 1.0;
+  std::vector<calib::CornerObservation> obs;
+  for (int i : {1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 12, 13, 14}) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "/%s%02d.jpg", prefix.c_str(), i);
+    const cv::Mat img = cv::imread(SharedData() + "/opencv-stereo-chessboard" + name, cv::IMREAD_GRAYSCALE);
+    if (img.empty()) continue;
+    const auto o =
+        calib::DetectionToObservations(calib::DetectTarget(img, board, calib::DetectorOptions()), board, i, eye);
+    obs.insert(obs.end(), o.begin(), o.end());
+  }
+  return calib::GroupIntoViews(obs);
+}
+
+TEST(LensModelChoice, OpenCvSampleChoosesByHeldOutPairs) {
+  const auto left = OpenCvViews("left", 0);
+  const auto right = OpenCvViews("right", 1);
+  ASSERT_EQ(left.size(), 13u) << SharedData();
+  ASSERT_EQ(right.size(), 13u);
+  StereoFitOptions opt;
+  opt.length_unit = "square";
+  const LensModelChoice c = ChooseStereoLensModel(left, right, opt, LensModelChoiceOptions());
+  std::printf("%s\n", c.reason.c_str());
+  ASSERT_TRUE(c.cross_validated) << c.reason;
+  ASSERT_EQ(c.scores.size(), 2u);
+  EXPECT_EQ(c.folds, 5);
+  EXPECT_EQ(c.num_frames, 13);
+  for (const auto& s : c.scores) {
+    ASSERT_TRUE(s.ok) << s.name << ": " << s.message;
+    EXPECT_EQ(s.num_heldout_corners, 2 * 13 * 54) << s.name;  // every corner held out once
+    EXPECT_EQ(s.fold_rms_px.size(), 5u);
+    // Held out, a model predicts worse than it fits.
+    EXPECT_GT(s.heldout_rms_px, s.fit_rms_px) << s.name;
+    std::printf("%s: fit RMS %.4f px, held-out %.4f px (left %.4f right %.4f)\n",
+                s.name.c_str(),
+                s.fit_rms_px,
+                s.heldout_rms_px,
+                s.heldout_rms_eye_px[0],
+                s.heldout_rms_eye_px[1]);
+  }
+  // The choice follows the held-out numbers.
+  const LensModelScore* chosen = c.Score(c.chosen);
+  ASSERT_NE(chosen, nullptr);
+  for (const auto& s : c.scores) EXPECT_LE(chosen->heldout_rms_px, s.heldout_rms_px * 1.002) << s.name;
+  // Held out, the rational model predicts these pairs no better: opencv5 is chosen, and the
+  // stereo RMS stays at the least-squares minimum of issue 4 (0.21506 px).
+  EXPECT_EQ(c.chosen, DistortionModel::kOpenCv5);
+  EXPECT_LE(chosen->full.rms_joint_px, 0.2155);
+  EXPECT_NEAR(chosen->full.right_from_left.translation.norm(), 3.327, 0.005);
+  std::printf("chosen %s: stereo RMS %.4f px, baseline %.5f squares\n",
+              c.chosen_name.c_str(),
+              chosen->full.rms_joint_px,
+              chosen->full.right_from_left.translation.norm());
+
+  CalibrationResult r;
+  AppendLensModelChoiceToResult(c, &r);
+  EXPECT_EQ(r.diagnostics["lens_model_choice"]["chosen"], c.chosen_name);
+  EXPECT_EQ(r.diagnostics["lens_model_choice"]["candidates"].size(), 2u);
+}
+
+// Synthetic views of a camera with the given lens, 0.15 px noise, boards over the whole image.
+std::vector<calib::View> Synthetic(const models::CameraIntrinsics& cam, int n, unsigned seed, double spread = 1.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::normal_distribution<double> noise(0, 0.15);
+  calib::TargetDefinition board;  // 9x6, 26 mm
+  std::vector<calib::View> views;
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector3d axis(u(rng), u(rng), 0.2 * u(rng));
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(0.15 + 0.45 * std::abs(u(rng)), axis.normalized()));
+    const Eigen::Vector3d t = Eigen::Vector3d(0.13 * spread * u(rng), 0.1 * spread * u(rng), 0.4 + 0.1 * u(rng)) -
+                              q * Eigen::Vector3d(0.104, 0.065, 0);
+    const models::Rigid3d pose(q, t);
+    calib::View v;
+    v.frame_index = k;
+    for (const auto& [id, p] : board.Corners()) {
+      const Eigen::Vector3d pc = pose * p;
+      double px[2];
+      if (!cam.Project(pc.data(), px) || px[0] < 0 || px[1] < 0 || px[0] > 639 || px[1] > 479) continue;
+      v.corner_ids.push_back(id);
+      v.pixels.emplace_back(px[0] + noise(rng), px[1] + noise(rng));
+      v.points_in_target.push_back(p);
+    }
+    views.push_back(v);
+  }
+  return views;
+}
+
+TEST(LensModelChoice, KeepsFiveCoefficientsWhenTheLensHasFive) {
+  models::CameraIntrinsics truth;
+  truth.params = {585.0, 583.0, 322.0, 236.0, -0.12, 0.08, 0.0008, -0.0005, -0.02};
+  const auto views = Synthetic(truth, 20, 5);
+  const LensModelChoice c =
+      ChooseIntrinsicsLensModel(views, 640, 480, IntrinsicsFitOptions(), LensModelChoiceOptions());
+  std::printf("%s\n", c.reason.c_str());
+  ASSERT_TRUE(c.cross_validated) << c.reason;
+  EXPECT_EQ(c.chosen, DistortionModel::kOpenCv5);
+  // The rational model fits the training views at least as well, but does not predict better.
+  EXPECT_LE(c.scores[1].fit_rms_px, c.scores[0].fit_rms_px + 1e-6);
+  EXPECT_NEAR(c.scores[0].heldout_rms_px, 0.15 * std::sqrt(2.0), 0.03);
+}
+
+TEST(LensModelChoice, ChoosesTheRationalModelForARationalLens) {
+  models::CameraIntrinsics truth;
+  truth.model = DistortionModel::kOpenCv8;
+  // radial = 1 / (1 + 1.5 r^2): a profile the 5-coefficient polynomial cannot follow to 0.15 px
+  // once the boards reach r = 0.8 (spread 2).
+  truth.params = {500.0, 500.0, 320.0, 240.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.5, 0.0, 0.0};
+  const auto views = Synthetic(truth, 20, 6, /*spread=*/2.0);
+  const LensModelChoice c =
+      ChooseIntrinsicsLensModel(views, 640, 480, IntrinsicsFitOptions(), LensModelChoiceOptions());
+  std::printf("%s\n", c.reason.c_str());
+  ASSERT_TRUE(c.cross_validated) << c.reason;
+  EXPECT_EQ(c.chosen, DistortionModel::kOpenCv8);
+  EXPECT_GT(c.gain_px, 2 * c.gain_se_px);
+  EXPECT_LT(c.scores[1].heldout_rms_px, 0.15 * std::sqrt(2.0) * 1.1);
+}
+
+TEST(LensModelChoice, TooFewFramesKeepsTheConfiguredModelAndSaysWhy) {
+  models::CameraIntrinsics truth;
+  truth.params = {585.0, 583.0, 322.0, 236.0, -0.12, 0.08, 0.0008, -0.0005, -0.02};
+  const auto views = Synthetic(truth, 4, 7);
+  IntrinsicsFitOptions o;
+  o.model = DistortionModel::kOpenCv8;
+  const LensModelChoice c = ChooseIntrinsicsLensModel(views, 640, 480, o, LensModelChoiceOptions());
+  EXPECT_FALSE(c.cross_validated);
+  EXPECT_EQ(c.chosen, DistortionModel::kOpenCv8);
+  EXPECT_NE(c.reason.find("too few"), std::string::npos) << c.reason;
+  LensModelChoiceOptions bad;
+  bad.folds = 1;
+  std::string why;
+  EXPECT_FALSE(bad.Check(&why));
+  EXPECT_NE(why.find("folds"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace owlcal::fitting
