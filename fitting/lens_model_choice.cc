@@ -13,6 +13,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "fitting/board_warp.h"
 #include "fitting/format.h"
 #include "fitting/intrinsics_residual.h"
 
@@ -62,9 +63,20 @@ bool InitialPose(const calib::View& v, const models::CameraIntrinsics& cam, mode
 // Places one held-out frame by its board pose alone (cameras and right_from_left fixed) and
 // returns its pixel errors. view[e] may be null (that eye did not see the frame). The pose is
 // left cam_from_target when the left eye saw it, else right cam_from_target.
-std::optional<FrameError> HeldOutError(const calib::View* view[2],
+std::optional<FrameError> HeldOutError(const calib::View* view_in[2],
                                        const models::CameraIntrinsics cams[2],
-                                       const models::Rigid3d& right_from_left) {
+                                       const models::Rigid3d& right_from_left,
+                                       const double warp[2],
+                                       const WarpSpan& span) {
+  // The trained board bow (zero when not fitted) moves the held-out board's corners too.
+  calib::View warped[2];
+  const calib::View* view[2] = {nullptr, nullptr};
+  for (int e = 0; e < 2; ++e) {
+    if (!view_in[e]) continue;
+    warped[e] = *view_in[e];
+    for (auto& p : warped[e].points_in_target) p = WarpedPoint(warp, p, span);
+    view[e] = &warped[e];
+  }
   const int anchor = view[0] ? 0 : 1;
   models::Rigid3d pose;
   if (!InitialPose(*view[anchor], cams[anchor], &pose)) return std::nullopt;
@@ -133,6 +145,7 @@ struct Trained {
   std::string message;
   models::CameraIntrinsics cams[2];
   models::Rigid3d right_from_left;
+  double warp[2] = {0, 0};  // the board's bow, when the fit fitted it
 };
 
 // Runs the k-fold cross-validation of one model. views[e]: all views of eye e (views[1] empty
@@ -146,6 +159,9 @@ void CrossValidate(const std::vector<calib::View>* views[2],
                    std::map<int, FrameError>* per_frame) {
   std::map<int, int> fold_of;
   for (size_t i = 0; i < frames.size(); ++i) fold_of[frames[i]] = int(i) % folds;
+  std::vector<calib::View> all(views[0]->begin(), views[0]->end());
+  all.insert(all.end(), views[1]->begin(), views[1]->end());
+  const WarpSpan span = WarpSpanOfViews(all);
   double total_sq[2] = {0, 0};
   int total_n[2] = {0, 0};
   score->ok = true;
@@ -170,7 +186,7 @@ void CrossValidate(const std::vector<calib::View>* views[2],
     for (size_t i = k; i < frames.size(); i += folds) {
       const int f = frames[i];
       const calib::View* v[2] = {held[0].count(f) ? held[0][f] : nullptr, held[1].count(f) ? held[1][f] : nullptr};
-      const std::optional<FrameError> fe = HeldOutError(v, t.cams, t.right_from_left);
+      const std::optional<FrameError> fe = HeldOutError(v, t.cams, t.right_from_left, t.warp, span);
       if (!fe) {
         score->ok = false;
         score->message = "fold " + std::to_string(k + 1) + ": held-out frame " + std::to_string(f) +
@@ -345,6 +361,10 @@ LensModelChoice ChooseStereoLensModel(const std::vector<calib::View>& left_views
       t.cams[0] = f.cameras[0];
       t.cams[1] = f.cameras[1];
       t.right_from_left = f.right_from_left;
+      if (f.board_warp_fitted) {
+        t.warp[0] = f.board_warp[0];
+        t.warp[1] = f.board_warp[1];
+      }
     }
     return t;
   };
