@@ -46,8 +46,9 @@ struct CalibratePipelineOptions {
   fitting::StereoFitOptions stereo = CalibrateStereoFitOptions();
   // The lens model of both eyes (and so of the head fit): chosen by cross-validation over the
   // intrinsics and stereo views (fitting/lens_model_choice.h); enabled = false keeps
-  // stereo.intrinsics.model.
-  fitting::LensModelChoiceOptions lens_choice;
+  // stereo.intrinsics.model (the library default; calibrate and fit-datasets turn it on with
+  // --lens-model auto).
+  fitting::LensModelChoiceOptions lens_choice = fitting::LensModelChoiceOptions::Off();
   fitting::HeadFitOptions head = CalibrateHeadFitOptions();
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
