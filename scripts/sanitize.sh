@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite under AddressSanitizer + UndefinedBehaviorSanitizer (issue 15, item 6).
 #   bash scripts/sanitize.sh [CTEST ARGS...]     e.g. bash scripts/sanitize.sh -R robot_
+#   OWLCAL_SANITIZE_TARGETS="io_xml_check_test robot_limits_guard_test" bash scripts/sanitize.sh -E NOT_BUILT
 # Builds in build-asan/ (GCC by default; CXX=clang++ to use clang) with
 # -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer and line
 # tables only (-g1: stack traces keep file:line, compiling and linking are much faster), -O1 and
@@ -13,7 +14,9 @@ build=build-asan
 flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g1 -O1 -DNDEBUG"
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Sanitize -DOWLCAL_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null
-nice -n 10 cmake --build "$build" -j2
+# OWLCAL_SANITIZE_TARGETS="a_test b_test": build only those (then pass -E NOT_BUILT to ctest).
+# shellcheck disable=SC2086
+nice -n 10 cmake --build "$build" -j2 ${OWLCAL_SANITIZE_TARGETS:+--target $OWLCAL_SANITIZE_TARGETS}
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 nice -n 10 ctest --test-dir "$build" --output-on-failure -j2 "$@"
