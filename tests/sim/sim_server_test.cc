@@ -224,7 +224,10 @@ TEST_F(SimServerTest, AFiveFpsClientGetsRecentFramesNotAQueue) {
     // The first second is TCP's receive-buffer autotuning on the client: its window grows while
     // it reads, and one extra frame may slip into its buffer; then the bound is 2 periods.
     const bool warm_up = i < 5;
-    const double bound_ms = latency_ms + render_lag_ms + (warm_up ? 4 : 2) * period_ms;
+    // Plus 250 ms for a starved server or client thread on a loaded shared machine (it failed
+    // at 654 ms against 543 at load 20): a queue gains about one client period per frame and
+    // passes that slack within two frames, so the test still tells the two apart.
+    const double bound_ms = latency_ms + render_lag_ms + (warm_up ? 4 : 2) * period_ms + 250;
     EXPECT_LE(age_ms, bound_ms) << "frame " << i << " is " << age_ms << " ms old; the client reads every " << period_ms
                                 << " ms; rendering lagged up to " << render_lag_ms << " ms";
     EXPECT_GE(age_ms, latency_ms - 1) << "frame " << i;  // a frame cannot arrive before its latency
