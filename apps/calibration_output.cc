@@ -1,5 +1,7 @@
 #include "apps/calibration_output.h"
 
+#include <CLI/CLI.hpp>
+
 #include <iostream>
 
 #include "fitting/truth_compare.h"
@@ -40,6 +42,15 @@ void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out
              reports::Fmt(c.worst_z, 3) + ")");
   }
   progress("done: " + rep.index_html);
+}
+
+void AddCalibrationOutputOptions(CLI::App* cmd, bool* no_figures, bool* quiet, std::string* lens_model) {
+  cmd->add_flag("--no-figures", *no_figures, "write figure data and scripts without running gnuplot");
+  cmd->add_flag("--quiet", *quiet, "no progress output");
+  cmd->add_option("--lens-model", *lens_model,
+                  "lens model of both eyes: auto (opencv5 or the rational opencv8, chosen by 5-fold cross-validation "
+                  "over the chessboard views: the smaller held-out RMS), opencv5 or opencv8")
+      ->capture_default_str();
 }
 
 }  // namespace owlcal::apps

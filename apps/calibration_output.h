@@ -10,6 +10,10 @@
 
 #include "fitting/calibration_run.h"
 
+namespace CLI {
+class App;
+}  // namespace CLI
+
 namespace owlcal::apps {
 
 // "[NAME 12.3 s] message" lines on stdout (nothing when quiet).
@@ -33,5 +37,9 @@ nlohmann::json SoftwareInputs();
 // calibration folder `out`; draw = run gnuplot. On the virtual Owl, prints the comparison with
 // the truth.
 void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out, bool draw, const Progress& progress);
+
+// The options calibrate and fit-datasets share after the pipeline: --no-figures, --quiet and
+// --lens-model (auto|opencv5|opencv8).
+void AddCalibrationOutputOptions(CLI::App* cmd, bool* no_figures, bool* quiet, std::string* lens_model);
 
 }  // namespace owlcal::apps

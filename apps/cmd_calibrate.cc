@@ -126,14 +126,7 @@ const bool kRegistered = RegisterCommand(
                     "real robot: do not prompt; assume targets are placed as the protocols say");
       cmd->add_option("--protocols", o->protocols, "protocols to run instead of the standard suite");
       cmd->add_option("--out", o->out, "report folder to create")->required();
-      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
-      cmd->add_flag("--quiet", o->quiet, "no progress output");
-      cmd->add_option("--lens-model",
-                      o->lens_model,
-                      "lens model of both eyes: auto (opencv5 or the rational opencv8, chosen by 5-fold "
-                      "cross-validation over the "
-                      "chessboard views: the smaller held-out RMS), opencv5 or opencv8")
-          ->capture_default_str();
+      AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
       return [o] { return RunCalibrate(*o); };
     });
 

@@ -146,14 +146,7 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--view-outlier-factor", o->view_outlier_factor,
                       "head fit: drop views whose RMS exceeds this times the median view's (0 = off)")
           ->check(CLI::Range(0.0, 1e6));
-      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
-      cmd->add_flag("--quiet", o->quiet, "no progress output");
-      cmd->add_option("--lens-model",
-                      o->lens_model,
-                      "lens model of both eyes: auto (opencv5 or the rational opencv8, chosen by 5-fold "
-                      "cross-validation over the "
-                      "chessboard views: the smaller held-out RMS), opencv5 or opencv8")
-          ->capture_default_str();
+      AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
       return [o] { return RunFitDatasets(*o); };
     });
 
