@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 
 #include "fitting/calibration_run.h"
+#include "fitting/reference_checks.h"
+#include "sim/robot_truth.h"
 
 namespace CLI {
 class App;
@@ -32,6 +34,9 @@ class Progress {
 // The software that made a result: {"name": "owlcal", "version", "git"} (git describe at
 // configure time, "unknown" without a checkout).
 nlohmann::json SoftwareInputs();
+
+// The virtual Owl's stream and servo dynamics for the latency check's truth column.
+fitting::LatencyTruth LatencyTruthOf(const sim::RobotTruth& truth);
 
 // Stamps run->result with the software (software_version, inputs.software) and writes the
 // calibration folder `out`; draw = run gnuplot. On the virtual Owl, prints the comparison with

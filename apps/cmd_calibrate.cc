@@ -96,6 +96,7 @@ int RunCalibrate(const CalibrateOptions& o) {
   po.config = config;
   if (truth) {
     po.truth = truth->HeadModel();
+    po.latency_truth = LatencyTruthOf(*truth);
     po.fps = truth->stream.fps;
   }
   po.progress = progress;

@@ -92,6 +92,7 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
   }
   if (truth) {
     po.truth = truth->HeadModel();
+    po.latency_truth = LatencyTruthOf(*truth);
     po.fps = truth->stream.fps;
   }
   po.head.measured_sigma_factor = o.measured_sigma_factor;

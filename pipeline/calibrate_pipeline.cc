@@ -17,12 +17,13 @@
 #include "fitting/ploop_analysis.h"
 #include "fitting/ranging_eval.h"
 #include "fitting/robot_config_json.h"
-#include "fitting/stereo_sanity.h"
 #include "fitting/step_response.h"
+#include "fitting/stereo_sanity.h"
 #include "fitting/truth_compare.h"
 #include "models/head_kinematics.h"
 #include "protocols/dataset.h"
 #include "protocols/dataset_tables.h"
+#include "protocols/fixation.h"
 #include "protocols/placement_views.h"
 #include "protocols/protocol.h"
 #include "reports/table.h"
@@ -215,6 +216,52 @@ std::optional<int> LatencyFrames(const std::string& dataset, double fps) {
   const std::optional<double> ms = MedianLatencyMs(dataset);
   if (!ms) return std::nullopt;
   return std::max(1, int(std::lround(*ms * fps / 1000.0)));
+}
+
+// Latency against the truth, alignment against its tolerance, field of view against the
+// datasheet: results.json diagnostics.reference_checks (fitting/reference_checks.h).
+void AddReferenceChecks(const std::string& latency_dir,
+                        const std::string& alignment_dir,
+                        const CalibratePipelineOptions& o,
+                        fitting::CalibrationRun* d) {
+  nlohmann::json checks = nlohmann::json::object();
+  if (!latency_dir.empty()) {
+    std::vector<fitting::LatencyTrial> trials;
+    for (const protocols::LatencyRow& row : protocols::ReadLatencyCsv(latency_dir)) {
+      fitting::LatencyTrial t;
+      t.step_index = row.step_index;
+      t.trial = row.trial;
+      t.servo = protocols::ServoIndexFromName(row.servo);
+      if (t.servo < 0)
+        throw std::runtime_error(latency_dir + "/latency.csv:" + std::to_string(row.line) + ": column servo = '" +
+                                 row.servo + "' is not Rx, Ry, Lx, Ly or Neck");
+      t.amplitude_us = row.amplitude_us;
+      t.latency_ms = row.latency_ms;
+      t.command_ns = row.command_ns;
+      t.from_us = row.from_us;
+      t.to_us = row.to_us;
+      t.threshold_px = row.threshold_px;
+      trials.push_back(t);
+    }
+    checks["latency"] = fitting::ToJson(fitting::CheckLatency(trials, o.latency_truth));
+  }
+  if (!alignment_dir.empty()) {
+    std::vector<fitting::AlignmentFrame> frames;
+    for (const protocols::AlignmentRow& row : protocols::ReadAlignmentCsv(alignment_dir))
+      frames.push_back({row.method, row.roll_deg, row.vertical_offset_px, row.horizontal_offset_px});
+    // The offset in us of tilt: the fitted focal length and tilt scale when there are, else nominal.
+    double focal = protocols::NominalFocalPx(o.config);
+    if (d->result.cameras[0]) focal = d->result.cameras[0]->params[1];
+    double deg_per_us = o.config.servos[models::kLy].nominal_deg_per_us;
+    if (const fitting::Parameter* p = d->result.Find("servo.Ly.deg_per_us"); p && p->determined) deg_per_us = p->value;
+    checks["alignment"] = fitting::ToJson(fitting::CheckAlignment(frames, o.config.image_width, focal, deg_per_us));
+  }
+  if (d->result.cameras[0] || d->result.cameras[1]) {
+    std::optional<std::array<models::CameraIntrinsics, 2>> truth;
+    if (o.truth) truth = std::array<models::CameraIntrinsics, 2>{o.truth->intrinsics[0], o.truth->intrinsics[1]};
+    checks["field_of_view"] = fitting::ToJson(fitting::CheckFieldOfView(d->result, truth));
+  }
+  if (!checks.empty()) d->result.diagnostics["reference_checks"] = checks;
 }
 
 void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
@@ -539,6 +586,8 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     progress("limits: " + std::to_string(measured.size()) + " ok of " + std::to_string(rows) + " ends, " +
              std::to_string(d.limits->notes.size()) + " notes");
   }
+  // 5) Checks against references.
+  AddReferenceChecks(dataset("latency"), dataset("alignment"), o, &d);
   d.result.inputs["datasets"] = datasets;
   d.result.inputs["pipeline"] = o.ToJson();
   return d;

@@ -17,7 +17,10 @@
 //   3. the truth in the fit's gauge (virtual Owl only: CalibratePipelineOptions::truth);
 //   4. evaluations: ranging from `vergence` (every fixation a row with its status), the gain
 //      study at the delay `latency` measured, step responses from `step_response`, limits from
-//      `limits`.
+//      `limits`;
+//   5. the checks against references (fitting/reference_checks.h, results.json
+//      diagnostics.reference_checks): latency from `latency` (truth on the virtual Owl), the
+//      alignment from `alignment` with its verdict, the field of view against the datasheet.
 // Every option goes into result.inputs["pipeline"] and the datasets into result.inputs["datasets"].
 #include <functional>
 #include <map>
@@ -30,6 +33,7 @@
 #include "fitting/calibration_run.h"
 #include "fitting/head_fit.h"
 #include "fitting/lens_model_choice.h"
+#include "fitting/reference_checks.h"
 #include "fitting/stereo_fit.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"
@@ -41,6 +45,9 @@ struct CalibratePipelineOptions {
   // The virtual Owl's true head (as the robot truth gives it, not yet in the fit's gauge):
   // true fixation distances and the truth columns. nullopt on a real robot.
   std::optional<models::HeadModel> truth;
+  // The virtual Owl's stream and servo dynamics, for the latency check's truth column (the
+  // reading the truth predicts per trial, fitting/reference_checks.h). nullopt on a real robot.
+  std::optional<fitting::LatencyTruth> latency_truth;
   double fps = 30.0;                  // stream frame rate (latency in frames, gain study)
   int default_delay_frames = 3;       // loop delay when no latency dataset measured it
   fitting::StereoFitOptions stereo = CalibrateStereoFitOptions();

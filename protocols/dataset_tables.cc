@@ -167,6 +167,21 @@ std::vector<LatencyRow> ReadLatencyCsv(const std::string& dir) {
     l.latency_ms = t.Optional(r, "latency_ms", 0, 1e7);
     l.frames_waited = t.Int(r, "frames_waited", 0, INT32_MAX);
     l.shift_px = t.Optional(r, "shift_px", -kMaxPx, kMaxPx);
+    if (t.Has("command_ns")) l.command_ns = t.Int64(r, "command_ns");
+    if (t.Has("from_us")) l.from_us = t.Int(r, "from_us", 0, kMaxPwm);
+    if (t.Has("to_us")) l.to_us = t.Int(r, "to_us", 0, kMaxPwm);
+    l.threshold_px = t.Newer(r, "threshold_px", 0, kMaxPx);
+  });
+}
+
+std::vector<AlignmentRow> ReadAlignmentCsv(const std::string& dir) {
+  return ReadTable<AlignmentRow>(dir, "alignment.csv", [](const Rows& t, size_t r, AlignmentRow& a) {
+    a.frame_index = t.Int64(r, "frame_index");
+    a.method = t.Text(r, "method");
+    a.roll_deg = t.Optional(r, "roll_deg", -180, 180);
+    a.vertical_offset_px = t.Optional(r, "vertical_offset_px", -kMaxPx, kMaxPx);
+    a.horizontal_offset_px = t.Optional(r, "horizontal_offset_px", -kMaxPx, kMaxPx);
+    a.corners = t.Int(r, "corners", 0, INT32_MAX);
   });
 }
 

@@ -109,7 +109,25 @@ struct LatencyRow {
   std::optional<double> latency_ms;      // nullopt: no motion seen within the frames waited
   int frames_waited = 0;
   std::optional<double> shift_px;
+  // Newer datasets (nullopt in older ones): the robot clock when the step was sent, the step's
+  // pulse widths and the image shift that counted as motion.
+  std::optional<int64_t> command_ns;
+  std::optional<int> from_us, to_us;
+  std::optional<double> threshold_px;
 };
 std::vector<LatencyRow> ReadLatencyCsv(const std::string& dir);
+
+// alignment.csv: one row per frame of the alignment check (left minus right).
+struct AlignmentRow {
+  int line = 0;
+  int step_index = 0;
+  int64_t frame_index = 0;
+  std::string method;              // chessboard | phase-correlation
+  std::optional<double> roll_deg;  // nullopt: no chessboard in both eyes
+  std::optional<double> vertical_offset_px;
+  std::optional<double> horizontal_offset_px;
+  int corners = 0;
+};
+std::vector<AlignmentRow> ReadAlignmentCsv(const std::string& dir);
 
 }  // namespace owlcal::protocols

@@ -39,14 +39,19 @@ void RunLatencyStep(RunContext& run, const LatencyStep& s) {
       }
     }
     run.writer().AppendRow("latency.csv",
-                           "step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px",
+                           "step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px,command_ns,from_us,"
+                           "to_us,threshold_px",
                            {std::to_string(run.step_index()),
                             std::to_string(trial),
                             models::kServoNames[s.servo],
                             std::to_string(s.amplitude_us),
                             calib::CsvFixed(latency_ms, 2),
                             std::to_string(waited + 1),
-                            calib::CsvFixed(shift, 2)});
+                            calib::CsvFixed(shift, 2),
+                            std::to_string(t_cmd),
+                            std::to_string(from[s.servo]),
+                            std::to_string(to[s.servo]),
+                            calib::CsvFixed(threshold, 3)});
     if (run.options().progress)
       *run.options().progress << "  latency trial " << trial << ": " << FixedText(latency_ms, 1) << " ms ("
                               << (waited + 1) << " frames)\n";

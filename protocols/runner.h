@@ -42,7 +42,10 @@
 //                      neither. status failed, measured_us empty: a black, constant or motionless
 //                      image; the step then fails with a message)
 //   alignment.csv      step_index,frame_index,method,roll_deg,vertical_offset_px,horizontal_offset_px,corners
-//   latency.csv        step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px
+//   latency.csv        step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px,command_ns,
+//                      from_us,to_us,threshold_px (command_ns: the robot clock when the step was sent;
+//                      the step goes from_us -> to_us; motion counts once the shift passes threshold_px;
+//                      datasets before 2026-11-26 lack the last four)
 //   coverage.csv       eye,num_views,x_min,x_max,x_progress,y_min,y_max,y_progress,size_min,size_max,
 //                      size_progress,skew_min,skew_max,skew_progress,good (protocols/coverage.h), written
 //                      at the end when steps with `detect: true` detected the protocol's target

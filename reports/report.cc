@@ -95,6 +95,152 @@ std::vector<Table> MakeTables(const ReportData& d) {
       t.rows.push_back({l.value("chosen", std::string()), "yes", "", "", "", "", "", "", "not cross-validated"});
     out.push_back(t);
   }
+  if (d.result.diagnostics.contains("reference_checks")) {
+    // Measured numbers against their references (fitting/reference_checks.h).
+    const nlohmann::json& rc = d.result.diagnostics["reference_checks"];
+    auto num = [](const nlohmann::json& j, const char* k, int sig) {
+      return j.contains(k) && j[k].is_number() ? Fmt(j[k].get<double>(), sig) : std::string();
+    };
+    auto notes = [](const nlohmann::json& j) {
+      std::string n;
+      for (const auto& x : j.value("notes", nlohmann::json::array()))
+        n += (n.empty() ? "" : "; ") + x.get<std::string>();
+      return n;
+    };
+    if (rc.contains("latency")) {
+      const nlohmann::json& l = rc["latency"];
+      const bool truth = l.contains("stream_latency_truth_ms") && l["stream_latency_truth_ms"].is_number();
+      Table t{"latency_check",
+              "Latency: command to the first received frame that shows the motion, mean and \u03c3 (spread over the "
+              "trials)" +
+                  std::string(truth ? "; truth: the reading the virtual Owl's stream latency (" +
+                                          num(l, "stream_latency_truth_ms", 4) +
+                                          " ms exposure to receipt), frame timing and servo slew and lag predict "
+                                          "for each trial"
+                                    : "") +
+                  (notes(l).empty() ? "" : ". " + notes(l)),
+              {"servo", "trials ok of N", "mean [ms]", "\u03c3 [ms]", "median [ms]", "min\u2013max [ms]"},
+              {}};
+      if (truth)
+        t.header.insert(t.header.end(),
+                        {"truth [ms]",
+                         "error [ms]",
+                         "trials on the predicted frame",
+                         "max |trial error| [ms]",
+                         "stream latency truth [ms]"});
+      for (const auto& g : l.value("groups", nlohmann::json::array())) {
+        std::vector<std::string> r = {
+            g.value("servo", std::string()),
+            std::to_string(g.value("num_ok", 0)) + " of " + std::to_string(g.value("num_trials", 0)),
+            num(g, "mean_ms", 4),
+            num(g, "sigma_ms", 2),
+            num(g, "median_ms", 4),
+            num(g, "min_ms", 4) + "\u2013" + num(g, "max_ms", 4)};
+        if (truth)
+          r.insert(r.end(),
+                   {num(g, "truth_mean_ms", 4),
+                    num(g, "error_ms", 2),
+                    std::to_string(g.value("num_on_predicted_frame", 0)) + " of " +
+                        std::to_string(g.value("num_with_truth", 0)),
+                    num(g, "max_abs_trial_error_ms", 2),
+                    num(l, "stream_latency_truth_ms", 4)});
+        t.rows.push_back(r);
+      }
+      out.push_back(t);
+    }
+    if (rc.contains("alignment")) {
+      const nlohmann::json& a = rc["alignment"];
+      std::string advice;
+      for (const auto& x : a.value("advice", nlohmann::json::array()))
+        advice += (advice.empty() ? "" : "; ") + x.get<std::string>();
+      Table t{"alignment_check",
+              "Camera alignment at the centre pose (left minus right, " + a.value("method", std::string()) + ", " +
+                  std::to_string(a.value("num_frames", 0)) + " frames): " + a.value("verdict", std::string()) +
+                  ". Tolerance: " + a.value("tolerance_source", std::string()),
+              {"quantity", "value", "\u03c3 (spread)", "tolerance", "within", "unit"},
+              {}};
+      auto within = [&](const char* v, const char* tol) {
+        if (!a.contains(v) || !a[v].is_number() || !a.contains(tol) || !a[tol].is_number()) return std::string();
+        return Bool(std::abs(a[v].get<double>()) <= a[tol].get<double>());
+      };
+      t.rows.push_back({"roll",
+                        num(a, "roll_deg", 3),
+                        num(a, "roll_sigma_deg", 2),
+                        "\u00b1" + num(a, "tolerance_roll_deg", 3),
+                        within("roll_deg", "tolerance_roll_deg"),
+                        "deg"});
+      t.rows.push_back({"vertical offset",
+                        num(a, "vertical_offset_px", 3),
+                        num(a, "vertical_offset_sigma_px", 2),
+                        "\u00b1" + num(a, "tolerance_vertical_px", 3),
+                        within("vertical_offset_px", "tolerance_vertical_px"),
+                        "px"});
+      t.rows.push_back({"horizontal offset", num(a, "horizontal_offset_px", 4), "", "", "", "px"});
+      t.rows.push_back({"verdict", a.value("verdict", std::string()), "", "", "", advice});
+      out.push_back(t);
+    }
+    if (rc.contains("field_of_view")) {
+      const nlohmann::json& f = rc["field_of_view"];
+      const auto rows = f.value("rows", nlohmann::json::array());
+      bool truth = false;
+      for (const auto& r : rows) truth |= r.contains("truth_fx_px") && r["truth_fx_px"].is_number();
+      Table t{"field_of_view",
+              "Field of view (through the image edges, lens model included) and focal length against the datasheet (" +
+                  f.value("source", std::string()) + "). " + notes(f),
+              {"eye",
+               "quantity",
+               "fitted",
+               "\u03c3",
+               "datasheet",
+               "fitted \u2212 datasheet",
+               "difference [%]",
+               "pinhole (from f)"},
+              {}};
+      if (truth) t.header.push_back("truth");
+      for (const auto& r : rows) {
+        auto diff = [&](const char* v, const char* ref, int sig) {
+          if (!r.contains(v) || !r[v].is_number() || !r.contains(ref) || !r[ref].is_number())
+            return std::pair<std::string, std::string>();
+          const double a = r[v].get<double>(), b = r[ref].get<double>();
+          return std::pair<std::string, std::string>{Fmt(a - b, sig), Fmt(100 * (a - b) / b, 3)};
+        };
+        const std::string eye = r.value("eye", std::string());
+        const auto df = diff("fx_px", "datasheet_f_px", 3), dh = diff("hfov_deg", "datasheet_hfov_deg", 3),
+                   dv = diff("vfov_deg", "datasheet_vfov_deg", 3);
+        std::vector<std::string> a = {eye,
+                                      "focal length fx [px]",
+                                      num(r, "fx_px", 5),
+                                      num(r, "fx_sigma_px", 2),
+                                      num(r, "datasheet_f_px", 4),
+                                      df.first,
+                                      df.second,
+                                      ""};
+        std::vector<std::string> b = {eye,
+                                      "horizontal FOV [deg]",
+                                      num(r, "hfov_deg", 4),
+                                      num(r, "hfov_sigma_deg", 2),
+                                      num(r, "datasheet_hfov_deg", 3),
+                                      dh.first,
+                                      dh.second,
+                                      num(r, "pinhole_hfov_deg", 4)};
+        std::vector<std::string> c = {eye,
+                                      "vertical FOV [deg]",
+                                      num(r, "vfov_deg", 4),
+                                      num(r, "vfov_sigma_deg", 2),
+                                      num(r, "datasheet_vfov_deg", 3),
+                                      dv.first,
+                                      dv.second,
+                                      num(r, "pinhole_vfov_deg", 4)};
+        if (truth) {
+          a.push_back(num(r, "truth_fx_px", 5));
+          b.push_back(num(r, "truth_hfov_deg", 4));
+          c.push_back(num(r, "truth_vfov_deg", 4));
+        }
+        t.rows.insert(t.rows.end(), {a, b, c});
+      }
+      out.push_back(t);
+    }
+  }
   if (!d.result.summaries.empty()) {
     Table t{"solver", "Solver summaries", {"problem", "termination", "iterations", "RMS [px]", "residuals", "outliers", "time [s]", "usable"}, {}};
     for (const auto& s : d.result.summaries)

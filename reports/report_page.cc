@@ -310,6 +310,12 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
       body << "</ul>\n";
     }
   }
+  if (page.tables.count("latency_check") || page.tables.count("alignment_check") || page.tables.count("field_of_view"))
+    body << "<h3 id=\"reference_checks\">Checks against references</h3>\n<p>Measured numbers against what they "
+            "should be: the latency protocol's reading against the virtual Owl's truth (on a real robot there is no "
+            "truth column), the alignment of the eyes against the vertical disparity a block matcher tolerates, and "
+            "the fitted field of view and focal length against the Pi camera datasheet in the course notes.</p>\n"
+         << page.Table("latency_check") << page.Table("alignment_check") << page.Table("field_of_view");
   if (page.tables.count("truth_comparison"))
     body << "<h3 id=\"truth\">Ground-truth comparison (virtual Owl)</h3>\n<p>Every parameter table above has a truth "
             "column; the full comparison is <a href=\"../tables/truth_comparison.csv\">tables/truth_comparison.csv</a>.</p>\n"
