@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/command_registry.h"
+#include "apps/image_inputs.h"
 #include "calib/detector.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
@@ -34,12 +35,6 @@ struct DetectOptions {
   bool mirror = false;
   bool swap = false;
 };
-
-bool IsImage(const fs::path& p) {
-  std::string e = p.extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), ::tolower);
-  return e == ".jpg" || e == ".jpeg" || e == ".png" || e == ".bmp" || e == ".pgm" || e == ".ppm" || e == ".tif";
-}
 
 // Frame index from the digits in a file name ("left07.jpg" -> 7), or -1.
 int NumberIn(const std::string& stem) {
@@ -107,29 +102,19 @@ int RunDetect(const DetectOptions& o) {
       throw UsageError("a dataset's frames are split as its manifest says: --pairs, --mirror and --swap do not apply");
     return DetectDataset(o.inputs[0], tf, dopt, o.out);
   }
-  std::vector<fs::path> files;
-  for (const std::string& in : o.inputs) {
+  for (const std::string& in : o.inputs)
     if (fs::exists(fs::path(in) / "manifest.json"))
       throw UsageError("'" + in + "' is a dataset: give it alone to re-detect its frames");
-    if (fs::is_directory(in)) {
-      for (const auto& e : fs::directory_iterator(in))
-        if (e.is_regular_file() && IsImage(e.path())) files.push_back(e.path());
-    } else if (fs::is_regular_file(in)) {
-      files.push_back(in);
-    } else {
-      throw UsageError("input '" + in + "' is neither an image file nor a folder");
-    }
-  }
-  std::sort(files.begin(), files.end());
-  if (files.empty()) throw UsageError("no images found in the inputs");
+  const std::vector<fs::path> files = ImageFilesIn(o.inputs);
 
   std::vector<calib::CornerObservation> obs;
-  int found = 0, tried = 0, sequential = 0;
+  int found = 0, tried = 0, sequential = 0, unreadable = 0, misnamed = 0;
   std::map<std::string, int> index_of_suffix;
   for (const fs::path& p : files) {
     const cv::Mat img = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
     if (img.empty()) {
       std::cerr << "warning: cannot read image " << p << ", skipped\n";
+      ++unreadable;
       continue;
     }
     const std::string stem = p.stem().string();
@@ -154,6 +139,7 @@ int RunDetect(const DetectOptions& o) {
         suffix = lower.substr(5);
       } else if (o.pairs) {
         std::cerr << "warning: " << p << ": --pairs expects left*/right* names, skipped\n";
+        ++misnamed;
         continue;
       }
       if (o.pairs) {
@@ -183,7 +169,10 @@ int RunDetect(const DetectOptions& o) {
   }
   calib::WriteObservationsCsv(o.out, obs);
   std::cout << "detected the target in " << found << " of " << tried << " eye images; " << obs.size()
-            << " corners written to " << o.out << " (target '" << tf.target.id << "', unit " << tf.unit << ")\n";
+            << " corners written to " << o.out << " (target '" << tf.target.id << "', unit " << tf.unit << ")";
+  if (unreadable > 0) std::cout << "; " << unreadable << " of " << files.size() << " files unreadable";
+  if (misnamed > 0) std::cout << "; " << misnamed << " skipped for names other than left*/right*";
+  std::cout << "\n";
   return found > 0 ? kExitOk : kExitFailed;
 }
 

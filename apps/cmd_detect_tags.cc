@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "apps/command_registry.h"
+#include "apps/image_inputs.h"
 #include "calib/apriltag_free.h"
 
 namespace owlcal::apps {
@@ -28,12 +29,6 @@ struct DetectTagsOptions {
   double min_margin = 0;
 };
 
-bool IsImage(const fs::path& p) {
-  std::string e = p.extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), ::tolower);
-  return e == ".jpg" || e == ".jpeg" || e == ".png" || e == ".bmp" || e == ".pgm" || e == ".ppm" || e == ".tif";
-}
-
 int RunDetectTags(const DetectTagsOptions& a) {
   calib::AprilTagOptions o;
   o.families = a.families;
@@ -44,19 +39,7 @@ int RunDetectTags(const DetectTagsOptions& a) {
   o.min_decision_margin = a.min_margin;
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
-  std::vector<fs::path> files;
-  for (const std::string& in : a.inputs) {
-    if (fs::is_directory(in)) {
-      for (const auto& e : fs::directory_iterator(in))
-        if (e.is_regular_file() && IsImage(e.path())) files.push_back(e.path());
-    } else if (fs::is_regular_file(in)) {
-      files.push_back(in);
-    } else {
-      throw UsageError("input '" + in + "' is neither an image file nor a folder");
-    }
-  }
-  std::sort(files.begin(), files.end());
-  if (files.empty()) throw UsageError("no images found in the inputs");
+  const std::vector<fs::path> files = ImageFilesIn(a.inputs);
   std::ostringstream csv;
   csv << std::setprecision(10)
       << "image,family,id,hamming,decision_margin,x0,y0,x1,y1,x2,y2,x3,y3,centre_x,centre_y,id_count,status\n";

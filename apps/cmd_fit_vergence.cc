@@ -7,6 +7,7 @@
 #include "apps/command_registry.h"
 #include "fitting/format.h"
 #include "fitting/vergence_log_fit.h"
+#include "reports/table.h"
 #include "reports/vergence_log_tables.h"
 #include "robot/robot_file.h"
 
@@ -24,12 +25,6 @@ struct FitVergenceOptions {
   fitting::VergenceColumnRequest columns;
   std::string constants;  // robot file of THIS robot, for the fixed-constant comparison
 };
-
-void WriteText(const std::filesystem::path& p, const std::string& text) {
-  std::ofstream f(p);
-  if (!f) throw std::runtime_error(p.string() + ": cannot write");
-  f << text;
-}
 
 int RunFitVergence(const FitVergenceOptions& a) {
   fitting::VergenceFitOptions o;
@@ -64,8 +59,9 @@ int RunFitVergence(const FitVergenceOptions& a) {
   }
   std::filesystem::create_directories(a.out);
   const std::string md = "Columns used: " + cols.Describe() + ".\n\n" + reports::VergenceReportMarkdown(rows, fit, loo);
-  WriteText(std::filesystem::path(a.out) / "vergence_fit.md", md);
-  WriteText(std::filesystem::path(a.out) / "vergence_rows.csv", reports::VergenceRowsCsv(rows, fit, loo));
+  reports::WriteTextFile((std::filesystem::path(a.out) / "vergence_fit.md").string(), md);
+  reports::WriteTextFile((std::filesystem::path(a.out) / "vergence_rows.csv").string(),
+                         reports::VergenceRowsCsv(rows, fit, loo));
   fitting::CalibrationResult r;
   r.parameters = fit.parameters;
   r.summaries.push_back(fit.summary);

@@ -12,11 +12,12 @@
 #include <sstream>
 
 #include "apps/command_registry.h"
+#include "apps/robot_factory.h"
 #include "apps/robot_options.h"
 #include "protocols/jog.h"
 #include "protocols/limits_revalidation.h"
 #include "protocols/protocol.h"
-#include "apps/robot_factory.h"
+#include "reports/table.h"
 #include "robot/link_commands.h"
 #include "robot/robot_file.h"
 #include "robot/server_clamp_constants.h"
@@ -106,12 +107,6 @@ class KeyInput {
   std::string pending_;
 };
 
-void WriteText(const std::string& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw std::runtime_error(path + ": cannot write");
-}
-
 std::string JogCsv(const protocols::JogSession& s) {
   std::ostringstream o;
   o << "servo,end,file_us,new_us,how,in_file,message\n";
@@ -133,9 +128,9 @@ int Save(const JogCmdOptions& o, const protocols::JogSession& s) {
   fs::create_directories(o.out);
   const std::string robot_path = o.out + "/robot.yaml";
   robot::SaveRobotFile(result, robot_path);
-  WriteText(o.out + "/server_limits.py", robot::PythonServerClamp(result));
-  WriteText(o.out + "/server_limits.h", robot::CServerRanges(result));
-  WriteText(o.out + "/jog.csv", JogCsv(s));
+  reports::WriteTextFile(o.out + "/server_limits.py", robot::PythonServerClamp(result));
+  reports::WriteTextFile(o.out + "/server_limits.h", robot::CServerRanges(result));
+  reports::WriteTextFile(o.out + "/jog.csv", JogCsv(s));
   std::cout << "wrote " << robot_path << ", " << o.out << "/server_limits.py (Python server), " << o.out
             << "/server_limits.h (C server), " << o.out << "/jog.csv\n";
   for (const std::string& n : notes) std::cout << "note: " << n << "\n";
@@ -177,7 +172,7 @@ int Save(const JogCmdOptions& o, const protocols::JogSession& s) {
               << " .. " << r.limit_us[1] << " us, measured " << r.measured_us[0] << " (" << r.cause[0] << ") .. "
               << r.measured_us[1] << " (" << r.cause[1] << "): " << r.message << "\n";
   }
-  WriteText(o.out + "/revalidation.csv", csv.str());
+  reports::WriteTextFile(o.out + "/revalidation.csv", csv.str());
   std::cout << (failed ? std::to_string(failed) + " servo(s) failed the re-validation" : "every servo passed")
             << " (" << o.out << "/revalidation.csv)\n";
   return failed ? 3 : kExitOk;

@@ -9,6 +9,7 @@
 #include "apps/command_registry.h"
 #include "calib/target_file.h"
 #include "calib/target_sheet.h"
+#include "reports/table.h"
 
 namespace owlcal::apps {
 namespace {
@@ -20,12 +21,6 @@ struct TargetOptions {
   double square_mm = 0, tag_size_mm = 0, tag_spacing = -1, margin_mm = 8;
   int cols = 0, rows = 0;
 };
-
-void WriteFile(const fs::path& path, const std::string& text) {
-  std::ofstream f(path, std::ios::binary);
-  f << text;
-  if (!f) throw std::runtime_error(path.string() + ": cannot write");
-}
 
 int RunTarget(const TargetOptions& a) {
   calib::TargetFile tf = calib::LoadTargetFileWithUnit(a.target_path);
@@ -65,7 +60,7 @@ int RunTarget(const TargetOptions& a) {
     throw UsageError(e.what());
   }
   if (out.has_parent_path()) fs::create_directories(out.parent_path());
-  WriteFile(out, ext == ".pdf" ? calib::TargetSheetPdf(sheet) : calib::TargetSheetSvg(sheet));
+  reports::WriteTextFile(out.string(), ext == ".pdf" ? calib::TargetSheetPdf(sheet) : calib::TargetSheetSvg(sheet));
 
   // The YAML owlcal reads, in metres, with a header saying what it describes.
   fs::path yaml = out;
@@ -75,11 +70,12 @@ int RunTarget(const TargetOptions& a) {
   std::stringstream body;
   body << in.rdbuf();
   in.close();
-  WriteFile(yaml, "# Printed by owlcal target as " + out.filename().string() + " (" + sheet.paper_name +
-                      ", 100 % scale): " + calib::DescribeTargetDimensions(t) +
-                      ".\n# Measure the printed sheet (scale bar " +
-                      std::to_string(int(sheet.scale_bar_length_mm)) +
-                      " mm) and correct the sizes here if the printer scaled it.\n" + body.str());
+  reports::WriteTextFile(yaml.string(),
+                         "# Printed by owlcal target as " + out.filename().string() + " (" + sheet.paper_name +
+                             ", 100 % scale): " + calib::DescribeTargetDimensions(t) +
+                             ".\n# Measure the printed sheet (scale bar " +
+                             std::to_string(int(sheet.scale_bar_length_mm)) +
+                             " mm) and correct the sizes here if the printer scaled it.\n" + body.str());
   // Round trip: the file just written must describe the same target.
   const calib::TargetDefinition back = calib::LoadTargetFile(yaml.string());
   if (back.NumCorners() != t.NumCorners() || std::abs(back.square_m - t.square_m) > 1e-9 ||

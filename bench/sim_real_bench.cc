@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "fitting/capture_stats.h"
+#include "models/statistics.h"
 #include "owlcal_version.h"
 #include "sim/handheld_capture.h"
 #include "sim/robot_truth.h"
@@ -25,11 +26,10 @@ namespace {
 
 using owlcal::fitting::CaptureStats;
 
+// The median of the finite values (a row may lack a statistic); NaN when none is finite.
 double Median(std::vector<double> v) {
   v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  return owlcal::models::Median(std::move(v));
 }
 
 struct Row {

@@ -1,4 +1,5 @@
 #include "calib/chessboard_image_stats.h"
+#include "models/statistics.h"
 
 #include <algorithm>
 #include <cmath>
@@ -30,11 +31,7 @@ double Sample(const cv::Mat& g, double x, double y) {
   return top + ay * (bottom - top);
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
+using models::Median;
 
 // Least-squares fit of m + a * erf((d - d0) / (sqrt(2) sigma)) to a profile by Levenberg-
 // Marquardt from the plateaus' step; returns sigma (NaN when the step is too weak to mean

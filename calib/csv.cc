@@ -1,4 +1,5 @@
 #include "calib/csv.h"
+#include "io/number_text.h"
 
 #include <cmath>
 #include <cstdio>
@@ -118,12 +119,7 @@ std::vector<std::string> SplitCsvLine(const std::string& line, bool trim, const 
   return r.cells;
 }
 
-std::string CsvFixed(double v, int decimals) {
-  if (!std::isfinite(v)) return "";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
+std::string CsvFixed(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : ""; }
 
 std::string CsvCell(const std::string& text) {
   const bool quote = text.find_first_of(",\"\r\n") != std::string::npos ||

@@ -1,4 +1,5 @@
 #include "calib/stereo_match.h"
+#include "io/number_text.h"
 
 #include <algorithm>
 #include <iomanip>
@@ -137,11 +138,7 @@ Peak Search(const cv::Mat& templ, const cv::Mat& img, int x_lo, int x_hi, int y_
   return p;
 }
 
-std::string Num(double v, int decimals = 2) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(decimals) << v;
-  return s.str();
-}
+std::string Num(double v, int decimals = 2) { return io::FixedText(v, decimals); }
 
 }  // namespace
 

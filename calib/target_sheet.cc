@@ -1,4 +1,5 @@
 #include "calib/target_sheet.h"
+#include "io/number_text.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,11 +14,7 @@
 namespace owlcal::calib {
 namespace {
 
-std::string Fixed(double v, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
-  return buf;
-}
+std::string Fixed(double v, int digits) { return io::FixedText(v, digits); }
 
 struct Paper {
   std::string name;

@@ -17,6 +17,7 @@
 
 #include "fitting/intrinsics_residual.h"
 #include "fitting/observability.h"
+#include "io/number_text.h"
 
 namespace owlcal::fitting {
 namespace {
@@ -24,12 +25,7 @@ namespace {
 using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string Fmt(double v, int prec = 4) {
-  std::ostringstream s;
-  s.precision(prec);
-  s << v;
-  return s.str();
-}
+std::string Fmt(double v, int prec = 4) { return io::SignificantText(v, prec); }
 
 models::Rigid3d PoseFromRvecTvec(const cv::Mat& rvec, const cv::Mat& tvec) {
   cv::Mat R;

@@ -1,4 +1,5 @@
 #include "fitting/robot_file_check.h"
+#include "io/number_text.h"
 
 #include <cmath>
 #include <sstream>
@@ -7,12 +8,7 @@
 namespace owlcal::fitting {
 namespace {
 
-std::string Num(double v, int significant) {
-  std::ostringstream o;
-  o.precision(significant);
-  o << v;
-  return o.str();
-}
+std::string Num(double v, int significant) { return io::SignificantText(v, significant); }
 
 // The fitted parameter, when it says something: present, determined, finite, with a finite sigma.
 const Parameter* Usable(const CalibrationResult& r, const std::string& name) {

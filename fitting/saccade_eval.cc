@@ -5,17 +5,14 @@
 #include <limits>
 
 #include "fitting/ploop_analysis.h"
+#include "models/statistics.h"
 
 namespace owlcal::fitting {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
+using models::Median;
 
 }  // namespace
 

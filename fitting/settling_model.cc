@@ -7,24 +7,17 @@
 #include <stdexcept>
 
 #include "fitting/ploop_analysis.h"
+#include "io/number_text.h"
+#include "models/statistics.h"
 
 namespace owlcal::fitting {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string F(double v, int decimals) {
-  if (!std::isfinite(v)) return "n/a";
-  char b[64];
-  std::snprintf(b, sizeof(b), "%.*f", decimals, v);
-  return b;
-}
+std::string F(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : "n/a"; }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
+using models::Median;
 
 struct Spread {
   double median = kNaN, lo = kNaN, hi = kNaN;

@@ -1,4 +1,5 @@
 #include "fitting/stereo_depth.h"
+#include "models/statistics.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,14 +14,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  const size_t h = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + h, v.end());
-  if (v.size() % 2) return v[h];
-  const double hi = v[h];
-  return 0.5 * (hi + *std::max_element(v.begin(), v.begin() + h));
-}
+using models::Median;
 
 cv::Mat Grey(const cv::Mat& m) {
   if (m.channels() == 1) return m;

@@ -19,6 +19,7 @@
 #include "fitting/board_warp.h"
 #include "fitting/intrinsics_residual.h"
 #include "fitting/observability.h"
+#include "io/number_text.h"
 
 namespace owlcal::fitting {
 namespace {
@@ -27,12 +28,7 @@ using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, cere
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kEye[2] = {"left", "right"};
 
-std::string Fmt(double v, int prec = 4) {
-  std::ostringstream s;
-  s.precision(prec);
-  s << v;
-  return s.str();
-}
+std::string Fmt(double v, int prec = 4) { return io::SignificantText(v, prec); }
 
 Eigen::Vector3d RotVec(const Eigen::Quaterniond& q) {
   const Eigen::AngleAxisd aa(q.normalized());

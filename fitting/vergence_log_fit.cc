@@ -16,6 +16,7 @@
 
 #include "fitting/format.h"
 #include "fitting/observability.h"
+#include "models/statistics.h"
 #include "models/vergence.h"
 
 namespace owlcal::fitting {
@@ -152,12 +153,7 @@ SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
   return out;
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+using models::Median;
 
 }  // namespace
 

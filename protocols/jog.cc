@@ -5,9 +5,11 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "protocols/fixation.h"
 #include "protocols/image_motion.h"
+#include "protocols/limits_search.h"
 
 namespace owlcal::protocols {
 namespace {
@@ -19,17 +21,7 @@ int ServoEye(int servo) { return servo == models::kLx || servo == models::kLy ? 
 int ServoAxis(int servo) { return servo == models::kRy || servo == models::kLy ? 1 : 0; }
 const char* EndName(int direction) { return direction > 0 ? "max" : "min"; }
 
-std::string Num(double v, int digits = 1) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.*f", digits, v);
-  return b;
-}
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+std::string Num(double v, int digits = 1) { return io::FixedText(v, digits); }
 
 }  // namespace
 
@@ -184,8 +176,7 @@ bool JogSession::Anchor(int servo, int direction) {
   anchor_servo_ = servo;
   anchor_dir_ = direction;
   anchor_us_ = lim;
-  bias_ = travel_max_ = prev_travel_ = 0;
-  deficits_.clear();
+  stop_ = StopDetector(std::max(8.0, 2.0 * o_.widen_step_us), 0.5 * o_.widen_step_us);
   image_check_ = false;
   if (!textured_[ServoEye(servo)] || inside == lim) return false;
   const double focal_px = NominalFocalPx(file_);
@@ -241,14 +232,11 @@ bool JogSession::WidenOnce(int direction, std::string* what) {
     last_shift_px_ = std::abs(shift);
     const double travel = sign_ * shift / scale_;
     const double commanded = std::abs(nv - anchor_us_);
-    const double deficit = commanded - travel;
-    travel_max_ = std::max(travel_max_, travel);
-    const double tol = std::max(8.0, 2.0 * o_.widen_step_us);
-    if (deficit - bias_ > tol) {
+    if (stop_.Stopped(commanded, travel)) {
       // The stop: where the image stopped following (limits_search.h), inside the last pulse.
       // One us further inside than the rounding, so measurement noise never puts the limit
       // past the stop.
-      const double stop = anchor_us_ + direction * (travel_max_ + bias_ - 1.0);
+      const double stop = anchor_us_ + direction * (stop_.StopTravel() - 1.0);
       int at = direction > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
       at = direction > 0 ? std::clamp(at, anchor_us_, nv - 1) : std::clamp(at, nv + 1, anchor_us_);
       end.limit_us = at;
@@ -261,11 +249,6 @@ bool JogSession::WidenOnce(int direction, std::string* what) {
               "); end-stop limit " + std::to_string(at) + " us, servo back there";
       return true;
     }
-    if (travel - prev_travel_ >= 0.5 * o_.widen_step_us) {
-      deficits_.push_back(deficit);
-      bias_ = std::clamp(Median(deficits_), -5.0, 5.0);
-    }
-    prev_travel_ = travel;
     last_travel_ = travel;
   }
   end.limit_us = nv;

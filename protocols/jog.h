@@ -1,5 +1,5 @@
 #pragma once
-// The guided jog (owlcal jog, issue 18 item 1): a person finds each servo's maximal range by
+// The guided jog (owlcal jog): a person finds each servo's maximal range by
 // hand, as the course asks ("use the arrow keys to establish the maximal range boundaries"),
 // with live position and image feedback, and the result becomes a robot file and the Pi
 // server's clamp constants (robot/server_clamp_constants.h).
@@ -36,6 +36,7 @@
 #include <opencv2/core.hpp>
 
 #include "models/robot_config.h"
+#include "protocols/limits_search.h"
 #include "robot/robot_interface.h"
 
 namespace owlcal::protocols {
@@ -122,8 +123,8 @@ class JogSession {
   // Widening state of one end.
   int anchor_servo_ = -1, anchor_dir_ = 0, anchor_us_ = 0;
   cv::Mat anchor_thumb_;
-  double scale_ = 0, sign_ = 1, bias_ = 0, travel_max_ = 0, prev_travel_ = 0;
-  std::vector<double> deficits_;
+  double scale_ = 0, sign_ = 1;
+  StopDetector stop_{8.0, 2.0};
   bool image_check_ = false;
   double last_shift_px_ = 0, last_rim_ = 0, anchor_rim_ = 0, last_travel_ = 0;
   bool rim_at_limit_ = false;

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "io/number_text.h"
+#include "models/statistics.h"
 #include "protocols/image_motion.h"
 
 namespace owlcal::protocols {
@@ -13,19 +15,23 @@ namespace {
 
 constexpr int kDownsample = 2;
 
-std::string Num(double v, int prec = 3) {
-  std::ostringstream s;
-  s.precision(prec);
-  s << v;
-  return s.str();
-}
+std::string Num(double v, int prec = 3) { return io::SignificantText(v, prec); }
 
-double Median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
+using models::Median;
 
 }  // namespace
+
+bool StopDetector::Stopped(double commanded_us, double travel_us) {
+  const double deficit = commanded_us - travel_us;
+  travel_max_ = std::max(travel_max_, travel_us);
+  if (deficit - bias_ > tolerance_us_) return true;
+  if (travel_us - prev_travel_ >= moved_us_) {
+    moved_deficits_.push_back(deficit);
+    bias_ = std::clamp(Median(moved_deficits_), -5.0, 5.0);
+  }
+  prev_travel_ = travel_us;
+  return false;
+}
 
 bool LimitSearchOptions::Check(std::string* why) const {
   auto fail = [&](const std::string& m) {
@@ -124,8 +130,7 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
   // measures travel = a(x) - a(0); deficit = x - travel = (x - a(x)) + a(0). Over the probes
   // that moved, the median deficit (bias) estimates a(0): the PWM step's rounding averages out.
   const double tol = std::max(8.0, 2.0 * o.fine_us);
-  double bias = 0, travel_max = 0, prev_travel = 0;
-  std::vector<double> moved_deficits;
+  StopDetector detector(tol, 0.5 * o.fine_us);
   int last_free = anchor;
   r.cause.clear();
   for (int nv = anchor; nv != limit_us;) {
@@ -142,10 +147,8 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
     }
     const double travel = sign * d * shift / scale;
     const double commanded = std::abs(nv - anchor);
-    const double deficit = commanded - travel;
-    travel_max = std::max(travel_max, travel);
-    if (deficit - bias > tol) {
-      const double stop = anchor + d * (travel_max + bias);
+    if (detector.Stopped(commanded, travel)) {
+      const double stop = anchor + d * detector.StopTravel();
       r.cause = "end-stop";
       r.measured_us = d > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
       r.message = "the image stopped following: at " + std::to_string(nv) + " us commanded travel " + Num(commanded) +
@@ -153,18 +156,11 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
                   " us, scale " + Num(scale) + " px/us)";
       return r;
     }
-    // Only probes that clearly moved enter the bias (a stop creeping in, where the travel no
-    // longer grows, must not drag it along); bounded by the rounding of steps up to 10 us.
-    if (travel - prev_travel >= 0.5 * o.fine_us) {
-      moved_deficits.push_back(deficit);
-      bias = std::clamp(Median(moved_deficits), -5.0, 5.0);
-    }
-    prev_travel = travel;
     last_free = nv;
     if (nv == limit_us) {
       // 4) The configured limit reached with the image following, unless the servo applied
       // noticeably less than the limit (a stop just inside it).
-      const double reached = travel + bias;  // a(x_limit) - anchor, outward
+      const double reached = travel + detector.bias();  // a(x_limit) - anchor, outward
       const double short_us = commanded - reached;
       if (short_us > 4.0) {
         const double stop = anchor + d * reached;

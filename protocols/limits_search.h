@@ -29,12 +29,33 @@
 // centre pose; the end is then the last fine pulse without it.
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "calib/trial_status.h"
 
 namespace owlcal::protocols {
+
+// Step 3's stop test, shared with the interactive jog (protocols/jog.h): fed, probe after probe
+// outward from an anchor, the commanded travel and the travel the image shows (both in us), it
+// tells when the image stopped following. Only probes that clearly moved (travel grew by at least
+// moved_us) enter the bias, so a stop creeping in, where the travel no longer grows, does not drag
+// it along; the bias is bounded by the rounding of PWM steps up to 10 us.
+class StopDetector {
+ public:
+  StopDetector(double tolerance_us, double moved_us) : tolerance_us_(tolerance_us), moved_us_(moved_us) {}
+  // True when commanded - travel exceeds the bias by more than the tolerance: a stop.
+  bool Stopped(double commanded_us, double travel_us);
+  // Outward from the anchor, where the servo stopped: the largest travel seen plus the bias.
+  double StopTravel() const { return travel_max_ + bias_; }
+  double bias() const { return bias_; }
+
+ private:
+  double tolerance_us_, moved_us_;
+  double bias_ = 0, travel_max_ = 0, prev_travel_ = 0;
+  std::vector<double> moved_deficits_;
+};
 
 struct LimitSearchOptions {
   int coarse_us = 20;

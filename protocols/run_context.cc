@@ -17,12 +17,6 @@ namespace owlcal::protocols {
 using models::kNumServos;
 using models::PwmVector;
 
-std::string FixedText(double v, int prec) {
-  std::ostringstream s;
-  s << std::setprecision(prec) << std::fixed << v;
-  return s.str();
-}
-
 std::string PwmText(const PwmVector& p) {
   std::string s;
   for (int i = 0; i < kNumServos; ++i) {

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "calib/csv.h"
+#include "io/number_text.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"
 #include "protocols/coverage.h"
@@ -38,7 +39,7 @@ struct RunAborted : std::runtime_error {
 std::string StopReason();
 
 // `v` with `prec` digits after the point (progress lines, events and table cells).
-std::string FixedText(double v, int prec = 4);
+using io::FixedText;
 // The five pulse widths in wire order, space separated.
 std::string PwmText(const models::PwmVector& p);
 // The eye whose image shows a servo's motion, and the image axis it moves along (0 = x, 1 = y).

@@ -6,6 +6,7 @@
 
 #include "fitting/format.h"
 #include "fitting/projection_uncertainty.h"
+#include "models/statistics.h"
 #include "reports/table.h"
 
 namespace owlcal::reports {
@@ -13,11 +14,7 @@ namespace {
 
 constexpr const char* kEyeColour[2] = {"#1f77b4", "#d62728"};
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
+using models::Median;
 
 // The views of each eye: d.views, else the per-view RMS the intrinsics fits recorded.
 std::vector<ViewStat> Views(const ReportData& d) {

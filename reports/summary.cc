@@ -7,6 +7,7 @@
 #include "fitting/projection_uncertainty.h"
 #include "fitting/truth_compare.h"
 #include "models/head_kinematics.h"
+#include "models/statistics.h"
 #include "reports/camera_figures.h"
 #include "reports/table.h"
 
@@ -18,11 +19,7 @@ std::string PlusMinus(const fitting::Parameter& p) {
   return FmtWithSigma(p.value, p.sigma) + " \u00b1 " + Fmt(p.sigma, 2);
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
+using models::Median;
 
 }  // namespace
 

@@ -1,4 +1,5 @@
 #include "reports/table.h"
+#include "io/number_text.h"
 
 #include <cmath>
 #include <cctype>
@@ -16,9 +17,7 @@ namespace owlcal::reports {
 std::string Fmt(double v, int significant) {
   if (!std::isfinite(v)) return "";
   if (std::abs(v) < 1e-12) return "0";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*g", significant, v);
-  return buf;
+  return io::SignificantText(v, significant);
 }
 
 std::string DisplayUnit(const std::string& unit) {
