@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/detector.h"
+#include "fitting/board_synthetic.h"
 #include "fitting/intrinsics_fit.h"
 #include "fitting/stereo_fit.h"
 #include "owlcal_version.h"
@@ -99,25 +100,11 @@ void MonteCarloSection() {
   const double t0 = Now();
   for (int seed = 1; seed <= 50; ++seed) {
     std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> u(-1, 1);
-    std::normal_distribution<double> noise(0, 0.2);
     std::vector<calib::View> views;
     for (int k = 0; k < 15; ++k) {
-      const Eigen::Vector3d axis(u(rng), u(rng), 0.2 * u(rng));
-      const Eigen::Quaterniond q(Eigen::AngleAxisd(0.15 + 0.45 * std::abs(u(rng)), axis.normalized()));
-      const Eigen::Vector3d t =
-          Eigen::Vector3d(0.12 * u(rng), 0.09 * u(rng), 0.45 + 0.12 * u(rng)) - q * Eigen::Vector3d(0.104, 0.065, 0);
-      const models::Rigid3d pose(q, t);
-      calib::View v;
+      const models::Rigid3d pose = fitting::RandomBoardPose(board, {}, &rng);
+      calib::View v = fitting::ProjectBoardView(truth, board, pose, 0.2, &rng);
       v.frame_index = k;
-      for (const auto& [id, p] : board.Corners()) {
-        const Eigen::Vector3d pc = pose * p;
-        double px[2];
-        if (!truth.Project(pc.data(), px) || px[0] < 0 || px[1] < 0 || px[0] > 639 || px[1] > 479) continue;
-        v.corner_ids.push_back(id);
-        v.pixels.emplace_back(px[0] + noise(rng), px[1] + noise(rng));
-        v.points_in_target.push_back(p);
-      }
       views.push_back(v);
     }
     const fitting::IntrinsicsFit fit = fitting::FitIntrinsics(views, 640, 480, {});

@@ -36,8 +36,10 @@ WarpSpan WarpSpanOfViews(const std::vector<calib::View>& views, const std::strin
 // The physical board of a target id: "chessboard@placement2" -> "chessboard".
 std::string BoardOfTarget(const std::string& target_id);
 
+// warp == nullptr: the flat board.
 template <typename T>
 Eigen::Matrix<T, 3, 1> WarpedPoint(const T* warp, const Eigen::Vector3d& p, const WarpSpan& s) {
+  if (warp == nullptr) return p.cast<T>();
   const double u = (p.x() - s.centre_x) / s.half_x;
   const double v = (p.y() - s.centre_y) / s.half_y;
   return Eigen::Matrix<T, 3, 1>(T(p.x()), T(p.y()), T(p.z()) - (warp[0] * (1 - u * u) + warp[1] * (1 - v * v)));

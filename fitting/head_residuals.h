@@ -12,7 +12,7 @@
 //   centres both eye rotation centres in the head frame, see below       [5]
 //   base_from_target  7-block [qx qy qz qw tx ty tz] (m)                 [7]
 //   camera  models::OpenCvCamera<N> params fx fy cx cy dist...           [4 + N]
-//   warp    (optional, the 8-block form) the board's bow, fitting/board_warp.h [2] (m)
+//   warp    the board's bow, fitting/board_warp.h [2] (m); held at zero for a flat board
 // Residuals: 2 per corner, (projected - measured) / sigma_px, x then y.
 //
 // MountParams (kMountParams = 5): roll_rad, yaw_rad, tx_m, ty_m, tz_m:
@@ -83,23 +83,11 @@ struct HeadViewResidual {
   std::vector<Eigen::Vector2d> pixels;
   double sigma_px = 1.0;
   double huber_k = 0.0;
-  WarpSpan span;  // of the board's bow (the 8-block form)
+  WarpSpan span;  // of the board's bow
 
   int NumResiduals() const { return 2 * static_cast<int>(pixels.size()); }
 
-  template <typename T>
-  bool operator()(const T* pan,
-                  const T* tilt,
-                  const T* neck,
-                  const T* mount,
-                  const T* centres,
-                  const T* base_from_target,
-                  const T* camera,
-                  T* residual) const {
-    return Evaluate(
-        pan, tilt, neck, mount, centres, base_from_target, camera, static_cast<const T*>(nullptr), residual);
-  }
-  // On a bowed board: one more block, the warp [2] (fitting/board_warp.h).
+  // warp: the board's bow [2] (fitting/board_warp.h); a flat board is a warp held at zero.
   template <typename T>
   bool operator()(const T* pan,
                   const T* tilt,
@@ -110,19 +98,6 @@ struct HeadViewResidual {
                   const T* camera,
                   const T* warp,
                   T* residual) const {
-    return Evaluate(pan, tilt, neck, mount, centres, base_from_target, camera, warp, residual);
-  }
-
-  template <typename T>
-  bool Evaluate(const T* pan,
-                const T* tilt,
-                const T* neck,
-                const T* mount,
-                const T* centres,
-                const T* base_from_target,
-                const T* camera,
-                const T* warp,
-                T* residual) const {
     const T pan_rad = models::ServoMap::JointAngle(pan, command.pan_direction, command.pan_us, command.pan_approach);
     const T tilt_rad =
         models::ServoMap::JointAngle(tilt, command.tilt_direction, command.tilt_us, command.tilt_approach);
@@ -136,9 +111,7 @@ struct HeadViewResidual {
                                               models::HeadFromBase(neck_rad) *
                                               models::Rigid3<T>::Map(base_from_target);
     for (size_t i = 0; i < pixels.size(); ++i) {
-      const Eigen::Matrix<T, 3, 1> p =
-          cam_from_target * (warp ? WarpedPoint(warp, points_in_target[i], span)
-                                  : Eigen::Matrix<T, 3, 1>(points_in_target[i].template cast<T>()));
+      const Eigen::Matrix<T, 3, 1> p = cam_from_target * WarpedPoint(warp, points_in_target[i], span);
       T pixel[2];
       if (!Camera::Project(camera, p.data(), pixel)) return false;
       T ex = (pixel[0] - pixels[i].x()) / sigma_px;

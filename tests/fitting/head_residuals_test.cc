@@ -20,6 +20,7 @@ struct Blocks {
   double centres[5];
   double board[7];
   std::vector<double> camera;
+  double warp[2] = {0, 0};  // a flat board
 };
 
 Blocks BlocksOf(const models::HeadModel& h, int eye, const models::Rigid3d& base_from_target) {
@@ -73,7 +74,8 @@ TEST(HeadViewResidual, IsZeroAtTruthAndMatchesHeadModelProject) {
     f.sigma_px = 0.15;
     Blocks b = BlocksOf(truth, v.eye, data.base_from_target.at(v.target_id));
     std::vector<double> res(f.NumResiduals());
-    ASSERT_TRUE(f(b.pan.data(), b.tilt.data(), b.neck.data(), b.mount, b.centres, b.board, b.camera.data(), res.data()));
+    ASSERT_TRUE(f(
+        b.pan.data(), b.tilt.data(), b.neck.data(), b.mount, b.centres, b.board, b.camera.data(), b.warp, res.data()));
     for (double r : res) ASSERT_NEAR(r, 0.0, 1e-6);
     ++checked;
   }
@@ -108,25 +110,29 @@ TEST(HeadViewResidual, PassesGradientCheck) {
   f->sigma_px = 0.15;
   f->huber_k = 3.0;
   for (auto& px : f->pixels) px.x() += 2.0;  // some corners beyond the Huber threshold
-  ceres::AutoDiffCostFunction<HeadViewResidual<models::Camera5>, ceres::DYNAMIC, 5, 5, 5, 5, 5, 7, 9> cost(
+  f->span = WarpSpan{0.05, 0.04, 0.1, 0.08};
+  ceres::AutoDiffCostFunction<HeadViewResidual<models::Camera5>, ceres::DYNAMIC, 5, 5, 5, 5, 5, 7, 9, 2> cost(
       f, f->NumResiduals());
   Blocks b = BlocksOf(truth, v.eye, data.base_from_target.at(v.target_id));
-  std::vector<const double*> params = {b.pan.data(), b.tilt.data(), b.neck.data(), b.mount,
-                                       b.centres,    b.board,       b.camera.data()};
+  b.warp[0] = 0.6e-3;  // a bowed board: the warp block's Jacobian is checked too
+  b.warp[1] = -0.3e-3;
+  std::vector<const double*> params = {
+      b.pan.data(), b.tilt.data(), b.neck.data(), b.mount, b.centres, b.board, b.camera.data(), b.warp};
   // Autodiff Jacobians against central differences (step 1e-6 relative), per block.
   const int nr = f->NumResiduals();
-  const int sizes[7] = {5, 5, 5, 5, 5, 7, 9};
-  std::vector<std::vector<double>> jac(7);
+  const int sizes[8] = {5, 5, 5, 5, 5, 7, 9, 2};
+  std::vector<std::vector<double>> jac(8);
   std::vector<double*> jac_ptrs;
-  for (int k = 0; k < 7; ++k) {
+  for (int k = 0; k < 8; ++k) {
     jac[k].resize(nr * sizes[k]);
     jac_ptrs.push_back(jac[k].data());
   }
   std::vector<double> r0(nr), rp(nr), rm(nr);
   ASSERT_TRUE(cost.Evaluate(params.data(), r0.data(), jac_ptrs.data()));
-  double* mutable_params[7] = {b.pan.data(), b.tilt.data(), b.neck.data(), b.mount, b.centres, b.board, b.camera.data()};
+  double* mutable_params[8] = {
+      b.pan.data(), b.tilt.data(), b.neck.data(), b.mount, b.centres, b.board, b.camera.data(), b.warp};
   int compared = 0;
-  for (int k = 0; k < 7; ++k) {
+  for (int k = 0; k < 8; ++k) {
     for (int c = 0; c < sizes[k]; ++c) {
       double& x = mutable_params[k][c];
       const double x0 = x, h = 1e-6 * std::max(1.0, std::abs(x0));
@@ -144,7 +150,7 @@ TEST(HeadViewResidual, PassesGradientCheck) {
       }
     }
   }
-  EXPECT_EQ(compared, nr * 41);
+  EXPECT_EQ(compared, nr * 43);
 }
 
 TEST(ShiftServoMapAngle, SubtractsAConstantAngleExactly) {

@@ -1,4 +1,4 @@
-// Lens model chosen by cross-validation over held-out views (issue 11, item 3): on the OpenCV
+// Lens model chosen by cross-validation over held-out views: on the OpenCV
 // sample set (data/opencv-stereo-chessboard), and on synthetic views whose lens is known to be
 // 5- or 8-coefficient.
 #include "fitting/lens_model_choice.h"
@@ -12,6 +12,7 @@
 
 #include "calib/detector.h"
 #include "calib/target.h"
+#include "fitting/board_synthetic.h"
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
@@ -68,7 +69,7 @@ TEST(LensModelChoice, OpenCvSampleChoosesByHeldOutPairs) {
   ASSERT_NE(chosen, nullptr);
   for (const auto& s : c.scores) EXPECT_LE(chosen->heldout_rms_px, s.heldout_rms_px * 1.002) << s.name;
   // Held out, the rational model predicts these pairs no better: opencv5 is chosen, and the
-  // stereo RMS stays at the least-squares minimum of issue 4 (0.21506 px).
+  // stereo RMS stays at the least-squares minimum (0.21506 px).
   EXPECT_EQ(c.chosen, DistortionModel::kOpenCv5);
   EXPECT_LE(chosen->full.rms_joint_px, 0.2155);
   EXPECT_NEAR(chosen->full.right_from_left.translation.norm(), 3.327, 0.005);
@@ -86,26 +87,16 @@ TEST(LensModelChoice, OpenCvSampleChoosesByHeldOutPairs) {
 // Synthetic views of a camera with the given lens, 0.15 px noise, boards over the whole image.
 std::vector<calib::View> Synthetic(const models::CameraIntrinsics& cam, int n, unsigned seed, double spread = 1.0) {
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  std::normal_distribution<double> noise(0, 0.15);
-  calib::TargetDefinition board;  // 9x6, 26 mm
+  const calib::TargetDefinition board;  // 9x6, 26 mm
+  BoardPoseSpread s;
+  s.spread_x_m = 0.13 * spread;
+  s.spread_y_m = 0.1 * spread;
+  s.depth_m = 0.4;
+  s.spread_z_m = 0.1;
   std::vector<calib::View> views;
   for (int k = 0; k < n; ++k) {
-    const Eigen::Vector3d axis(u(rng), u(rng), 0.2 * u(rng));
-    const Eigen::Quaterniond q(Eigen::AngleAxisd(0.15 + 0.45 * std::abs(u(rng)), axis.normalized()));
-    const Eigen::Vector3d t = Eigen::Vector3d(0.13 * spread * u(rng), 0.1 * spread * u(rng), 0.4 + 0.1 * u(rng)) -
-                              q * Eigen::Vector3d(0.104, 0.065, 0);
-    const models::Rigid3d pose(q, t);
-    calib::View v;
+    calib::View v = ProjectBoardView(cam, board, RandomBoardPose(board, s, &rng), 0.15, &rng);
     v.frame_index = k;
-    for (const auto& [id, p] : board.Corners()) {
-      const Eigen::Vector3d pc = pose * p;
-      double px[2];
-      if (!cam.Project(pc.data(), px) || px[0] < 0 || px[1] < 0 || px[0] > 639 || px[1] > 479) continue;
-      v.corner_ids.push_back(id);
-      v.pixels.emplace_back(px[0] + noise(rng), px[1] + noise(rng));
-      v.points_in_target.push_back(p);
-    }
     views.push_back(v);
   }
   return views;
