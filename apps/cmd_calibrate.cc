@@ -82,8 +82,10 @@ int RunCalibrate(const CalibrateOptions& o) {
     const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
     run_info[p.name] = {{"status", s.status}, {"frames", s.num_frames}, {"clamped", s.num_clamped},
                         {"robot_clock_s", s.elapsed_s}, {"message", s.message}};
-    progress("  " + s.status + ", " + std::to_string(s.num_frames) + " frames, " + std::to_string(s.num_clamped) +
-             " clamped commands");
+    // Step-response and latency trials keep servo traces and tables, not camera frames.
+    progress("  " + s.status + ", " +
+             (s.num_frames > 0 ? std::to_string(s.num_frames) + " frames" : "no frames kept (tables only)") + ", " +
+             std::to_string(s.num_clamped) + " clamped commands");
     if (s.status == "aborted") throw std::runtime_error("stopped by the user; datasets so far are in " + o.out);
     if (s.status != "complete") warnings.push_back("protocol " + p.name + ": " + s.status + ": " + s.message);
     dataset[p.name] = dir;

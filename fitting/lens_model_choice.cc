@@ -250,8 +250,8 @@ void Decide(const std::map<int, FrameError> per_frame[2], const LensModelChoiceO
   std::ostringstream r;
   r << c->chosen_name << " chosen by " << c->folds << "-fold cross-validation over " << c->num_frames
     << " frames: held-out RMS opencv5 " << FixedOrDash(s5.heldout_rms_px, 4) << " px, opencv8 "
-    << FixedOrDash(s8.heldout_rms_px, 4) << " px (difference " << FixedOrDash(c->gain_px, 3) << " +- "
-    << FixedOrDash(c->gain_se_px, 2) << " px; fit RMS " << FixedOrDash(s5.fit_rms_px, 4) << " / "
+    << FixedOrDash(s8.heldout_rms_px, 4) << " px (difference " << FixedOrDash(c->gain_px, 4) << " +- "
+    << FixedOrDash(c->gain_se_px, 4) << " px; fit RMS " << FixedOrDash(s5.fit_rms_px, 4) << " / "
     << FixedOrDash(s8.fit_rms_px, 4) << " px)";
   if (!richer)
     r << (s8.heldout_rms_px < s5.heldout_rms_px

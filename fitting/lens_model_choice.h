@@ -1,5 +1,5 @@
 #pragma once
-// Choosing the lens model by cross-validation over views (issue 11, item 3).
+// Choosing the lens model by cross-validation over views.
 //
 // A richer lens model always fits the views it was fitted to at least as well; whether it
 // describes the lens better shows only on views it has not seen (mrcal's argument for richer

@@ -1,6 +1,6 @@
 #pragma once
-// The pixel -> PWM map the course notes ask for ("calibrate servo to cameras ... give a map",
-// issue 17 item 3): for any pixel of either eye, the pan and tilt pulse widths that bring what
+// The pixel -> PWM map the course notes ask for ("calibrate servo to cameras ... give a map"):
+// for any pixel of either eye, the pan and tilt pulse widths that bring what
 // the eye sees there to the image centre, and the inverse.
 //
 // "Centre" is the eye's principal point (cx, cy): a target there lies on the optical axis. The

@@ -1,5 +1,5 @@
 #pragma once
-// Stereo calibration at any commanded head pose, from a head fit (issue 17 item 2): the course
+// Stereo calibration at any commanded head pose, from a head fit: the course
 // notes tell students to recalibrate whenever the eyes move; the head fit already knows the
 // camera mounts, the eye rotation centres and the servo maps, so R, T follow for any command.
 //

@@ -1,5 +1,5 @@
 #pragma once
-// Live capture feedback (issue 18 item 5): while a protocol captures board views (robot-driven,
+// Live capture feedback: while a protocol captures board views (robot-driven,
 // or a person placing the board at the runner's prompt), the person sees what the capture has
 // so far, as ROS camera_calibration shows it:
 //   - both eye images with the detection overlay (every detected corner, joined in id order;

@@ -1,5 +1,5 @@
 #pragma once
-// How the course's two servo servers read one packet, field by field (issue 19), so that the
+// How the course's two servo servers read one packet, field by field, so that the
 // virtual Owl's `--server python` and `--server c` modes (robot/servo_server.h) behave as they do.
 // Sources: the guide's Annex 2 (PFCsocket.py) and the course's MRSsocket.c (M R Simpson, 2017).
 //

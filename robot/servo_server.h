@@ -1,6 +1,6 @@
 #pragma once
 // A reusable loopback TCP servo server for tests and for the virtual Owl's served mode, in one
-// of three modes (options.mode; issue 19):
+// of three modes (options.mode):
 //
 // Mode::kOwlcal (default, owlcal's robust server). Clients are served one after another; after
 // one leaves the next queued client is accepted, as many times as needed until Stop(). Per client:

@@ -1,5 +1,5 @@
 #pragma once
-// `owlcal shell`: several servo commands over ONE connection (issue 19), so a student whose
+// `owlcal shell`: several servo commands over ONE connection, so a student whose
 // Owl runs the course's C server (MRSsocket.c: one client per launch) can script a session.
 //
 // Script language, one command per line; '#' starts a comment; blank lines are skipped:

@@ -117,7 +117,7 @@ TEST_F(OwlcalCliTest, MoveWithoutRobotIsAUsageError) {
   EXPECT_EQ(s.exit_code, 2) << "three pulse widths: " << s.output;
 }
 
-// Issue 15: `move ''` was read as 0 and `move 0x600` as 1536. Pulse widths are decimal only, and
+// Regression: `move ''` was read as 0 and `move 0x600` as 1536. Pulse widths are decimal only, and
 // refused before any connection (the closed port is never tried).
 TEST_F(OwlcalCliTest, MoveRefusesEmptyAndHexPulseWidths) {
   const int port = ClosedLoopbackPort();

@@ -1,9 +1,9 @@
-// owlcal pose-calibration (issue 17 item 2) on a folder `owlcal calibrate` wrote (the stereo
+// owlcal pose-calibration on a folder `owlcal calibrate` wrote (the stereo
 // protocol and a short servo sweep, tests/data/protocols): at a verged command it writes the
 // centre pose's files (results.json, calibration.yaml, the course's xml, exports/) with the
 // prediction's sigma and, on the virtual Owl, its truth; a command outside the robot's limits
 // is refused naming the servo. The calibration folder also holds the pixel -> PWM map
-// (exports/pixel_pwm.csv and owl-pwm.h's OwlPixelToPwm, issue 17 item 3).
+// (exports/pixel_pwm.csv and owl-pwm.h's OwlPixelToPwm).
 #include <unistd.h>
 
 #include <cmath>

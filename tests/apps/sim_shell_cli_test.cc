@@ -1,4 +1,4 @@
-// `owlcal sim` layout and server flags and `owlcal shell` as a user runs them (issue 19):
+// `owlcal sim` layout and server flags and `owlcal shell` as a user runs them:
 // the layout flags reach the served truth, a bad --server is a usage error, and `owlcal shell`
 // moves, waits and centres over one connection to a C-mode virtual Owl, which then exits.
 // Loopback and ephemeral ports only.

@@ -112,7 +112,7 @@ TEST(OpenCvCalibFile, BadShapesAndMissingFilesNameThePath) {
   EXPECT_NE(why.find("thin prism"), std::string::npos);
 }
 
-// Issue 15: the course XML reader validates what it reads.
+// Regression: the course XML reader validates what it reads.
 TEST(OpenCvCalibFile, RefusesNonFiniteValuesBadCameraMatricesAndSizes) {
   auto error_of = [](const std::string& body) {
     try {

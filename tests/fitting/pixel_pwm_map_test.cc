@@ -1,4 +1,4 @@
-// The pixel -> PWM map (fitting/pixel_pwm_map.h, issue 17 item 3): from a head fitted on a
+// The pixel -> PWM map (fitting/pixel_pwm_map.h): from a head fitted on a
 // synthetic servo sweep, the pulse widths it gives for a target's pixel centre that target in
 // the truth head (the virtual Owl's geometry, with its backlash) within 1 px, in both eyes and
 // across the image; the inverse gives back the pixel; the grid export covers both images.

@@ -1,4 +1,4 @@
-// Stereo at any commanded pose (fitting/pose_stereo.h, issue 17 item 2): a head fitted on a
+// Stereo at any commanded pose (fitting/pose_stereo.h): a head fitted on a
 // synthetic servo sweep predicts R, T at five verged poses (18-54 us toe-in per eye); the truth
 // lies within 3 sigma of the prediction, and a stereo calibration fitted directly at each pose
 // agrees with it within the combined sigma.

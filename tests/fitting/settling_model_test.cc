@@ -82,7 +82,7 @@ TEST(SettlingModel, FailedTrialsAreCountedNotTimed) {
   EXPECT_NE(r.why.find("2 of 2 trials did not run"), std::string::npos) << r.why;
 }
 
-// Issue 12: the loop model with an ideal servo settled SLOWER (2.3 s) than with the fitted slew
+// Regression: the loop model with an ideal servo settled SLOWER (2.3 s) than with the fitted slew
 // and lag (0.8 s) at K = 0.1. A single noisy run was set against a median; over the same runs the
 // ideal servo is still a little slower, and that is real: below the no-overshoot gain the lag
 // acts as extra delay and the approach is faster. The "why" text says so.

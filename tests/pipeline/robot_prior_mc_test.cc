@@ -1,4 +1,4 @@
-// A small version of bench/robot_prior_mc_bench.cc (issue 11 item 2): robots drawn from the
+// A small version of bench/robot_prior_mc_bench.cc: robots drawn from the
 // prior of real Owls (sim/robot_prior.h: wide and narrow lenses, 1 or 5 us PWM steps, dead
 // bands, bowed boards, noisy streams), each recorded on the in-process virtual Owl with short
 // stereo and servo-sweep protocols (about 90 frames instead of 280) and calibrated by calibrate's

@@ -168,7 +168,7 @@ TEST(Dataset, ErrorsNameFileLineAndField) {
   EXPECT_NE(c.errors[0].find("frames.csv:3 field Rx_us"), std::string::npos) << c.errors[0];
 }
 
-// Issue 15: nlohmann-json kept the last of two equal keys without a word.
+// Regression: nlohmann-json kept the last of two equal keys without a word.
 TEST(Dataset, ManifestWithARepeatedKeyIsRefused) {
   const std::string dir = TempDir("dupkey");
   { auto w = DatasetWriter::Create(dir, {}); }

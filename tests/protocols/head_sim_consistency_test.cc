@@ -14,7 +14,7 @@
 // Found with it: frames were exposed before the servos settled (settle 250 ms
 // minus 100 ms stream latency; 0.1-1.3 deg errors), and the sweep's two placements of one
 // chessboard were fitted as one fixed board (head RMS 0.3 px, IPD 55 mm).
-// Issue 4 acceptance: every servo's map within 0.1 deg RMS over the robot file's whole range and
+// Acceptance: every servo's map within 0.1 deg RMS over the robot file's whole range and
 // every determined parameter within 3 sigma, with the true intrinsics held and as calibrate fits
 // (stereo-like intrinsics errors, refined). Held, those errors put the pan zeros 0.17 deg off.
 // OWLCAL_SERVO_SWEEP_PROTOCOL=path runs another sweep protocol (to try one out).

@@ -1,4 +1,4 @@
-// owlcal against a one-client servo server (issue 19): the virtual Owl served with the course's
+// owlcal against a one-client servo server: the virtual Owl served with the course's
 // C server behaviour (`owlcal sim --server c`: MRSsocket.c serves one client, then dies of
 // SIGPIPE when it leaves). A protocol run and a shell session each complete over ONE
 // connection; after they close, the server is gone, as on the real robot.

@@ -100,7 +100,7 @@ TEST(Protocol, ErrorsNameFileStepAndField) {
   EXPECT_NE(e.find("not valid YAML"), std::string::npos) << e;
 }
 
-// Issue 15: a repeat of 2e9, or three nested repeats of 1000, ended in a bare std::bad_alloc.
+// Regression: a repeat of 2e9, or three nested repeats of 1000, ended in a bare std::bad_alloc.
 TEST(Protocol, PlanSizeIsCappedWithAClearError) {
   std::string e = ErrorOf("name: x\nsteps:\n  - repeat: {times: 2000000000, steps: [{wait: {ms: 1}}]}\n");
   EXPECT_NE(e.find("p.yaml:3: step 0 (repeat): field 'times'"), std::string::npos) << e;
@@ -118,7 +118,7 @@ TEST(Protocol, PlanSizeIsCappedWithAClearError) {
   EXPECT_NE(e.find("step 2 (repeat): field 'times'"), std::string::npos) << e;
 }
 
-// Issue 15: step_us, pan_us or amplitude_us of 2147483647 overflowed a signed int and the sweep
+// Regression: step_us, pan_us or amplitude_us of 2147483647 overflowed a signed int and the sweep
 // ran 2,400 commands clamped to the opposite end. Pulse widths are bounded when read and
 // checked against the robot file's range before anything moves.
 TEST(Protocol, PulseWidthQuantitiesCannotOverflow) {

@@ -128,7 +128,7 @@ TEST(Runner, StopRequestParksTheHeadAndClosesTheDataset) {
   EXPECT_EQ(c.num_frames, 10);
 }
 
-// Issue 15: `timeout` (SIGTERM) or a closed SSH session (SIGHUP) left the head where it was and
+// Regression: `timeout` (SIGTERM) or a closed SSH session (SIGHUP) left the head where it was and
 // the manifest "running". Each signal now stops the run like Ctrl-C.
 TEST(Runner, SigtermAndSighupParkTheHeadLikeSigint) {
   for (const int sig : {SIGTERM, SIGHUP, SIGINT}) {
@@ -157,7 +157,7 @@ TEST(Runner, SigtermAndSighupParkTheHeadLikeSigint) {
   }
 }
 
-// Issue 15: a sweep step larger than the servo's range is refused before anything moves.
+// Regression: a sweep step larger than the servo's range is refused before anything moves.
 TEST(Runner, StepLargerThanTheRobotRangeIsRefusedBeforeMoving) {
   testing::FakeRobot robot(TightRobot());
   const Protocol p = ParseProtocolYaml("name: big\nsteps:\n  - sweep: {servo: Neck, step_us: 400}\n", "big.yaml");

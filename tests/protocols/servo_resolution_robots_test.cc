@@ -1,4 +1,4 @@
-// Issue 12: fixation and vergence ranging on robots whose servos do not apply the pulse they are
+// Regression: fixation and vergence ranging on robots whose servos do not apply the pulse they are
 // commanded: 5 us PWM steps and dead bands of 2-5 us (tests/data/robots/owl_step5_truth.yaml,
 // owl_deadband_truth.yaml, data/sim/owl_variant_a_truth.yaml with 4-8 us backlash). The fixation
 // seats its settled command (protocols/fixation.h), so the command is the pulse the servo

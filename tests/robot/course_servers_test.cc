@@ -1,8 +1,8 @@
-// The servo server's python and c modes against the course's own sources (issue 19):
+// The servo server's python and c modes against the course's own sources:
 // the guide's Annex 2 (PFCsocket.py: recv(24), send('ok'), quit on a short packet,
 // A = map(int, packet.split(' ')), clamp) and MRSsocket.c (read 32, sscanf "%d %d %d %d %d"
 // into globals, atoi reply "%d\n\r", clamp each global, one client then SIGPIPE), and the
-// owlcal mode's idle timeout (issue 15). Loopback, ephemeral ports.
+// owlcal mode's idle timeout. Loopback, ephemeral ports.
 #include <chrono>
 #include <condition_variable>
 #include <mutex>

@@ -72,7 +72,7 @@ TEST_F(LinkCommandsTest, UnreachableRobotThrowsNamingIt) {
                std::invalid_argument);
 }
 
-// Issue 15: --timeout-ms bounds the whole command (connect, reply and any resend together).
+// Regression: --timeout-ms bounds the whole command (connect, reply and any resend together).
 TEST(SendOneCommand, TimeoutIsHonouredAsStated) {
   int port = 0;
   Socket silent = Listen("127.0.0.1", 0, &port);  // connects, never answers
@@ -111,7 +111,7 @@ TEST(GrabOneFrame, WritesLeftRightAndTheRawFrame) {
   std::filesystem::remove_all(dir);
 }
 
-// Issue 15: a 631-byte JPEG declaring 30000x30000 made `grab` take 5.3 GB and write 30000x15000
+// Regression: a 631-byte JPEG declaring 30000x30000 made `grab` take 5.3 GB and write 30000x15000
 // PNGs, past its own timeout. The SOF size is checked against the robot file before decoding.
 TEST(GrabOneFrame, FrameLargerThanTheRobotFileIsNeverDecoded) {
   cv::Mat small(8, 16, CV_8UC3, cv::Scalar(10, 10, 10));

@@ -169,7 +169,7 @@ TEST_F(MjpegTest, ReconnectsAfterServerRestart) {
   EXPECT_GE(client.Stats().num_failures, 1);
 }
 
-// Issue 15: a stream whose parts keep failing was reconnected 2,046 times in 5 s.
+// Regression: a stream whose parts keep failing was reconnected 2,046 times in 5 s.
 TEST_F(MjpegTest, ReconnectsToAFailingStreamBackOff) {
   testing::RawServer failing(
       [](int) {

@@ -85,7 +85,7 @@ TEST(ServoClient, AcceptsTheCServersNumericReply) {
   EXPECT_EQ(r.text, "1600");
 }
 
-// Issue 15: the client took any reply as "ok" and printed the server's raw bytes.
+// Regression: the client took any reply as "ok" and printed the server's raw bytes.
 TEST(ServoClient, AReplyThatIsNeitherOkNorAnRxEchoIsAnErrorShownPrintable) {
   testing::RawServer hostile([](int) { return std::string("\x1b[2J\x07pwned\xff\r\n"); }, 24, true);
   ServoClient client({.host = "127.0.0.1", .port = hostile.Port(), .reply_timeout = 500ms});
@@ -125,7 +125,7 @@ TEST(ServoClient, AcceptsOkAndRxEchoWithLineEndsOnly) {
   EXPECT_EQ(r.text, "ok");
 }
 
-// Issue 15: `--timeout-ms 60000` waited 120 s (connect + reply, and a resend). A command
+// Regression: `--timeout-ms 60000` waited 120 s (connect + reply, and a resend). A command
 // timeout bounds the whole command.
 TEST(ServoClient, CommandTimeoutBoundsRetriesToo) {
   int port = 0;

@@ -192,7 +192,7 @@ TEST_F(SimServerTest, HttpTruthAndSceneRoutes) {
   EXPECT_FALSE(server_->Owl().SceneState().Find("aprilgrid")->visible);
 }
 
-// Issue 19: like mjpg-streamer, a client that reads slower than the stream gets the newest frame
+// Regression: like mjpg-streamer, a client that reads slower than the stream gets the newest frame
 // each time and the rest are dropped, instead of a queue of seconds-old frames. A client reading
 // at 5 fps: after a 1 s warm-up every frame it receives was exposed at most latency + 2 x its own
 // frame period ago

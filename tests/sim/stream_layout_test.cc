@@ -1,4 +1,4 @@
-// The default virtual Owl streams like a real Owl (issue 19): mirrored, so a course-style
+// The default virtual Owl streams like a real Owl: mirrored, so a course-style
 // client that flips the whole 1280x480 frame (Owl_basic.cpp: cv::flip(Frame, FrameFlpd, 1);
 // Left = cols 0-639, Right = cols 640-1279) sees the left eye on the left, the right way round,
 // and owlcal's default robot file (models::DefaultRobotConfig) reads the same halves.
