@@ -1,12 +1,14 @@
 // owlcal calibrate [--robot sim|HOST] [--robot-truth FILE] [--seed N] --out DIR: the main job.
 // Records one dataset per protocol of the standard suite under DIR/datasets/, runs the
 // calibration pipeline on them (pipeline/calibrate_pipeline.h: intrinsics + stereo, head,
-// evaluations, truth on the virtual Owl) and writes DIR/results.json, DIR/evaluation.json,
+// evaluations, truth on the virtual Owl), then records the protocols that use the calibration
+// (saccade: pipeline/saccade_study.h) and evaluates them, and writes DIR/results.json, DIR/evaluation.json,
 // DIR/calibration.yaml, DIR/intrinsics.xml and extrinsics.xml (the course's files, mm),
 // DIR/exports/, DIR/figures/, DIR/tables/ and DIR/report/index.html (apps/calibration_output.h).
 // `owlcal fit-datasets DIR` runs the same pipeline again on the recorded datasets.
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -17,6 +19,7 @@
 #include "apps/robot_options.h"
 #include "owlcal_version.h"
 #include "pipeline/calibrate_pipeline.h"
+#include "pipeline/saccade_study.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
 #include "sim/virtual_owl.h"
@@ -57,18 +60,13 @@ int RunCalibrate(const CalibrateOptions& o) {
   std::optional<sim::RobotTruth> truth;
   if (auto* owl = dynamic_cast<sim::VirtualOwl*>(robot.get())) truth = owl->Truth();
 
-  // 1) Record one dataset per protocol.
+  // 1) Record one dataset per protocol. A protocol with a saccade step needs the calibration:
+  //    it is recorded after the fit (3).
   std::atomic<bool>* stop = protocols::InstallStopSignals();
   std::map<std::string, std::string> dataset;
   nlohmann::json run_info = nlohmann::json::object();
-  for (const std::string& name : names) {
-    const std::string dir = o.out + "/datasets/" + fs::path(name).stem().string();
-    protocols::Protocol p;
-    try {
-      p = protocols::LoadProtocolFile(protocols::ResolveProtocolPath(name));
-    } catch (const protocols::ProtocolError& e) {
-      throw UsageError(e.what());
-    }
+  auto record = [&](const protocols::Protocol& p, const std::string& dir,
+                    const std::optional<protocols::CalibratedMaps>& calibration) {
     progress("protocol " + p.name + " -> " + dir);
     protocols::RunOptions ro;
     ro.out_dir = dir;
@@ -79,6 +77,7 @@ int RunCalibrate(const CalibrateOptions& o) {
     // are assumed, and the dataset says so.
     ro.interactive = !o.robot.IsSim() && !o.non_interactive && ::isatty(STDIN_FILENO);
     ro.stop_flag = stop;
+    ro.calibration = calibration;
     const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
     run_info[p.name] = {{"status", s.status}, {"frames", s.num_frames}, {"clamped", s.num_clamped},
                         {"robot_clock_s", s.elapsed_s}, {"message", s.message}};
@@ -88,9 +87,26 @@ int RunCalibrate(const CalibrateOptions& o) {
              std::to_string(s.num_clamped) + " clamped commands");
     if (s.status == "aborted") throw std::runtime_error("stopped by the user; datasets so far are in " + o.out);
     if (s.status != "complete") warnings.push_back("protocol " + p.name + ": " + s.status + ": " + s.message);
+  };
+  std::vector<std::pair<protocols::Protocol, std::string>> after_fit;
+  for (const std::string& name : names) {
+    const std::string dir = o.out + "/datasets/" + fs::path(name).stem().string();
+    protocols::Protocol p;
+    try {
+      p = protocols::LoadProtocolFile(protocols::ResolveProtocolPath(name));
+    } catch (const protocols::ProtocolError& e) {
+      throw UsageError(e.what());
+    }
+    const bool needs_fit = std::any_of(p.steps.begin(), p.steps.end(), [](const protocols::Step& st) {
+      return st.kind() == protocols::StepKind::kSaccade;
+    });
+    if (needs_fit) {
+      after_fit.emplace_back(p, dir);
+      continue;
+    }
+    record(p, dir, std::nullopt);
     dataset[p.name] = dir;
   }
-  settings["runs"] = run_info;
   settings["lens_model"] = o.lens_model;
 
   // 2) Everything after recording: the pipeline.
@@ -100,11 +116,22 @@ int RunCalibrate(const CalibrateOptions& o) {
     po.truth = truth->HeadModel();
     po.latency_truth = LatencyTruthOf(*truth);
     po.fps = truth->stream.fps;
+    for (int i = 0; i < models::kNumServos; ++i) po.truth_slew_deg_per_s[i] = truth->servos[i].slew_deg_per_s;
+    po.truth_latency_s = truth->stream.latency_ms / 1000.0;
   }
   po.progress = progress;
   std::string why;
   if (!pipeline::SetLensModel(o.lens_model, &po, &why)) throw UsageError(why);
   fitting::CalibrationRun d = pipeline::CalibrateFromDatasets(dataset, po);
+
+  // 3) The protocols that use the calibration (saccades), then their evaluation.
+  for (const auto& [p, dir] : after_fit) {
+    record(p, dir, pipeline::ControllerCalibration(d, "this calibrate run's head fit and step-response motion fit"));
+    dataset[p.name] = dir;
+    pipeline::AddSaccadeEvaluation(dir, po, &d);
+  }
+  d.result.inputs["datasets"] = dataset;
+  settings["runs"] = run_info;
   d.result.warnings.insert(d.result.warnings.begin(), warnings.begin(), warnings.end());
   d.settings = settings;
   d.result.inputs["command"] = settings;

@@ -94,6 +94,8 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
     po.truth = truth->HeadModel();
     po.latency_truth = LatencyTruthOf(*truth);
     po.fps = truth->stream.fps;
+    for (int i = 0; i < models::kNumServos; ++i) po.truth_slew_deg_per_s[i] = truth->servos[i].slew_deg_per_s;
+    po.truth_latency_s = truth->stream.latency_ms / 1000.0;
   }
   po.head.measured_sigma_factor = o.measured_sigma_factor;
   po.head.fit_intrinsics = !o.hold_intrinsics;

@@ -66,6 +66,7 @@ struct SettlingStudy {
   double latency_ms = 0;       // the latency protocol's median first-motion delay
   int ideal_delay_frames = 3;  // d of the course model
   double deg_per_us = 0.113;   // to state slew in deg/s
+  int servo = -1;              // the servo the trials stepped (models::ServoIndex), -1 unknown
   std::vector<SettlingRow> rows;
   std::vector<SettlingCurvePoint> curve;
   std::vector<std::string> notes;

@@ -47,11 +47,15 @@ inline std::optional<Eigen::Vector3d> PointAtPixel(const HeadModel& head, Eye ey
 
 // Pulses [pan, tilt] (real-valued) of `eye` that centre x_in_base, moving only the axes asked
 // for (the others keep `a`'s angles). `approach` is the approach each servo will have after the
-// move (+1 from below, -1 from above). nullopt when the point cannot be centred.
+// move (+1 from below, -1 from above). The point goes to `goal_px` (default: the principal
+// point; a controller that measures offsets from the image centre passes that). nullopt when the
+// point cannot be centred.
 inline std::optional<std::array<double, 2>> SaccadePulses(const HeadModel& head, Eye eye, JointAngles a,
                                                           const Eigen::Vector3d& x_in_base, bool pan, bool tilt,
-                                                          const std::array<int, 2>& approach) {
-  const double cx = head.intrinsics[eye].params[2], cy = head.intrinsics[eye].params[3];
+                                                          const std::array<int, 2>& approach,
+                                                          const std::optional<Eigen::Vector2d>& goal_px = std::nullopt) {
+  const double cx = goal_px ? goal_px->x() : head.intrinsics[eye].params[2];
+  const double cy = goal_px ? goal_px->y() : head.intrinsics[eye].params[3];
   for (int it = 0; it < 30; ++it) {
     Eigen::Vector2d p0;
     if (!head.Project(eye, a, x_in_base, &p0)) return std::nullopt;

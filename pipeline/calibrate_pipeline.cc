@@ -1,4 +1,5 @@
 #include "pipeline/calibrate_pipeline.h"
+#include "pipeline/saccade_study.h"
 #include "pipeline/settling_study.h"
 
 #include <algorithm>
@@ -98,81 +99,6 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
       excluded->push_back("vergence fixation " + std::to_string(r) + " (fixations.csv line " + std::to_string(row.line) +
                           ") not ranged: " + calib::TrialStatusName(f.status) + ": " + f.reason);
     out.push_back(f);
-  }
-  return out;
-}
-
-std::vector<fitting::StepTrace> ReadSteps(const std::string& dataset) {
-  std::vector<fitting::StepTrace> out;
-  using Key = std::tuple<int, double, double, int>;
-  std::map<Key, fitting::StepTrace> by;
-  std::vector<Key> order;
-  auto add = [&](const Key& key) {
-    if (by.count(key)) return;
-    order.push_back(key);
-    fitting::StepTrace s;
-    s.gain = std::get<1>(key);
-    s.amplitude_deg = std::get<2>(key);
-    s.trial = std::get<3>(key);
-    by[key] = s;
-  };
-  for (const protocols::StepResponseRow& row : protocols::ReadStepResponseCsv(dataset)) {
-    const Key key{row.step_index, row.gain, row.amplitude_deg, row.trial};
-    add(key);
-    if (!row.found || !row.offset_px) continue;
-    by[key].t_s.push_back(row.t_s);
-    by[key].y.push_back(*row.offset_px);  // converted below
-  }
-  // The trials' statuses (step_trials.csv); trials without frames (skipped) are rows too.
-  std::map<Key, std::pair<calib::TrialStatus, std::string>> status;
-  for (const protocols::StepTrialRow& row : protocols::ReadStepTrialsCsv(dataset)) {
-    const Key key{row.step_index, row.gain, row.amplitude_deg, row.trial};
-    auto st = row.status;
-    if (!st)
-      st = row.outcome == "converged"     ? calib::TrialStatus::kOk
-           : row.outcome == "no-fixation" ? calib::TrialStatus::kSkipped
-           : row.outcome == "target-lost" ? calib::TrialStatus::kLostTarget
-                                          : calib::TrialStatus::kNotSettled;
-    std::string reason = row.reason;
-    if (reason.empty() && *st != calib::TrialStatus::kOk) reason = "outcome " + row.outcome + ": " + row.message;
-    status[key] = {*st, reason};
-    add(key);
-  }
-  for (const auto& key : order) {
-    fitting::StepTrace s = by[key];
-    s.eye_axis = "step-response";
-    if (auto it = status.find(key); it != status.end()) {
-      s.status = it->second.first;
-      s.reason = it->second.second;
-    }
-    if (s.y.size() < 3 || std::abs(s.y.front()) < 1e-6) {
-      // Not a usable step response: a row with its status, no metrics.
-      if (s.status == calib::TrialStatus::kOk) {
-        s.status = calib::TrialStatus::kLostTarget;
-        s.reason = s.y.size() < 3 ? "the target was seen in " + std::to_string(s.y.size()) + " frames of the trial"
-                                  : std::string("no step: the target was centred in the first frame");
-      }
-      s.t_s.clear();
-      s.y.clear();
-      out.push_back(s);
-      continue;
-    }
-    const double o0 = s.y.front();
-    s.residual_px = std::abs(s.y.back());
-    for (double& y : s.y) y = 1.0 - y / o0;  // fraction of the step done
-    fitting::StepInfoOptions o;
-    o.y_init = 0.0;
-    o.y_final = 1.0;
-    try {
-      s.info = fitting::ComputeStepInfo(s.t_s, s.y, o);
-    } catch (const std::exception& e) {
-      // e.g. non-increasing times (dropped frames logged twice): a row, not a silent drop.
-      s.status = calib::TrialStatus::kFailed;
-      s.reason = std::string("no step metrics: ") + e.what();
-      s.t_s.clear();
-      s.y.clear();
-    }
-    out.push_back(s);
   }
   return out;
 }
@@ -283,6 +209,82 @@ void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
 }
 
 }  // namespace
+
+std::vector<fitting::StepTrace> ReadStepTraces(const std::string& dataset) {
+  std::vector<fitting::StepTrace> out;
+  using Key = std::tuple<int, double, double, int>;
+  std::map<Key, fitting::StepTrace> by;
+  std::vector<Key> order;
+  auto add = [&](const Key& key) {
+    if (by.count(key)) return;
+    order.push_back(key);
+    fitting::StepTrace s;
+    s.gain = std::get<1>(key);
+    s.amplitude_deg = std::get<2>(key);
+    s.trial = std::get<3>(key);
+    by[key] = s;
+  };
+  for (const protocols::StepResponseRow& row : protocols::ReadStepResponseCsv(dataset)) {
+    const Key key{row.step_index, row.gain, row.amplitude_deg, row.trial};
+    add(key);
+    if (!row.found || !row.offset_px) continue;
+    by[key].t_s.push_back(row.t_s);
+    by[key].y.push_back(*row.offset_px);  // converted below
+  }
+  // The trials' statuses (step_trials.csv); trials without frames (skipped) are rows too.
+  std::map<Key, std::pair<calib::TrialStatus, std::string>> status;
+  for (const protocols::StepTrialRow& row : protocols::ReadStepTrialsCsv(dataset)) {
+    const Key key{row.step_index, row.gain, row.amplitude_deg, row.trial};
+    auto st = row.status;
+    if (!st)
+      st = row.outcome == "converged"     ? calib::TrialStatus::kOk
+           : row.outcome == "no-fixation" ? calib::TrialStatus::kSkipped
+           : row.outcome == "target-lost" ? calib::TrialStatus::kLostTarget
+                                          : calib::TrialStatus::kNotSettled;
+    std::string reason = row.reason;
+    if (reason.empty() && *st != calib::TrialStatus::kOk) reason = "outcome " + row.outcome + ": " + row.message;
+    status[key] = {*st, reason};
+    add(key);
+  }
+  for (const auto& key : order) {
+    fitting::StepTrace s = by[key];
+    s.eye_axis = "step-response";
+    if (auto it = status.find(key); it != status.end()) {
+      s.status = it->second.first;
+      s.reason = it->second.second;
+    }
+    if (s.y.size() < 3 || std::abs(s.y.front()) < 1e-6) {
+      // Not a usable step response: a row with its status, no metrics.
+      if (s.status == calib::TrialStatus::kOk) {
+        s.status = calib::TrialStatus::kLostTarget;
+        s.reason = s.y.size() < 3 ? "the target was seen in " + std::to_string(s.y.size()) + " frames of the trial"
+                                  : std::string("no step: the target was centred in the first frame");
+      }
+      s.t_s.clear();
+      s.y.clear();
+      out.push_back(s);
+      continue;
+    }
+    const double o0 = s.y.front();
+    s.residual_px = std::abs(s.y.back());
+    for (double& y : s.y) y = 1.0 - y / o0;  // fraction of the step done
+    fitting::StepInfoOptions o;
+    o.y_init = 0.0;
+    o.y_final = 1.0;
+    try {
+      s.info = fitting::ComputeStepInfo(s.t_s, s.y, o);
+    } catch (const std::exception& e) {
+      // e.g. non-increasing times (dropped frames logged twice): a row, not a silent drop.
+      s.status = calib::TrialStatus::kFailed;
+      s.reason = std::string("no step metrics: ") + e.what();
+      s.t_s.clear();
+      s.y.clear();
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
 
 fitting::StereoFitOptions CalibratePipelineOptions::CalibrateStereoFitOptions() {
   fitting::StereoFitOptions so;
@@ -395,6 +397,8 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
           {"lens_choice", lens},
           {"truth", truth.has_value()},
           {"fps", fps},
+          {"truth_slew_deg_per_s", truth_slew_deg_per_s},
+          {"truth_latency_s", truth_latency_s},
           {"default_delay_frames", default_delay_frames},
           {"stereo", s},
           {"head", h},
@@ -431,7 +435,7 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
   d.config = config;
   for (const auto& [name, dir] : datasets) {
     static const std::set<std::string> kKnown = {"intrinsics", "stereo",        "servo_sweep", "vergence",
-                                                 "latency",    "step_response", "limits",      "alignment"};
+                                                 "latency",    "step_response", "limits",      "alignment", "saccade"};
     if (!kKnown.count(name)) progress("dataset " + dir + " (protocol " + name + "): no calibration step reads it");
   }
 
@@ -551,7 +555,7 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     if (auto lf = LatencyFrames(dataset("latency"), o.fps)) delay = *lf;
   d.gains = fitting::MakeGainStudy(delay, o.fps);
   if (!dataset("step_response").empty()) {
-    d.steps = ReadSteps(dataset("step_response"));
+    d.steps = ReadStepTraces(dataset("step_response"));
     for (const auto& st : d.steps)
       if (st.status != calib::TrialStatus::kOk)
         d.result.warnings.push_back("step trial (gain " + Fmt(st.gain, 3) + ", " + Fmt(st.amplitude_deg, 3) +
@@ -572,6 +576,7 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
                std::to_string(d.settling->rows.size()) + " (gain, step) groups");
     }
   }
+  if (!dataset("saccade").empty()) AddSaccadeEvaluation(dataset("saccade"), o, &d);
   if (!dataset("limits").empty()) {
     std::vector<std::string> failed;
     int rows = 0;

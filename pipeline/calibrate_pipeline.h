@@ -17,11 +17,12 @@
 //   3. the truth in the fit's gauge (virtual Owl only: CalibratePipelineOptions::truth);
 //   4. evaluations: ranging from `vergence` (every fixation a row with its status), the gain
 //      study at the delay `latency` measured, step responses from `step_response`, limits from
-//      `limits`;
+//      `limits`, calibrated saccades from `saccade` (pipeline/saccade_study.h);
 //   5. the checks against references (fitting/reference_checks.h, results.json
 //      diagnostics.reference_checks): latency from `latency` (truth on the virtual Owl), the
 //      alignment from `alignment` with its verdict, the field of view against the datasheet.
 // Every option goes into result.inputs["pipeline"] and the datasets into result.inputs["datasets"].
+#include <array>
 #include <functional>
 #include <map>
 #include <optional>
@@ -49,6 +50,11 @@ struct CalibratePipelineOptions {
   // reading the truth predicts per trial, fitting/reference_checks.h). nullopt on a real robot.
   std::optional<fitting::LatencyTruth> latency_truth;
   double fps = 30.0;                  // stream frame rate (latency in frames, gain study)
+  // The virtual Owl's true servo slew [deg/s] and stream latency (exposure to arrival) [s]: the
+  // saccade's physical bound (pipeline/saccade_study.h). 0: unknown (a real robot), then the
+  // bound uses the slew and exposure delay fitted from the step frames.
+  std::array<double, models::kNumServos> truth_slew_deg_per_s{};
+  double truth_latency_s = 0;
   int default_delay_frames = 3;       // loop delay when no latency dataset measured it
   fitting::StereoFitOptions stereo = CalibrateStereoFitOptions();
   // The lens model of both eyes (and so of the head fit): chosen by cross-validation over the
@@ -80,6 +86,10 @@ bool SetLensModel(const std::string& value, CalibratePipelineOptions* options, s
 // throw; unreadable dataset files throw std::runtime_error naming path:line:column.
 fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
                                               const CalibratePipelineOptions& options);
+
+// The trials of a step-response (or saccade) dataset: one trace per trial with its status and
+// stepinfo (2 % band); trials without usable frames are rows with their status, no metrics.
+std::vector<fitting::StepTrace> ReadStepTraces(const std::string& dataset);
 
 // The datasets of a recorded calibrate folder: every DIR/datasets/*/ with a manifest, by the
 // name of the protocol its manifest records. Throws when there are none, or two datasets of

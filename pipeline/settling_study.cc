@@ -121,8 +121,10 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
     }
   }
   try {
-    return fitting::CompareSettling(m, motion, measured, delay_frames, latency_ms.value_or(delay_frames * 1000.0 / fps),
-                                    deg_per_us);
+    fitting::SettlingStudy st = fitting::CompareSettling(
+        m, motion, measured, delay_frames, latency_ms.value_or(delay_frames * 1000.0 / fps), deg_per_us);
+    st.servo = servo;
+    return st;
   } catch (const std::exception& e) {
     return refuse(e.what());
   }

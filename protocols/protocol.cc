@@ -97,6 +97,7 @@ const char* StepKindName(StepKind kind) {
     case StepKind::kAlignment: return "alignment";
     case StepKind::kLatency: return "latency";
     case StepKind::kWait: return "wait";
+    case StepKind::kSaccade: return "saccade";
   }
   return "?";
 }
@@ -122,7 +123,8 @@ static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kLimits), 
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kAlignment), StepParams>, AlignmentStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kLatency), StepParams>, LatencyStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kWait), StepParams>, WaitStep>);
-static_assert(std::variant_size_v<StepParams> == int(StepKind::kWait) + 1);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kSaccade), StepParams>, SaccadeStep>);
+static_assert(std::variant_size_v<StepParams> == int(StepKind::kSaccade) + 1);
 
 const char* EyeSetName(EyeSet eyes) {
   switch (eyes) {
@@ -516,9 +518,30 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.ms = f.PositiveInt("ms", 0, 0);
     return s;
   }
+  if (kind == "saccade") {
+    SaccadeStep s;
+    s.eye = f.Enum("eye", models::kRightEye, {{"left", models::kLeftEye}, {"right", models::kRightEye}});
+    s.axis = f.Enum("axis", Axis::kPan, {{"pan", Axis::kPan}, {"tilt", Axis::kTilt}});
+    s.amplitudes_deg = f.List<double>("amplitudes_deg", s.amplitudes_deg);
+    for (double a : s.amplitudes_deg)
+      if (!(a > 0 && a <= 45)) f.Fail("amplitudes_deg", std::to_string(a) + " must be in (0, 45]");
+    s.trials = f.PositiveInt("trials", s.trials);
+    s.frames = f.PositiveInt("frames", s.frames, 2);
+    s.locator =
+        f.Enum("locator",
+               Locator::kFixation,
+               {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+    s.range_m = f.PositiveDouble("range_m", s.range_m);
+    s.tolerance_px = f.PositiveDouble("tolerance_px", s.tolerance_px);
+    s.max_corrections = f.PositiveInt("max_corrections", s.max_corrections, 0);
+    s.latency_frames = f.PositiveInt("latency_frames", 0, 0);
+    s.shape = f.Value<bool>("shape", true);
+    s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
+    return s;
+  }
   throw ProtocolError(f.At(YAML::Node(YAML::NodeType::Undefined)) + "unknown step kind '" + kind +
                       "' (move-to, sweep, grid, place-target, capture, fixate, step-response, limits, "
-                      "alignment, latency, wait, repeat)");
+                      "alignment, latency, wait, saccade, repeat)");
 }
 
 Step ParseStep(
@@ -644,7 +667,7 @@ std::string StandardProtocolDir() {
 }
 
 std::vector<std::string> StandardProtocolNames() {
-  return {"limits", "alignment", "intrinsics", "stereo", "servo_sweep", "vergence", "step_response", "latency"};
+  return {"limits", "alignment", "intrinsics", "stereo", "servo_sweep", "vergence", "step_response", "latency", "saccade"};
 }
 
 std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
@@ -673,6 +696,11 @@ std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
     for (int servo : li->servos) first(at_most("coarse_us", li->coarse_us, servo));
   if (const auto* fx = std::get_if<FixateStep>(&s.params)) loop(fx->loop);
   if (const auto* sr = std::get_if<StepResponseStep>(&s.params)) loop(sr->loop);
+  if (const auto* sa = std::get_if<SaccadeStep>(&s.params))
+    for (int servo = 0; servo < models::kNumServos; ++servo)
+      if (2 * sa->limit_margin_us >= range(servo))
+        first(where + "limit_margin_us': " + std::to_string(sa->limit_margin_us) + " us leaves no room in " +
+              models::kServoNames[servo] + "'s range of " + std::to_string(range(servo)) + " us");
   return why;
 }
 

@@ -33,6 +33,10 @@
 //                moved_fraction: 0.3, rim_fraction: 0.02, settle: {...}}
 //     - alignment: {frames: 3}
 //     - latency: {servo: Rx, amplitude_us: 40, trials: 5, max_frames: 20}
+//     - saccade: {eye: right, axis: pan, amplitudes_deg: [10], trials: 3, frames: 20,
+//                 locator: fixation, range_m: 1.0, tolerance_px: 1.0, max_corrections: 4,
+//                 latency_frames: 0, shape: true, limit_margin_us: 20}
+//                (the calibrated-map controller, protocols/saccade_step.h)
 //     - wait: {ms: 500}
 //     - repeat: {times: 2, steps: [ ...steps... ]}
 //   Every step may also carry `name: text` (default "<kind><index>").
@@ -126,6 +130,7 @@ enum class StepKind {
   kAlignment,
   kLatency,
   kWait,
+  kSaccade,
 };
 const char* StepKindName(StepKind kind);  // "move-to", "sweep", ...
 
@@ -244,6 +249,26 @@ struct WaitStep {
   int ms = 0;
 };
 
+// saccade: per amplitude and trial, fixate one eye's target with the calibrated-map controller,
+// step the servo away by the amplitude (alternating direction, nominal scale as step-response),
+// and bring it back with one saccade computed from the calibration's servo maps and the
+// target's pixel, corrected by latency-aware steps (protocols/saccade_step.h).
+struct SaccadeStep {
+  models::Eye eye = models::kRightEye;
+  Axis axis = Axis::kPan;
+  std::vector<double> amplitudes_deg{10};
+  int trials = 3;
+  int frames = 20;            // frames logged per trial from the saccade's first frame
+  Locator locator = Locator::kFixation;
+  double range_m = 1.0;       // the target's assumed distance (the camera sits ahead of the eye's axis)
+  double tolerance_px = 1.0;  // no correction when the target is this close to the centre
+  int max_corrections = 4;    // corrective steps after the saccade, per trial
+  int latency_frames = 0;     // frames from a command to the first frame that shows it; 0: from the
+                              // calibration's measured delay, else 4
+  bool shape = true;          // overdrive-and-switch command shaping from the fitted slew and lag
+  int limit_margin_us = 20;
+};
+
 // One alternative per StepKind, in its order: StepKind(params.index()) is the kind.
 using StepParams = std::variant<MoveToStep,
                                 SweepStep,
@@ -255,7 +280,8 @@ using StepParams = std::variant<MoveToStep,
                                 LimitsStep,
                                 AlignmentStep,
                                 LatencyStep,
-                                WaitStep>;
+                                WaitStep,
+                                SaccadeStep>;
 
 // For std::visit on StepParams: Overloaded{[](const SweepStep& s) {...}, ...}.
 template <typename... F>

@@ -76,6 +76,11 @@ std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols,
                 line(b, "latency step to");
               },
               [&](const WaitStep& m) { out.push_back("    wait " + std::to_string(m.ms) + " ms"); },
+              [&](const SaccadeStep& m) {
+                out.push_back("    saccades (" + std::string(LocatorName(m.locator)) +
+                              "): commands computed at run time from the calibration, stopped " +
+                              std::to_string(m.limit_margin_us) + " us inside every limit");
+              },
           },
           s.params);
     }

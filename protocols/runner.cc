@@ -14,6 +14,7 @@
 #include "protocols/run_context.h"
 #include "protocols/run_manifest.h"
 #include "protocols/run_plan.h"
+#include "protocols/saccade_step.h"
 #include "protocols/step_plan.h"
 #include "protocols/step_response_step.h"
 
@@ -92,6 +93,7 @@ void Runner::RunStep(const FlatStep& fs) {
                  [&](const LimitsStep& s) { RunLimitsStep(*this, s); },
                  [&](const AlignmentStep& s) { RunAlignmentStep(*this, p, s); },
                  [&](const LatencyStep& s) { RunLatencyStep(*this, s); },
+                 [&](const SaccadeStep& s) { RunSaccadeStep(*this, p, s); },
                  [&](const WaitStep& s) {
                    CheckStop();
                    robot_.SleepNs(int64_t(s.ms) * 1'000'000);

@@ -46,6 +46,9 @@
 //                      from_us,to_us,threshold_px (command_ns: the robot clock when the step was sent;
 //                      the step goes from_us -> to_us; motion counts once the shift passes threshold_px;
 //                      datasets before 2026-11-26 lack the last four)
+//   saccade steps write step_response.csv and step_trials.csv with the columns above (gain 1:
+//                      the correction's gain on the map; the message names the map, the saccade
+//                      and its corrections)
 //   coverage.csv       eye,num_views,x_min,x_max,x_progress,y_min,y_max,y_progress,size_min,size_max,
 //                      size_progress,skew_min,skew_max,skew_progress,good (protocols/coverage.h), written
 //                      at the end when steps with `detect: true` detected the protocol's target
@@ -54,10 +57,13 @@
 #include <functional>
 #include <iosfwd>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "models/head_model.h"
 
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
@@ -66,6 +72,19 @@
 namespace owlcal::protocols {
 
 struct LiveDetection;  // protocols/live_feedback.h
+
+// What a calibration measured that a controller can use (the saccade step,
+// protocols/saccade_step.h): the fitted head (servo maps, eye geometry, intrinsics) and, where
+// measured, each servo's slew and lag and the stream's exposure-to-arrival delay. `calibrate`
+// fills it from its own fit before it records the saccade protocol.
+struct CalibratedMaps {
+  models::HeadModel head;
+  std::string source;                                  // recorded in events.log and the trial rows
+  std::array<double, models::kNumServos> slew_us_per_s{};  // 0: not measured
+  std::array<double, models::kNumServos> lag_s{};
+  double exposure_delay_s = 0;                         // 0: not measured
+  std::array<double, models::kNumServos> resolution_us{};  // PWM step or dead band, whichever is larger; 0 unknown
+};
 
 struct RunOptions {
   std::string out_dir;                 // the dataset folder (required unless dry_run)
@@ -87,6 +106,8 @@ struct RunOptions {
   // Called after the detection of every recorded frame of a `detect: true` step (live capture
   // feedback, protocols/live_feedback.h).
   std::function<void(const LiveDetection&)> on_detection;
+  // The calibration closed-loop steps may use (saccade); nullopt: the robot file's nominal head.
+  std::optional<CalibratedMaps> calibration;
 
   bool Check(std::string* why) const;
 };

@@ -131,6 +131,10 @@ double StepWork(const Step& step) {
       return 4 + step.As<AlignmentStep>().frames;
     case StepKind::kLatency:
       return step.As<LatencyStep>().trials * 15.0;
+    case StepKind::kSaccade: {
+      const SaccadeStep& s = step.As<SaccadeStep>();
+      return double(s.amplitudes_deg.size() * s.trials) * (s.frames + 20);
+    }
     case StepKind::kPlaceTarget:
     case StepKind::kWait:
       return 1;

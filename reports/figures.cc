@@ -203,19 +203,22 @@ std::optional<Figure> MakeRangeErrorFigure(const ReportData& d) {
 std::optional<Figure> MakeStepResponseFigure(const ReportData& d) {
   if (d.steps.empty()) return std::nullopt;
   Figure f{"step_responses", "Fixation step responses", "time since the step [s]", "fraction of the step done [-]", {}, {}, "bottom right"};
-  f.caption = "Target offset turned into the fraction of the step done (0 at rest, 1 on target) for each gain; dashed: "
-              "the 2 % settling band.";
-  std::map<double, int> gain_colour;
-  for (const auto& s : d.steps) gain_colour.emplace(s.gain, int(gain_colour.size()));
-  std::set<double> titled;
+  f.caption = "Target offset turned into the fraction of the step done (0 at rest, 1 on target) for each gain of the P "
+              "loop and for the calibrated saccade; dashed: the 2 % settling band.";
+  // One colour per gain of the P loop, and one for the calibrated saccade.
+  std::map<std::pair<std::string, double>, int> colour;
+  auto key = [](const StepTrace& s) { return std::make_pair(s.controller, s.controller == "p-loop" ? s.gain : 0.0); };
+  for (const auto& s : d.steps) colour.emplace(key(s), int(colour.size()));
+  std::set<std::pair<std::string, double>> titled;
   double tmax = 0;
   for (const auto& s : d.steps) {
     if (s.t_s.empty()) continue;  // a failed or skipped trial: a row of the step table, no curve
-    const int c = gain_colour[s.gain];
+    const int c = colour[key(s)];
     std::string title;
-    if (!titled.count(s.gain)) {
-      title = "K = " + Fmt(s.gain, 3) + (s.simulated ? " (model)" : "");
-      titled.insert(s.gain);
+    if (!titled.count(key(s))) {
+      title = s.controller == "p-loop" ? "K = " + Fmt(s.gain, 3) + (s.simulated ? " (model)" : "")
+                                       : "calibrated " + s.controller;
+      titled.insert(key(s));
     }
     Series ser{title, std::string(s.simulated ? "lines lw 2 dt 2 " : "linespoints pt 7 ps 0.6 lw 2 ") + Lc(c), "1:2", {"t_s", "y"}, {}};
     for (size_t k = 0; k < s.t_s.size() && k < s.y.size(); ++k) {

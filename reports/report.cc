@@ -385,6 +385,30 @@ std::vector<Table> MakeTables(const ReportData& d) {
                         r.agreement, r.why});
     out.push_back(t);
   }
+  if (d.saccade) {
+    // The calibrated-map saccade (issue 12 item 6) against the physical bound and the P loop.
+    const auto& sa = *d.saccade;
+    auto ms = [](double s) { return std::isfinite(s) ? Fmt(1000 * s, 4) : std::string("not settled"); };
+    Table t{"saccade",
+            "Calibrated saccade, " + Fmt(sa.amplitude_deg, 3) + " deg steps: one saccade from the calibrated servo maps "
+            "and the target's pixel, then latency-aware corrections; 2 % settling against the physical bound (slew "
+            "time + exposure-to-arrival latency + one frame) and the course's P loop at K = " + Fmt(sa.ploop_gain, 3) +
+            " (same step). " + std::to_string(sa.num_ok) + " ok of " + std::to_string(sa.num_trials) + " trials",
+            {"controller", "trials ok of N", "settled", "2 % settling [ms] median (min–max)", "bound [ms]",
+             "ratio to bound", "speed-up vs P loop"},
+            {}};
+    t.rows.push_back({"calibrated saccade", std::to_string(sa.num_ok) + " of " + std::to_string(sa.num_trials),
+                      std::to_string(sa.num_settled),
+                      std::isfinite(sa.median_s) ? ms(sa.median_s) + " (" + ms(sa.lo_s) + "–" + ms(sa.hi_s) + ")"
+                                                 : "not settled",
+                      ms(sa.bound_s), std::isfinite(sa.ratio_to_bound) ? Fmt(sa.ratio_to_bound, 3) : "",
+                      std::isfinite(sa.speedup_vs_ploop) ? Fmt(sa.speedup_vs_ploop, 3) : ""});
+    t.rows.push_back({"P loop, K = " + Fmt(sa.ploop_gain, 3), std::to_string(sa.ploop_trials) + " ok",
+                      std::to_string(sa.ploop_settled), ms(sa.ploop_median_s), ms(sa.bound_s),
+                      std::isfinite(sa.ploop_median_s / sa.bound_s) ? Fmt(sa.ploop_median_s / sa.bound_s, 3) : "", "1"});
+    for (const auto& n : sa.notes) t.rows.push_back({"note: " + n, "", "", "", "", "", ""});
+    out.push_back(t);
+  }
   if (d.gains) {
     const auto& g = *d.gains;
     Table t{"gain_study", "Incremental P loop with latency (model): gain limits and the fastest stable gain", {"quantity", "value"}, {}};

@@ -177,7 +177,18 @@ json EvaluationToJson(const ReportData& d) {
                                 {"tolerance_px", st.model.tolerance_px}, {"max_step_us", st.model.max_step_us},
                                 {"latency_frames", st.model.latency_frames}}},
                      {"latency_ms", Num(st.latency_ms)}, {"ideal_delay_frames", st.ideal_delay_frames},
-                     {"deg_per_us", st.deg_per_us}, {"rows", rows}, {"curve", curve}, {"notes", st.notes}};
+                     {"deg_per_us", st.deg_per_us}, {"servo", st.servo}, {"rows", rows}, {"curve", curve}, {"notes", st.notes}};
+  }
+  if (d.saccade) {
+    const auto& sa = *d.saccade;
+    j["saccade"] = {{"amplitude_deg", sa.amplitude_deg}, {"slew_deg_per_s", Num(sa.slew_deg_per_s)},
+                    {"exposure_delay_s", Num(sa.exposure_delay_s)}, {"fps", sa.fps}, {"bound_s", Num(sa.bound_s)},
+                    {"num_trials", sa.num_trials}, {"num_ok", sa.num_ok}, {"num_settled", sa.num_settled},
+                    {"median_s", Num(sa.median_s)}, {"lo_s", Num(sa.lo_s)}, {"hi_s", Num(sa.hi_s)},
+                    {"ratio_to_bound", Num(sa.ratio_to_bound)}, {"ploop_gain", sa.ploop_gain},
+                    {"ploop_trials", sa.ploop_trials}, {"ploop_settled", sa.ploop_settled},
+                    {"ploop_median_s", Num(sa.ploop_median_s)}, {"speedup_vs_ploop", Num(sa.speedup_vs_ploop)},
+                    {"notes", sa.notes}};
   }
   json res = json::array();
   for (const auto& r : d.residuals) res.push_back({r.eye, r.frame, r.x, r.y, r.dx, r.dy});
@@ -326,6 +337,7 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     st.latency_ms = Get(js, "latency_ms");
     st.ideal_delay_frames = js.value("ideal_delay_frames", 3);
     st.deg_per_us = Get(js, "deg_per_us");
+    st.servo = js.value("servo", -1);
     for (const json& r : js.at("rows")) {
       fitting::SettlingRow x;
       x.gain = Get(r, "gain");
@@ -356,6 +368,30 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     }
     st.notes = js.value("notes", std::vector<std::string>{});
     d->settling = st;
+  }
+  d->saccade.reset();
+  if (j.contains("saccade") && !j.at("saccade").is_null()) {
+    const json& js = j.at("saccade");
+    fitting::SaccadeEvaluation sa;
+    sa.amplitude_deg = Get(js, "amplitude_deg", 10);
+    sa.slew_deg_per_s = Get(js, "slew_deg_per_s");
+    sa.exposure_delay_s = Get(js, "exposure_delay_s");
+    sa.fps = Get(js, "fps", 30);
+    sa.bound_s = Get(js, "bound_s");
+    sa.num_trials = js.value("num_trials", 0);
+    sa.num_ok = js.value("num_ok", 0);
+    sa.num_settled = js.value("num_settled", 0);
+    sa.median_s = Get(js, "median_s");
+    sa.lo_s = Get(js, "lo_s");
+    sa.hi_s = Get(js, "hi_s");
+    sa.ratio_to_bound = Get(js, "ratio_to_bound");
+    sa.ploop_gain = Get(js, "ploop_gain", 0.1);
+    sa.ploop_trials = js.value("ploop_trials", 0);
+    sa.ploop_settled = js.value("ploop_settled", 0);
+    sa.ploop_median_s = Get(js, "ploop_median_s");
+    sa.speedup_vs_ploop = Get(js, "speedup_vs_ploop");
+    sa.notes = js.value("notes", std::vector<std::string>{});
+    d->saccade = sa;
   }
   d->residuals.clear();
   if (j.contains("residuals"))

@@ -299,7 +299,7 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
             "Steady-state error = 1 \u2212 the mean of y over the last 10 % of the trial: the part of the step not done "
             "when the trial ended (non-zero for a trial that did not settle). Model: y(k+1) = y(k) + K (1 \u2212 y(k "
             "\u2212 d)).</p>\n"
-         << page.Figure("step_responses") << page.Figure("settling_vs_gain") << page.Table("settling_model") << page.Table("gain_study")
+         << page.Figure("step_responses") << page.Figure("settling_vs_gain") << page.Table("settling_model") << page.Table("saccade") << page.Table("gain_study")
          << page.Table("step_metrics");
   }
   if (d.limits) {

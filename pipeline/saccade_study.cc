@@ -1,0 +1,82 @@
+#include "pipeline/saccade_study.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "calib/trial_status.h"
+#include "protocols/dataset_tables.h"
+#include "protocols/protocol.h"
+#include "reports/table.h"
+
+namespace owlcal::pipeline {
+
+protocols::CalibratedMaps ControllerCalibration(const fitting::CalibrationRun& run, const std::string& source) {
+  protocols::CalibratedMaps c;
+  c.head = run.result.head ? *run.result.head : models::NominalHeadModel(run.config);
+  c.source = run.result.head ? source : source + ", no head fit: nominal head";
+  if (run.settling && run.settling->servo >= 0 && run.settling->servo < models::kNumServos) {
+    const int i = run.settling->servo;
+    c.slew_us_per_s[i] = run.settling->model.slew_us_per_s;
+    c.lag_s[i] = run.settling->model.lag_s;
+    c.exposure_delay_s = run.settling->model.exposure_delay_s;
+  }
+  for (const fitting::ServoResolutionResult& r : run.resolution)
+    if (r.fit.ok && r.servo >= 0 && r.servo < models::kNumServos)
+      c.resolution_us[r.servo] = std::max(r.fit.resolution.step_us, r.fit.resolution.dead_band_us);
+  return c;
+}
+
+void AddSaccadeEvaluation(const std::string& dataset, const CalibratePipelineOptions& o, fitting::CalibrationRun* run) {
+  using reports::Fmt;
+  std::vector<fitting::StepTrace> traces = ReadStepTraces(dataset);
+  if (traces.empty()) {
+    run->result.warnings.push_back("saccade dataset " + dataset + " holds no trial");
+    return;
+  }
+  int servo = -1;
+  for (const protocols::StepTrialRow& row : protocols::ReadStepTrialsCsv(dataset))
+    if (const int s = protocols::ServoIndexFromName(row.servo); s >= 0) servo = s;
+  double amplitude = traces.front().amplitude_deg;
+  for (fitting::StepTrace& t : traces) {
+    t.controller = "saccade";
+    t.eye_axis = "saccade";
+    if (std::abs(std::abs(t.amplitude_deg) - 10) < 1e-6) amplitude = 10;
+    if (t.status != calib::TrialStatus::kOk)
+      run->result.warnings.push_back("saccade trial (" + Fmt(t.amplitude_deg, 3) + " deg, trial " +
+                                     std::to_string(t.trial) + ") " + calib::TrialStatusName(t.status) + ": " +
+                                     t.reason);
+    run->steps.push_back(t);
+  }
+  // The bound's numbers: the truth on the virtual Owl, else the fitted motion.
+  const bool truth = servo >= 0 && o.truth_slew_deg_per_s[servo] > 0 && o.truth_latency_s > 0;
+  const bool fitted = run->settling && run->settling->model.slew_us_per_s > 0;
+  const double fitted_slew = fitted ? run->settling->model.slew_us_per_s * run->settling->deg_per_us : 0;
+  const double fitted_delay = fitted ? run->settling->model.exposure_delay_s : 0;
+  const double slew = truth ? o.truth_slew_deg_per_s[servo] : fitted_slew;
+  const double delay = truth ? o.truth_latency_s : fitted_delay;
+  fitting::SaccadeEvaluation ev = fitting::EvaluateSaccades(run->steps, amplitude, slew, delay, o.fps);
+  if (truth)
+    ev.notes.insert(
+        ev.notes.begin(),
+        "bound from the virtual Owl's truth: " + std::string(models::kServoNames[servo]) + " slew " + Fmt(slew, 4) +
+            " deg/s, stream latency " + Fmt(1000 * delay, 4) + " ms, " + Fmt(o.fps, 3) + " fps" +
+            (fitted
+                 ? " (with the motion fitted from the step frames, slew " + Fmt(fitted_slew, 4) +
+                       " deg/s and exposure delay " + Fmt(1000 * fitted_delay, 4) + " ms, it would be " +
+                       Fmt(1000 * fitting::PhysicalLowerBoundS(amplitude, fitted_slew, fitted_delay, o.fps), 4) + " ms)"
+                 : ""));
+  else if (fitted)
+    ev.notes.insert(ev.notes.begin(),
+                    "bound from the motion fitted from the step frames: slew " + Fmt(slew, 4) +
+                        " deg/s, exposure delay " + Fmt(1000 * delay, 4) + " ms, " + Fmt(o.fps, 3) + " fps");
+  else
+    ev.notes.insert(ev.notes.begin(), "no bound: neither a truth nor a fitted slew (no step-response dataset)");
+  if (o.progress)
+    o.progress("saccade: " + std::to_string(ev.num_settled) + " of " + std::to_string(ev.num_trials) + " " +
+               Fmt(amplitude, 3) + " deg trials settled, median " + Fmt(1000 * ev.median_s, 4) +
+               " ms = " + Fmt(ev.ratio_to_bound, 3) + " x the bound " + Fmt(1000 * ev.bound_s, 4) +
+               " ms; P loop at K = " + Fmt(ev.ploop_gain, 3) + ": " + Fmt(1000 * ev.ploop_median_s, 4) + " ms");
+  run->saccade = ev;
+}
+
+}  // namespace owlcal::pipeline
