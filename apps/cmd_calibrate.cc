@@ -136,7 +136,7 @@ int RunCalibrate(const CalibrateOptions& o) {
   d.settings = settings;
   d.result.inputs["command"] = settings;
 
-  // 3) Files.
+  // 4) Files.
   WriteCalibrationFolder(&d, o.out, !o.no_figures, progress);
   return kExitOk;
 }
