@@ -260,10 +260,12 @@ RobotTruth LoadRobotTruth(const std::string& path) {
     t.stream.lens_shading = s.Number("lens_shading", 0, 1);
     t.stream.blur_px = s.Number("blur_px", 1, 8);
     // Image levels and the rolling shutter came later: files written before them keep the
-    // defaults of StreamTruth (a clean, evenly exposed global shutter).
-    t.stream.white_level = s.Number("white_level", t.stream.white_level, 1, 255);
-    t.stream.black_level = s.Number("black_level", t.stream.black_level, 0, 254);
-    t.stream.rolling_shutter_ms = s.Number("rolling_shutter_ms", t.stream.rolling_shutter_ms, 0, 1000);
+    // defaults of StreamTruth (a clean, evenly exposed global shutter), whatever the default
+    // robot's stream is.
+    const StreamTruth older;
+    t.stream.white_level = s.Number("white_level", older.white_level, 1, 255);
+    t.stream.black_level = s.Number("black_level", older.black_level, 0, 254);
+    t.stream.rolling_shutter_ms = s.Number("rolling_shutter_ms", older.rolling_shutter_ms, 0, 1000);
     s.RejectUnknown();
   }
   f.RejectUnknown();
