@@ -26,6 +26,7 @@ struct CalibrateImagesOptions {
   std::string dir, target, out;
   bool mirror = false, side_by_side = false, swap = false;
   std::string model = "auto";
+  std::string board_warp = "auto";
   bool no_report = false;
   std::string rig = "auto";
   double ipd_mm = 65;
@@ -68,11 +69,17 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   else if (a.model != "opencv5" && a.model != "auto")
     throw UsageError("--model = '" + a.model + "': use auto, opencv5 or opencv8");
   if (a.model != "auto") lens.enabled = false;
+  fitting::LensModelChoiceOptions warp;  // auto: flat or bowed board by cross-validation
+  if (a.board_warp == "bowed")
+    fo.fit_board_warp = true;
+  else if (a.board_warp != "flat" && a.board_warp != "auto")
+    throw UsageError("--board-warp = '" + a.board_warp + "': use auto, flat or bowed");
+  if (a.board_warp != "auto") warp.enabled = false;
   std::string why;
   if (!fo.Check(&why)) throw UsageError(why);
   fitting::SetVerdictOptions vo;
   vo.rig = RigFor(a.rig, target.unit, a.ipd_mm);
-  fitting::ImageSetCalibration c = fitting::CalibrateImageSet(set.observations, fo, vo, lens);
+  fitting::ImageSetCalibration c = fitting::CalibrateImageSet(set.observations, fo, vo, lens, warp);
   c.result.software_version = OWLCAL_VERSION;
   c.result.inputs["images"] = a.dir;
   c.result.inputs["target"] = a.target;
@@ -106,8 +113,15 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   rd.config.name = "none (calibration from images)";
   rd.config.image_width = set.width;
   rd.config.image_height = set.height;
-  rd.settings = {{"command", "owlcal calibrate-images"}, {"images", a.dir}, {"target", a.target}, {"mirror", a.mirror},
-                 {"side_by_side", a.side_by_side}, {"swap", a.swap}, {"model", a.model}, {"owlcal_version", OWLCAL_VERSION},
+  rd.settings = {{"command", "owlcal calibrate-images"},
+                 {"images", a.dir},
+                 {"target", a.target},
+                 {"mirror", a.mirror},
+                 {"side_by_side", a.side_by_side},
+                 {"swap", a.swap},
+                 {"model", a.model},
+                 {"board_warp", a.board_warp},
+                 {"owlcal_version", OWLCAL_VERSION},
                  {"robot", "none"}};
   const std::vector<calib::View> views = calib::GroupIntoViews(set.observations);
   auto name_of = [&](int frame, int eye) {
@@ -169,6 +183,11 @@ const bool kRegistered = RegisterCommand(
                       o->model,
                       "distortion model: auto (opencv5 or the rational opencv8, chosen by 5-fold cross-validation "
                       "over the pairs: the smaller held-out RMS), opencv5 or opencv8")
+          ->capture_default_str();
+      cmd->add_option("--board-warp",
+                      o->board_warp,
+                      "the board's bow (mrcal's two-parameter deflection): auto (flat or bowed, chosen by 5-fold "
+                      "cross-validation over the pairs), flat or bowed")
           ->capture_default_str();
       cmd->add_flag("--no-report", o->no_report, "skip the HTML report");
       cmd->add_option("--rig", o->rig,

@@ -26,6 +26,7 @@
 // Not possible (fewer than `min_frames` frames, a candidate's fit failing in a fold): the
 // configured model is kept, `cross_validated` is false and `reason` says why; never throws for
 // bad data.
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -96,6 +97,39 @@ LensModelChoice ChooseIntrinsicsLensModel(const std::vector<calib::View>& views,
                                           const LensModelChoiceOptions& choice);
 
 std::string DistortionModelName(models::DistortionModel m);  // "opencv5" / "opencv8"
+
+// The board's bow (fitting/board_warp.h) chosen the same way (issue 17 item 4): flat and bowed
+// (StereoFitOptions::fit_board_warp) are cross-validated over frames with the model in
+// options.intrinsics.model, each held-out frame placed on the board bow its training folds
+// fitted; the bow wins when its held-out RMS is smaller by more than choice.min_relative_gain.
+// warp / warp_sigma: the bowed fit on all views, in the target's unit; explained_fraction:
+// 1 - RMS_bowed^2 / RMS_flat^2 of the fits on all views (the share of the flat fit's squared
+// residual the bow explains), heldout_explained_fraction the same of the held-out RMS.
+struct BoardWarpChoice {
+  bool cross_validated = false;
+  bool bowed = false;  // chosen (the configured setting when not cross-validated)
+  std::string reason;
+  int folds = 0;
+  int num_frames = 0;
+  std::vector<LensModelScore> scores;  // [flat, bowed] when cross-validated (name "flat"/"bowed")
+  double gain_px = NAN;                // held-out RMS flat - bowed
+  double gain_se_px = NAN;
+  double warp[2] = {NAN, NAN};
+  double warp_sigma[2] = {NAN, NAN};
+  double explained_fraction = NAN;
+  double heldout_explained_fraction = NAN;
+  double time_s = 0;
+
+  const LensModelScore* Chosen() const;  // null when not cross-validated
+};
+
+BoardWarpChoice ChooseStereoBoardWarp(const std::vector<calib::View>& left_views,
+                                      const std::vector<calib::View>& right_views,
+                                      const StereoFitOptions& options,
+                                      const LensModelChoiceOptions& choice);
+nlohmann::json BoardWarpChoiceToJson(const BoardWarpChoice& c);
+// results.json: diagnostics.board_warp_choice and inputs.board_warp.
+void AppendBoardWarpChoiceToResult(const BoardWarpChoice& c, CalibrationResult* result);
 
 // {cross_validated, chosen, reason, folds, num_frames, gain_px, gain_se_px, candidates: [{model,
 // ok, message, fit_rms_px, heldout_rms_px, heldout_rms_left_px, heldout_rms_right_px,

@@ -40,7 +40,8 @@ std::vector<std::pair<int, double>> ViewTilts(const StereoFit& fit, int eye) {
 ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation>& observations,
                                       const StereoFitOptions& options_in,
                                       const SetVerdictOptions& vo,
-                                      const LensModelChoiceOptions& lens) {
+                                      const LensModelChoiceOptions& lens,
+                                      const LensModelChoiceOptions& warp) {
   ImageSetCalibration c;
   std::vector<calib::View> views[2];
   for (const auto& v : calib::GroupIntoViews(observations)) views[v.eye == 0 ? 0 : 1].push_back(v);
@@ -54,8 +55,18 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
   } else {
     c.fit = FitStereo(views[0], views[1], options);
   }
+  if (warp.enabled) {
+    // The board's bow by cross-validation with the chosen lens model; the chosen setting's fit
+    // on all views is the fit (and the verdict's refits below use that setting).
+    c.warp_choice = ChooseStereoBoardWarp(views[0], views[1], options, warp);
+    if (const LensModelScore* s = c.warp_choice->Chosen()) {
+      options.fit_board_warp = c.warp_choice->bowed;
+      c.fit = s->full;
+    }
+  }
   if (c.fit.ok) AppendStereoToResult(c.fit, &c.result);
   if (c.lens_choice) AppendLensModelChoiceToResult(*c.lens_choice, &c.result);
+  if (c.warp_choice) AppendBoardWarpChoiceToResult(*c.warp_choice, &c.result);
   c.result.inputs["num_observations"] = observations.size();
 
   // Coverage per eye.

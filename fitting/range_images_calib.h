@@ -45,16 +45,22 @@ struct ImageSetCalibration {
   // The lens model chosen by cross-validation (fitting/lens_model_choice.h); empty when the
   // choice was off (the configured model was fitted).
   std::optional<LensModelChoice> lens_choice;
+  // The board's bow chosen by cross-validation (flat or bowed, fitting/lens_model_choice.h);
+  // empty when the choice was off (options.fit_board_warp was fitted).
+  std::optional<BoardWarpChoice> warp_choice;
 };
 
 // observations: as from calib::DetectImagePairs. options.length_unit: the target file's unit.
 // lens.enabled: the lens model is chosen by cross-validation (options.intrinsics.model is then
 // only the fallback), written to results.json (diagnostics.lens_model_choice) and used for the
 // fit, the verdict's refits and everything after; off (the default here): options' model.
+// warp.enabled: then the board's bow is chosen the same way (flat or bowed, with the chosen
+// lens model; results.json diagnostics.board_warp_choice); off: options.fit_board_warp.
 ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation>& observations,
                                       const StereoFitOptions& options,
                                       const SetVerdictOptions& verdict_options = {},
-                                      const LensModelChoiceOptions& lens = LensModelChoiceOptions::Off());
+                                      const LensModelChoiceOptions& lens = LensModelChoiceOptions::Off(),
+                                      const LensModelChoiceOptions& warp = LensModelChoiceOptions::Off());
 
 // Board tilt [deg] of each view of one eye of a fit (frame index -> tilt), from per_eye poses.
 std::vector<std::pair<int, double>> ViewTilts(const StereoFit& fit, int eye);

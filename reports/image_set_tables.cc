@@ -40,6 +40,20 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
             "the fitted cameras and extrinsics; a richer model that only fits the noise predicts them worse.\n\n";
     }
   }
+  if (c.warp_choice) {
+    const fitting::BoardWarpChoice& w = *c.warp_choice;
+    md << "## Board: " << (w.bowed ? "bowed" : "flat") << "\n\n" << w.reason << ".\n\n";
+    if (!w.scores.empty()) {
+      md << "| board | fit RMS (px) | held-out RMS (px) | held-out left / right (px) |\n|---|---|---|---|\n";
+      for (const auto& s : w.scores)
+        md << "| " << s.name << ((s.name == "bowed") == w.bowed ? " (chosen)" : "") << " | "
+           << FixedOrDash(s.fit_rms_px, 4) << " | "
+           << (s.ok ? FixedOrDash(s.heldout_rms_px, 4) : "failed: " + s.message) << " | "
+           << FixedOrDash(s.heldout_rms_eye_px[0], 4) << " / " << FixedOrDash(s.heldout_rms_eye_px[1], 4) << " |\n";
+      md << "\nBowed: mrcal's two-parameter deflection of the board (stereo.board_warp_x/y below when chosen); each "
+            "held-out pair is placed on the bow its training folds fitted.\n\n";
+    }
+  }
   md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
   for (const auto& p : c.result.parameters)
     md << "| " << p.name << " | " << FixedOrDash(p.value, 4) << " | " << (p.determined ? FixedOrDash(p.sigma, 4) : "not determined")

@@ -241,6 +241,29 @@ std::vector<Table> MakeTables(const ReportData& d) {
       out.push_back(t);
     }
   }
+  if (d.result.diagnostics.contains("board_warp_choice")) {
+    // Flat or bowed board by cross-validation (fitting/lens_model_choice.h ChooseStereoBoardWarp).
+    const nlohmann::json& w = d.result.diagnostics["board_warp_choice"];
+    auto num = [](const nlohmann::json& j, const char* k, int sig) {
+      return j.contains(k) && j[k].is_number() ? Fmt(j[k].get<double>(), sig) : std::string();
+    };
+    Table t{
+        "board_warp",
+        "Board: " + w.value("reason", std::string()),
+        {"board", "chosen", "fit RMS [px]", "held-out RMS [px]", "held-out left [px]", "held-out right [px]", "note"},
+        {}};
+    for (const auto& c : w.value("candidates", nlohmann::json::array())) {
+      const std::string name = c.value("board", std::string());
+      t.rows.push_back({name,
+                        Bool(name == w.value("chosen", std::string())),
+                        num(c, "fit_rms_px", 4),
+                        num(c, "heldout_rms_px", 4),
+                        num(c, "heldout_rms_left_px", 4),
+                        num(c, "heldout_rms_right_px", 4),
+                        c.value("message", std::string())});
+    }
+    if (!t.rows.empty()) out.push_back(t);
+  }
   if (!d.result.summaries.empty()) {
     Table t{"solver", "Solver summaries", {"problem", "termination", "iterations", "RMS [px]", "residuals", "outliers", "time [s]", "usable"}, {}};
     for (const auto& s : d.result.summaries)

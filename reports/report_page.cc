@@ -275,6 +275,10 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
               "by its board pose alone with the fitted cameras (and extrinsics); the model with the smaller held-out "
               "RMS predicts views it has not seen better (a richer model that fits the noise does not).</p>\n"
            << page.Table("lens_model");
+    if (page.tables.count("board_warp"))
+      body << "<p>Board bow chosen the same way: flat against mrcal's two-parameter deflection, each held-out view "
+              "placed on the bow its training folds fitted.</p>\n"
+           << page.Table("board_warp");
     body << page.Figure("view_rms") << page.Pair("residual_field_left", "residual_field_right")
          << page.Pair("residual_hist_left", "residual_hist_right") << page.Pair("uncertainty_left", "uncertainty_right")
          << page.Pair("distortion_left", "distortion_right") << page.Figure("coverage");
