@@ -76,6 +76,24 @@ RangeFix RangeFromPulses(const models::HeadModel& head,
 }
 
 
+// The size check (ranging_eval.h): mean over the eyes that measured the target's apparent
+// radius of (f_x r / r_px) / (the fix's depth in that camera); nullopt when not measured.
+std::optional<double> SizeRatio(const models::HeadModel& head, const Fixation& f, const RangeFix& fix) {
+  if (!f.target_radius_m || !(*f.target_radius_m > 0)) return std::nullopt;
+  const models::JointAngles a = head.Angles(ToDouble(f.Pulses()), Approach(f));
+  double sum = 0;
+  int n = 0;
+  for (int e = 0; e < 2; ++e) {
+    if (!f.radius_px[e] || !(*f.radius_px[e] > 0)) continue;
+    const double depth = head.PointInCam(models::Eye(e), a, fix.point_in_base).z();
+    if (!(depth > 0)) continue;
+    sum += head.intrinsics[e].params[0] * *f.target_radius_m / *f.radius_px[e] / depth;
+    ++n;
+  }
+  if (n == 0) return std::nullopt;
+  return sum / n;
+}
+
 struct ParamSlot {
   int servo = -1;  // servo param index when >= 0
   int index = 0;
@@ -119,6 +137,10 @@ double StepFor(const std::string& name) {
 }  // namespace
 
 bool RangingOptions::Check(std::string* why) const {
+  if (!(max_size_ratio > 1)) {
+    if (why) *why = "ranging options: max_size_ratio = " + std::to_string(max_size_ratio) + " must be > 1";
+    return false;
+  }
   if (!(pixel_sigma_px >= 0) || !(pwm_sigma_us >= 0) || !(max_ray_gap_m > 0) || !(max_ray_gap_per_m >= 0)) {
     if (why) *why = "RangingOptions: pixel_sigma_px = " + std::to_string(pixel_sigma_px) +
                     ", pwm_sigma_us = " + std::to_string(pwm_sigma_us) + " and max_ray_gap_per_m = " +
@@ -340,7 +362,7 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
     row.true_m = f.true_distance_m;
     row.status = f.status;
     row.reason = f.reason;
-    row.range_m = row.error_m = row.rel_error = row.sigma_m = row.gap_m = kNaN;
+    row.range_m = row.error_m = row.rel_error = row.sigma_m = row.gap_m = row.size_ratio = kNaN;
     row.nominal_rel_error = kNaN;
     if (f.status != calib::TrialStatus::kOk) {
       ev.notes.push_back("fixation " + std::to_string(f.index) + " not ranged: " + calib::TrialStatusName(f.status) +
@@ -365,6 +387,18 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
                    " mm apart (limit " +
                    std::to_string(1000 * (options.max_ray_gap_m + options.max_ray_gap_per_m * fix.range_m)).substr(0, 5) +
                    " mm): the eyes did not fixate one point";
+    } else if (const auto ratio = SizeRatio(head, f, fix)) {
+      row.size_ratio = *ratio;
+      if (!(*ratio <= options.max_size_ratio && *ratio >= 1 / options.max_size_ratio)) {
+        row.status = calib::TrialStatus::kOffTarget;
+        row.gap_m = fix.gap_m;
+        char b[256];
+        std::snprintf(b, sizeof b,
+                      "the target's apparent size puts it %.2f x the vergence distance (%.3f m; limit %.2f x): "
+                      "the eyes fixated something else",
+                      *ratio, fix.range_m, options.max_size_ratio);
+        row.reason = b;
+      }
     }
     if (row.status != calib::TrialStatus::kOk) {
       ev.notes.push_back("fixation " + std::to_string(f.index) + " not ranged: " + calib::TrialStatusName(row.status) +

@@ -23,6 +23,15 @@
 // Only fixations with status ok are ranged. A fixation whose two gaze rays pass further apart
 // than max_ray_gap_m + max_ray_gap_per_m * range (or do not converge in front) did not look at
 // one point with both eyes: its row says "off target" and it is never reported as a range.
+// Both eyes can also lock onto one wrong thing (a spot of wall texture behind the target): then
+// the rays meet, but the thing's apparent size does not fit the target's known size at the
+// vergence distance. When the fixation measured the target's apparent radius r_px and knows its
+// radius r, each eye's size depth f_x r / r_px is compared with the vergence fix's depth in that
+// camera; a mean ratio outside [1 / max_size_ratio, max_size_ratio] is "off target" too, naming
+// both distances. The tolerance (1.4) is wide on purpose: a 24 mm disc at 2 m is only 3.5 px in
+// radius on blurred JPEG frames, and its equivalent radius is not yet measured across distances
+// on the virtual Owl; a background spot locked onto in place of a disc 2 m away, with the wall at
+// 3 m, reads 0.67 and is caught.
 //
 // Uncertainty: sigma_range^2 = J C J^T + J_px S_px J_px^T + J_u S_u J_u^T, where J = d range / d params by
 // central differences over the named result parameters (servo.<S>.centre_us, deg_per_us,
@@ -56,6 +65,10 @@ struct Fixation {
   std::array<int8_t, models::kNumServos> approach{};  // sign of the last (applied) move per servo
   std::optional<Eigen::Vector2d> target_px[2];       // detected target pixel per eye, after settling
   double true_distance_m = 0;                        // from the midpoint of the eye rotation centres
+  // The target's apparent radius per eye [px] and its known radius [m], when measured: the size
+  // check below.
+  std::optional<double> radius_px[2];
+  std::optional<double> target_radius_m;
   // The pulse widths the servo maps are evaluated at: applied_us when known, else pwm_us.
   models::PwmVector Pulses() const { return applied_us ? *applied_us : pwm_us; }
 };
@@ -66,6 +79,9 @@ struct RangingOptions {
   double pwm_sigma_us = 0.2887;   // command quantisation, 1/sqrt(12) us, when no pixel is used
   double max_ray_gap_m = 0.003;   // rays further apart than this + max_ray_gap_per_m * range: off target
   double max_ray_gap_per_m = 0.003;
+  // Size check: the depth the target's apparent size gives (f * radius / radius_px) over the
+  // vergence fix's depth in the same camera, mean over the eyes; outside [1 / x, x]: off target.
+  double max_size_ratio = 1.4;
   bool Check(std::string* why) const;
 };
 
@@ -113,6 +129,7 @@ struct RangingRow {
   double range_m = 0, error_m = 0, rel_error = 0;  // error = range - true
   double sigma_m = 0;                              // predicted 1-sigma
   double gap_m = 0;
+  double size_ratio = 0;                           // size depth / vergence depth; NaN: not measured
   std::optional<double> nominal_m;                 // course method
   double nominal_rel_error = 0;                    // NaN when no nominal fix
 };

@@ -80,6 +80,8 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
     }
     f.pwm_us = row.pwm_us;
     f.approach = row.approach;
+    for (int e = 0; e < 2; ++e) f.radius_px[e] = row.radius_px[e];
+    f.target_radius_m = row.target_radius_m;
     for (int e = 0; e < 2; ++e)
       if (found[e]) f.target_px[e] = Eigen::Vector2d(cx, cy) + *row.offset_px[e];
     // True distance: from the placement pose (base frame) to the midpoint of the eye centres

@@ -114,6 +114,9 @@ std::vector<FixationRow> ReadFixationsCsv(const std::string& dir) {
     f.stamp_ns = t.Int64(r, "stamp_ns");
     f.status = t.Status(r);
     f.reason = t.TextOr(r, "reason");
+    f.radius_px[0] = t.Newer(r, "left_radius_px", 0, kMaxPx);
+    f.radius_px[1] = t.Newer(r, "right_radius_px", 0, kMaxPx);
+    f.target_radius_m = t.Newer(r, "target_radius_m", 0, 1e3);
   });
 }
 

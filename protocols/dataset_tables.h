@@ -46,6 +46,8 @@ struct FixationRow {
   std::array<int8_t, models::kNumServos> approach{};  // sign of each servo's last move, 0 unknown
   std::optional<calib::TrialStatus> status;           // nullopt: a dataset older than the column
   std::string reason;
+  std::array<std::optional<double>, 2> radius_px;     // apparent target radius per eye
+  std::optional<double> target_radius_m;              // the target's known radius
 };
 std::vector<FixationRow> ReadFixationsCsv(const std::string& dir);
 

@@ -78,11 +78,20 @@ void RunFixateStep(RunContext& run, const Protocol& p, const FixateStep& s) {
   const calib::TrialStatus status = FixationStatus(r, fo, &reason);
   row.push_back(calib::TrialStatusName(status));
   row.push_back(reason);
+  // The target's apparent radius per eye and its known radius: ranging checks that the size and
+  // the vergence put it at the same distance (an off-target lock on a background spot does not).
+  for (int e = 0; e < 2; ++e) row.push_back(r.radius_px[e] ? calib::CsvFixed(*r.radius_px[e], 3) : "");
+  const std::string target_name = pl ? pl->target : p.target;
+  const auto def = p.targets.find(target_name);
+  row.push_back(def != p.targets.end() && def->second.kind == calib::TargetKind::kFixation
+                    ? calib::CsvFixed(def->second.fixation_radius_m, 6)
+                    : "");
   run.writer().AppendRow(
       "fixations.csv",
       "step_index,step_name,placement_index,target,distance_m,eyes,gain,outcome,iterations,Rx_us,Ry_us,"
       "Lx_us,Ly_us,Neck_us,left_found,left_dx_px,left_dy_px,right_found,right_dx_px,right_dy_px,stamp_ns,"
-      "approach_Rx,approach_Ry,approach_Lx,approach_Ly,approach_Neck,status,reason",
+      "approach_Rx,approach_Ry,approach_Lx,approach_Ly,approach_Neck,status,reason,left_radius_px,right_radius_px,"
+      "target_radius_m",
       row);
   run.Event("fixate",
             std::string(calib::TrialStatusName(status)) + " (" + OutcomeName(r.outcome) + "): " + r.message +

@@ -20,11 +20,24 @@ class FixationLocator : public TargetLocator {
   explicit FixationLocator(const calib::FixationDetectorOptions& o) : options_(o) {}
   bool Prepare(const robot::StereoFrame&, std::string*) override {
     has_last_[0] = has_last_[1] = false;
+    found_[0] = found_[1] = false;
     return true;
+  }
+  std::optional<double> LastRadiusPx(int eye) const override {
+    if (!found_[eye]) return std::nullopt;
+    return last_radius_[eye];
   }
   // Tracks: near the last position first (a textured background has dark spots that can
   // outscore a small, distant disc), the whole image when it is not there.
   std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int eye) override {
+    const auto p = Find(image, eye);
+    found_[eye] = p.has_value();
+    return p;
+  }
+  std::string Name() const override { return "fixation"; }
+
+ private:
+  std::optional<Eigen::Vector2d> Find(const cv::Mat& image, int eye) {
     if (has_last_[eye]) {
       // Two windows around the last position; never jump to a far blob once tracking.
       for (int scale : {1, 2}) {
@@ -57,11 +70,10 @@ class FixationLocator : public TargetLocator {
     last_contrast_[eye] = d.contrast;
     return d.centre;
   }
-  std::string Name() const override { return "fixation"; }
 
- private:
   calib::FixationDetectorOptions options_;
   bool has_last_[2] = {false, false};
+  bool found_[2] = {false, false};
   Eigen::Vector2d last_[2];
   double last_radius_[2] = {0, 0};
   double last_contrast_[2] = {0, 0};
@@ -240,6 +252,7 @@ void SeatCommand(const FixationOptions& o, const models::RobotConfig& robot, Tar
         if (const auto p = locator.Locate(img, e)) {
           s.found[e] = true;
           s.offset_px[e] = *p - Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
+          s.radius_px[e] = locator.LastRadiusPx(e);
         }
       }
       r->trace.push_back(s);
@@ -290,12 +303,18 @@ void SeatCommand(const FixationOptions& o, const models::RobotConfig& robot, Tar
   for (int e = 0; e < 2; ++e) {
     if (!o.eyes[e]) continue;
     Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-    int m = 0;
+    int m = 0, m_radius = 0;
+    double sum_radius = 0;
     for (size_t k = after.size() - std::min(after.size(), size_t(n)); k < after.size(); ++k)
       if (after[k].found[e]) {
         sum += after[k].offset_px[e];
         ++m;
+        if (after[k].radius_px[e]) {
+          sum_radius += *after[k].radius_px[e];
+          ++m_radius;
+        }
       }
+    r->radius_px[e] = m_radius > 0 ? std::optional<double>(sum_radius / m_radius) : std::nullopt;
     r->found[e] = m > 0;
     if (m == 0) {
       r->outcome = FixationResult::Outcome::kLost;
@@ -428,8 +447,10 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       }
       s.found[e] = true;
       s.offset_px[e] = *p - Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
+      s.radius_px[e] = locator.LastRadiusPx(e);
       r.found[e] = true;
       r.residual_px[e] = s.offset_px[e];
+      r.radius_px[e] = s.radius_px[e];
       const double err = std::max(o.pan ? std::abs(s.offset_px[e].x()) : 0.0, o.tilt ? std::abs(s.offset_px[e].y()) : 0.0);
       eye_err[e] = err;
       if (initial_err[e] < 0) initial_err[e] = err;

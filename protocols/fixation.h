@@ -70,6 +70,13 @@ class TargetLocator {
     return true;
   }
   virtual std::optional<Eigen::Vector2d> Locate(const cv::Mat& eye_image, int eye) = 0;
+  // The apparent radius [px] of what the last Locate in this eye found (the fixation disc's
+  // equivalent radius sqrt(area / pi)); nullopt when it found nothing or the locator does not
+  // measure size. Ranging checks it against the target's known size (fitting/ranging_eval.h).
+  virtual std::optional<double> LastRadiusPx(int eye) const {
+    (void)eye;
+    return std::nullopt;
+  }
   virtual std::string Name() const = 0;
 };
 
@@ -109,6 +116,7 @@ struct FixationSample {
   bool found[2] = {false, false};
   Eigen::Vector2d offset_px[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};  // target - centre
   models::PwmVector pwm_us{};     // command in force when the frame arrived
+  std::optional<double> radius_px[2];  // apparent target radius (TargetLocator::LastRadiusPx)
 };
 
 struct FixationResult {
@@ -119,6 +127,9 @@ struct FixationResult {
   models::PwmVector final_pwm_us{};
   bool found[2] = {false, false};
   Eigen::Vector2d residual_px[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};  // last offsets
+  // The target's apparent radius over the same frames as the residual; nullopt when the
+  // locator does not measure it.
+  std::optional<double> radius_px[2];
   std::vector<FixationSample> trace;
   bool seated = false;            // the settled command was seated (see FixationOptions)
 };

@@ -28,7 +28,9 @@
 //                      right_dx_px,right_dy_px,stamp_ns,approach_Rx,approach_Ry,approach_Lx,approach_Ly,
 //                      approach_Neck (sign of the last move of each servo: +1 up, -1 down, 0 unknown),
 //                      status,reason (calib/trial_status.h: ok, not settled, lost target, failed; only
-//                      ok is ever ranged)
+//                      ok is ever ranged),left_radius_px,right_radius_px (the target's apparent radius,
+//                      empty when the locator does not measure it),target_radius_m (its known radius
+//                      from the protocol's `targets`, empty when not given)
 //   step_response.csv  step_index,gain,amplitude_deg,trial,k,t_s,offset_px,offset_y_px,pwm_us,found,frame_index
 //                      (offset_px along the stepped axis: x for pan, y for tilt; t_s from the step)
 //   step_trials.csv    step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,

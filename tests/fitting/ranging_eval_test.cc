@@ -223,5 +223,43 @@ TEST(RangingEval, FailedAndOffTargetFixationsAreRowsButNeverRanges) {
   EXPECT_LT(ev.max_abs_rel_error, 1e-6);
 }
 
+// Both eyes locked onto one spot of the wall 3.1 m away while the 24 mm disc stood at 2 m (the
+// variant A robot's 2 m fixation in a full calibrate): the rays meet, but the spot's apparent
+// size, taken for the disc's, says 2 m, not 3.1 m: off target, never a range. A disc whose size
+// fits its vergence distance within the tolerance is ranged as before.
+TEST(RangingEval, SizeThatDisagreesWithVergenceIsOffTarget) {
+  const models::HeadModel truth = TruthHead();
+  const double r = 0.012;
+  std::vector<Fixation> f;
+  for (double d : {0.5, 1.0, 3.1}) f.push_back(*SyntheticFixation(truth, Eigen::Vector3d(0.02, 0.01, d), 1530));
+  for (int i = 0; i < 3; ++i) {
+    f[i].index = i;
+    f[i].target_radius_m = r;
+  }
+  const double fx = truth.intrinsics[0].params[0];
+  // 0.5 m: the disc, its radius read 10 % large in one eye and 5 % small in the other.
+  f[0].radius_px[0] = 1.10 * fx * r / 0.5;
+  f[0].radius_px[1] = 0.95 * fx * r / 0.5;
+  // 1.0 m: only the right eye measured a size.
+  f[1].radius_px[1] = fx * r / 1.0;
+  // 3.1 m: a wall spot as large as the disc at 2 m.
+  f[2].radius_px[0] = f[2].radius_px[1] = fx * r / 2.0;
+  const RangingEvaluation ev = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), f, {}, {});
+  ASSERT_EQ(ev.rows.size(), 3u);
+  EXPECT_TRUE(ev.rows[0].ok) << ev.rows[0].reason;
+  EXPECT_NEAR(ev.rows[0].size_ratio, 1.0, 0.06);
+  EXPECT_TRUE(ev.rows[1].ok) << ev.rows[1].reason;
+  EXPECT_NEAR(ev.rows[1].size_ratio, 1.0, 0.04);
+  EXPECT_FALSE(ev.rows[2].ok);
+  EXPECT_EQ(ev.rows[2].status, calib::TrialStatus::kOffTarget);
+  EXPECT_NEAR(ev.rows[2].size_ratio, 2.0 / 3.1, 0.04);
+  EXPECT_NE(ev.rows[2].reason.find("apparent size"), std::string::npos) << ev.rows[2].reason;
+  EXPECT_FALSE(std::isfinite(ev.rows[2].range_m));
+  EXPECT_EQ(ev.num_ok, 2);
+  // Without a known size (older datasets) nothing is checked.
+  f[2].target_radius_m.reset();
+  EXPECT_EQ(EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), f, {}, {}).num_ok, 3);
+}
+
 }  // namespace
 }  // namespace owlcal::fitting
