@@ -288,7 +288,7 @@ int main(int argc, char** argv) {
   if (default_robot && num_bad > 0)
     std::printf("The default robot is not yet a typical real Owl: sim::MeasuredOwlStream() (the stream measured on these sets) "
                 "and a board bowed sim::kCourseBoardWarpM match them; making them the defaults changes what the tests of "
-                "the whole suite expect (issue 11).\n");
+                "the whole suite expect.\n");
   for (const auto& s : real)
     for (const auto& p : s.problems) std::printf("note (%s): %s\n", s.name.c_str(), p.c_str());
   for (const auto& s : virt)

@@ -98,7 +98,7 @@ LensModelChoice ChooseIntrinsicsLensModel(const std::vector<calib::View>& views,
 
 std::string DistortionModelName(models::DistortionModel m);  // "opencv5" / "opencv8"
 
-// The board's bow (fitting/board_warp.h) chosen the same way (issue 17 item 4): flat and bowed
+// The board's bow (fitting/board_warp.h) chosen the same way: flat and bowed
 // (StereoFitOptions::fit_board_warp) are cross-validated over frames with the model in
 // options.intrinsics.model, each held-out frame placed on the board bow its training folds
 // fitted; the bow wins when its held-out RMS is smaller by more than choice.min_relative_gain.

@@ -1,5 +1,5 @@
 #pragma once
-// The calibrated saccade (issue 12 item 6) around a calibration run: what the saccade step's
+// The calibrated saccade around a calibration run: what the saccade step's
 // controller is given (the fitted head, the servos' fitted slew and lag, the measured delay),
 // and the evaluation of the saccade dataset it recorded against the physical bound and the
 // course's P loop (fitting/saccade_eval.h).

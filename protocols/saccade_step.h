@@ -1,5 +1,5 @@
 #pragma once
-// The saccade step: a calibrated-map controller (issue 12 item 6). Per amplitude and trial it
+// The saccade step: a calibrated-map controller. Per amplitude and trial it
 //   1. fixates one eye's target with the same controller (both axes, not logged);
 //   2. steps the servo away by the amplitude (alternating direction, the robot file's nominal
 //      scale: the same step as the step-response step's P loop) and lets it rest 400 ms;

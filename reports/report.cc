@@ -409,7 +409,7 @@ std::vector<Table> MakeTables(const ReportData& d) {
     out.push_back(t);
   }
   if (d.saccade) {
-    // The calibrated-map saccade (issue 12 item 6) against the physical bound and the P loop.
+    // The calibrated-map saccade against the physical bound and the P loop.
     const auto& sa = *d.saccade;
     auto ms = [](double s) { return std::isfinite(s) ? Fmt(1000 * s, 4) : std::string("not settled"); };
     Table t{"saccade",

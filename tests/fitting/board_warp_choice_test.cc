@@ -1,4 +1,4 @@
-// The board's bow chosen by cross-validation (issue 17 item 4): recovered within sigma on
+// The board's bow chosen by cross-validation: recovered within sigma on
 // synthetic stereo views of a board with a known bow, flat kept for a flat board, and the numbers
 // on the real sets of data/ (kit2020, darvill2019 session 1, the OpenCV sample).
 #include <cmath>

@@ -1,5 +1,5 @@
-// The checks against references in calibrate's results (fitting/reference_checks.h, issue 17
-// item 5): the latency protocol's reading against the reading the virtual Owl's truth predicts,
+// The checks against references in calibrate's results (fitting/reference_checks.h)
+//: the latency protocol's reading against the reading the virtual Owl's truth predicts,
 // the alignment verdict against its stated tolerance, the field of view against the datasheet.
 #include "fitting/reference_checks.h"
 

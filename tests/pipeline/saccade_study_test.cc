@@ -1,4 +1,4 @@
-// The calibrated-map saccade (issue 12 item 6) end to end on the in-process virtual Owl: the
+// The calibrated-map saccade end to end on the in-process virtual Owl: the
 // standard saccade protocol recorded with a calibration, read back as calibrate reads it, and
 // evaluated against the physical bound (slew time for 10 deg + stream latency + one frame, from
 // the robot's truth: data/sim/owl_default_truth.yaml Rx 380 deg/s, 100 ms, 30 fps = 159.6 ms).
