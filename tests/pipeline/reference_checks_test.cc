@@ -1,6 +1,6 @@
-// The checks against references in calibrate's results (fitting/reference_checks.h)
-//: the latency protocol's reading against the reading the virtual Owl's truth predicts,
-// the alignment verdict against its stated tolerance, the field of view against the datasheet.
+// The checks against references in calibrate's results (fitting/reference_checks.h): the
+// latency protocol's reading against the reading the virtual Owl's truth predicts, the
+// alignment verdict against its stated tolerance, the field of view against the datasheet.
 #include "fitting/reference_checks.h"
 
 #include <unistd.h>
