@@ -148,6 +148,22 @@ struct Trained {
   double warp[2] = {0, 0};  // the board's bow, when the fit fitted it
 };
 
+// What a stereo fit on the training folds gives the held-out frames.
+Trained TrainedOf(const StereoFit& f) {
+  Trained t;
+  t.ok = f.ok;
+  t.message = f.message;
+  if (!f.ok) return t;
+  t.cams[0] = f.cameras[0];
+  t.cams[1] = f.cameras[1];
+  t.right_from_left = f.right_from_left;
+  if (f.board_warp_fitted) {
+    t.warp[0] = f.board_warp[0];
+    t.warp[1] = f.board_warp[1];
+  }
+  return t;
+}
+
 // Runs the k-fold cross-validation of one model. views[e]: all views of eye e (views[1] empty
 // for one camera). train(model, train_views) fits; returns the per-frame errors by frame.
 template <typename TrainFn>
@@ -359,20 +375,7 @@ LensModelChoice ChooseStereoLensModel(const std::vector<calib::View>& left_views
     return so;
   };
   auto train = [&](DistortionModel m, const std::vector<calib::View>* tv) {
-    Trained t;
-    const StereoFit f = FitStereo(tv[0], tv[1], opts(m, false));
-    t.ok = f.ok;
-    t.message = f.message;
-    if (f.ok) {
-      t.cams[0] = f.cameras[0];
-      t.cams[1] = f.cameras[1];
-      t.right_from_left = f.right_from_left;
-      if (f.board_warp_fitted) {
-        t.warp[0] = f.board_warp[0];
-        t.warp[1] = f.board_warp[1];
-      }
-    }
-    return t;
+    return TrainedOf(FitStereo(tv[0], tv[1], opts(m, false)));
   };
   auto full = [&](LensModelScore* s) {
     s->full = FitStereo(left_views, right_views, opts(s->model, options.intrinsics.compute_covariance));
@@ -455,22 +458,7 @@ BoardWarpChoice ChooseStereoBoardWarp(const std::vector<calib::View>& left_views
           views,
           frames,
           c.folds,
-          [&](const std::vector<calib::View>* tv) {
-            Trained t;
-            const StereoFit f = FitStereo(tv[0], tv[1], opts(bowed, false));
-            t.ok = f.ok;
-            t.message = f.message;
-            if (f.ok) {
-              t.cams[0] = f.cameras[0];
-              t.cams[1] = f.cameras[1];
-              t.right_from_left = f.right_from_left;
-              if (f.board_warp_fitted) {
-                t.warp[0] = f.board_warp[0];
-                t.warp[1] = f.board_warp[1];
-              }
-            }
-            return t;
-          },
+          [&](const std::vector<calib::View>* tv) { return TrainedOf(FitStereo(tv[0], tv[1], opts(bowed, false))); },
           &s,
           &per_frame[bowed]);
       s.full = FitStereo(left_views, right_views, opts(bowed, options.intrinsics.compute_covariance));
