@@ -198,45 +198,50 @@ std::vector<Table> MakeTables(const ReportData& d) {
               {}};
       if (truth) t.header.push_back("truth");
       for (const auto& r : rows) {
-        auto diff = [&](const char* v, const char* ref, int sig) {
-          if (!r.contains(v) || !r[v].is_number() || !r.contains(ref) || !r[ref].is_number())
-            return std::pair<std::string, std::string>();
-          const double a = r[v].get<double>(), b = r[ref].get<double>();
-          return std::pair<std::string, std::string>{Fmt(a - b, sig), Fmt(100 * (a - b) / b, 3)};
-        };
         const std::string eye = r.value("eye", std::string());
-        const auto df = diff("fx_px", "datasheet_f_px", 3), dh = diff("hfov_deg", "datasheet_hfov_deg", 3),
-                   dv = diff("vfov_deg", "datasheet_vfov_deg", 3);
-        std::vector<std::string> a = {eye,
-                                      "focal length fx [px]",
-                                      num(r, "fx_px", 5),
-                                      num(r, "fx_sigma_px", 2),
-                                      num(r, "datasheet_f_px", 4),
-                                      df.first,
-                                      df.second,
-                                      ""};
-        std::vector<std::string> b = {eye,
-                                      "horizontal FOV [deg]",
-                                      num(r, "hfov_deg", 4),
-                                      num(r, "hfov_sigma_deg", 2),
-                                      num(r, "datasheet_hfov_deg", 3),
-                                      dh.first,
-                                      dh.second,
-                                      num(r, "pinhole_hfov_deg", 4)};
-        std::vector<std::string> c = {eye,
-                                      "vertical FOV [deg]",
-                                      num(r, "vfov_deg", 4),
-                                      num(r, "vfov_sigma_deg", 2),
-                                      num(r, "datasheet_vfov_deg", 3),
-                                      dv.first,
-                                      dv.second,
-                                      num(r, "pinhole_vfov_deg", 4)};
-        if (truth) {
-          a.push_back(num(r, "truth_fx_px", 5));
-          b.push_back(num(r, "truth_hfov_deg", 4));
-          c.push_back(num(r, "truth_vfov_deg", 4));
-        }
-        t.rows.insert(t.rows.end(), {a, b, c});
+        // One row per quantity: value, sigma, datasheet, difference (absolute and %), pinhole, truth.
+        auto row = [&](const char* label,
+                       const char* v,
+                       const char* sigma,
+                       const char* ref,
+                       const char* pinhole,
+                       const char* truth_key,
+                       int sig,
+                       int ref_sig) {
+          std::vector<std::string> cells = {eye,
+                                            label,
+                                            num(r, v, sig),
+                                            num(r, sigma, 2),
+                                            num(r, ref, ref_sig),
+                                            "",
+                                            "",
+                                            pinhole ? num(r, pinhole, 4) : std::string()};
+          if (r.contains(v) && r[v].is_number() && r.contains(ref) && r[ref].is_number()) {
+            const double x = r[v].get<double>(), y = r[ref].get<double>();
+            cells[5] = Fmt(x - y, 3);
+            cells[6] = Fmt(100 * (x - y) / y, 3);
+          }
+          if (truth) cells.push_back(num(r, truth_key, sig));
+          return cells;
+        };
+        t.rows.push_back(
+            row("focal length fx [px]", "fx_px", "fx_sigma_px", "datasheet_f_px", nullptr, "truth_fx_px", 5, 4));
+        t.rows.push_back(row("horizontal FOV [deg]",
+                             "hfov_deg",
+                             "hfov_sigma_deg",
+                             "datasheet_hfov_deg",
+                             "pinhole_hfov_deg",
+                             "truth_hfov_deg",
+                             4,
+                             3));
+        t.rows.push_back(row("vertical FOV [deg]",
+                             "vfov_deg",
+                             "vfov_sigma_deg",
+                             "datasheet_vfov_deg",
+                             "pinhole_vfov_deg",
+                             "truth_vfov_deg",
+                             4,
+                             3));
       }
       out.push_back(t);
     }
