@@ -6,12 +6,14 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
 #include <ceres/ceres.h>
 #include <ceres/manifold.h>
 #include <ceres/product_manifold.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
+#include <opencv2/core/utility.hpp>
 
 #include "fitting/board_warp.h"
 #include "fitting/format.h"
@@ -181,17 +183,29 @@ void CrossValidate(const std::vector<calib::View>* views[2],
   double total_sq[2] = {0, 0};
   int total_n[2] = {0, 0};
   score->ok = true;
+  // The folds' fits are independent single-threaded solves: they run at once (one per core),
+  // and are read in fold order below, so the result does not depend on the thread count.
+  std::vector<Trained> trained(folds);
+  cv::parallel_for_(cv::Range(0, folds), [&](const cv::Range& r) {
+    for (int k = r.start; k < r.end; ++k) {
+      std::vector<calib::View> train_views[2];
+      for (int e = 0; e < 2; ++e)
+        for (const calib::View& v : *views[e])
+          if (fold_of.at(v.frame_index) != k) train_views[e].push_back(v);
+      try {
+        trained[k] = train(train_views);
+      } catch (const std::exception& ex) {
+        trained[k].ok = false;
+        trained[k].message = ex.what();
+      }
+    }
+  });
   for (int k = 0; k < folds; ++k) {
-    std::vector<calib::View> train_views[2];
     std::map<int, const calib::View*> held[2];
     for (int e = 0; e < 2; ++e)
-      for (const calib::View& v : *views[e]) {
-        if (fold_of.at(v.frame_index) == k)
-          held[e][v.frame_index] = &v;
-        else
-          train_views[e].push_back(v);
-      }
-    const Trained t = train(train_views);
+      for (const calib::View& v : *views[e])
+        if (fold_of.at(v.frame_index) == k) held[e][v.frame_index] = &v;
+    const Trained& t = trained[k];
     if (!t.ok) {
       score->ok = false;
       score->message = "fold " + std::to_string(k + 1) + " of " + std::to_string(folds) + ": fit failed: " + t.message;

@@ -1,6 +1,7 @@
 #include "fitting/ranging_eval.h"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <stdexcept>

@@ -4,6 +4,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -104,10 +105,14 @@ void RunContext::Detect(const robot::StereoFrame& f, int64_t index) {
   opt.fast_check = true;
   std::vector<calib::CornerObservation> all;
   LiveDetection live;
+  // The two eyes are detected at once (the detector has no shared state), then used in eye order.
+  cv::parallel_for_(cv::Range(0, 2), [&](const cv::Range& eyes) {
+    for (int e = eyes.start; e < eyes.end; ++e)
+      live.detection[e] = calib::DetectTarget(e == models::kLeftEye ? f.left : f.right, target, opt);
+  });
   for (int e = 0; e < 2; ++e) {
     const cv::Mat& img = e == models::kLeftEye ? f.left : f.right;
-    const calib::TargetDetection d = calib::DetectTarget(img, target, opt);
-    live.detection[e] = d;
+    const calib::TargetDetection& d = live.detection[e];
     if (!d.found) continue;
     std::vector<calib::CornerObservation> obs =
         calib::DetectionToObservations(d, target, int(index), e, cmd_, f.stamp_ns);

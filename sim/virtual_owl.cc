@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -225,17 +226,22 @@ robot::StereoFrame VirtualOwl::Compose(int64_t seq, const FrameTruth& ft, const 
   for (const auto& t : textures_) tex.push_back(t.get());
   const int w = truth_.robot.image_width, h = truth_.robot.image_height;
   cv::Mat grey[2];
-  for (int e = 0; e < 2; ++e) {
-    // The socket axis is the head's forward axis: in the camera frame via cam_from_head.
-    const models::Rigid3d cam_from_head = ft.cam_from_base[e] * models::HeadFromBase(ft.angles[e].neck_rad).Inverse();
-    const Eigen::Vector3d axis = cam_from_head.rotation * Eigen::Vector3d::UnitZ();
-    // A held target is where it was when each row of this eye was exposed (the eyes expose
-    // eye_offset_ms apart; rows rolling_shutter_ms from top to bottom).
-    const RowTiming timing{ft.exposure_ns[e], truth_.stream.rolling_shutter_ms * 1e6 / h};
-    renderers_[e]->Render(ft.cam_from_base[e], axis, truth_.socket, scene, tex, background_, &grey[e], nullptr,
-                          timing);
-    AddSensorNoise(&grey[e], truth_.stream.noise_sigma, seed_, uint64_t(seq) * 2 + e);
-  }
+  // The eyes render independently (each has its own renderer; the scene and textures are
+  // read-only here): both at once halves the wall time of every frame on two cores. Noise
+  // is a function of (seed, frame, eye) alone, so the frame is the same either way.
+  cv::parallel_for_(cv::Range(0, 2), [&](const cv::Range& eyes) {
+    for (int e = eyes.start; e < eyes.end; ++e) {
+      // The socket axis is the head's forward axis: in the camera frame via cam_from_head.
+      const models::Rigid3d cam_from_head = ft.cam_from_base[e] * models::HeadFromBase(ft.angles[e].neck_rad).Inverse();
+      const Eigen::Vector3d axis = cam_from_head.rotation * Eigen::Vector3d::UnitZ();
+      // A held target is where it was when each row of this eye was exposed (the eyes expose
+      // eye_offset_ms apart; rows rolling_shutter_ms from top to bottom).
+      const RowTiming timing{ft.exposure_ns[e], truth_.stream.rolling_shutter_ms * 1e6 / h};
+      renderers_[e]->Render(
+          ft.cam_from_base[e], axis, truth_.socket, scene, tex, background_, &grey[e], nullptr, timing);
+      AddSensorNoise(&grey[e], truth_.stream.noise_sigma, seed_, uint64_t(seq) * 2 + e);
+    }
+  });
   cv::Mat side(h, 2 * w, CV_8UC3);
   const bool swap = truth_.robot.swap_eyes;
   cv::cvtColor(grey[swap ? kRightEye : kLeftEye], side(cv::Rect(0, 0, w, h)), cv::COLOR_GRAY2BGR);
