@@ -26,7 +26,11 @@ LimitCause LimitCauseFromName(const std::string& s) {
 LimitsEvaluation EvaluateLimits(const models::RobotConfig& config,
                                 const std::vector<LimitMeasurement>& measurements,
                                 const models::HeadModel* head,
-                                int margin_us) {
+                                int margin_us,
+                                int stop_error_us) {
+  if (margin_us < 0 || stop_error_us < 0)
+    throw std::invalid_argument("EvaluateLimits: margin_us and stop_error_us must be >= 0");
+  const int narrow_us = margin_us + stop_error_us;
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   LimitsEvaluation ev;
   auto deg = [&](int servo, std::optional<double> us) {
@@ -64,9 +68,9 @@ LimitsEvaluation EvaluateLimits(const models::RobotConfig& config,
     const bool physical_min = s.min_cause == LimitCause::kEndStop || s.min_cause == LimitCause::kSocketRim;
     const bool physical_max = s.max_cause == LimitCause::kEndStop || s.max_cause == LimitCause::kSocketRim;
     if (s.measured_min_us && physical_min)
-      s.recommended_min_us = std::max(c.min_us, int(std::ceil(*s.measured_min_us)) + margin_us);
+      s.recommended_min_us = std::max(c.min_us, int(std::ceil(*s.measured_min_us)) + narrow_us);
     if (s.measured_max_us && physical_max)
-      s.recommended_max_us = std::min(c.max_us, int(std::floor(*s.measured_max_us)) - margin_us);
+      s.recommended_max_us = std::min(c.max_us, int(std::floor(*s.measured_max_us)) - narrow_us);
     auto note = [&](const char* end, std::optional<double> us, LimitCause cause, int cfg) {
       if (!us) {
         ev.notes.push_back(s.name + " " + end + " end: not measured");

@@ -37,8 +37,10 @@ struct ServoLimits {
   LimitCause min_cause = LimitCause::kUnknown, max_cause = LimitCause::kUnknown;
   // Angles of the ends from the fitted map [deg]; NaN without a map or a measurement.
   double configured_min_deg = 0, configured_max_deg = 0, measured_min_deg = 0, measured_max_deg = 0;
-  // Safe range to configure: the measured range narrowed by `margin_us` at each measured
-  // end-stop or rim, never wider than the configured range. Equal to configured when unmeasured.
+  // Safe range to configure: the measured range narrowed by margin_us + stop_error_us at each
+  // measured end-stop or rim, never wider than the configured range, so that it keeps margin_us
+  // from the true stop when the search is off by up to stop_error_us (the limits search finds
+  // stops within 5 us, protocols/limits_search.h). Equal to configured when unmeasured.
   int recommended_min_us = 0, recommended_max_us = 0;
   // measured - configured [us] at each end (positive: the measured end is further out).
   double min_excess_us = 0, max_excess_us = 0;
@@ -53,6 +55,7 @@ struct LimitsEvaluation {
 LimitsEvaluation EvaluateLimits(const models::RobotConfig& config,
                                 const std::vector<LimitMeasurement>& measurements,
                                 const models::HeadModel* head,
-                                int margin_us = 10);
+                                int margin_us = 10,
+                                int stop_error_us = 5);
 
 }  // namespace owlcal::fitting

@@ -135,6 +135,9 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
   r.cause.clear();
   for (int nv = anchor; nv != limit_us;) {
     nv = d > 0 ? std::min(limit_us, nv + o.fine_us) : std::max(limit_us, nv - o.fine_us);
+    // The configured limit is approached with one coarse jump from inside: a fine step smaller
+    // than the dead band may be ignored, leaving the servo short of the limit as if at a stop.
+    if (nv == limit_us) io.move(limit_us - d * o.coarse_us);
     cv::Mat cur;
     take(nv, &cur);
     const double shift = ThumbShift(anchor_thumb, cur, kDownsample).px[axis];

@@ -25,6 +25,8 @@
 //      bias, rounded inward: within a few us of the true stop, whatever the PWM step.
 //   4. At the configured limit with the image following: "configured", unless the servo
 //      applied more than 4 us less than the limit (a stop just inside it: "end-stop" there).
+//      The limit's probe jumps there from one coarse step inside, so that a dead band larger
+//      than the fine step cannot leave the servo short of the limit.
 // The rim (eyes only): RimFraction of the eye image grew by more than rim_fraction over the
 // centre pose; the end is then the last fine pulse without it.
 #include <functional>

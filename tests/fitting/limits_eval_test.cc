@@ -15,7 +15,7 @@ TEST(LimitsEval, ComparesConfiguredAndMeasuredEnds) {
       {models::kRx, true, 1890, LimitCause::kConfigured},   // reached the configured max
       {models::kLx, true, 1800, LimitCause::kSocketRim},    // rim 50 us inside max 1850
   };
-  const LimitsEvaluation ev = EvaluateLimits(cfg, m, &head, 10);
+  const LimitsEvaluation ev = EvaluateLimits(cfg, m, &head, 10, 0);
   ASSERT_EQ(ev.servos.size(), 5u);
   const ServoLimits& rx = ev.servos[models::kRx];
   EXPECT_EQ(rx.name, "Rx");
@@ -37,6 +37,19 @@ TEST(LimitsEval, ComparesConfiguredAndMeasuredEnds) {
   EXPECT_EQ(LimitCauseFromName("rim"), LimitCause::kSocketRim);
   EXPECT_STREQ(LimitCauseName(LimitCauseFromName("endstop")), "end-stop");
   EXPECT_THROW(EvaluateLimits(cfg, {{7, false, 1000, LimitCause::kEndStop}}, nullptr), std::invalid_argument);
+  EXPECT_THROW(EvaluateLimits(cfg, m, nullptr, -1), std::invalid_argument);
+}
+
+// By default the recommended limits allow for the search's 5 us error: a stop measured at 1230 us
+// may truly be at 1225 us, so 1245 us keeps the 10 us margin from it.
+TEST(LimitsEval, RecommendedLimitsAllowForTheStopsMeasurementError) {
+  const models::RobotConfig cfg = models::DefaultRobotConfig();
+  const LimitsEvaluation ev = EvaluateLimits(cfg,
+                                             {{models::kRx, false, 1230, LimitCause::kEndStop},
+                                              {models::kNeck, true, 1939, LimitCause::kEndStop}},
+                                             nullptr);
+  EXPECT_EQ(ev.servos[models::kRx].recommended_min_us, 1245);
+  EXPECT_EQ(ev.servos[models::kNeck].recommended_max_us, 1924);
 }
 
 }  // namespace

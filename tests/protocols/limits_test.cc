@@ -8,12 +8,15 @@
 
 #include <gtest/gtest.h>
 
+#include "fitting/limits_eval.h"
+#include "owlcal_version.h"
 #include "robot/robot_interface.h"
 #include "protocols/dataset.h"
 #include "protocols/dataset_tables.h"
 #include "protocols/image_motion.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 
 namespace owlcal::protocols {
@@ -89,8 +92,12 @@ int TruthEnd(const sim::VirtualOwl& owl, int servo, int d, double rim_fraction, 
   }
 }
 
+// max_error_us bounds end-stops and configured ends; a rim end (where the socket rim darkens the
+// border, a soft threshold) is allowed rim_error_us. With check_recommended, the recommended
+// limits (fitting/limits_eval.h, 10 us margin + 5 us for the search's error) must keep >= 10 us from every true end-stop that
+// lies inside the configured range.
 void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, const std::vector<int>& servos = {},
-                 int max_error_us = 10) {
+                 int max_error_us = 10, int rim_error_us = 10, bool check_recommended = false) {
   sim::VirtualOwl owl(vo);
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
   if (!servos.empty()) p.steps[1].As<LimitsStep>().servos = servos;
@@ -101,6 +108,7 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, cons
   ASSERT_EQ(s.status, "complete") << s.message;
   EXPECT_EQ(s.num_clamped, 0);
   int rows = 0;
+  std::vector<fitting::LimitMeasurement> measurements;
   for (const LimitRow& row : ReadLimitsCsv(o.out_dir)) {
     const std::string what = row.servo + " " + row.end;
     const int servo = ServoIndexFromName(row.servo);
@@ -111,12 +119,31 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, cons
     const int truth = TruthEnd(owl, servo, d, p.steps[1].As<LimitsStep>().rim_fraction, &cause);
     std::cout << name << " " << what << ": measured " << measured << " (" << row.cause << "), truth " << truth << " ("
               << cause << "), error " << measured - truth << " us\n";
-    EXPECT_LE(std::abs(measured - truth), max_error_us) << what;
+    EXPECT_LE(std::abs(measured - truth), cause == "rim" ? rim_error_us : max_error_us) << what;
     EXPECT_EQ(row.cause, cause) << what;
     EXPECT_EQ(row.status, calib::TrialStatus::kOk) << what;
+    measurements.push_back({servo, d > 0, double(measured), fitting::LimitCauseFromName(row.cause)});
     ++rows;
   }
   EXPECT_EQ(rows, 2 * int(p.steps[1].As<LimitsStep>().servos.size()));
+  if (check_recommended) {
+    const fitting::LimitsEvaluation ev = fitting::EvaluateLimits(owl.Config(), measurements, nullptr, 10);
+    const sim::RobotTruth& t = owl.Truth();
+    for (const fitting::ServoLimits& sl : ev.servos) {
+      if (!sl.measured_min_us || !sl.measured_max_us) continue;
+      const models::ServoConfig& c = t.robot.servos[sl.servo];
+      const double lo = t.servos[sl.servo].endstop_lo_us, hi = t.servos[sl.servo].endstop_hi_us;
+      std::cout << name << " " << sl.name << ": recommended " << sl.recommended_min_us << "-" << sl.recommended_max_us
+                << " us, true stops " << lo << " / " << hi << " us\n";
+      if (lo >= c.min_us) {
+        EXPECT_GE(sl.recommended_min_us - lo, 10.0) << sl.name << " low stop " << lo;
+      }
+      if (hi <= c.max_us) {
+        EXPECT_GE(hi - sl.recommended_max_us, 10.0) << sl.name << " high stop " << hi;
+      }
+      EXPECT_LT(sl.recommended_min_us, sl.recommended_max_us) << sl.name;
+    }
+  }
   fs::remove_all(o.out_dir);
 }
 
@@ -152,7 +179,43 @@ TEST(Limits, FiveMicrosecondStepsAndDeadBandsStopsInsideTheLastCoarseStep) {
   t.servos[models::kRx].endstop_hi_us = t.robot.servos[models::kRx].centre_us + 163;
   vo.truth = t;
   vo.seed = 5;
-  CheckLimits(vo, "pwm5", {models::kRx, models::kNeck}, 5);
+  CheckLimits(vo, "pwm5", {models::kRx, models::kNeck}, 5, 10, true);
+}
+
+sim::VirtualOwlOptions RobotFile(const std::string& file, int seed) {
+  sim::VirtualOwlOptions vo;
+  vo.truth = sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/" + file);
+  vo.seed = seed;
+  return vo;
+}
+
+// The shipped test robots (tests/data/robots/): 5 us PWM steps with dead bands of 2-5 us, and
+// 1 us pulses with dead bands of 2-5 us. On both, Ry's top stop (1985 us, limit 2000) and Ly's
+// bottom stop (1190 us, limit 1180) lie inside the last 20 us coarse step. Every end-stop within
+// 5 us of the truth (rims are named as such), and the recommended limits keep 10 us from every
+// stop inside the configured range.
+TEST(Limits, Step5RobotEveryStopWithin5usAndRecommendedLimitsKeep10us) {
+  CheckLimits(RobotFile("tests/data/robots/owl_step5_truth.yaml", 7), "step5", {}, 5, 10, true);
+}
+
+TEST(Limits, DeadBandRobotEveryStopWithin5usAndRecommendedLimitsKeep10us) {
+  CheckLimits(RobotFile("tests/data/robots/owl_deadband_truth.yaml", 7), "deadband", {}, 5, 10, true);
+}
+
+// The neck: a stop at 1935 us under a configured 1950 us limit (inside the last coarse
+// step), on 1 us pulses with a 3 us dead band; and a 5 us-step eye configured inside its socket
+// rim (min 1330 us, rim at 1302 us) whose stop is 7 us inside that limit.
+TEST(Limits, StopsInsideTheLastCoarseStepOnOneMicrosecondPulses) {
+  sim::VirtualOwlOptions vo;
+  sim::RobotTruth t = sim::DefaultRobotTruth();
+  for (auto& s : t.servos) s.dead_band_us = 3;
+  t.servos[models::kNeck].endstop_hi_us = 1935;
+  t.servos[models::kRx].quantum_us = 5;
+  t.robot.servos[models::kRx].min_us = 1330;
+  t.servos[models::kRx].endstop_lo_us = 1337;
+  vo.truth = t;
+  vo.seed = 11;
+  CheckLimits(vo, "lastcoarse", {models::kRx, models::kNeck}, 5, 10, true);
 }
 
 // Forwards to a robot, but one eye's image is black (a lens cap, a dead camera).
