@@ -12,6 +12,7 @@
 
 #include <ceres/ceres.h>
 
+#include "fitting/board_warp.h"
 #include "fitting/head_problem.h"
 #include "fitting/observability.h"
 
@@ -48,19 +49,37 @@ struct SolveOutcome {
   double initial_cost = 0;
 };
 
-// Corners with finite errors per eye: sum of squares and count.
-void SumSquaresPerEye(const HeadState& s, const std::vector<PreparedView>& prepared, std::array<double, 2>* ssq,
-                      std::array<int, 2>* count) {
-  *ssq = {0, 0};
-  *count = {0, 0};
+// Inlier corners with finite errors per noise class and eye: sum of squares and count.
+void SumSquaresPerClass(const HeadState& s,
+                        const std::vector<PreparedView>& prepared,
+                        size_t num_classes,
+                        std::vector<std::array<double, 2>>* ssq,
+                        std::vector<std::array<int, 2>>* count) {
+  ssq->assign(num_classes, {0, 0});
+  count->assign(num_classes, {0, 0});
   for (const PreparedView& p : prepared) {
     const std::vector<double> err = internal::CornerErrorsPx(s, p);
     for (size_t i = 0; i < err.size(); ++i) {
       if (!p.inlier[i] || !std::isfinite(err[i])) continue;
-      (*ssq)[p.command.eye] += err[i] * err[i];
-      ++(*count)[p.command.eye];
+      (*ssq)[p.noise_class][p.command.eye] += err[i] * err[i];
+      ++(*count)[p.noise_class][p.command.eye];
     }
   }
+}
+
+// The noise classes of the views (index 0: kDefaultNoiseClass, then the named classes in
+// order); sets PreparedView::noise_class.
+std::vector<std::string> AssignNoiseClasses(const HeadFitOptions& options, std::vector<PreparedView>* prepared) {
+  std::vector<std::string> names = {kDefaultNoiseClass};
+  for (const auto& [board, cls] : options.noise_class_of_board)
+    if (std::find(names.begin(), names.end(), cls) == names.end()) names.push_back(cls);
+  std::sort(names.begin() + 1, names.end());
+  for (PreparedView& p : *prepared) {
+    const auto it = options.noise_class_of_board.find(BoardOfTarget(p.target_id));
+    const std::string& cls = it == options.noise_class_of_board.end() ? names[0] : it->second;
+    p.noise_class = int(std::find(names.begin(), names.end(), cls) - names.begin());
+  }
+  return names;
 }
 
 // Whole views the model does not explain: a servo still moving when the frame was exposed, an
@@ -110,18 +129,19 @@ void DropViewsTheModelDoesNotExplain(const std::vector<calib::View>& views,
 // not determined.
 SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
                                        const HeadFitOptions& options,
+                                       const std::vector<std::string>& classes,
                                        std::vector<PreparedView>* prepared,
                                        HeadState* s,
                                        std::unique_ptr<ceres::Problem>* problem,
                                        HeadFit* fit,
                                        StageTimer* timer) {
   const double sigma = options.corner_sigma_px;
-  std::array<double, 2> eye_sigma = {sigma, sigma};
+  std::vector<std::array<double, 2>> class_sigma(classes.size(), {sigma, sigma});
   SolveOutcome out;
   {
     ceres::Problem robust;
     // Every corner is not needed to reach the basin: a spread subset per view is 3-5 x faster.
-    internal::BuildHeadProblem(s, *prepared, eye_sigma, options.huber_sigma, options, 12, &robust);
+    internal::BuildHeadProblem(s, *prepared, class_sigma, options.huber_sigma, options, 12, &robust);
     // Loose tolerance: this stage only has to find the basin and the outliers.
     const ceres::Solver::Summary s1 = internal::SolveHeadProblem(&robust, options, 1e-7);
     out.iterations += static_cast<int>(s1.iterations.size());
@@ -141,42 +161,63 @@ SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
   }
   if (options.view_outlier_factor > 0) DropViewsTheModelDoesNotExplain(views, options, *s, prepared, fit);
   *problem = std::make_unique<ceres::Problem>();
-  fit->num_corners_used = internal::BuildHeadProblem(s, *prepared, eye_sigma, 0.0, options, 0, problem->get());
+  fit->num_corners_used = internal::BuildHeadProblem(s, *prepared, class_sigma, 0.0, options, 0, problem->get());
   out.final_summary = internal::SolveHeadProblem(problem->get(), options, 1e-12);
   out.iterations += static_cast<int>(out.final_summary.iterations.size());
   timer->Mark("solve_final_s");
+  std::vector<std::array<double, 2>> measured(classes.size(), {0, 0});
   if (options.estimate_corner_sigma) {
-    // Each eye's sigma per axis from its residuals, the sum of squares shared over 2N - p degrees
-    // of freedom (p: the free parameters, boards included). The eyes' relative weight (and an
-    // intrinsics prior's) changes, so solve again.
-    std::array<double, 2> ssq;
-    std::array<int, 2> count;
-    SumSquaresPerEye(*s, *prepared, &ssq, &count);
+    // Each noise class's sigma per eye and axis from its own residuals, the sum of squares
+    // shared over 2N - p degrees of freedom (p: the free parameters, boards included). The
+    // relative weights of the eyes and classes (and of an intrinsics prior) change, so solve again.
+    std::vector<std::array<double, 2>> ssq;
+    std::vector<std::array<int, 2>> count;
+    SumSquaresPerClass(*s, *prepared, classes.size(), &ssq, &count);
     int num_free = 0;
     for (Block* b : s->HeadBlocks())
       if (b->in_problem) num_free += b->TangentSize();
     for (Block* b : s->BoardBlocks())
       if (b->in_problem) num_free += b->TangentSize();
-    const int num_residuals = 2 * (count[0] + count[1]);
+    int num_residuals = 0;
+    for (const auto& c : count) num_residuals += 2 * (c[0] + c[1]);
     bool changed = false;
-    for (int e = 0; e < 2 && num_residuals > num_free; ++e) {
-      if (count[e] == 0) continue;
-      const double dof = double(num_residuals) / (num_residuals - num_free);
-      fit->measured_corner_sigma_px[e] = std::sqrt(ssq[e] / (2.0 * count[e]) * dof);
-      const double use =
-          std::max(options.measured_sigma_factor * fit->measured_corner_sigma_px[e], options.min_corner_sigma_px);
-      changed |= std::abs(use - eye_sigma[e]) > 1e-3 * eye_sigma[e];
-      if (use > 0) eye_sigma[e] = use;
+    for (size_t k = 0; k < classes.size() && num_residuals > num_free; ++k) {
+      for (int e = 0; e < 2; ++e) {
+        if (count[k][e] == 0) continue;
+        const double dof = double(num_residuals) / (num_residuals - num_free);
+        measured[k][e] = std::sqrt(ssq[k][e] / (2.0 * count[k][e]) * dof);
+        const double use = std::max(options.measured_sigma_factor * measured[k][e], options.min_corner_sigma_px);
+        changed |= std::abs(use - class_sigma[k][e]) > 1e-3 * class_sigma[k][e];
+        if (use > 0) class_sigma[k][e] = use;
+      }
     }
     if (changed) {
       *problem = std::make_unique<ceres::Problem>();
-      internal::BuildHeadProblem(s, *prepared, eye_sigma, 0.0, options, 0, problem->get());
+      internal::BuildHeadProblem(s, *prepared, class_sigma, 0.0, options, 0, problem->get());
       out.final_summary = internal::SolveHeadProblem(problem->get(), options, 1e-12);
       out.iterations += static_cast<int>(out.final_summary.iterations.size());
       timer->Mark("solve_whitened_s");
     }
   }
-  for (int e = 0; e < 2; ++e) fit->corner_sigma_px[e] = eye_sigma[e];
+  {
+    std::vector<std::array<double, 2>> ssq;
+    std::vector<std::array<int, 2>> count;
+    SumSquaresPerClass(*s, *prepared, classes.size(), &ssq, &count);
+    size_t main_class = classes.size();
+    for (size_t k = 0; k < classes.size(); ++k) {
+      if (count[k][0] + count[k][1] == 0) continue;
+      if (main_class == classes.size()) main_class = k;
+      HeadFit::NoiseClass& c = fit->noise_classes[classes[k]];
+      c.sigma_px = class_sigma[k];
+      c.measured_sigma_px = measured[k];
+      c.num_corners = count[k];
+    }
+    if (main_class == classes.size()) main_class = 0;
+    for (int e = 0; e < 2; ++e) {
+      fit->corner_sigma_px[e] = class_sigma[main_class][e];
+      fit->measured_corner_sigma_px[e] = measured[main_class][e];
+    }
+  }
   auto mark_unused = [](Block& b, const std::string& what) {
     if (!b.in_problem) b.FixAll("not determined: no usable view involves " + what);
   };
@@ -198,11 +239,14 @@ struct ResidualStatistics {
 ResidualStatistics ComputeResidualStatistics(const std::vector<calib::View>& views,
                                              const std::vector<PreparedView>& prepared,
                                              const HeadState& s,
-                                             const double sigma_px[2]) {
+                                             const HeadFit& fit,
+                                             const std::vector<std::string>& classes) {
   ResidualStatistics r;
-  double sum_sq = 0;
+  double sum_sq = 0, sum_whitened = 0;
   for (const PreparedView& p : prepared) {
     const std::vector<double> err = internal::CornerErrorsPx(s, p);
+    const auto cls = fit.noise_classes.find(classes[p.noise_class]);
+    const double sigma = cls == fit.noise_classes.end() ? 0.0 : cls->second.sigma_px[p.command.eye];
     double vs = 0;
     int vn = 0;
     for (size_t i = 0; i < err.size(); ++i) {
@@ -211,6 +255,7 @@ ResidualStatistics ComputeResidualStatistics(const std::vector<calib::View>& vie
       ++vn;
     }
     sum_sq += vs;
+    if (sigma > 0) sum_whitened += vs / (sigma * sigma);
     r.num_corners += vn;
     const calib::View& v = views[p.index];
     r.per_view.push_back({{"frame", v.frame_index},
@@ -220,8 +265,8 @@ ResidualStatistics ComputeResidualStatistics(const std::vector<calib::View>& vie
                           {"rms_px", vn ? std::sqrt(vs / vn) : 0.0}});
   }
   r.rms_px = r.num_corners ? std::sqrt(sum_sq / r.num_corners) : 0.0;
-  const double sigma = std::sqrt(0.5 * (sigma_px[0] * sigma_px[0] + sigma_px[1] * sigma_px[1]));
-  r.noise_factor = r.num_corners && sigma > 0 ? r.rms_px / (std::sqrt(2.0) * sigma) : 0.0;
+  // Per-axis RMS of the whitened errors: 1 when every class's sigma is its noise.
+  r.noise_factor = r.num_corners ? std::sqrt(sum_whitened / (2.0 * r.num_corners)) : 0.0;
   return r;
 }
 
@@ -274,6 +319,9 @@ bool HeadFitOptions::Check(std::string* why) const {
   if (!(rank_tolerance > 0 && rank_tolerance < 1))
     return fail("rank_tolerance = " + std::to_string(rank_tolerance) + " must be in (0, 1)");
   if (num_threads < 1) return fail("num_threads = " + std::to_string(num_threads) + " must be >= 1");
+  for (const auto& [board, cls] : noise_class_of_board)
+    if (board.empty() || cls.empty())
+      return fail("noise_class_of_board: board '" + board + "' -> class '" + cls + "': names must not be empty");
   return true;
 }
 
@@ -306,6 +354,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   std::vector<PreparedView> prepared = internal::PrepareViews(views, robot, options, &fit.result.warnings);
   if (prepared.empty())
     return fail("head fit: no usable view (" + std::to_string(views.size()) + " given); nothing can be determined");
+  const std::vector<std::string> classes = AssignNoiseClasses(options, &prepared);
   HeadState s = internal::InitialState(initial, robot);
   internal::HoldWhatTheDataCannotDetermine(views, prepared, robot, options, &s);
   internal::InitialiseBoards(views, &prepared, &s, &fit.result.warnings);
@@ -314,8 +363,8 @@ HeadFit FitHead(const std::vector<calib::View>& views,
 
   // 2. Solve.
   std::unique_ptr<ceres::Problem> problem;
-  const SolveOutcome solved = SolveWithOutlierRejection(views, options, &prepared, &s, &problem, &fit, &timer);
-  const ResidualStatistics stats = ComputeResidualStatistics(views, prepared, s, fit.corner_sigma_px);
+  const SolveOutcome solved = SolveWithOutlierRejection(views, options, classes, &prepared, &s, &problem, &fit, &timer);
+  const ResidualStatistics stats = ComputeResidualStatistics(views, prepared, s, fit, classes);
   fit.num_views_used = static_cast<int>(prepared.size());
 
   // 3. Observability and covariance.

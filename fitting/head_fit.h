@@ -22,6 +22,7 @@
 //   HeadFitOptions opt;  opt.corner_sigma_px = 0.15;
 //   HeadFit fit = FitHead(views, robot, models::NominalHeadModel(robot) /*with intrinsics*/, opt);
 //   if (fit.ok) WriteResultJson(fit.result, "head.json");
+#include <array>
 #include <map>
 #include <optional>
 #include <string>
@@ -40,6 +41,9 @@
 
 namespace owlcal::fitting {
 
+// The noise class of boards HeadFitOptions::noise_class_of_board does not list.
+inline constexpr const char* kDefaultNoiseClass = "board";
+
 struct HeadFitOptions {
   // A fitted IPD, servo centre or scale this far from the robot file is a warning
   // (fitting/robot_file_check.h).
@@ -56,6 +60,12 @@ struct HeadFitOptions {
   // Widening sigma for it is a choice the caller documents (owlcal calibrate: 2).
   double measured_sigma_factor = 1.0;
   double min_corner_sigma_px = 0.0;
+  // Noise classes: corners of different kinds of target (chessboard saddles, AprilTag quad
+  // corners) have different noise. A physical board (target id before "@placement",
+  // fitting/board_warp.h BoardOfTarget) listed here belongs to that class; unlisted boards to
+  // kDefaultNoiseClass. Each class gets its own sigma per eye: measured from its own residuals
+  // with estimate_corner_sigma, else corner_sigma_px. One fit, each corner whitened by its class.
+  std::map<std::string, std::string> noise_class_of_board;
   // Floor of every servo's hysteresis sigma [us]: a frame exposed before the servo fully settled
   // looks like extra backlash on both approach sides (servo lag is not in the model); 0 = none.
   double hysteresis_sigma_floor_us = 0.0;
@@ -103,6 +113,15 @@ struct HeadFit {
   std::vector<HeadOutlier> outliers;
   double corner_sigma_px[2] = {0, 0};           // whitening sigma used per eye [px] (given or estimated)
   double measured_corner_sigma_px[2] = {0, 0};  // per-axis sigma from the residuals (estimate_corner_sigma), else 0
+  // The two above are those of kDefaultNoiseClass when it has corners, else of the first class.
+  // Per noise class (HeadFitOptions::noise_class_of_board): whitening sigma used, measured sigma
+  // (0 when not measured) and inlier corners, per eye.
+  struct NoiseClass {
+    std::array<double, 2> sigma_px{0, 0};
+    std::array<double, 2> measured_sigma_px{0, 0};
+    std::array<int, 2> num_corners{0, 0};
+  };
+  std::map<std::string, NoiseClass> noise_classes;
   int num_views_used = 0;
   int num_corners_used = 0;
 };

@@ -192,12 +192,20 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
     boards[id] = std::vector<double>(a, a + 7);
   }
   result.diagnostics["head"]["base_from_target"] = boards;
+  // Each noise class's whitening: the tags' and the chessboard's corners with their own sigma.
+  nlohmann::json classes = nlohmann::json::object();
+  for (const auto& [name, c] : fit.noise_classes)
+    classes[name] = {{"whitening_sigma_px", c.sigma_px},
+                     {"measured_sigma_px", c.measured_sigma_px},
+                     {"num_corners", c.num_corners}};
+  result.diagnostics["head"]["noise_classes"] = classes;
   result.inputs["head_fit"] = {{"corner_sigma_px", options.corner_sigma_px},
                                {"estimate_corner_sigma", options.estimate_corner_sigma},
                                {"measured_sigma_factor", options.measured_sigma_factor},
                                {"min_corner_sigma_px", options.min_corner_sigma_px},
                                {"hysteresis_sigma_floor_us", options.hysteresis_sigma_floor_us},
                                {"view_outlier_factor", options.view_outlier_factor},
+                               {"noise_class_of_board", options.noise_class_of_board},
                                {"whitening_sigma_px", {fit.corner_sigma_px[0], fit.corner_sigma_px[1]}},
                                {"measured_corner_sigma_px", {fit.measured_corner_sigma_px[0], fit.measured_corner_sigma_px[1]}},
                                {"fit_intrinsics", options.fit_intrinsics},

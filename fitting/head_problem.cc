@@ -123,7 +123,7 @@ std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v) {
 
 int BuildHeadProblem(HeadState* state,
                      const std::vector<PreparedView>& views,
-                     const std::array<double, 2>& sigma_px,
+                     const std::vector<std::array<double, 2>>& sigma_px,
                      double huber_k,
                      const HeadFitOptions& options,
                      int max_corners_per_view,
@@ -149,7 +149,7 @@ int BuildHeadProblem(HeadState* state,
     ceres::CostFunction* cost = models::VisitCameraModel(s.camera_model[eye], [&]<typename Camera>() -> ceres::CostFunction* {
       auto* f = new HeadViewResidual<Camera>;
       f->command = v.command;
-      f->sigma_px = sigma_px[eye];
+      f->sigma_px = sigma_px.at(v.noise_class)[eye];
       f->huber_k = huber_k;
       f->span = s.warp_spans.at(board_name);
       for (size_t i = 0; i < v.pixels.size(); ++i) {

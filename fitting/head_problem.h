@@ -62,6 +62,7 @@ struct PreparedView {
   int index = 0;  // into the input views
   HeadViewCommand command;
   std::string target_id;
+  int noise_class = 0;  // index into the fit's noise classes (HeadFitOptions::noise_class_of_board)
   std::vector<int> corner_ids;
   std::vector<Eigen::Vector3d> points;
   std::vector<Eigen::Vector2d> pixels;
@@ -97,7 +98,7 @@ std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v);
 // what is held; sets Block::in_problem. Returns the number of corners used.
 int BuildHeadProblem(HeadState* s,
                      const std::vector<PreparedView>& views,
-                     const std::array<double, 2>& sigma_px,  // whitening per eye [px]
+                     const std::vector<std::array<double, 2>>& sigma_px,  // whitening per noise class, eye [px]
                      double huber_k,
                      const HeadFitOptions& options,
                      int max_corners_per_view,

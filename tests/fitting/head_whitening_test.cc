@@ -63,6 +63,44 @@ TEST(HeadWhitening, MeasuredPerEyeNoiseGivesHonestSigmaOnPriorRobots) {
   EXPECT_GT(assumed.FractionWithin(1), 0.9) << assumed.GroupTable();  // what the 0.15 px guess claimed
 }
 
+TEST(HeadWhitening, EachNoiseClassIsWhitenedWithItsOwnMeasuredSigma) {
+  // Tag corners (here the boards to the sides, up and down) are noisier than chessboard saddles:
+  // in one fit each class gets the sigma its own residuals show, per eye.
+  constexpr double kBoardPx = 0.03, kTagPx = 0.12;
+  std::mt19937_64 rng(31);
+  const models::RobotConfig robot = models::DefaultRobotConfig();
+  const models::HeadModel truth = PerturbedHead(robot, &rng);
+  SyntheticHeadOptions so;
+  so.steps_per_sweep = 5;
+  so.grid_side = 3;
+  so.noise_px = 0;
+  SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
+  HeadFitOptions o;
+  o.estimate_corner_sigma = true;
+  for (const char* side : {"left", "right", "up", "down"}) o.noise_class_of_board[side] = "apriltag";
+  std::normal_distribution<double> unit(0, 1);
+  int num_tag_views = 0;
+  for (calib::View& v : data.views) {
+    const bool tag = o.noise_class_of_board.count(v.target_id) > 0;
+    num_tag_views += tag;
+    for (Eigen::Vector2d& p : v.pixels) p += (tag ? kTagPx : kBoardPx) * Eigen::Vector2d(unit(rng), unit(rng));
+  }
+  ASSERT_GT(num_tag_views, 20);
+  models::HeadModel init = models::NominalHeadModel(robot);
+  for (int e = 0; e < 2; ++e) init.intrinsics[e] = truth.intrinsics[e];
+  const HeadFit fit = FitHead(data.views, robot, init, o);
+  ASSERT_TRUE(fit.ok) << fit.message;
+  ASSERT_EQ(fit.noise_classes.size(), 2u);
+  for (int e = 0; e < 2; ++e) {
+    EXPECT_NEAR(fit.noise_classes.at("board").sigma_px[e], kBoardPx, 0.1 * kBoardPx) << "eye " << e;
+    EXPECT_NEAR(fit.noise_classes.at("apriltag").sigma_px[e], kTagPx, 0.1 * kTagPx) << "eye " << e;
+    EXPECT_GT(fit.noise_classes.at("apriltag").num_corners[e], 500);
+    EXPECT_DOUBLE_EQ(fit.corner_sigma_px[e], fit.noise_classes.at("board").sigma_px[e]);
+  }
+  EXPECT_NEAR(fit.result.diagnostics["head"]["noise_factor"].get<double>(), 1.0, 0.05);
+  EXPECT_TRUE(fit.result.diagnostics["head"]["noise_classes"].contains("apriltag"));
+}
+
 TEST(HeadWhitening, AViewTheModelDoesNotExplainIsDroppedWhole) {
   // One frame exposed while the servo was still moving: every corner of that view is 0.6 px
   // off (below the per-corner outlier threshold of 5 x 0.15 px), consistently.
