@@ -69,24 +69,32 @@ TargetDetection DetectChessboard(const cv::Mat& gray, const TargetDefinition& ta
   return d;
 }
 
-TargetDetection DetectAprilGrid(const cv::Mat& gray, const TargetDefinition& target, const DetectorOptions& o) {
-  TargetDetection d;
+AprilTagOptions GridTagOptions(const std::string& family, const DetectorOptions& o) {
   AprilTagOptions ao;
-  ao.families = {target.family};
+  ao.families = {family};
   ao.quad_decimate = o.apriltag_decimate;
   ao.quad_sigma = o.apriltag_blur_sigma;
   ao.refine_edges = o.apriltag_refine_edges;
   ao.max_hamming = o.apriltag_max_hamming;
   std::string why;
   if (!ao.Check(&why)) throw std::invalid_argument("DetectTarget: " + why);
+  return ao;
+}
+
+// The grid's tags among the image's detections of its family.
+TargetDetection AprilGridFromTags(const std::vector<AprilTagDetection>& detections,
+                                  const TargetDefinition& target,
+                                  const DetectorOptions& o) {
+  TargetDetection d;
   const int num_tags = target.tag_cols * target.tag_rows;
   // A grid id names one physical tag: an id seen more than once is ambiguous and every copy
   // is rejected (free-standing detection, calib/apriltag_free.h, keeps them all instead).
   std::map<int, std::array<Eigen::Vector2d, 4>> tags;  // tag id -> our corners 0..3
   std::set<int> repeated;
   int dropped = 0;
-  for (const AprilTagDetection& t : DetectAprilTags(gray, ao)) {
-    if (t.id < target.first_id || t.id >= target.first_id + num_tags || t.decision_margin < o.apriltag_min_margin) {
+  for (const AprilTagDetection& t : detections) {
+    if (t.family != target.family || t.id < target.first_id || t.id >= target.first_id + num_tags ||
+        t.decision_margin < o.apriltag_min_margin) {
       ++dropped;
       continue;
     }
@@ -115,6 +123,10 @@ TargetDetection DetectAprilGrid(const cv::Mat& gray, const TargetDefinition& tar
     for (int id : repeated) d.message.append(" ").append(std::to_string(id));  // GCC 12 -Wrestrict on " " + s
   }
   return d;
+}
+
+TargetDetection DetectAprilGrid(const cv::Mat& gray, const TargetDefinition& target, const DetectorOptions& o) {
+  return AprilGridFromTags(DetectAprilTags(gray, GridTagOptions(target.family, o)), target, o);
 }
 
 }  // namespace
@@ -150,6 +162,23 @@ TargetDetection DetectTarget(const cv::Mat& image, const TargetDefinition& targe
       break;
   }
   throw std::invalid_argument("DetectTarget: target '" + target.id + "' is a fixation target; use calib/fixation_*");
+}
+
+std::vector<TargetDetection> DetectAprilGrids(const cv::Mat& image,
+                                              const std::vector<TargetDefinition>& grids,
+                                              const DetectorOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument("DetectAprilGrids: " + why);
+  for (const TargetDefinition& g : grids)
+    if (g.kind != TargetKind::kAprilGrid)
+      throw std::invalid_argument("DetectAprilGrids: target '" + g.id + "' is not an aprilgrid");
+  const cv::Mat gray = ToGray(image);
+  std::map<std::string, std::vector<AprilTagDetection>> by_family;
+  for (const TargetDefinition& g : grids)
+    if (!by_family.count(g.family)) by_family[g.family] = DetectAprilTags(gray, GridTagOptions(g.family, options));
+  std::vector<TargetDetection> out;
+  for (const TargetDefinition& g : grids) out.push_back(AprilGridFromTags(by_family[g.family], g, options));
+  return out;
 }
 
 std::vector<CornerObservation> DetectionToObservations(const TargetDetection& detection,

@@ -63,6 +63,14 @@ struct TargetDetection {
 // std::invalid_argument for an empty image or a target kind it cannot detect (fixation).
 TargetDetection DetectTarget(const cv::Mat& image, const TargetDefinition& target, const DetectorOptions& options);
 
+// Several AprilGrids (distinct id ranges, e.g. tag sheets around a scene) in one image: the tag
+// detector runs once per family, and each grid keeps its own tags (as DetectTarget would give
+// them, one detection per grid in order). Throws std::invalid_argument for an empty image or a
+// target that is not an aprilgrid.
+std::vector<TargetDetection> DetectAprilGrids(const cv::Mat& image,
+                                              const std::vector<TargetDefinition>& grids,
+                                              const DetectorOptions& options);
+
 // One CornerObservation per detected corner (point_in_target from target.Corners()).
 std::vector<CornerObservation> DetectionToObservations(const TargetDetection& detection,
                                                        const TargetDefinition& target,

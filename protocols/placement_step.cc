@@ -1,5 +1,6 @@
 #include "protocols/placement_step.h"
 
+#include <algorithm>
 #include <iostream>
 
 #include "protocols/step_plan.h"
@@ -23,7 +24,9 @@ void RunPlaceTargetStep(RunContext& run, const Protocol& p, const PlaceTargetSte
     scene->SetTargetPose(s.target, rec.base_from_target);
     if (s.hide_others) {
       for (const std::string& name : scene->TargetNames()) {
-        if (name == s.target) continue;
+        // Tag grids stay where they are: fixed in the scene, seen around the boards (tag_targets).
+        if (name == s.target || std::find(p.tag_targets.begin(), p.tag_targets.end(), name) != p.tag_targets.end())
+          continue;
         scene->SetTargetPose(name, HiddenPose());
       }
     }

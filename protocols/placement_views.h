@@ -21,8 +21,14 @@
 namespace owlcal::protocols {
 
 // `frames`: the dataset's frames.csv records (frame_index -> placement_index). Views whose
-// frame is not listed keep their id.
-std::vector<calib::View> SplitViewsByPlacement(std::vector<calib::View> views, const std::vector<FrameRecord>& frames);
+// frame is not listed keep their id. With `placements` (placements.csv), a view's placement is
+// the latest placement OF ITS TARGET at or before its frame's: a target the protocol never
+// moves (a tag grid fixed in the scene, protocol `tag_targets`) stays one board while other
+// targets are placed around it; N is then that placement's index (the same names as without
+// `placements` for a target placed at every placement).
+std::vector<calib::View> SplitViewsByPlacement(std::vector<calib::View> views,
+                                               const std::vector<FrameRecord>& frames,
+                                               const std::vector<PlacementRecord>* placements = nullptr);
 
 // observations.csv grouped into views (calib::GroupIntoViews), split by frames.csv's
 // placements. Empty when the dataset has no observations.csv. Throws std::runtime_error

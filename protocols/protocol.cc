@@ -646,6 +646,20 @@ Protocol ParseProtocolYaml(const std::string& yaml_text, const std::string& sour
       p.targets[name] = ParseTarget(kv.second, name, source);
     }
   }
+  if (f.Has("tag_targets")) {
+    YAML::Node t = f.Get("tag_targets");
+    if (!t.IsSequence()) f.Fail("tag_targets", "expected a list of target names");
+    for (const auto& n : t) {
+      const std::string name = n.as<std::string>();
+      const auto it = p.targets.find(name);
+      if (it == p.targets.end()) f.Fail("tag_targets", "'" + name + "' is not one of `targets`");
+      if (it->second.kind != calib::TargetKind::kAprilGrid) f.Fail("tag_targets", "'" + name + "' is not an aprilgrid");
+      if (name == p.target) f.Fail("tag_targets", "'" + name + "' is the protocol's `target`");
+      if (std::find(p.tag_targets.begin(), p.tag_targets.end(), name) != p.tag_targets.end())
+        f.Fail("tag_targets", "'" + name + "' is listed twice");
+      p.tag_targets.push_back(name);
+    }
+  }
   ParseSteps(f.Get("steps"), source, "", &p, 0);
   f.RejectUnknown();
   return p;

@@ -13,6 +13,10 @@
 //   target_description: "9x6 chessboard, 26 mm squares"   # optional, used in prompts
 //   targets:                           # optional geometry of named targets (calib/target_file.h
 //     board: {target_type: chessboard, cols: 9, rows: 6, square_size_m: 0.026}   # keys)
+//   tag_targets: [tags_right_up]       # optional: AprilGrids of `targets` fixed in the scene (not
+//                                      # moved by place-target, never hidden by hide_others) and
+//                                      # detected with `target` in every `detect: true` frame,
+//                                      # where the board has left the view too (partial grids count)
 //   steps:
 //     - move-to: {pose: {Rx: centre, Lx: centre+50, Neck: 1530}, settle: {...}}
 //     - sweep: {servo: Rx, from: centre-150, to: centre+150, step_us: 25,
@@ -48,7 +52,8 @@
 // raises both eyes although Ly is mirrored).
 //
 // detect: true detects the protocol's `target` (its geometry from `targets`) in both eyes of
-// every recorded frame: observations.csv, and coverage.csv (X/Y/Size/Skew) at the end.
+// every recorded frame: observations.csv, and coverage.csv (X/Y/Size/Skew) at the end; the
+// `tag_targets` go to observations.csv too (one target_id per grid), not into coverage.csv.
 //
 // settle: {mode: image|time, time_ms: 300, min_ms: 150, max_ms: 2000, still_px: 0.5,
 //          still_frames: 2}. image = wait at least min_ms, then until the image moved less
@@ -320,6 +325,7 @@ struct Protocol {
   std::string target;
   std::string target_description;
   std::map<std::string, calib::TargetDefinition> targets;
+  std::vector<std::string> tag_targets;  // AprilGrids of `targets` fixed in the scene, detected too
   std::vector<Step> steps;
 };
 

@@ -101,6 +101,25 @@ TEST(Protocol, ErrorsNameFileStepAndField) {
 }
 
 // Regression: a repeat of 2e9, or three nested repeats of 1000, ended in a bare std::bad_alloc.
+TEST(Protocol, TagTargetsAreAprilGridsOfTargets) {
+  const std::string head =
+      "name: x\ntarget: board\ntargets:\n  board: {target_type: chessboard}\n"
+      "  sheet: {target_type: aprilgrid, tagCols: 6, tagRows: 2, first_id: 100}\n";
+  const Protocol p = ParseProtocolYaml(head + "tag_targets: [sheet]\nsteps: []\n", "t.yaml");
+  ASSERT_EQ(p.tag_targets.size(), 1u);
+  EXPECT_EQ(p.tag_targets[0], "sheet");
+  EXPECT_EQ(p.targets.at("sheet").first_id, 100);
+  std::string e = ErrorOf(head + "tag_targets: [other]\nsteps: []\n");
+  EXPECT_NE(e.find("tag_targets"), std::string::npos) << e;
+  EXPECT_NE(e.find("'other' is not one of `targets`"), std::string::npos) << e;
+  e = ErrorOf(head + "tag_targets: [board]\nsteps: []\n");
+  EXPECT_NE(e.find("'board' is not an aprilgrid"), std::string::npos) << e;
+  e = ErrorOf(head + "tag_targets: [sheet, sheet]\nsteps: []\n");
+  EXPECT_NE(e.find("listed twice"), std::string::npos) << e;
+  e = ErrorOf(head + "tag_targets: sheet\nsteps: []\n");
+  EXPECT_NE(e.find("expected a list"), std::string::npos) << e;
+}
+
 TEST(Protocol, PlanSizeIsCappedWithAClearError) {
   std::string e = ErrorOf("name: x\nsteps:\n  - repeat: {times: 2000000000, steps: [{wait: {ms: 1}}]}\n");
   EXPECT_NE(e.find("p.yaml:3: step 0 (repeat): field 'times'"), std::string::npos) << e;
