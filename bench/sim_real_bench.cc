@@ -11,9 +11,7 @@
 // the joint angle when the servo returns to one pulse width from random earlier ones
 // (sim/servo_dynamics.h, dead band + quantum + backlash, both directions).
 //
-// Usage: sim_real_bench [num_seeds=3] [robot_truth.yaml | measured]
-// `measured`: the default robot with sim::MeasuredOwlStream() and the chessboard bowed
-// sim::kCourseBoardWarpM, i.e. what the default would be as a typical real Owl (not yet the default).
+// Usage: sim_real_bench [num_seeds=3] [robot_truth.yaml]
 // The verdict counts include the servo rows.
 #include <algorithm>
 #include <cmath>
@@ -141,15 +139,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "measured %s\n", s.name.c_str());
   }
   // The default robot and scene as every command gets them, or a robot-truth file as it is.
-  const bool measured = argc > 2 && std::string(argv[2]) == "measured";
-  const bool default_robot = argc <= 2;
-  sim::RobotTruth truth = argc > 2 && !measured ? sim::LoadRobotTruth(argv[2]) : sim::DefaultRobotTruth();
-  sim::SceneDescription scene = sim::DefaultScene();
-  if (measured) {
-    truth.stream = sim::MeasuredOwlStream();
-    scene.Find("chessboard")->warp_m = Eigen::Vector2d(sim::kCourseBoardWarpM, 0);
-    truth.name += " + MeasuredOwlStream + board bow";
-  }
+  const sim::RobotTruth truth = argc > 2 ? sim::LoadRobotTruth(argv[2]) : sim::DefaultRobotTruth();
+  const sim::SceneDescription scene = sim::DefaultScene();
   for (int seed = 1; seed <= num_seeds; ++seed) {
     sim::VirtualOwlOptions vo;
     vo.seed = uint64_t(seed);
@@ -285,10 +276,6 @@ int main(int argc, char** argv) {
               count(truth.stream.latency_ms >= 100 / 1.5 && truth.stream.latency_ms <= 150 * 1.5 ? "ok" : "MISMATCH"));
 
   std::printf("\nverdicts: %d ok, %d explained, %d mismatches\n", num_ok, num_explained, num_bad);
-  if (default_robot && num_bad > 0)
-    std::printf("The default robot is not yet a typical real Owl: sim::MeasuredOwlStream() (the stream measured on these sets) "
-                "and a board bowed sim::kCourseBoardWarpM match them; making them the defaults changes what the tests of "
-                "the whole suite expect.\n");
   for (const auto& s : real)
     for (const auto& p : s.problems) std::printf("note (%s): %s\n", s.name.c_str(), p.c_str());
   for (const auto& s : virt)

@@ -149,6 +149,8 @@ RobotTruth DefaultRobotTruth() {
   // Intrinsics near the measured real Owls (578-591 px), moderate barrel distortion.
   t.intrinsics[kLeftEye].params = {583.2, 582.4, 322.8, 236.1, -0.118, 0.092, 0.0008, -0.0005, -0.021};
   t.intrinsics[kRightEye].params = {587.9, 587.1, 317.4, 243.6, -0.104, 0.071, -0.0006, 0.0004, -0.016};
+  // Image formation of a typical real Owl (bench/sim_real_bench.cc puts it beside the real sets).
+  t.stream = MeasuredOwlStream();
   return t;
 }
 

@@ -117,13 +117,13 @@ models::Rigid3d CamFromEyeMounting(const Eigen::Vector3d& cam_in_eye_m, const Ei
 // darvill2019 sessions 1-3; bench/sim_real_bench.cc prints the comparison): paper white ~160
 // and ink ~60 grey levels, noise ~0.9 grey levels after JPEG, edges as sharp as a 0.53 px
 // Gaussian, no visible lens shading (the Pi's ISP corrects it), JPEG blocks like quality 95, a
-// rolling shutter read out over 30 ms. The rest of the stream as the defaults.
+// rolling shutter read out over 30 ms. The rest of the stream as the defaults. The default robot's
+// stream (StreamTruth's own defaults are the older, cleaner ones that truth files written before
+// the levels and the rolling shutter existed keep).
 StreamTruth MeasuredOwlStream();
-// The course's kit-box board bows about 0.9 mm towards the camera along its long side
-// (sim/scene.h SceneTarget::warp_m; fitted on the same sets, 0.84-1.0 mm).
-inline constexpr double kCourseBoardWarpM = 0.9e-3;
 
-// The built-in default robot (same as data/sim/owl_default_truth.yaml).
+// The built-in default robot (same as data/sim/owl_default_truth.yaml): a typical real Owl, with
+// MeasuredOwlStream()'s image formation.
 RobotTruth DefaultRobotTruth();
 // Reads a complete truth file. Throws std::runtime_error (std::invalid_argument from Validate)
 // naming the path, line and field.

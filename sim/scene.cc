@@ -135,6 +135,7 @@ SceneDescription DefaultScene() {
   chess.definition.rows = 6;
   chess.definition.square_m = 0.026;
   chess.base_from_target = FacingPose(chess.definition, {0.0, 0.0, 0.63});
+  chess.warp_m = Eigen::Vector2d(kCourseBoardWarpM, 0);
   s.targets.push_back(chess);
 
   SceneTarget grid;

@@ -125,7 +125,7 @@ struct RealSet {
 
 TEST(BoardWarpChoice, RealSetsNumbers) {
   const RealSet sets[] = {
-      // The course's kit-box boards bow by 0.6-1.1 mm along x (sim/robot_truth.h kCourseBoardWarpM).
+      // The course's kit-box boards bow by 0.6-1.1 mm along x (sim/scene.h kCourseBoardWarpM).
       {"kit2020", SharedData() + "/owl-real/kit2020-chessboard", 0.026, false, 0.6e-3, 1.1e-3},
       {"darvill2019 session 1",
        SharedData() + "/owl-real/darvill2019-chessboard/session1",

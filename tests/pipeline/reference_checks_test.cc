@@ -86,10 +86,14 @@ std::pair<double, double> CsvMeanSigma(const std::string& dir) {
 }
 
 TEST(ReferenceChecks, LatencyReadingMatchesWhatTheTruthPredictsPerTrial) {
-  // Two robots: the default (100 ms, 4 ms eye offset, global shutter) and a slower stream with a
-  // rolling shutter and the right eye exposing first.
+  // Two robots: the default with a clean global-shutter stream (StreamTruth's own defaults: 100 ms,
+  // 4 ms eye offset), where every reading must land on the predicted frame, and a slower stream with
+  // a rolling shutter and the right eye exposing first. (The default robot's own stream is a real
+  // Owl's, with the rolling shutter: the second case.)
   for (int robot = 0; robot < 2; ++robot) {
     sim::VirtualOwlOptions vo;
+    vo.truth = sim::DefaultRobotTruth();
+    vo.truth->stream = sim::StreamTruth();
     if (robot == 1) {
       sim::RobotTruth t = sim::DefaultRobotTruth();
       t.stream = sim::MeasuredOwlStream();
@@ -203,7 +207,11 @@ TEST(ReferenceChecks, AlignmentVerdictAgainstTheStatedTolerance) {
 }
 
 TEST(ReferenceChecks, TheReportTablesCarryTheNumbers) {
-  sim::VirtualOwl owl({});
+  // A global-shutter stream, so every latency reading lands on the predicted frame ("8 of 8").
+  sim::VirtualOwlOptions vo;
+  vo.truth = sim::DefaultRobotTruth();
+  vo.truth->stream = sim::StreamTruth();
+  sim::VirtualOwl owl(vo);
   const std::string lat = RunStandard(owl, "latency", "report_latency");
   const std::string al = RunStandard(owl, "alignment", "report_alignment");
   CalibratePipelineOptions o;

@@ -116,6 +116,8 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
   std::map<int, Eigen::Isometry3d> pose_of;
   for (const auto& p : placements) pose_of[p.placement_index] = p.base_from_target;
   const models::HeadModel head = owl_->TruthHeadModel();
+  const sim::SceneDescription scene = sim::DefaultScene();  // the owl's (VirtualOwlOptions default)
+  const sim::SceneTarget& board = *scene.Find("chessboard");
 
   Rms render[2], model[2], angle_err[models::kNumServos];
   std::map<std::string, Rms> by_step, by_step_angle;
@@ -142,7 +144,8 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
     by_step_angle[step].Add((a.tilt_rad[e] - t.tilt_rad[e]) * 180 / M_PI);
     by_step_angle[step].Add((a.neck_rad - t.neck_rad) * 180 / M_PI);
     for (size_t k = 0; k < v.pixels.size(); ++k) {
-      const Eigen::Vector3d x_base = base_from_target * v.points_in_target[k];
+      // The corner where it is on the bowed board (the default scene's, the owl's).
+      const Eigen::Vector3d x_base = base_from_target * board.WarpedPoint(v.points_in_target[k]);
       const Eigen::Vector3d p_cam = ft.cam_from_base[e] * x_base;
       Eigen::Vector2d px_truth, px_model;
       ASSERT_TRUE(head.intrinsics[e].Project(p_cam.data(), px_truth.data()));
@@ -239,7 +242,7 @@ fitting::HeadFit FitAndCompare(const char* label, const std::vector<calib::View>
   std::printf("[%s] parameters vs truth: %d with sigma, %d within 1 sigma, %d within 2, %d within 3\n", label, n, in1, in2,
               in3);
   // The set as a whole (honest sigmas: 68 / 95 / 99.7 %). Measured on the default robot, seed 1:
-  // 32 of 40 within 1 sigma held, 45 of 58 refined; all but one within 3. The bounds allow about
+  // 28 of 40 within 1 sigma held, 39 of 58 refined; all within 3. The bounds allow about
   // 2.5 binomial standard deviations at n = 40, and fail when every sigma is 3 x too large (then
   // ~99 % lie within 1 sigma) or 2 x too small (~38 % within 1, ~87 % within 3).
   EXPECT_GE(n, 35) << label << ": too few parameters scored";
@@ -248,9 +251,25 @@ fitting::HeadFit FitAndCompare(const char* label, const std::vector<calib::View>
   EXPECT_GE(in2, 0.85 * n) << label;
   EXPECT_GE(in3, 0.95 * n) << label;
   std::printf("[%s] outliers: %zu of %d corners used\n", label, fit.outliers.size(), fit.num_corners_used);
-  EXPECT_LT(rms, 0.06) << label;
+  // The detector's corner error on the default stream (blur 1.0, JPEG 95, 1 grey level of noise):
+  // 0.090 px on this sweep (seed 1); a servo or head model that does not fit shows far more.
+  EXPECT_LT(rms, 0.12) << label;
   EXPECT_LT(std::abs(ipd_err_mm), 0.5) << label;
   return fit;
+}
+
+// Whitened with the noise the data shows (HeadFitOptions::estimate_corner_sigma, per eye) times
+// `factor`, and the board's bow fitted (the default board bows sim::kCourseBoardWarpM like the
+// course's), as owlcal calibrate fits (pipeline/calibrate_pipeline.cc CalibrateHeadFitOptions). A
+// fixed sigma would judge the fit against a guess: the default stream is a real Owl's
+// (sim::MeasuredOwlStream), RMS ~0.09 px, not the 0.03 px of the older, cleaner stream.
+fitting::HeadFitOptions WhitenedByTheData(double factor) {
+  fitting::HeadFitOptions ho;
+  ho.corner_sigma_px = 0.1;  // first guess (robust loss and outlier threshold of the first solve)
+  ho.estimate_corner_sigma = true;
+  ho.measured_sigma_factor = factor;
+  ho.fit_board_warp = true;
+  return ho;
 }
 
 // True intrinsics held, as after a perfect stereo fit: what the sweep itself determines.
@@ -266,9 +285,10 @@ TEST_F(HeadSimConsistency, HeadFitRecoversTheTruth) {
   const models::HeadModel truth = owl_->TruthHeadModel();
   models::HeadModel initial = models::NominalHeadModel(config);
   for (int e = 0; e < 2; ++e) initial.intrinsics[e] = truth.intrinsics[e];
-  fitting::HeadFitOptions ho;
-  ho.corner_sigma_px = 0.03;
-  FitAndCompare("true intrinsics held", views, config, truth, initial, ho);
+  // With the true intrinsics held the measured noise alone is honest (seed 1: 28 of 40 within
+  // 1 sigma; widened 1.4 x as calibrate does, 39 of 40: too large). The detector's bias that
+  // calibrate widens for reaches the servos and the head through the refined intrinsics (below).
+  FitAndCompare("true intrinsics held", views, config, truth, initial, WhitenedByTheData(1.0));
 }
 
 // As owlcal calibrate fits it: the intrinsics start from a stereo fit's (here the truth with
@@ -287,9 +307,21 @@ TEST_F(HeadSimConsistency, HeadFitRefinesStereoIntrinsics) {
   initial.intrinsics[models::kLeftEye].params[2] -= 0.06;
   initial.intrinsics[models::kRightEye].params[2] += 0.1;
   initial.intrinsics[models::kRightEye].params[3] += 0.07;
-  fitting::HeadFitOptions ho;
-  ho.corner_sigma_px = 0.03;
+  // Widened 1.4 x as calibrate does, and the stereo fit's knowledge of the intrinsics kept as a
+  // Gaussian prior (diagonal, the sigmas StereoAtFixedEyePoseMatchesTruth reports for the default
+  // robot, tests/fitting/sim_calibration_test.cc): the sweep alone pins the common scale of the
+  // focal lengths, servo scales and IPD weakly, and without the prior the fit slid along it
+  // (seed 1: both focal lengths 0.11 % short, all five servo scales 0.11 % high, IPD -0.13 mm;
+  // 35, 48 and 58 of 58 within 1, 2 and 3 sigma). With the prior: 39, 56 and 58 (factor 1.0:
+  // 30, 49, 58).
+  fitting::HeadFitOptions ho = WhitenedByTheData(1.4);
   ho.fit_intrinsics = true;
+  const double stereo_sd[9] = {0.17, 0.17, 0.22, 0.18, 0.0015, 0.011, 0.00008, 0.0001, 0.025};
+  for (int e = 0; e < 2; ++e) {
+    Eigen::VectorXd var(9);
+    for (int k = 0; k < 9; ++k) var[k] = stereo_sd[k] * stereo_sd[k];
+    ho.intrinsics_prior_covariance[e] = Eigen::MatrixXd(var.asDiagonal());
+  }
   FitAndCompare("stereo intrinsics refined", views, config, truth, initial, ho);
 }
 

@@ -142,7 +142,7 @@ TEST(RollingShutter, AMovingBoardIsDrawnAtEachRowsTime) {
   double rolled = 0, frozen = 0;
   const auto corners = t->definition.Corners();
   for (size_t i = 0; i < d.pixels.size(); ++i) {
-    const Eigen::Vector3d p = corners.at(d.corner_ids[i]);
+    const Eigen::Vector3d p = t->WarpedPoint(corners.at(d.corner_ids[i]));  // on the (bowed) board
     auto predict = [&](int64_t t_ns) {
       return Project(k, ft.cam_from_base[0].Matrix() * t->PoseAt(t_ns).matrix(), {p})[0];
     };

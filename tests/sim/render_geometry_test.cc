@@ -43,7 +43,8 @@ std::vector<cv::Point2f> TruthCorners(const VirtualOwl& owl, const FrameTruth& f
   const cv::Matx33d k(p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1);
   std::vector<double> dist(p.begin() + 4, p.end());
   std::vector<cv::Point3f> obj;
-  for (const auto& [id, x] : t->definition.Corners()) {
+  for (const auto& [id, flat] : t->definition.Corners()) {
+    const Eigen::Vector3d x = t->WarpedPoint(flat);  // where the corner is on the (bowed) board
     obj.emplace_back(float(x.x()), float(x.y()), float(x.z()));
     if (ids) ids->push_back(id);
   }
@@ -62,8 +63,10 @@ void MaybeDump(const cv::Mat& img, const std::string& name) {
   if (const char* dir = std::getenv("OWLCAL_SIM_DUMP")) cv::imwrite(std::string(dir) + "/" + name + ".png", img);
 }
 
-// Detects the 9x6 board and returns the RMS distance to the truth corners [px].
-double ChessboardRms(const cv::Mat& grey, const std::vector<cv::Point2f>& truth, cv::Size size) {
+// Detects the 9x6 board and returns the RMS distance to the truth corners [px]; `mean_offset`:
+// the mean of (detected - truth) [px].
+double ChessboardRms(const cv::Mat& grey, const std::vector<cv::Point2f>& truth, cv::Size size,
+                     cv::Point2f* mean_offset = nullptr) {
   std::vector<cv::Point2f> found;
   if (!cv::findChessboardCorners(grey, size, found, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE)) return -1;
   cv::cornerSubPix(grey, found, cv::Size(5, 5), cv::Size(-1, -1),
@@ -81,6 +84,7 @@ double ChessboardRms(const cv::Mat& grey, const std::vector<cv::Point2f>& truth,
   }
   mean /= float(found.size());
   std::printf("  mean offset %.4f %.4f px\n", mean.x, mean.y);
+  if (mean_offset) *mean_offset = mean;
   return std::sqrt(sum / found.size());
 }
 
@@ -111,15 +115,24 @@ TEST(RenderGeometry, ChessboardCornersMatchProjectPointsWithinATenthPixel) {
       const auto eye = models::Eye(e);
       const cv::Mat img = Grey(e == kLeftEye ? frame->left : frame->right);
       MaybeDump(img, "chess_" + std::to_string(i) + "_" + models::kEyeNames[e]);
-      const double rms = ChessboardRms(img, TruthCorners(owl, ft, eye, "chessboard"), cv::Size(def.cols, def.rows));
+      cv::Point2f mean;
+      const double rms =
+          ChessboardRms(img, TruthCorners(owl, ft, eye, "chessboard"), cv::Size(def.cols, def.rows), &mean);
       std::printf("pose %zu %s eye: chessboard corner RMS vs projectPoints = %.4f px\n", i, models::kEyeNames[e], rms);
       ASSERT_GE(rms, 0) << "board not found, pose " << i << " eye " << e;
-      EXPECT_LT(rms, 0.1) << "pose " << i << " eye " << e;
+      // The default stream is a real Owl's: edges as sharp as a 0.53 px Gaussian, JPEG 95, ink and
+      // paper 100 grey levels apart. cornerSubPix then errs 0.05-0.11 px per view (worst on the
+      // fronto-parallel pose 0, whose corners line up with the pixel grid), 0.08 px over all:
+      // the detector's floor, not geometry. The geometry shows in the mean offset (a misplaced
+      // render moves every corner): within 0.03 px here (measured <= 0.021).
+      EXPECT_LT(rms, 0.15) << "pose " << i << " eye " << e;
+      EXPECT_LT(std::hypot(mean.x, mean.y), 0.03) << "pose " << i << " eye " << e;
       total += rms * rms;
       ++n;
     }
   }
   std::printf("chessboard corner RMS over %d views: %.4f px\n", n, std::sqrt(total / n));
+  EXPECT_LT(std::sqrt(total / n), 0.1);
 }
 
 TEST(RenderGeometry, AprilTagCornersMatchProjectPointsWithinTwoTenthsPixel) {
