@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <stdexcept>
 #include <set>
 #include <tuple>
@@ -17,6 +18,7 @@
 #include "fitting/limits_eval.h"
 #include "fitting/ploop_analysis.h"
 #include "fitting/ranging_eval.h"
+#include "fitting/servo_resolution_fit.h"
 #include "fitting/robot_config_json.h"
 #include "fitting/step_response.h"
 #include "fitting/stereo_sanity.h"
@@ -103,6 +105,68 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
     out.push_back(f);
   }
   return out;
+}
+
+// The PWM step and dead band of every servo the limits step swept (resolution.csv), fitted by
+// fitting/servo_resolution_fit.h, written to the result as servo.<S>.pwm_step_us and
+// servo.<S>.dead_band_us: the step is exact when determined; the dead band is known only to the
+// range of values that replay the sweep identically (within a step when the step exceeds 1 us),
+// so its value is the middle of that range and its sigma that of a uniform spread over it.
+std::vector<fitting::ServoResolutionResult> FitResolution(const std::string& dataset, fitting::CalibrationResult* result) {
+  std::map<std::string, std::vector<fitting::ResolutionSample>> samples;
+  for (const protocols::ResolutionRow& row : protocols::ReadResolutionCsv(dataset)) {
+    if (row.status == calib::TrialStatus::kSkipped) {
+      result->warnings.push_back("servo resolution of " + row.servo + " not measured: " + row.reason);
+      continue;
+    }
+    samples[row.servo].push_back({row.command_us, row.position_px.value_or(NAN)});
+  }
+  std::vector<fitting::ServoResolutionResult> out;
+  for (const auto& [name, s] : samples) {
+    const int servo = protocols::ServoIndexFromName(name);
+    if (servo < 0) throw std::runtime_error(dataset + "/resolution.csv: '" + name + "' is not a servo");
+    fitting::ServoResolutionResult r;
+    r.servo = servo;
+    r.fit = fitting::FitServoResolution(s);
+    const std::string p = "servo." + name + ".";
+    if (!r.fit.ok || !r.fit.determined) {
+      result->warnings.push_back("servo resolution of " + name + " not determined: " + r.fit.message);
+    } else {
+      const fitting::ResolutionFit& f = r.fit;
+      const double db_mid = 0.5 * (f.dead_band_min_us + f.dead_band_max_us);
+      const double db_sigma = (f.dead_band_max_us - f.dead_band_min_us) / std::sqrt(12.0);
+      result->Set({p + "pwm_step_us", double(f.resolution.step_us), 0, "us", {}, true,
+                   "fine sweep at the centre (resolution.csv), RMS " + reports::Fmt(f.rms_px, 3) + " px, next model " +
+                       f.runner_up + " " + reports::Fmt(f.runner_up_rms_px, 3) + " px"});
+      result->Set({p + "dead_band_us", db_mid, db_sigma, "us", {}, true,
+                   f.dead_band_determined ? "fine sweep at the centre (resolution.csv)"
+                                          : "dead bands " + std::to_string(f.dead_band_min_us) + "-" +
+                                                std::to_string(f.dead_band_max_us) +
+                                                " us replay the sweep identically (uniform over them)"});
+    }
+    out.push_back(r);
+  }
+  return out;
+}
+
+// The pulse each servo applied at a fixation's settled command, and its uncertainty, from the
+// measured resolution: the generator produces Stepped(command). The fixation seats its command on
+// the 5 us grid with one move of 10 us (protocols/fixation.h), so a command on that grid, with a
+// step that divides 5 us and a dead band of at most 10 us, is the applied pulse exactly. Otherwise
+// the servo may have ignored the last change: uniform within the dead band (sigma (d - 1) / sqrt(3)).
+// Only determined fits are used; a servo without one is ranged at its command, as before.
+void ApplyResolution(const std::vector<fitting::ServoResolutionResult>& resolution, fitting::Fixation* f) {
+  if (resolution.empty()) return;
+  models::PwmVector applied = f->pwm_us;
+  for (const fitting::ServoResolutionResult& r : resolution) {
+    if (!r.fit.ok || !r.fit.determined || r.servo < 0 || r.servo >= models::kNumServos) continue;
+    const models::ServoResolution& res = r.fit.resolution;
+    const int cmd = f->pwm_us[r.servo];
+    applied[r.servo] = res.Stepped(cmd);
+    const bool seated = cmd % 5 == 0 && 5 % res.step_us == 0 && r.fit.dead_band_max_us <= 10;
+    f->applied_sigma_us[r.servo] = seated ? 0.0 : (std::max(1, r.fit.dead_band_max_us) - 1) / std::sqrt(3.0);
+  }
+  f->applied_us = applied;
 }
 
 // The measured ends; *failed names every probe row that measured nothing (status not ok, or no
@@ -539,10 +603,19 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     fitting::FillTruth(fitting::StereoTruthValues(*o.truth, stereo_pwm, stereo_approach), &d.result);
   }
 
-  // 4) Evaluations.
+  // 4) Evaluations. The servos' PWM step and dead band first: ranging, the settling model and the
+  // saccade controller use them.
+  if (!dataset("limits").empty()) {
+    d.resolution = FitResolution(dataset("limits"), &d.result);
+    for (const auto& r : d.resolution)
+      progress("servo resolution " + std::string(models::kServoNames[r.servo]) + ": " +
+               (r.fit.ok ? fitting::DescribeResolution(r.fit) : r.fit.message) +
+               (r.fit.ok && !r.fit.determined ? " (not determined)" : ""));
+  }
   if (!dataset("vergence").empty()) {
     std::vector<std::string> excluded;
-    const auto fixations = ReadFixations(dataset("vergence"), config, o.truth, *d.result.head, &excluded);
+    auto fixations = ReadFixations(dataset("vergence"), config, o.truth, *d.result.head, &excluded);
+    for (auto& f : fixations) ApplyResolution(d.resolution, &f);
     for (const auto& x : excluded) d.result.warnings.push_back(x);
     const fitting::NamedCovariance cov = fitting::CovarianceFromResult(d.result, fitting::RangingParameterNames());
     std::vector<double> theory;
@@ -568,7 +641,7 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     const std::optional<double> latency_ms =
         dataset("latency").empty() ? std::nullopt : MedianLatencyMs(dataset("latency"));
     d.settling = StudySettling(dataset("step_response"), d.steps, config, d.result, latency_ms, delay, o.fps,
-                               &d.result.warnings);
+                               &d.result.warnings, d.resolution);
     if (d.settling) {
       int agree = 0;
       for (const auto& r : d.settling->rows) agree += r.agreement.rfind("agrees", 0) == 0;

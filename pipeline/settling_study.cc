@@ -26,7 +26,8 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
                                                     std::optional<double> latency_ms,
                                                     int delay_frames,
                                                     double fps,
-                                                    std::vector<std::string>* warnings) {
+                                                    std::vector<std::string>* warnings,
+                                                    const std::vector<fitting::ServoResolutionResult>& resolution) {
   auto refuse = [&](const std::string& why) -> std::optional<fitting::SettlingStudy> {
     warnings->push_back("settling model vs measurement not made: " + why);
     return std::nullopt;
@@ -80,6 +81,8 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
   const std::string name = models::kServoNames[servo];
   if (const fitting::Parameter* h = result.Find("servo." + name + ".hysteresis_us"); h && std::isfinite(h->value))
     mo.hysteresis_us = std::max(0.0, h->value);
+  for (const fitting::ServoResolutionResult& r : resolution)
+    if (r.servo == servo && r.fit.ok && r.fit.determined) mo.resolution = r.fit.resolution;
   const fitting::ServoMotionFit motion = fitting::FitServoMotion(segments, mo);
   if (!motion.ok) return refuse("the servo motion fit failed: " + motion.message);
 
@@ -90,6 +93,7 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
   m.slew_us_per_s = motion.slew_us_per_s;
   m.lag_s = motion.lag_s;
   m.hysteresis_us = mo.hysteresis_us;
+  m.resolution = mo.resolution;
   m.px_per_us = std::abs(motion.px_per_us);
   const double focal_px = protocols::NominalFocalPx(config);
   m.nominal_px_per_us = focal_px * std::tan(sc.nominal_deg_per_us * kDeg);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fitting/result.h"
+#include "fitting/servo_resolution_fit.h"
 #include "fitting/settling_model.h"
 #include "fitting/step_response.h"
 #include "models/robot_config.h"
@@ -18,7 +19,9 @@ namespace owlcal::pipeline {
 
 // `dataset`: the step_response dataset folder; `steps`: its trials as calibrate read them
 // (statuses included). Returns nullopt, with the reason in *warnings, when the motion of the
-// servo cannot be fitted (no usable trial) — never a model made up from defaults.
+// servo cannot be fitted (no usable trial) — never a model made up from defaults. `resolution`:
+// the measured PWM step and dead band per servo (limits step); the stepped servo's, when
+// determined, replays the commands in the motion fit and the loop model (else 1 us, none).
 std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
                                                     const std::vector<fitting::StepTrace>& steps,
                                                     const models::RobotConfig& config,
@@ -26,6 +29,7 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
                                                     std::optional<double> latency_ms,
                                                     int delay_frames,
                                                     double fps,
-                                                    std::vector<std::string>* warnings);
+                                                    std::vector<std::string>* warnings,
+                                                    const std::vector<fitting::ServoResolutionResult>& resolution = {});
 
 }  // namespace owlcal::pipeline

@@ -40,6 +40,7 @@
 //     step_response.csv  per-frame target offset of each step (gain, amplitude, trial).
 //     step_trials.csv    one row per step-response trial (gain, amplitude, outcome).
 //     limits.csv         limits validation: per servo and end the configured and measured limit.
+//     resolution.csv     limits validation: the fine sweep that shows each servo's PWM step and dead band.
 //     alignment.csv      roll and vertical offset between the eyes at the centre pose.
 //     latency.csv        commanded step -> first image motion, per trial.
 //     coverage.csv       per eye X/Y/Size/Skew coverage of the detected boards (intrinsics).

@@ -162,6 +162,17 @@ std::vector<LimitRow> ReadLimitsCsv(const std::string& dir) {
   });
 }
 
+std::vector<ResolutionRow> ReadResolutionCsv(const std::string& dir) {
+  return ReadTable<ResolutionRow>(dir, "resolution.csv", [](const Rows& t, size_t r, ResolutionRow& x) {
+    x.servo = t.Text(r, "servo");
+    x.sample = t.Int(r, "sample", 0, INT32_MAX);
+    x.command_us = t.Int(r, "command_us", 0, kMaxPwm);
+    x.position_px = t.Optional(r, "position_px", -kMaxPx, kMaxPx);
+    x.status = t.Status(r);
+    x.reason = t.TextOr(r, "reason");
+  });
+}
+
 std::vector<LatencyRow> ReadLatencyCsv(const std::string& dir) {
   return ReadTable<LatencyRow>(dir, "latency.csv", [](const Rows& t, size_t r, LatencyRow& l) {
     l.trial = t.Int(r, "trial", 0, INT32_MAX);

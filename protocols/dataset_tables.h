@@ -101,6 +101,19 @@ struct LimitRow {
 };
 std::vector<LimitRow> ReadLimitsCsv(const std::string& dir);
 
+// resolution.csv: one row per command of a servo's fine resolution sweep (limits step).
+struct ResolutionRow {
+  int line = 0;
+  int step_index = 0;
+  std::string servo;                     // Rx, Ry, Lx, Ly, Neck (as written; not checked here)
+  int sample = 0;
+  int command_us = 0;
+  std::optional<double> position_px;     // empty: not measured (the command was still sent)
+  std::optional<calib::TrialStatus> status;
+  std::string reason;
+};
+std::vector<ResolutionRow> ReadResolutionCsv(const std::string& dir);
+
 // latency.csv: one row per latency trial.
 struct LatencyRow {
   int line = 0;

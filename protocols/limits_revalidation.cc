@@ -43,10 +43,12 @@ std::vector<ServoRevalidation> RevalidateLimits(robot::RobotInterface& robot, co
   if (!options.Check(&why)) throw std::invalid_argument(why);
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
   bool found = false;
-  for (Step& s : p.steps)
-    if (s.kind() == StepKind::kLimits) {
-      s.As<LimitsStep>().servos = options.servos;
+  for (size_t i = 0; i < p.steps.size(); ++i)
+    if (p.steps[i].kind() == StepKind::kLimits && p.steps[i].As<LimitsStep>().search_ends) {
+      p.steps[i].As<LimitsStep>().servos = options.servos;
+      p.steps.resize(i + 1);  // the ends only: the resolution probe after them is not needed here
       found = true;
+      break;
     }
   if (!found) throw std::runtime_error(p.file + ": the limits protocol has no limits step");
   RunOptions ro;

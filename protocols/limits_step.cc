@@ -3,12 +3,66 @@
 #include <cmath>
 
 #include "calib/trial_status.h"
+#include "models/servo_resolution.h"
+#include "protocols/fixation.h"
 #include "protocols/limits_search.h"
 
 namespace owlcal::protocols {
 
 using models::kNumServos;
 using models::PwmVector;
+
+namespace {
+
+// The fine sweep of one servo at its centre (models::ResolutionSweepOffsets), approached from
+// below: one resolution.csv row per command with the fixation target's position along the
+// servo's image axis relative to the first sample (the disc locator, sub-pixel; image motion on a
+// textured wall pixel-locks at this scale). A sweep that would leave the configured range is a
+// skipped row, never sent.
+void RunResolutionProbe(RunContext& run, const LimitsStep& s, int servo, const LimitSearchIo& io) {
+  const models::ServoConfig& sc = run.config().servos[servo];
+  const int centre = sc.centre_us, span = s.resolution_span_us;
+  const char* header = "step_index,servo,sample,command_us,position_px,response,status,reason";
+  const std::string name = models::kServoNames[servo];
+  auto row = [&](int sample, int command, const std::string& pos, const std::string& resp, calib::TrialStatus st,
+                 const std::string& reason) {
+    run.writer().AppendRow("resolution.csv",
+                           header,
+                           {std::to_string(run.step_index()),
+                            name,
+                            std::to_string(sample),
+                            std::to_string(command),
+                            pos,
+                            resp,
+                            calib::TrialStatusName(st),
+                            reason});
+  };
+  const int below = centre - std::max(2 * span, s.coarse_us);
+  if (below < sc.min_us || centre + span > sc.max_us) {
+    row(0, centre, "", "", calib::TrialStatus::kSkipped,
+        "the sweep " + std::to_string(below) + "-" + std::to_string(centre + span) + " us leaves the configured range");
+    run.Event("resolution", name + ": skipped, the sweep leaves the configured range");
+    return;
+  }
+  const int axis = ServoAxis(servo);
+  const int eye = ServoEye(servo);
+  const std::unique_ptr<TargetLocator> locator = MakeFixationLocator();
+  io.move(below);  // approach from below: backlash taken up, as the fit assumes
+  std::optional<double> first;
+  int sample = 0;
+  for (const int off : models::ResolutionSweepOffsets(span)) {
+    io.move(centre + off);
+    const std::optional<Eigen::Vector2d> at = locator->Locate(io.image(), eye);
+    if (at && !first) first = (*at)[axis];
+    const bool usable = at && first;
+    row(sample++, centre + off, usable ? calib::CsvFixed((*at)[axis] - *first, 4) : "", "",
+        usable ? calib::TrialStatus::kOk : calib::TrialStatus::kLostTarget,
+        usable ? "" : "the fixation target was not found in the image");
+  }
+  run.Event("resolution", name + ": " + std::to_string(sample) + " probes, span " + std::to_string(span) + " us");
+}
+
+}  // namespace
 
 void RunLimitsStep(RunContext& run, const LimitsStep& s) {
   // protocols/limits_search.h: works with any PWM step and dead band; a black, covered or
@@ -34,12 +88,29 @@ void RunLimitsStep(RunContext& run, const LimitsStep& s) {
       run.Send(p);
       run.Settle(s.settle);
     };
+    LimitSearchIo probe_io = io;
+    probe_io.move = [&](int u) {
+      PwmVector p = centre;
+      p[servo] = u;
+      run.Send(p);
+      SettleRule wait;
+      wait.mode = SettleRule::Mode::kTime;
+      wait.time_ms = s.resolution_settle_ms;
+      run.Settle(wait);
+    };
+    probe_io.image = [&] {
+      robot::StereoFrame f = run.Grab();
+      if (s.record_frames) run.Record(f);
+      return (eye == models::kLeftEye ? f.left : f.right).clone();
+    };
     io.image = [&] {
       robot::StereoFrame f = run.Grab();
       if (s.record_frames) run.Record(f);
       return (eye == models::kLeftEye ? f.left : f.right).clone();
     };
+    if (s.resolution_span_us > 0) RunResolutionProbe(run, s, servo, probe_io);
     for (int d : {+1, -1}) {
+      if (!s.search_ends) break;
       const int limit = d > 0 ? sc.max_us : sc.min_us;
       const std::string end = d > 0 ? "max" : "min";
       ++ends;

@@ -495,6 +495,13 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.rim_fraction = f.PositiveDouble("rim_fraction", s.rim_fraction);
     s.record_frames = f.Value<bool>("record_frames", true);
     s.settle = settle();
+    s.resolution_span_us = f.PositiveInt("resolution_span_us", 0, 0);
+    if (s.resolution_span_us != 0 && (s.resolution_span_us < 6 || s.resolution_span_us > 60))
+      f.Fail("resolution_span_us", std::to_string(s.resolution_span_us) + " must be 0 (no probe) or in [6, 60]");
+    s.resolution_settle_ms = f.PositiveInt("resolution_settle_ms", s.resolution_settle_ms, 1);
+    s.search_ends = f.Value<bool>("search_ends", true);
+    if (!s.search_ends && s.resolution_span_us == 0)
+      f.Fail("search_ends", "false with resolution_span_us 0: the step would measure nothing");
     return s;
   }
   if (kind == "alignment") {

@@ -34,7 +34,8 @@
 //     - step-response: {eye: right, axis: pan, amplitudes_deg: [5, 10, 20], gains: [0.05, 0.1],
 //                       frames: 45, locator: fixation, trials: 1, record_frames: false}
 //     - limits: {servos: [Rx, Ry, Lx, Ly, Neck], coarse_us: 20, fine_us: 2, frames: 1,
-//                moved_fraction: 0.3, rim_fraction: 0.02, settle: {...}}
+//                moved_fraction: 0.3, rim_fraction: 0.02, settle: {...}, resolution_span_us: 0,
+//                resolution_settle_ms: 250, search_ends: true}
 //     - alignment: {frames: 3}
 //     - latency: {servo: Rx, amplitude_us: 40, trials: 5, max_frames: 20}
 //     - saccade: {eye: right, axis: pan, amplitudes_deg: [10], trials: 3, frames: 20,
@@ -234,6 +235,13 @@ struct LimitsStep {
   double rim_fraction = 0.02;  // growth of the dark fraction of the border band (RimFraction)
   bool record_frames = true;
   SettleRule settle;
+  // > 0: before its ends, each servo's PWM step and dead band are probed at the centre with a
+  // fine sweep of this span (models::ResolutionSweepOffsets; resolution.csv, fitted by
+  // fitting/servo_resolution_fit.h), watching the fixation target (it must be in view of both
+  // eyes at the centre pose). 0: no probe.
+  int resolution_span_us = 0;
+  int resolution_settle_ms = 250;  // wait after each probe command
+  bool search_ends = true;         // false: only the resolution probe (no limits.csv rows)
 };
 
 struct AlignmentStep {

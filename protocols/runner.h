@@ -43,6 +43,10 @@
 //                      image_motion.h RimFraction); configured = the robot file's limit reached with
 //                      neither. status failed, measured_us empty: a black, constant or motionless
 //                      image; the step then fails with a message)
+//   resolution.csv     step_index,servo,sample,command_us,position_px,response,status,reason (the limits
+//                      step's fine sweep at the centre, resolution_span_us > 0: the fixation target's
+//                      position along the servo's axis relative to the first sample [px]; response
+//                      unused (empty); fitted by fitting/servo_resolution_fit.h)
 //   alignment.csv      step_index,frame_index,method,roll_deg,vertical_offset_px,horizontal_offset_px,corners
 //   latency.csv        step_index,trial,servo,amplitude_us,latency_ms,frames_waited,shift_px,command_ns,
 //                      from_us,to_us,threshold_px (command_ns: the robot clock when the step was sent;

@@ -100,6 +100,8 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, cons
                  int max_error_us = 10, int rim_error_us = 10, bool check_recommended = false) {
   sim::VirtualOwl owl(vo);
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
+  ASSERT_TRUE(p.steps[1].As<LimitsStep>().search_ends);
+  p.steps.resize(2);  // the ends only (the resolution probe after them: servo_resolution_pipeline_test)
   if (!servos.empty()) p.steps[1].As<LimitsStep>().servos = servos;
   RunOptions o;
   o.out_dir = (fs::temp_directory_path() / ("owlcal_limits_" + name + "_" + std::to_string(::getpid()))).string();
@@ -249,6 +251,7 @@ TEST(Limits, BlackCameraFailsWithAMessageAndNeverPassesAsConfigured) {
   sim::VirtualOwl owl(sim::VirtualOwlOptions{});
   BlackEyeRobot robot(&owl, models::kLeftEye);
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
+  p.steps.resize(2);  // the ends only
   p.steps[1].As<LimitsStep>().servos = {models::kLx, models::kRx};
   RunOptions o;
   o.out_dir = (fs::temp_directory_path() / ("owlcal_limits_black_" + std::to_string(::getpid()))).string();
