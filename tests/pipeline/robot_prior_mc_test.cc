@@ -17,7 +17,9 @@
 
 #include <gtest/gtest.h>
 
+#include "calib/trial_status.h"
 #include "fitting/monte_carlo.h"
+#include "owlcal_version.h"
 #include "pipeline/calibrate_pipeline.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
@@ -180,6 +182,74 @@ TEST(RobotPriorMonteCarlo, SigmasCoverTheErrorsOnRobotsOfThePrior) {
     for (const auto& [group, g] : wrong.per_group()) failing += !CoverageProblem(g).empty();
     EXPECT_EQ(failing, int(wrong.per_group().size())) << "sigma x " << factor << " passes in some group";
   }
+}
+
+// A small version of bench/ranging_population_bench.cc: two robots of the prior with eye dead
+// bands redrawn in 1-5 us, one with 5 us PWM steps and one with 1 us, each recorded with the short
+// stereo and sweep protocols above, the resolution sweep (tests/data/protocols/resolution_probe.yaml)
+// and five fixations (vergence_short.yaml), and calibrated by calibrate's pipeline. At least 4 of 5
+// fixations ranged on each (an unranged one is a row with its reason), ranging within 1 % RMS on
+// each, and at least 8 of the ranged fixations within 2 predicted sigma.
+TEST(RobotPriorMonteCarlo, RangingWithinOnePercentWithDeadBandsAndPwmSteps) {
+  const fs::path root = fs::temp_directory_path() / ("owlcal_prior_ranging_test_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  const std::string data = std::string(OWLCAL_SOURCE_DIR) + "/tests/data/protocols/";
+  const std::vector<protocols::Protocol> protocols = {protocols::ParseProtocolYaml(kStereo, "mc stereo"),
+                                                      protocols::ParseProtocolYaml(kSweep, "mc servo_sweep"),
+                                                      protocols::LoadProtocolFile(data + "resolution_probe.yaml"),
+                                                      protocols::LoadProtocolFile(data + "vergence_short.yaml")};
+  int pooled = 0, within = 0;
+  for (const uint64_t seed : {1, 2}) {
+    std::mt19937_64 rng(seed * 7919 + 17);  // as the bench's robot `seed`
+    sim::DrawnRobot robot = sim::DrawRobot(&rng, "population-" + std::to_string(seed));
+    std::uniform_int_distribution<int> dead_band(1, 5);
+    for (int s = 0; s < models::kNumServos; ++s) {
+      robot.truth.servos[s].quantum_us = seed % 2 ? 5 : 1;
+      if (s != models::kNeck) robot.truth.servos[s].dead_band_us = dead_band(rng);
+    }
+    sim::VirtualOwlOptions vo;
+    vo.truth = robot.truth;
+    vo.scene = robot.scene;
+    vo.seed = seed;
+    sim::VirtualOwl owl(vo);
+    std::map<std::string, std::string> datasets;
+    for (const protocols::Protocol& p : protocols) {
+      protocols::RunOptions ro;
+      ro.out_dir = (root / robot.truth.name / p.name).string();
+      ro.robot_spec = "sim";
+      const protocols::RunSummary s = protocols::RunProtocols({p}, owl, ro);
+      ASSERT_EQ(s.status, "complete") << robot.truth.name << " " << p.name << ": " << s.message;
+      datasets[p.name] = ro.out_dir;
+    }
+    pipeline::CalibratePipelineOptions po;
+    po.config = owl.Config();
+    po.truth = owl.Truth().HeadModel();
+    po.fps = owl.Truth().stream.fps;
+    const fitting::CalibrationRun run = pipeline::CalibrateFromDatasets(datasets, po);
+    ASSERT_TRUE(run.ranging) << robot.truth.name;
+    int n = 0, in = 0;
+    for (const auto& row : run.ranging->rows) {
+      if (!row.ok) {
+        std::printf("  %s: %.2f m not ranged: %s: %s\n", robot.truth.name.c_str(), row.true_m,
+                    calib::TrialStatusName(row.status), row.reason.c_str());
+        EXPECT_FALSE(row.reason.empty()) << robot.truth.name;
+        continue;
+      }
+      ++n;
+      in += std::abs(row.error_m) <= 2 * row.sigma_m;
+    }
+    std::printf("%s: step %d us, dead bands %.0f/%.0f/%.0f/%.0f us: %d ok of %zu, RMS %.3f %%, max %.3f %%, %d within 2 sigma\n",
+                robot.truth.name.c_str(), robot.truth.servos[0].quantum_us, robot.truth.servos[0].dead_band_us,
+                robot.truth.servos[1].dead_band_us, robot.truth.servos[2].dead_band_us,
+                robot.truth.servos[3].dead_band_us, run.ranging->num_ok, run.ranging->rows.size(),
+                100 * run.ranging->rms_rel_error, 100 * run.ranging->max_abs_rel_error, in);
+    EXPECT_GE(run.ranging->num_ok, 4) << robot.truth.name;  // an unranged fixation is a row with its reason
+    EXPECT_LE(run.ranging->rms_rel_error, 0.01) << robot.truth.name;
+    pooled += n;
+    within += in;
+  }
+  EXPECT_GE(within, 8) << "of " << pooled;
+  fs::remove_all(root);
 }
 
 }  // namespace
