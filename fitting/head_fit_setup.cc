@@ -80,6 +80,7 @@ HeadState InitialState(const models::HeadModel& initial, const models::RobotConf
                             "head." + eye + ".mount_x_mm", "head." + eye + ".mount_y_mm", "head." + eye + ".mount_z_mm"},
                            {kRadToDeg, kRadToDeg, 1000, 1000, 1000}, {"deg", "deg", "mm", "mm", "mm"});
     s.camera_model[e] = initial.intrinsics[e].model;
+    s.prior_mean[e] = initial.intrinsics[e].params;
     std::vector<std::string> names, units;
     const char* base_names[] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"};
     for (size_t k = 0; k < initial.intrinsics[e].params.size(); ++k) {

@@ -188,7 +188,7 @@ int BuildHeadProblem(HeadState* state,
     const Eigen::MatrixXd upper = llt.matrixU();
     auto add_prior = [&]<int N>() {
       auto* f = new GaussianPriorResidual<N>;
-      f->mean = Eigen::Map<const Eigen::Matrix<double, N, 1>>(s.camera[e].data());
+      f->mean = Eigen::Map<const Eigen::Matrix<double, N, 1>>(s.prior_mean[e].data());
       f->sqrt_information = upper;
       problem->AddResidualBlock(new ceres::AutoDiffCostFunction<GaussianPriorResidual<N>, N, N>(f), nullptr,
                                 s.camera[e].data());

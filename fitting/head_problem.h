@@ -80,6 +80,11 @@ struct HeadState {
   std::map<std::string, Block> warps;
   std::map<std::string, WarpSpan> warp_spans;
   models::DistortionModel camera_model[2];
+  // Mean of each eye's intrinsics prior (HeadFitOptions::intrinsics_prior_covariance): the
+  // initial head's intrinsics, fixed when the state is made. Not the current estimate: the head
+  // is solved up to three times (robust, final, re-whitened), and a prior rebuilt around the
+  // previous solve's intrinsics would pull towards that solve, not towards the stereo fit's.
+  std::array<std::vector<double>, 2> prior_mean;
 
   // The blocks in the order of the observability analysis and the covariance: servos, mounts,
   // centres, cameras, warps (`head_blocks`), then the boards.

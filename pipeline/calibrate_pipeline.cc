@@ -6,9 +6,12 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <set>
 #include <tuple>
+
+#include <Eigen/Cholesky>
 
 #include "calib/observation.h"
 #include "calib/observation_io.h"
@@ -274,6 +277,27 @@ void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
   }
 }
 
+// Covariance of one eye's intrinsics (fx fy cx cy dist..., the head's camera block) from the
+// stereo fit, times widen^2; nullopt when the fit has none. A parameter the stereo fit did not
+// determine (zero row) gets a variance of 1e8 (sigma 1e4 px or 1e4 in a coefficient): no prior.
+std::optional<Eigen::MatrixXd> IntrinsicsPriorFromStereo(const fitting::StereoFit& f, int eye, double widen) {
+  const int n = int(f.cameras[eye].params.size());
+  if (f.covariance.rows() < 2 * n) return std::nullopt;
+  Eigen::MatrixXd c = f.covariance.block(eye * n, eye * n, n, n) * (widen * widen);
+  bool any = false;
+  for (int i = 0; i < n; ++i) {
+    if (std::isfinite(c(i, i)) && c(i, i) > 0) {
+      any = true;
+      continue;
+    }
+    c.row(i).setZero();
+    c.col(i).setZero();
+    c(i, i) = 1e8;
+  }
+  if (!any || !c.allFinite() || Eigen::LLT<Eigen::MatrixXd>(c).info() != Eigen::Success) return std::nullopt;
+  return c;
+}
+
 }  // namespace
 
 std::vector<fitting::StepTrace> ReadStepTraces(const std::string& dataset) {
@@ -423,6 +447,7 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
                       {"fit_board_warp", head.fit_board_warp},
                       {"intrinsics_prior", head.intrinsics_prior_covariance[0].has_value() ||
                                                head.intrinsics_prior_covariance[1].has_value()},
+                      {"intrinsics_prior_from_stereo", head_prior_from_stereo},
                       {"fit_nonlinear", head.fit_nonlinear},
                       {"fit_hysteresis", head.fit_hysteresis},
                       {"huber_sigma", head.huber_sigma},
@@ -570,7 +595,22 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     const auto views = protocols::ReadViewsByPlacement(dataset("servo_sweep"));
     progress("head fit: " + std::to_string(views.size()) + " views");
     for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
-    const fitting::HeadFit h = fitting::FitHead(views, config, initial, o.head);
+    // The stereo fit's intrinsics as a prior (CalibratePipelineOptions::head_prior_from_stereo):
+    // the sweep's boards pin the focal lengths, the servo scales and the IPD only together, and
+    // on the default robot the refit slid along that common scale (focal lengths 0.11 % short,
+    // all five servo scales 0.11 % high, IPD -0.13 mm, z -3 / +3 / -2.6); the stereo views pin
+    // the focal lengths on their own (tests/protocols/head_sim_consistency_test.cc).
+    fitting::HeadFitOptions ho = o.head;
+    bool prior_from_stereo = false;
+    if (o.head_prior_from_stereo && ho.fit_intrinsics && stereo && stereo->ok &&
+        !ho.intrinsics_prior_covariance[0] && !ho.intrinsics_prior_covariance[1]) {
+      for (int e = 0; e < 2; ++e) {
+        ho.intrinsics_prior_covariance[e] = IntrinsicsPriorFromStereo(*stereo, e, ho.measured_sigma_factor);
+        prior_from_stereo |= ho.intrinsics_prior_covariance[e].has_value();
+      }
+      if (prior_from_stereo) progress("  intrinsics prior: the stereo fit's covariance x " + Fmt(ho.measured_sigma_factor, 3) + "^2");
+    }
+    const fitting::HeadFit h = fitting::FitHead(views, config, initial, ho);
     if (h.ok) {
       MergeHead(h, &d.result);
       progress("  RMS " + Fmt(h.result.summaries.empty() ? NAN : h.result.summaries.back().rms_px, 3) + " px, IPD " +

@@ -63,6 +63,12 @@ struct CalibratePipelineOptions {
   // --lens-model auto).
   fitting::LensModelChoiceOptions lens_choice = fitting::LensModelChoiceOptions::Off();
   fitting::HeadFitOptions head = CalibrateHeadFitOptions();
+  // When the head refines the intrinsics (head.fit_intrinsics) and head sets no prior of its own:
+  // keep the stereo fit's knowledge of each eye's intrinsics as a Gaussian prior on them (its
+  // covariance block, widened head.measured_sigma_factor x like the head's own corners;
+  // undetermined parameters get no prior). Without it the sweep alone pins the common scale of
+  // the focal lengths, servo scales and IPD weakly, and the fit slid along it (calibrate_pipeline.cc).
+  bool head_prior_from_stereo = true;
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
   // Progress lines (may be null).

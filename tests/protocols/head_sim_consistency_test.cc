@@ -312,8 +312,8 @@ TEST_F(HeadSimConsistency, HeadFitRefinesStereoIntrinsics) {
   // robot, tests/fitting/sim_calibration_test.cc): the sweep alone pins the common scale of the
   // focal lengths, servo scales and IPD weakly, and without the prior the fit slid along it
   // (seed 1: both focal lengths 0.11 % short, all five servo scales 0.11 % high, IPD -0.13 mm;
-  // 35, 48 and 58 of 58 within 1, 2 and 3 sigma). With the prior: 39, 56 and 58 (factor 1.0:
-  // 30, 49, 58).
+  // 35, 48 and 58 of 58 within 1, 2 and 3 sigma). With the prior: 43, 58 and 58. owlcal
+  // calibrate does the same with the stereo fit's own covariance (head_prior_from_stereo).
   fitting::HeadFitOptions ho = WhitenedByTheData(1.4);
   ho.fit_intrinsics = true;
   const double stereo_sd[9] = {0.17, 0.17, 0.22, 0.18, 0.0015, 0.011, 0.00008, 0.0001, 0.025};
