@@ -32,6 +32,36 @@ void FillRect(cv::Mat* m, int x0, int y0, int x1, int y1, float v) {
   (*m)(cv::Rect(x0, y0, x1 - x0, y1 - y0)).setTo(v);
 }
 
+// Blurs each pixel of `grey` by a Gaussian of its own sigma [px]: the image is blurred at a
+// ladder of sigmas (0, 0.25, 0.5, 0.75, 1, 1.5, 2, 3, 4 px; beyond 4 px clamped) up to the
+// largest needed, and each pixel interpolates linearly between the two rungs around its
+// sigma. A layered approximation: a near surface's blur does not spill over a far one's edge.
+void ApplyDefocus(const cv::Mat& sigma, cv::Mat* grey) {
+  static constexpr float kRungs[] = {0.f, 0.25f, 0.5f, 0.75f, 1.f, 1.5f, 2.f, 3.f, 4.f};
+  constexpr int kNum = int(sizeof kRungs / sizeof kRungs[0]);
+  double max_sigma = 0;
+  cv::minMaxLoc(sigma, nullptr, &max_sigma);
+  if (max_sigma < 0.01) return;
+  int top = 1;
+  while (top < kNum - 1 && kRungs[top] < max_sigma) ++top;
+  std::vector<cv::Mat> rung(size_t(top) + 1);
+  grey->convertTo(rung[0], CV_32F);
+  for (int r = 1; r <= top; ++r)
+    cv::GaussianBlur(rung[0], rung[size_t(r)], cv::Size(0, 0), kRungs[r], kRungs[r], cv::BORDER_REFLECT);
+  for (int y = 0; y < grey->rows; ++y) {
+    uint8_t* out = grey->ptr<uint8_t>(y);
+    const float* s = sigma.ptr<float>(y);
+    for (int x = 0; x < grey->cols; ++x) {
+      const float sg = std::min(s[x], kRungs[top]);
+      int r = 0;
+      while (r + 1 < top && kRungs[r + 1] <= sg) ++r;
+      const float f = std::clamp((sg - kRungs[r]) / (kRungs[r + 1] - kRungs[r]), 0.f, 1.f);
+      const float a = rung[size_t(r)].at<float>(y, x), b = rung[size_t(r) + 1].at<float>(y, x);
+      out[x] = uint8_t(std::clamp(a + f * (b - a) + 0.5f, 0.f, 255.f));
+    }
+  }
+}
+
 }  // namespace
 
 MipTexture::MipTexture(const cv::Mat& level0, bool wrap) : width_(level0.cols), height_(level0.rows), wrap_(wrap) {
@@ -107,9 +137,11 @@ TargetTexture MakeTargetTexture(const calib::TargetDefinition& def) {
   TargetTexture t;
   switch (def.kind) {
     case calib::TargetKind::kChessboard: {
-      // 32 texels per square; squares from -1 .. cols (x) and -1 .. rows (y), inner corners
-      // at multiples of the square; one white square of margin all round.
-      const int k = 32;
+      // 128 texels per square (0.6 px per texel at 0.2 m: the texture, not its resolution,
+      // is what a near board shows; farther, the mip levels are the 32-texel board's exactly);
+      // squares from -1 .. cols (x) and -1 .. rows (y), inner corners at multiples of the
+      // square; one white square of margin all round.
+      const int k = 128;
       const int nx = def.cols + 3, ny = def.rows + 3;
       cv::Mat img(ny * k, nx * k, CV_32F, cv::Scalar(1.f));
       for (int j = -1; j < def.rows; ++j)
@@ -230,6 +262,7 @@ EyeRenderer::EyeRenderer(const models::CameraIntrinsics& k, const StreamTruth& s
       fx_(k.params[0]),
       fy_(k.params[1]),
       blur_px_(std::max(1.0, stream.blur_px)),
+      stream_(stream),
       black_(float(stream.black_level)),
       white_(float(stream.white_level)) {
   const double lens_shading = stream.lens_shading;
@@ -430,6 +463,10 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
   if (depth_z_m) depth_z_m->create(height_, width_, CV_32F);
   std::vector<int> active;
   active.reserve(planes.size());
+  // Per-pixel defocus sigma (only when the lens has an aperture).
+  const bool defocus = stream_.aperture_mm > 0;
+  cv::Mat defocus_sigma;
+  if (defocus) defocus_sigma.create(height_, width_, CV_32F);
   for (int y = 0; y < height_; ++y) {
     uint8_t* out = grey->ptr<uint8_t>(y);
     float* depth_out = depth_z_m ? depth_z_m->ptr<float>(y) : nullptr;
@@ -466,6 +503,9 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
       }
       // The hit point is lambda * (rx, ry, 1) with lambda = 1 / q2: its camera z is 1 / q2.
       if (depth_out) depth_out[x] = best >= 0 && inv_norm_[k] > 0 ? 1.f / best_q2 : std::numeric_limits<float>::quiet_NaN();
+      if (defocus)
+        defocus_sigma.at<float>(y, x) =
+            best >= 0 && inv_norm_[k] > 0 ? float(DefocusSigmaPx(stream_, fx_, 1.0 / best_q2)) : 0.f;
       float t = 0.5f;
       if (best >= 0) {
         const Plane& p = planes[best];
@@ -499,6 +539,12 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
       out[x] = uint8_t(std::clamp(value + 0.5f, 0.f, 255.f));
     }
   }
+  if (defocus) ApplyDefocus(defocus_sigma, grey);
+}
+
+double DefocusSigmaPx(const StreamTruth& stream, double fx, double depth_m) {
+  if (!(stream.aperture_mm > 0) || !(depth_m > 0)) return 0;
+  return stream.aperture_mm * 1e-3 * fx * std::abs(1.0 / depth_m - 1.0 / stream.focus_m) / 4.0;
 }
 
 void AddSensorNoise(cv::Mat* grey, double sigma, uint64_t seed, uint64_t stream) {

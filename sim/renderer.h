@@ -73,6 +73,11 @@ struct RowTiming {
   double row_ns = 0;
 };
 
+// The defocus of the stream's lens at depth z [m] for a camera of focal length fx [px]: the
+// standard deviation [px] of the blur disc (diameter aperture * fx * |1/z - 1/focus|; a
+// uniform disc of diameter c has sigma c / 4 along each axis). 0 when aperture_mm = 0.
+double DefocusSigmaPx(const StreamTruth& stream, double fx, double depth_m);
+
 class EyeRenderer {
  public:
   // Photometry from the stream truth: lens_shading, blur_px (width of the optical blur, the
@@ -84,6 +89,9 @@ class EyeRenderer {
   // coordinate [m] in this camera's frame (not the distance along the ray); NaN where the
   // lens model has no ray. The socket rim darkens the image but does not hide the surface.
   // Moving targets are drawn at their pose at each row's exposure time (`timing`).
+  // Defocus (stream aperture_mm > 0): each pixel is blurred by a Gaussian of the
+  // DefocusSigmaPx of the depth it sees (layered: the image blurred at a ladder of sigmas,
+  // blended per pixel), after the texture filter's blur_px.
   void Render(const models::Rigid3d& cam_from_base,
               const Eigen::Vector3d& rim_axis_in_cam,
               const SocketTruth& socket,
@@ -100,6 +108,7 @@ class EyeRenderer {
   int width_, height_;
   double fx_, fy_;
   double blur_px_;
+  StreamTruth stream_;  // for the defocus
   float black_, white_;
   std::vector<float> ray_x_, ray_y_, inv_norm_, gain_;
   std::vector<float> row_ray_y_min_, row_ray_y_max_;  // per image row

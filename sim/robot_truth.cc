@@ -109,6 +109,10 @@ void RobotTruth::Validate(const std::string& origin) const {
   if (!(stream.rolling_shutter_ms >= 0 && stream.rolling_shutter_ms * 1e-3 * stream.fps <= 1)) {
     fail("stream.rolling_shutter_ms", stream.rolling_shutter_ms, "must be in [0, one frame period]");
   }
+  if (!(stream.aperture_mm >= 0 && stream.aperture_mm <= 20))
+    fail("stream.aperture_mm", stream.aperture_mm, "must be in [0, 20]");
+  if (!(stream.focus_m > 0.01 && stream.focus_m <= 1e4))
+    fail("stream.focus_m", stream.focus_m, "must be in (0.01, 10000]");
   if (!(socket.rim_half_angle_deg > 0 && socket.rim_half_angle_deg < 90)) {
     fail("socket.rim_half_angle_deg", socket.rim_half_angle_deg, "must be in (0, 90)");
   }
@@ -268,6 +272,9 @@ RobotTruth LoadRobotTruth(const std::string& path) {
     t.stream.white_level = s.Number("white_level", older.white_level, 1, 255);
     t.stream.black_level = s.Number("black_level", older.black_level, 0, 254);
     t.stream.rolling_shutter_ms = s.Number("rolling_shutter_ms", older.rolling_shutter_ms, 0, 1000);
+    // The lens's defocus came later still: older files have none (a pinhole's depth of field).
+    t.stream.aperture_mm = s.Number("aperture_mm", 0.0, 0, 20);
+    t.stream.focus_m = s.Number("focus_m", older.focus_m, 0.01, 1e4);
     s.RejectUnknown();
   }
   f.RejectUnknown();
@@ -357,6 +364,8 @@ std::string RobotTruthYaml(const RobotTruth& t) {
   y << YAML::Key << "white_level" << YAML::Value << t.stream.white_level;
   y << YAML::Key << "black_level" << YAML::Value << t.stream.black_level;
   y << YAML::Key << "rolling_shutter_ms" << YAML::Value << t.stream.rolling_shutter_ms;
+  y << YAML::Key << "aperture_mm" << YAML::Value << t.stream.aperture_mm;
+  y << YAML::Key << "focus_m" << YAML::Value << t.stream.focus_m;
   y << YAML::EndMap;
   y << YAML::EndMap;
   return std::string(y.c_str()) + "\n";
@@ -418,7 +427,9 @@ nlohmann::json RobotTruthJson(const RobotTruth& t) {
                  {"blur_px", t.stream.blur_px},
                  {"white_level", t.stream.white_level},
                  {"black_level", t.stream.black_level},
-                 {"rolling_shutter_ms", t.stream.rolling_shutter_ms}};
+                 {"rolling_shutter_ms", t.stream.rolling_shutter_ms},
+                 {"aperture_mm", t.stream.aperture_mm},
+                 {"focus_m", t.stream.focus_m}};
   return j;
 }
 

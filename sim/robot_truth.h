@@ -27,7 +27,8 @@
 //     right: {...}
 //   socket: {rim_half_angle_deg, rim_softness_deg, rim_floor}
 //   stream: {fps, latency_ms, eye_offset_ms, jpeg_quality, noise_sigma, drop_probability,
-//            servo_reply_ms, lens_shading, blur_px, white_level, black_level, rolling_shutter_ms}
+//            servo_reply_ms, lens_shading, blur_px, white_level, black_level, rolling_shutter_ms,
+//            aperture_mm, focus_m}
 // Units as the suffixes say; angles in files are degrees, inside radians.
 //
 // Servo end-stops are given as the pulse width (approach 0) at which the joint meets its
@@ -91,6 +92,13 @@ struct StreamTruth {
   double white_level = 215;        // grey level of white paper at the image centre (exposure)
   double black_level = 25;         // grey level of black ink
   double rolling_shutter_ms = 0;   // readout time from the top row to the bottom row
+  // Defocus of the fixed-focus lens (thin lens, sim/renderer.h DefocusSigmaPx): a point at
+  // depth z is spread over a disc of diameter aperture_mm * fx * |1/z - 1/focus_m| (fx in
+  // this stream's pixels), on top of blur_px. The course notes (Annex 3a): f = 3.6 mm at
+  // f/2.9, entrance pupil 1.25 mm, "in focus from approximately 28 cm to infinity", i.e.
+  // focused at the hyperfocal distance, 2 x 0.28 m. aperture_mm = 0: no defocus.
+  double aperture_mm = 1.25;
+  double focus_m = 0.56;
 };
 
 struct RobotTruth {

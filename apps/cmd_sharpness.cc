@@ -1,0 +1,109 @@
+// owlcal sharpness: the lens-sharpness experiment (pipeline/sharpness_study.h). Runs the
+// standard `sharpness` protocol on the robot (the virtual Owl by default) and evaluates it, or
+// evaluates a recorded one (--dataset), or image pairs at known distances (--images CSV, e.g.
+// the course's kit2020 distance set).
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "apps/command_registry.h"
+#include "apps/robot_factory.h"
+#include "apps/robot_options.h"
+#include "io/number_text.h"
+#include "pipeline/sharpness_study.h"
+#include "protocols/protocol.h"
+#include "protocols/runner.h"
+
+namespace owlcal::apps {
+namespace {
+
+struct SharpnessCmdOptions {
+  RobotOptions robot;
+  std::string out;
+  std::string dataset;
+  std::string images;
+  bool no_figures = false;
+  bool quiet = false;
+};
+
+std::string Distance(double m) { return std::isfinite(m) ? io::FixedText(m, 2) + " m" : "infinity"; }
+
+int RunSharpness(const SharpnessCmdOptions& o) {
+  if (!o.dataset.empty() && !o.images.empty()) throw UsageError("give --dataset or --images, not both");
+  pipeline::SharpnessStudy study;
+  if (!o.images.empty()) {
+    study = pipeline::MeasureSharpnessPairs(pipeline::ReadSharpnessPairsCsv(o.images), o.images);
+  } else {
+    std::string dir = o.dataset;
+    if (dir.empty()) {
+      dir = o.out + "/datasets/sharpness";
+      protocols::RunOptions ro;
+      ro.out_dir = dir;
+      o.robot.FillRunOptions(&ro);
+      ro.progress = o.quiet ? nullptr : &std::cout;
+      ro.stop_flag = protocols::InstallStopSignals();
+      std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
+      const protocols::Protocol p = protocols::LoadProtocolFile(protocols::ResolveProtocolPath("sharpness"));
+      const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
+      if (s.status != "complete") {
+        std::cerr << "owlcal sharpness: " << s.status << ": " << s.message << "\n"
+                  << "the dataset in " << dir << " is closed; evaluate what it holds with --dataset " << dir << "\n";
+        return kExitFailed;
+      }
+    }
+    study = pipeline::MeasureSharpnessDataset(dir);
+  }
+  const std::string page = pipeline::WriteSharpnessStudy(study, o.out, !o.no_figures);
+  const char* eye[2] = {"left", "right"};
+  for (int e = 0; e < 2; ++e) {
+    const fitting::FocusFit& f = study.fit[e];
+    std::cout << eye[e] << " eye: ";
+    if (!f.ok) {
+      std::cout << "no fit: " << f.reason << "\n";
+      continue;
+    }
+    std::cout << "in-focus blur " << io::FixedText(f.s0_px, 3) << " +- " << io::FixedText(f.s0_sigma_px, 3)
+              << " px, defocus " << io::FixedText(f.k_px_per_dioptre, 3) << " +- " << io::FixedText(f.k_sigma, 3)
+              << " px/D";
+    if (f.focus_found)
+      std::cout << ", focus " << io::FixedText(f.focus_dioptre, 2) << " +- " << io::FixedText(f.focus_dioptre_sigma, 2)
+                << " D (" << Distance(f.focus_m) << "), depth of field " << Distance(f.dof_near_m) << " to "
+                << Distance(f.dof_far_m);
+    else
+      std::cout << ", focus not determined (no defocus over the range)";
+    std::cout << "\n";
+  }
+  if (study.truth)
+    std::cout << "truth: focus " << Distance(study.truth->focus_m) << ", defocus "
+              << io::FixedText(study.truth->k_px_per_dioptre[0], 3) << " / "
+              << io::FixedText(study.truth->k_px_per_dioptre[1], 3) << " px/D\n";
+  std::cout << study.num_ok << " of " << study.num_ok + study.num_failed << " images measured";
+  if (study.num_failed) std::cout << " (" << study.num_failed << " failed: see the report)";
+  std::cout << "\nreport: " << page << "\n";
+  return kExitOk;
+}
+
+const bool kRegistered = RegisterCommand(
+    "sharpness",
+    "Lens sharpness against distance: the edge blur (Gaussian-equivalent sigma of isolated edges) per eye\n"
+    "and distance, the fixed-focus lens's fitted focus and depth of field (blur <= sqrt 2 x the in-focus\n"
+    "blur) with sigma, and on the virtual Owl its truth. Runs the standard `sharpness` protocol (a chessboard\n"
+    "at 0.2-2 m) on the robot, or evaluates a recording (--dataset) or image pairs at known distances\n"
+    "(--images CSV: left,right,distance_cm[,roi_x,roi_y,roi_w,roi_h], e.g.\n"
+    "data/owl-real/kit2020-distance-target1/distances.csv). Writes OUT/tables/sharpness*.{csv,md,tex},\n"
+    "OUT/figures/sharpness.*, OUT/sharpness.json and OUT/report/index.html; failed images are rows with a reason.",
+    [](CLI::App* cmd) {
+      auto o = std::make_shared<SharpnessCmdOptions>();
+      AddRobotOptions(cmd, &o->robot);
+      cmd->add_option("--out", o->out, "output folder")->required();
+      cmd->add_option("--dataset", o->dataset, "evaluate this recorded sharpness dataset (no robot)")
+          ->check(CLI::ExistingDirectory);
+      cmd->add_option("--images", o->images, "evaluate image pairs listed in this CSV (no robot)")
+          ->check(CLI::ExistingFile);
+      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
+      cmd->add_flag("--quiet", o->quiet, "no progress output");
+      return [o] { return RunSharpness(*o); };
+    });
+
+}  // namespace
+}  // namespace owlcal::apps
