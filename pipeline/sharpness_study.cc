@@ -59,8 +59,21 @@ cv::Rect BoardBox(const std::vector<Eigen::Vector2d>& px, const cv::Size& size) 
   return r & cv::Rect(0, 0, size.width, size.height);
 }
 
-void Measure(SharpnessRow* row, const cv::Mat& image, const cv::Rect& roi, const SharpnessOptions& o) {
-  row->sharpness = calib::MeasureEdgeSharpness(image, roi, o.edge);
+// square_px > 0: the board's squares in the image; the edge window must hold one edge and the
+// plateaus on both sides, not the next edge: probe_px <= (square - 3) / 2, at least 2 px (a
+// window of +-2 px holds the edges of a board in focus, sigma ~0.3 px, to +-6 sigma).
+void Measure(SharpnessRow* row, const cv::Mat& image, const cv::Rect& roi, const SharpnessOptions& o, double square_px = 0) {
+  calib::EdgeSharpnessOptions eo = o.edge;
+  if (square_px > 0) {
+    eo.probe_px = std::min(eo.probe_px, (square_px - 3) / 2);
+    if (eo.probe_px < 2) {
+      row->status = "unmeasurable";
+      row->reason = "the board's squares are " + Fx(square_px, 1) + " px: too small for an edge window (at least 7 px)";
+      row->sharpness.roi = roi;
+      return;
+    }
+  }
+  row->sharpness = calib::MeasureEdgeSharpness(image, roi, eo);
   if (row->sharpness.ok) {
     row->status = "ok";
   } else {
@@ -188,16 +201,34 @@ SharpnessStudy MeasureSharpnessDataset(const std::string& dir, const SharpnessOp
       row.eye = e;
       row.distance_m = d;
       const auto it = corners.find({f.frame_index, e});
+      // The squares' size in the image: nominal focal length over the distance (the detected
+      // corners would say the same within the board's tilt).
+      const double square_px = focal_px * board.square_m / d;
       if (it != corners.end() && it->second.size() >= 4) {
         row.roi_source = "detected board";
-        Measure(&row, eyes[e], BoardBox(it->second, eyes[e].size()), o);
+        Measure(&row, eyes[e], BoardBox(it->second, eyes[e].size()), o, square_px);
       } else if (focal_px * board_w_m / d >= eyes[e].cols) {
         row.roi_source = "board fills the view";
         const cv::Size sz = eyes[e].size();
-        Measure(&row, eyes[e], cv::Rect(sz.width / 4, sz.height / 4, sz.width / 2, sz.height / 2), o);
+        Measure(&row, eyes[e], cv::Rect(sz.width / 4, sz.height / 4, sz.width / 2, sz.height / 2), o, square_px);
       } else {
-        row.status = "no target";
-        row.reason = "the chessboard was not detected and is too small to fill the view at " + Fx(d, 2) + " m";
+        // Not detected while recording (its quick check gives up on small, low-contrast
+        // boards): the full classic search, then OpenCV's sector-based detector.
+        calib::TargetDetection det;
+        for (const calib::ChessboardMethod m : {calib::ChessboardMethod::kClassic, calib::ChessboardMethod::kSectorBased}) {
+          calib::DetectorOptions dopt;
+          dopt.chessboard_method = m;
+          det = calib::DetectTarget(eyes[e], board, dopt);
+          if (det.found) break;
+        }
+        if (det.found) {
+          row.roi_source = "detected board";
+          Measure(&row, eyes[e], BoardBox(det.pixels, eyes[e].size()), o, square_px);
+        } else {
+          row.status = "no target";
+          row.reason = "the chessboard was not found (classic and sector-based detectors) and does not fill the view at " +
+                       Fx(d, 2) + " m";
+        }
       }
       s.rows.push_back(row);
     }

@@ -8,7 +8,9 @@
 //   - the region measured: the detected chessboard's corners (their bounding box grown by one
 //     square) when the frame has a detection; else, when the board at that distance is wider
 //     than the view (nominal focal length, protocols/fixation.h NominalFocalPx), the central
-//     half of the image, which it covers; else the row is "no target". Image pairs carry their
+//     half of the image, which it covers; else the board re-detected (the recording's quick
+//     check gives up on small, low-contrast boards: the full classic search, then the
+//     sector-based detector); else the row is "no target". Image pairs carry their
 //     own region (or the default, the course's 80x80 window at (280, 200) scaled up for near
 //     targets).
 //   - calib::MeasureEdgeSharpness on it: status "ok", or "unmeasurable" with its reason.
