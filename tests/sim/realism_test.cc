@@ -271,15 +271,17 @@ TEST(RobotTruthFile, MeasuredStreamRoundTripsAndOlderFilesKeepTheCleanDefaults) 
   EXPECT_EQ(RobotTruthYaml(t), RobotTruthYaml(u));
   // A file written before the levels and the rolling shutter existed.
   std::string text = RobotTruthYaml(t);
-  for (const char* key : {"white_level", "black_level", "rolling_shutter_ms"}) {
+  for (const char* key : {"white_level", "black_level", "rolling_shutter_ms", "aperture_mm", "focus_m"}) {
     const size_t at = text.find(std::string(key) + ":");
     ASSERT_NE(at, std::string::npos) << key;
-    text.erase(at, text.find('\n', at) + 1 - at);
+    const size_t line = text.rfind('\n', at) + 1;  // the whole line, its indentation too
+    text.erase(line, text.find('\n', at) + 1 - line);
   }
   std::ofstream(path) << text;
   const RobotTruth old = LoadRobotTruth(path);
   EXPECT_EQ(old.stream.white_level, StreamTruth().white_level);
   EXPECT_EQ(old.stream.rolling_shutter_ms, 0);
+  EXPECT_EQ(old.stream.aperture_mm, 0);  // no defocus in files from before the lens had one
   // Levels that cannot be: ink brighter than paper.
   t.stream.black_level = 200;
   std::ofstream(path) << RobotTruthYaml(t);
