@@ -68,7 +68,7 @@ int RunSharpness(const SharpnessCmdOptions& o) {
     if (f.focus_found)
       std::cout << ", focus " << io::FixedText(f.focus_dioptre, 2) << " +- " << io::FixedText(f.focus_dioptre_sigma, 2)
                 << " D (" << Distance(f.focus_m) << "), depth of field " << Distance(f.dof_near_m) << " to "
-                << Distance(f.dof_far_m);
+                << (f.dof_far_m > f.max_distance_m ? "beyond " + Distance(f.max_distance_m) : Distance(f.dof_far_m));
     else
       std::cout << ", focus not determined (no defocus over the range)";
     std::cout << "\n";

@@ -430,13 +430,17 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
       fit.rows.push_back(
           {eye, "focus distance", Fx(f.focus_m, 3), Fx(f.focus_sigma_m, 3), "m", t ? Fx(s.truth->focus_m, 3) : "", ""});
       fit.rows.push_back({eye, "depth of field, near", Fx(f.dof_near_m, 3), Fx(f.dof_near_sigma_m, 3), "m", "", ""});
-      fit.rows.push_back({eye,
-                          "depth of field, far",
-                          Fx(f.dof_far_m, 3),
-                          std::isfinite(f.dof_far_m) ? Fx(f.dof_far_sigma_m, 3) : "",
-                          "m",
-                          "",
-                          ""});
+      // A far limit beyond the measured range is an extrapolation: said so, not given a number.
+      if (f.dof_far_m > f.max_distance_m)
+        fit.rows.push_back({eye,
+                            "depth of field, far",
+                            "beyond " + Fx(f.max_distance_m, 2),
+                            "",
+                            "m",
+                            "",
+                            std::isfinite(f.dof_far_m) ? "extrapolated: " + Fx(f.dof_far_m, 1) + " m" : "to infinity"});
+      else
+        fit.rows.push_back({eye, "depth of field, far", Fx(f.dof_far_m, 3), Fx(f.dof_far_sigma_m, 3), "m", "", ""});
     } else {
       fit.rows.push_back({eye,
                           "focus",
@@ -529,7 +533,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
             "): figures/sharpness.gp and .csv hold its data.</p>\n";
   for (const reports::Table& t : {fit, by}) html += reports::ToHtml(t) + "\n";
   if (!s.notes.empty()) {
-    html += "<h2>Failures and refusals</h2>\n<ul>\n";
+    html += "<h2>Notes, failures and refusals</h2>\n<ul>\n";
     for (const std::string& n : s.notes) html += "<li>" + reports::HtmlEscape(n) + "</li>\n";
     html += "</ul>\n";
   }
