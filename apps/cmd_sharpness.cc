@@ -10,6 +10,7 @@
 #include "apps/robot_factory.h"
 #include "apps/robot_options.h"
 #include "io/number_text.h"
+#include "models/head_kinematics.h"
 #include "pipeline/sharpness_study.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
@@ -54,10 +55,9 @@ int RunSharpness(const SharpnessCmdOptions& o) {
     study = pipeline::MeasureSharpnessDataset(dir);
   }
   const std::string page = pipeline::WriteSharpnessStudy(study, o.out, !o.no_figures);
-  const char* eye[2] = {"left", "right"};
   for (int e = 0; e < 2; ++e) {
     const fitting::FocusFit& f = study.fit[e];
-    std::cout << eye[e] << " eye: ";
+    std::cout << models::kEyeNames[e] << " eye: ";
     if (!f.ok) {
       std::cout << "no fit: " << f.reason << "\n";
       continue;

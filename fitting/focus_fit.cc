@@ -40,11 +40,6 @@ void Normal(const Data& d, const Eigen::Vector3d& p, Eigen::Matrix3d* jtj, Eigen
   }
 }
 
-// The near and far limits and their gradients with respect to (s0, k, x_f).
-void Dof(const Eigen::Vector3d& p, double ratio, double* near_m, double* far_m) {
-  DepthOfField(p[0], p[1], p[2], ratio, near_m, far_m);
-}
-
 }  // namespace
 
 bool FocusFitOptions::Check(std::string* why) const {
@@ -166,7 +161,7 @@ FocusFit FitFocus(const std::vector<FocusSample>& samples, const FocusFitOptions
   if (f.focus_found) {
     f.focus_m = f.focus_dioptre > 0 ? 1.0 / f.focus_dioptre : kInf;
     f.focus_sigma_m = f.focus_dioptre > 0 ? f.focus_dioptre_sigma / (f.focus_dioptre * f.focus_dioptre) : kInf;
-    Dof(p, o.dof_blur_ratio, &f.dof_near_m, &f.dof_far_m);
+    DepthOfField(p[0], p[1], p[2], o.dof_blur_ratio, &f.dof_near_m, &f.dof_far_m);
     // Delta method with central differences (the limits are smooth where finite).
     Eigen::Vector3d g_near, g_far;
     for (int k = 0; k < 3; ++k) {
@@ -175,8 +170,8 @@ FocusFit FitFocus(const std::vector<FocusSample>& samples, const FocusFitOptions
       a[k] += h;
       b[k] -= h;
       double na, fa, nb, fb;
-      Dof(a, o.dof_blur_ratio, &na, &fa);
-      Dof(b, o.dof_blur_ratio, &nb, &fb);
+      DepthOfField(a[0], a[1], a[2], o.dof_blur_ratio, &na, &fa);
+      DepthOfField(b[0], b[1], b[2], o.dof_blur_ratio, &nb, &fb);
       g_near[k] = (na - nb) / (2 * h);
       g_far[k] = std::isfinite(fa) && std::isfinite(fb) ? (fa - fb) / (2 * h) : 0;
     }

@@ -24,8 +24,6 @@ namespace owlcal::pipeline {
 namespace fs = std::filesystem;
 namespace {
 
-const char* kEyeName[2] = {"left", "right"};
-
 // The Owl's lens ahead of the neck axis: the eye's rotation centre 30 mm ahead
 // (models::HeadGeometry) plus about 15 mm from there to the lens's centre of projection.
 constexpr double kNominalCameraAheadM = 0.045;
@@ -115,11 +113,11 @@ void Summarise(SharpnessStudy* s, const SharpnessOptions& o) {
     }
     s->fit[e] = fitting::FitFocus(samples, o.focus);
     if (!s->fit[e].ok)
-      s->notes.push_back(std::string(kEyeName[e]) + " eye: no focus fit: " + s->fit[e].reason);
+      s->notes.push_back(std::string(models::kEyeNames[e]) + " eye: no focus fit: " + s->fit[e].reason);
     else if (!s->fit[e].focus_found)
-      s->notes.push_back(std::string(kEyeName[e]) + " eye: no defocus over " + Fx(s->fit[e].min_distance_m, 2) + "-" +
-                         Fx(s->fit[e].max_distance_m, 2) + " m (defocus " + Fx(s->fit[e].k_px_per_dioptre, 3) + " +- " +
-                         Fx(s->fit[e].k_sigma, 3) +
+      s->notes.push_back(std::string(models::kEyeNames[e]) + " eye: no defocus over " +
+                         Fx(s->fit[e].min_distance_m, 2) + "-" + Fx(s->fit[e].max_distance_m, 2) + " m (defocus " +
+                         Fx(s->fit[e].k_px_per_dioptre, 3) + " +- " + Fx(s->fit[e].k_sigma, 3) +
                          " px/D): the focus distance is not determined, everything measured is in focus");
   }
   for (const SharpnessRow& r : s->rows) {
@@ -127,8 +125,8 @@ void Summarise(SharpnessStudy* s, const SharpnessOptions& o) {
       ++s->num_ok;
     } else {
       ++s->num_failed;
-      s->notes.push_back(r.image + " (" + kEyeName[r.eye] + ", " + Fx(r.distance_m, 2) + " m): " + r.status + ": " +
-                         r.reason);
+      s->notes.push_back(r.image + " (" + models::kEyeNames[r.eye] + ", " + Fx(r.distance_m, 2) + " m): " + r.status +
+                         ": " + r.reason);
     }
   }
 }
@@ -167,10 +165,11 @@ SharpnessStudy MeasureSharpnessDataset(const std::string& dir, const SharpnessOp
     truth.aperture_mm = t["stream"].value("aperture_mm", 0.0);
     truth.focus_m = t["stream"].value("focus_m", 0.0);
     for (int e = 0; e < 2; ++e)
-      truth.k_px_per_dioptre[e] = truth.aperture_mm * 1e-3 * t["cameras"][kEyeName[e]]["params"][0].get<double>() / 4;
+      truth.k_px_per_dioptre[e] =
+          truth.aperture_mm * 1e-3 * t["cameras"][models::kEyeNames[e]]["params"][0].get<double>() / 4;
     if (truth.aperture_mm > 0) s.truth = truth;
     for (int e = 0; e < 2; ++e) {
-      const nlohmann::json& g = t["geometry"][kEyeName[e]];
+      const nlohmann::json& g = t["geometry"][models::kEyeNames[e]];
       ahead_m[e] = g["centre_in_head_m"][2].get<double>() - g["cam_from_eye"]["t_m"][2].get<double>();
     }
     ahead_source = "the virtual Owl's head";
@@ -322,7 +321,7 @@ nlohmann::json SharpnessStudyJson(const SharpnessStudy& s) {
                   {"dof_far_m", num(f.dof_far_m)},  // null = infinity
                   {"dof_far_sigma_m", num(f.dof_far_sigma_m)},
                   {"chi2_per_dof", num(f.chi2_per_dof)}};
-    j["eyes"][kEyeName[e]] = eye;
+    j["eyes"][models::kEyeNames[e]] = eye;
   }
   if (s.truth) {
     j["truth"] = {{"aperture_mm", s.truth->aperture_mm},
@@ -360,7 +359,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
     const calib::EdgeSharpness& e = r.sharpness;
     const bool ok = r.status == "ok";
     images.rows.push_back({fs::path(r.image).filename().string(),
-                           kEyeName[r.eye],
+                           models::kEyeNames[r.eye],
                            Fx(r.distance_m, 3),
                            r.status,
                            r.reason,
@@ -384,7 +383,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
       {}};
   for (int e = 0; e < 2; ++e)
     for (const SharpnessAtDistance& a : s.by_distance[e])
-      by.rows.push_back({kEyeName[e],
+      by.rows.push_back({models::kEyeNames[e],
                          Fx(a.distance_m, 3),
                          std::to_string(a.num_ok),
                          std::to_string(a.num_images),
@@ -404,7 +403,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
       {}};
   for (int e = 0; e < 2; ++e) {
     const fitting::FocusFit& f = s.fit[e];
-    const std::string eye = kEyeName[e];
+    const std::string eye = models::kEyeNames[e];
     if (!f.ok) {
       fit.rows.push_back({eye, "fit", "not fitted", "", "", "", f.reason});
       continue;
@@ -465,7 +464,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
   fig.ylabel = "edge blur sigma [px]";
   const char* colour[2] = {"#1f77b4", "#d62728"};
   for (int e = 0; e < 2; ++e) {
-    reports::Series pts{std::string(kEyeName[e]) + " eye (+-2 se)",
+    reports::Series pts{std::string(models::kEyeNames[e]) + " eye (+-2 se)",
                         std::string("yerrorbars pt 7 ps 1.2 lc rgb '") + colour[e] + "'",
                         "1:2:($3*2)",
                         {"distance_m", "blur_sigma_px", "se_px"},
@@ -475,7 +474,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
     if (!pts.rows.empty()) fig.series.push_back(pts);
     const fitting::FocusFit& f = s.fit[e];
     if (f.ok) {
-      reports::Series line{std::string(kEyeName[e]) + " fit" +
+      reports::Series line{std::string(models::kEyeNames[e]) + " fit" +
                                (f.focus_found ? ", focus " + Fx(f.focus_m, 2) + " m" : ", no defocus found"),
                            std::string("lines lw 2 lc rgb '") + colour[e] + "'",
                            "1:2",
