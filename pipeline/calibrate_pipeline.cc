@@ -1,6 +1,7 @@
 #include "pipeline/calibrate_pipeline.h"
 #include "pipeline/saccade_study.h"
 #include "pipeline/settling_study.h"
+#include "pipeline/tag_study.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +13,8 @@
 #include <tuple>
 
 #include <Eigen/Cholesky>
+
+#include <opencv2/core/utility.hpp>
 
 #include "calib/observation.h"
 #include "calib/observation_io.h"
@@ -443,6 +446,7 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
                       {"min_corner_sigma_px", head.min_corner_sigma_px},
                       {"hysteresis_sigma_floor_us", head.hysteresis_sigma_floor_us},
                       {"view_outlier_factor", head.view_outlier_factor},
+                      {"noise_class_of_board", head.noise_class_of_board},
                       {"fit_intrinsics", head.fit_intrinsics},
                       {"fit_board_warp", head.fit_board_warp},
                       {"intrinsics_prior", head.intrinsics_prior_covariance[0].has_value() ||
@@ -491,6 +495,7 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
           {"truth_slew_deg_per_s", truth_slew_deg_per_s},
           {"truth_latency_s", truth_latency_s},
           {"default_delay_frames", default_delay_frames},
+          {"fuse_tags", fuse_tags},
           {"stereo", s},
           {"head", h},
           {"theory_distances_m", {theory_min_m, theory_max_m, theory_step_m}}};
@@ -590,17 +595,28 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
   for (int e = 0; e < 2; ++e)
     if (d.result.cameras[e]) initial.intrinsics[e] = *d.result.cameras[e];
   bool neck_moved = false;
+  // The sweep's views, the head fit on all of them and the one without the tags (tag study).
+  std::vector<calib::View> sweep_views;
+  fitting::HeadFitOptions head_options = o.head;
+  std::optional<fitting::HeadFit> with_tags, without_tags;
   if (!dataset("servo_sweep").empty()) {
-    // One board per placement: the sweep places the same chessboard at five poses.
-    const auto views = protocols::ReadViewsByPlacement(dataset("servo_sweep"));
-    progress("head fit: " + std::to_string(views.size()) + " views");
+    // One board per placement: the sweep places the same chessboard at five poses (the tag
+    // sheets around it stay put: one board each).
+    sweep_views = protocols::ReadViewsByPlacement(dataset("servo_sweep"));
+    const auto& views = sweep_views;
+    // Chessboard and tag corners in one fit, each kind whitened by its own measured noise.
+    for (const auto& [board, cls] : NoiseClassesOfDataset(dataset("servo_sweep")))
+      head_options.noise_class_of_board.emplace(board, cls);
+    const size_t num_chessboard_views = WithoutTags(views, head_options.noise_class_of_board).size();
+    progress("head fit: " + std::to_string(views.size()) + " views (" + std::to_string(views.size() - num_chessboard_views) +
+             " of tag sheets)");
     for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
     // The stereo fit's intrinsics as a prior (CalibratePipelineOptions::head_prior_from_stereo):
     // the sweep's boards pin the focal lengths, the servo scales and the IPD only together, and
     // on the default robot the refit slid along that common scale (focal lengths 0.11 % short,
     // all five servo scales 0.11 % high, IPD -0.13 mm, z -3 / +3 / -2.6); the stereo views pin
     // the focal lengths on their own (tests/protocols/head_sim_consistency_test.cc).
-    fitting::HeadFitOptions ho = o.head;
+    fitting::HeadFitOptions& ho = head_options;
     bool prior_from_stereo = false;
     if (o.head_prior_from_stereo && ho.fit_intrinsics && stereo && stereo->ok &&
         !ho.intrinsics_prior_covariance[0] && !ho.intrinsics_prior_covariance[1]) {
@@ -610,7 +626,22 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
       }
       if (prior_from_stereo) progress("  intrinsics prior: the stereo fit's covariance x " + Fmt(ho.measured_sigma_factor, 3) + "^2");
     }
-    const fitting::HeadFit h = fitting::FitHead(views, config, initial, ho);
+    // With tag views, the fit on the chessboard alone and the fit fusing the tags: two
+    // independent single-threaded fits, run at once. The result is the chessboard's unless
+    // fuse_tags (CalibratePipelineOptions); the tag study compares them.
+    const bool has_tags = num_chessboard_views < views.size();
+    std::vector<fitting::HeadFit> fits(has_tags ? 2 : 1);
+    cv::parallel_for_(cv::Range(0, int(fits.size())), [&](const cv::Range& r) {
+      for (int k = r.start; k < r.end; ++k)
+        fits[k] = fitting::FitHead(k == 0 ? WithoutTags(views, head_options.noise_class_of_board) : views, config, initial,
+                                   ho);
+    });
+    if (has_tags) {
+      without_tags = fits[0];
+      with_tags = fits[1];
+      progress("  with the tags: " + with_tags->message);
+    }
+    const fitting::HeadFit& h = has_tags && o.fuse_tags ? fits[1] : fits[0];
     if (h.ok) {
       MergeHead(h, &d.result);
       progress("  RMS " + Fmt(h.result.summaries.empty() ? NAN : h.result.summaries.back().rms_px, 3) + " px, IPD " +
@@ -641,6 +672,12 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
       for (int s = 0; s < models::kNumServos; ++s) stereo_approach[s] = obs.front().approach[s];
     }
     fitting::FillTruth(fitting::StereoTruthValues(*o.truth, stereo_pwm, stereo_approach), &d.result);
+  }
+
+  if (with_tags && with_tags->ok) {
+    d.result.diagnostics["tags"] = TagStudy(sweep_views, head_options.noise_class_of_board, *with_tags, without_tags,
+                                            config, d.truth ? &*d.truth : nullptr);
+    d.result.diagnostics["tags"]["head_result"] = o.fuse_tags ? "fused (chessboard and tags)" : "chessboard only";
   }
 
   // 4) Evaluations. The servos' PWM step and dead band first: ranging, the settling model and the

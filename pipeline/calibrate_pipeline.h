@@ -13,7 +13,8 @@
 //      `stereo` (eyes fixed: left and right paired), the lens model chosen by cross-validation
 //      over those views, with the physical sanity of the rig;
 //   2. the head (servo maps, eye centres, intrinsics refined) from `servo_sweep`, one board per
-//      placement;
+//      placement; with the sweep's tag sheets also the fit fusing them, and the tag study
+//      (pipeline/tag_study.h, diagnostics.tags);
 //   3. the truth in the fit's gauge (virtual Owl only: CalibratePipelineOptions::truth);
 //   4. evaluations: ranging from `vergence` (every fixation a row with its status), the gain
 //      study at the delay `latency` measured, step responses from `step_response`, limits from
@@ -69,6 +70,14 @@ struct CalibratePipelineOptions {
   // undetermined parameters get no prior). Without it the sweep alone pins the common scale of
   // the focal lengths, servo scales and IPD weakly, and the fit slid along it (calibrate_pipeline.cc).
   bool head_prior_from_stereo = true;
+  // The head result from the fit that fuses the servo sweep's tag sheets with the chessboard
+  // (each kind whitened by its own measured noise), instead of the chessboard's alone. Both
+  // fits run when the sweep saw tags, and diagnostics.tags compares them (pipeline/tag_study.h).
+  // Off: on the virtual Owl the tag corners carry a border bias of ~0.01 px (the quad's edges
+  // lie a little outside the printed square at the stream's blur) that their residual RMS does
+  // not show; fused, it pulls the focal lengths and servo scales by 0.06 % (about 9 sigma of the
+  // fused fit). A tag-border offset per sheet in the head model would remove it.
+  bool fuse_tags = false;
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
   // Progress lines (may be null).

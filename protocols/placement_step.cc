@@ -20,10 +20,18 @@ void RunPlaceTargetStep(RunContext& run, const Protocol& p, const PlaceTargetSte
   rec.base_from_target = PlacementPose(s, def);
   robot::SceneControl* scene = run.robot().Scene();
   const std::string planned = PlacementPrompt(p, s);
-  if (scene) {
+  const bool tag_sheet = std::find(p.tag_targets.begin(), p.tag_targets.end(), s.target) != p.tag_targets.end();
+  std::vector<std::string> scene_targets;
+  if (scene) scene_targets = scene->TargetNames();
+  if (scene && tag_sheet && std::find(scene_targets.begin(), scene_targets.end(), s.target) == scene_targets.end()) {
+    // A scene without this tag sheet: the sweep runs on the board alone (tags are an addition).
+    rec.source = "scene";
+    rec.answer = "absent";
+    run.Event("place", "scene has no target '" + s.target + "' (a tag sheet): not placed, not seen");
+  } else if (scene) {
     scene->SetTargetPose(s.target, rec.base_from_target);
     if (s.hide_others) {
-      for (const std::string& name : scene->TargetNames()) {
+      for (const std::string& name : scene_targets) {
         // Tag grids stay where they are: fixed in the scene, seen around the boards (tag_targets).
         if (name == s.target || std::find(p.tag_targets.begin(), p.tag_targets.end(), name) != p.tag_targets.end())
           continue;

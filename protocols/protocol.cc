@@ -151,6 +151,11 @@ bool Step::Detects() const {
   return false;
 }
 
+bool Step::DetectsTags() const {
+  if (const auto* s = std::get_if<SweepStep>(&params)) return s->detect && s->tags;
+  return Detects();
+}
+
 std::string Step::Where() const {
   return file + (file_line > 0 ? ":" + std::to_string(file_line) : std::string()) + ": step " +
          std::to_string(file_index) + " (" + StepKindName(kind()) + ")";
@@ -415,6 +420,7 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.both_directions = f.Value<bool>("both_directions", true);
     s.pre_approach = f.Value<bool>("pre_approach", true);
     s.detect = f.Value<bool>("detect", false);
+    s.tags = f.Value<bool>("tags", true);
     s.frames = f.PositiveInt("frames", 1);
     s.hold = ParsePose(f.Get("hold"), source, where + " hold");
     s.settle = settle();

@@ -20,7 +20,8 @@
 //   steps:
 //     - move-to: {pose: {Rx: centre, Lx: centre+50, Neck: 1530}, settle: {...}}
 //     - sweep: {servo: Rx, from: centre-150, to: centre+150, step_us: 25,
-//               both_directions: true, frames: 1, settle: {...}, hold: {pose...}, detect: false}
+//               both_directions: true, frames: 1, settle: {...}, hold: {pose...}, detect: false,
+//               tags: true}        # tags: false searches its frames for `target` only, not the tag_targets
 //     - grid: {eyes: both, pan_us: [-100, 0, 100], tilt_us: [-60, 0, 60], neck_us: [0],
 //              frames: 1, settle: {...}, detect: false}
 //     - place-target: {target: board, distance_m: 0.6, offset_m: [0, 0], rpy_deg: [0, 20, 0],
@@ -170,6 +171,7 @@ struct SweepStep {
   SettleRule settle;
   int frames = 1;
   bool detect = false;
+  bool tags = true;  // with detect: also the protocol's tag_targets (false: the board only)
 };
 
 // grid: offsets in us toward the robot's right / up, relative to the hold pose.
@@ -321,6 +323,8 @@ struct Step {
   }
   // True when the step's recorded frames are searched for the protocol's target (`detect`).
   bool Detects() const;
+  // True when those frames are searched for the protocol's tag_targets too (a sweep's `tags`).
+  bool DetectsTags() const;
   // "FILE:LINE: step INDEX (KIND)": where the step is, for messages.
   std::string Where() const;
 };

@@ -105,10 +105,21 @@ void RunContext::Detect(const robot::StereoFrame& f, int64_t index) {
   opt.fast_check = true;
   std::vector<calib::CornerObservation> all;
   LiveDetection live;
+  // The tag grids around the scene (tag_targets): every grid tag fully in the image counts, so
+  // they are seen where the board has left the view or is cut by the socket rim; libapriltag
+  // runs once per image for all of them.
+  std::vector<calib::TargetDefinition> grids;
+  if (cur_step_->DetectsTags())
+    for (const std::string& name : cur_protocol_->tag_targets)
+      if (const auto t = cur_protocol_->targets.find(name); t != cur_protocol_->targets.end()) grids.push_back(t->second);
+  std::vector<calib::TargetDetection> tags[2];
   // The two eyes are detected at once (the detector has no shared state), then used in eye order.
   cv::parallel_for_(cv::Range(0, 2), [&](const cv::Range& eyes) {
-    for (int e = eyes.start; e < eyes.end; ++e)
-      live.detection[e] = calib::DetectTarget(e == models::kLeftEye ? f.left : f.right, target, opt);
+    for (int e = eyes.start; e < eyes.end; ++e) {
+      const cv::Mat& img = e == models::kLeftEye ? f.left : f.right;
+      live.detection[e] = calib::DetectTarget(img, target, opt);
+      if (!grids.empty()) tags[e] = calib::DetectAprilGrids(img, grids, calib::DetectorOptions());
+    }
   });
   for (int e = 0; e < 2; ++e) {
     const cv::Mat& img = e == models::kLeftEye ? f.left : f.right;
@@ -132,22 +143,13 @@ void RunContext::Detect(const robot::StereoFrame& f, int64_t index) {
     live.step_name = step_name_;
     o_.on_detection(live);
   }
-  // The tag grids around the scene (tag_targets): every grid tag fully in the image counts, so
-  // they are seen where the board has left the view or is cut by the socket rim. libapriltag at
-  // decimate 2 costs about 4 ms per image (docs/conventions.md, Facts).
-  std::vector<calib::TargetDefinition> grids;
-  for (const std::string& name : cur_protocol_->tag_targets)
-    if (const auto t = cur_protocol_->targets.find(name); t != cur_protocol_->targets.end()) grids.push_back(t->second);
-  for (int e = 0; e < 2 && !grids.empty(); ++e) {
-    const cv::Mat& img = e == models::kLeftEye ? f.left : f.right;
-    const std::vector<calib::TargetDetection> found = calib::DetectAprilGrids(img, grids, calib::DetectorOptions());
-    for (size_t g = 0; g < grids.size(); ++g) {
+  for (int e = 0; e < 2; ++e)
+    for (size_t g = 0; g < tags[e].size(); ++g) {
       std::vector<calib::CornerObservation> obs =
-          calib::DetectionToObservations(found[g], grids[g], int(index), e, cmd_, f.stamp_ns);
+          calib::DetectionToObservations(tags[e][g], grids[g], int(index), e, cmd_, f.stamp_ns);
       for (auto& o : obs) o.approach = approach_;
       all.insert(all.end(), obs.begin(), obs.end());
     }
-  }
   if (!all.empty()) calib::AppendObservationsCsv(writer_->Dir() + "/observations.csv", all);
   detected_any_ = true;
 }

@@ -246,6 +246,59 @@ std::vector<Table> MakeTables(const ReportData& d) {
       out.push_back(t);
     }
   }
+  if (d.result.diagnostics.contains("tags")) {
+    // What the tag sheets add to the head fit (pipeline/tag_study.h).
+    const nlohmann::json& g = d.result.diagnostics["tags"];
+    auto num = [](const nlohmann::json& j, const char* k, int sig) {
+      return j.contains(k) && j[k].is_number() ? Fmt(j[k].get<double>(), sig) : std::string();
+    };
+    auto pair = [](const nlohmann::json& j, const char* k, int sig) {
+      if (!j.contains(k) || !j[k].is_array() || j[k].size() != 2) return std::string();
+      return Fmt(j[k][0].get<double>(), sig) + " / " + Fmt(j[k][1].get<double>(), sig);
+    };
+    Table c{"tag_coverage",
+            "Head fit coverage per kind of target: views and corners (left / right), the whitening σ each kind's own "
+            "residuals give (measured × the sigma factor), and the pulse widths at which each servo was seen",
+            {"kind", "views", "corners", "whitening σ [px]", "measured σ [px]"},
+            {}};
+    for (int s = 0; s < models::kNumServos; ++s) c.header.push_back(std::string(models::kServoNames[s]) + " [µs]");
+    const nlohmann::json classes = g.value("classes", nlohmann::json::object());
+    for (const auto& [name, cls] : classes.items()) {
+      std::vector<std::string> r = {name, pair(cls, "views", 4), pair(cls, "corners", 6), pair(cls, "whitening_sigma_px", 3),
+                                    pair(cls, "measured_sigma_px", 3)};
+      const nlohmann::json pwm = cls.value("pwm_us", nlohmann::json::object());
+      for (int s = 0; s < models::kNumServos; ++s) {
+        const char* n = models::kServoNames[s];
+        r.push_back(pwm.contains(n) ? std::to_string(pwm[n][0].get<int>()) + "–" + std::to_string(pwm[n][1].get<int>())
+                                    : std::string());
+      }
+      c.rows.push_back(r);
+    }
+    if (!c.rows.empty()) out.push_back(c);
+    const nlohmann::json servo_ends = g.value("servo_ends", nlohmann::json::array());
+    const bool truth = !servo_ends.empty() && servo_ends[0].contains("error_with_tags_deg") &&
+                       servo_ends[0]["error_with_tags_deg"].is_number();
+    Table e{"tag_servo_ends",
+            "Servo maps at the ends of their configured range: σ of the angle with the tag sheets fused into the head "
+            "fit and from the chessboard views alone (fit without the tags: " +
+                g.value("without_tags_fit", std::string()) + "; the calibration's head result: " +
+                g.value("head_result", std::string()) + ")" + (truth ? "; fitted minus true angle with both fits" : ""),
+            {"servo", "end", "pulse [µs]", "σ with tags [deg]", "σ without tags [deg]", "σ ratio"},
+            {}};
+    if (truth) e.header.insert(e.header.end(), {"error with tags [deg]", "error without tags [deg]"});
+    for (const auto& x : servo_ends) {
+      const bool both = x.contains("sigma_with_tags_deg") && x.contains("sigma_without_tags_deg") &&
+                        x["sigma_with_tags_deg"].is_number() && x["sigma_without_tags_deg"].is_number() &&
+                        x["sigma_with_tags_deg"].get<double>() > 0;
+      std::vector<std::string> r = {x.value("servo", std::string()), x.value("end", std::string()), num(x, "pwm_us", 4),
+                                    num(x, "sigma_with_tags_deg", 3), num(x, "sigma_without_tags_deg", 3),
+                                    both ? Fmt(x["sigma_without_tags_deg"].get<double>() / x["sigma_with_tags_deg"].get<double>(), 3)
+                                         : std::string()};
+      if (truth) r.insert(r.end(), {num(x, "error_with_tags_deg", 3), num(x, "error_without_tags_deg", 3)});
+      e.rows.push_back(r);
+    }
+    if (!e.rows.empty()) out.push_back(e);
+  }
   if (d.result.diagnostics.contains("board_warp_choice")) {
     // Flat or bowed board by cross-validation (fitting/lens_model_choice.h ChooseStereoBoardWarp).
     const nlohmann::json& w = d.result.diagnostics["board_warp_choice"];

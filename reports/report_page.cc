@@ -286,7 +286,8 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   if (d.result.stereo) body << "<h3 id=\"stereo\">Stereo extrinsics</h3>\n" << page.Table("stereo") << page.Figure("poses_3d");
   if (page.figures.count("servo_maps")) {
     body << "<h3 id=\"servos\">Servo maps and head</h3>\n" << page.Table("servo_maps") << page.Figure("servo_maps")
-         << page.FiguresWith(order, "servo_") << page.Table("servo_map_truth");
+         << page.FiguresWith(order, "servo_") << page.Table("servo_map_truth")
+         << page.Table("tag_coverage") << page.Table("tag_servo_ends");
   }
   if (d.ranging) {
     body << "<h3 id=\"ranging\">Vergence ranging</h3>\n<p>Range = distance from the midpoint of the two eye rotation "

@@ -126,6 +126,18 @@ Eigen::Isometry3d FacingPose(const calib::TargetDefinition& def,
   return pose;
 }
 
+calib::TargetDefinition TagSheetDefinition(const std::string& name, int first_id) {
+  calib::TargetDefinition d;
+  d.id = name;
+  d.kind = calib::TargetKind::kAprilGrid;
+  d.tag_cols = 6;
+  d.tag_rows = 2;
+  d.tag_size_m = 0.045;
+  d.tag_spacing = 0.25;
+  d.first_id = first_id;
+  return d;
+}
+
 SceneDescription DefaultScene() {
   SceneDescription s;
   SceneTarget chess;
@@ -147,6 +159,27 @@ SceneDescription DefaultScene() {
   grid.definition.tag_spacing = 0.3;
   grid.base_from_target = FacingPose(grid.definition, {0.42, 0.0, 0.55}, 35.0);
   s.targets.push_back(grid);
+
+  // Tag sheets around the boards (protocols/standard/servo_sweep.yaml `tag_targets`): four 6x2
+  // grids of 45 mm tag36h11 tags (ids from 100, 12 per sheet), 0.7 m from the neck axis at 22 deg
+  // azimuth and 15 deg elevation, above and below each side, facing the head. They stay in view
+  // where the chessboard leaves it (pans, tilts and the neck near their ends) and inside the
+  // socket rims of robots whose rim hides the side chessboards.
+  const struct {
+    const char* name;
+    Eigen::Vector3d centre_m;  // 0.7 m from the neck axis at the azimuth and elevation below
+    double azimuth_deg, elevation_deg;
+    int first_id;
+  } kSheets[] = {{"tags_right_up", {0.253, -0.181, 0.627}, 22, 15, 100},
+                 {"tags_right_down", {0.253, 0.181, 0.627}, 22, -15, 112},
+                 {"tags_left_up", {-0.253, -0.181, 0.627}, -22, 15, 124},
+                 {"tags_left_down", {-0.253, 0.181, 0.627}, -22, -15, 136}};
+  for (const auto& sheet : kSheets) {
+    SceneTarget tags;
+    tags.definition = TagSheetDefinition(sheet.name, sheet.first_id);
+    tags.base_from_target = FacingPose(tags.definition, sheet.centre_m, sheet.azimuth_deg, sheet.elevation_deg);
+    s.targets.push_back(tags);
+  }
 
   SceneTarget fix;
   fix.definition.id = "fixation";

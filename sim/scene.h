@@ -90,9 +90,11 @@ struct SceneDescription {
 inline constexpr double kCourseBoardWarpM = 0.9e-3;
 
 // The built-in scene: a 9x6 chessboard (26 mm, bowed kCourseBoardWarpM like the course's)
-// 0.6 m ahead, a 6x6 AprilGrid to the right,
-// a fixation disc to the left, in front of a textured wall at 3 m.
+// 0.6 m ahead, a 6x6 AprilGrid to the right, four tag sheets around the boards (above and
+// below each side), a fixation disc to the left, in front of a textured wall at 3 m.
 SceneDescription DefaultScene();
+// One of the default scene's tag sheets: a 6x2 tag36h11 AprilGrid of 45 mm tags, spacing 0.25.
+calib::TargetDefinition TagSheetDefinition(const std::string& name, int first_id);
 SceneDescription LoadScene(const std::string& path);
 nlohmann::json SceneJson(const SceneDescription& scene);
 // A pose as JSON: {"t_m": [..3], "q_xyzw": [..4]}; PoseFromJson also accepts "rpy_deg".

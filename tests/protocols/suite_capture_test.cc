@@ -1,4 +1,7 @@
 // Standard protocols end to end on the in-process virtual Owl: capture protocols.
+#include <map>
+#include <set>
+
 #include <gtest/gtest.h>
 
 #include "calib/observation_io.h"
@@ -28,7 +31,20 @@ TEST(StandardSuite, ServoSweepRecordsBothApproachDirections) {
   }
   EXPECT_GT(up, 5);
   EXPECT_GT(down, 5);
-  EXPECT_EQ(ReadPlacementsCsv(r.dir).size(), 5u);  // 0.6 m, 0.85 m, 0.45 m, +-25 deg
+  EXPECT_EQ(ReadPlacementsCsv(r.dir).size(), 9u);  // 4 tag sheets; the chessboard at 0.6 m, 0.85 m, 0.45 m, +-25 deg
+  // The tag sheets (tag_targets) are detected too, also in frames where the chessboard is not:
+  // the tilts and the neck near their ends.
+  std::map<std::string, int> views_of;
+  std::map<std::pair<int, int>, std::set<std::string>> targets_of;  // (frame, eye) -> targets seen
+  for (const calib::View& v : calib::GroupIntoViews(calib::ReadObservationsCsv(r.dir + "/observations.csv"))) {
+    ++views_of[v.target_id];
+    targets_of[{v.frame_index, v.eye}].insert(v.target_id);
+  }
+  for (const char* sheet : {"tags_right_up", "tags_right_down", "tags_left_up", "tags_left_down"})
+    EXPECT_GT(views_of[sheet], 20) << sheet;
+  int tags_only = 0;
+  for (const auto& [key, targets] : targets_of) tags_only += !targets.count("chessboard");
+  EXPECT_GT(tags_only, 30) << "views with tags but no chessboard";  // 41 on seed 1
 }
 
 TEST(StandardSuite, IntrinsicsAndStereoRecordFrames) {

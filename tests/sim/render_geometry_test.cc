@@ -95,8 +95,8 @@ struct BoardPose {
 
 TEST(RenderGeometry, ChessboardCornersMatchProjectPointsWithinATenthPixel) {
   VirtualOwl owl(NoiseFree());
-  owl.SetTargetVisible("aprilgrid", false);
-  owl.SetTargetVisible("fixation", false);
+  for (const std::string& n : owl.TargetNames())
+    if (n != "chessboard") owl.SetTargetVisible(n, false);
   const calib::TargetDefinition def = owl.SceneState().Find("chessboard")->definition;
   const std::vector<BoardPose> poses = {
       {{0.0, 0.0, 0.63}, 0, 0, 0}, {{0.05, -0.03, 0.55}, 25, 0, 5}, {{-0.06, 0.04, 0.7}, -20, 15, -8},
@@ -137,8 +137,8 @@ TEST(RenderGeometry, ChessboardCornersMatchProjectPointsWithinATenthPixel) {
 
 TEST(RenderGeometry, AprilTagCornersMatchProjectPointsWithinTwoTenthsPixel) {
   VirtualOwl owl(NoiseFree());
-  owl.SetTargetVisible("chessboard", false);
-  owl.SetTargetVisible("fixation", false);
+  for (const std::string& n : owl.TargetNames())
+    if (n != "aprilgrid") owl.SetTargetVisible(n, false);
   const calib::TargetDefinition def = owl.SceneState().Find("aprilgrid")->definition;
   apriltag_family_t* fam = tag36h11_create();
   apriltag_detector_t* det = apriltag_detector_create();

@@ -123,7 +123,7 @@ TEST(VirtualOwl, SceneControlMovesTargetsAndTruthJsonHasEverything) {
   robot::SceneControl* scene = owl.Scene();
   ASSERT_NE(scene, nullptr);
   const auto names = scene->TargetNames();
-  ASSERT_EQ(names.size(), 3u);
+  ASSERT_EQ(names.size(), 7u);  // chessboard, aprilgrid, four tag sheets, fixation
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.translation() = Eigen::Vector3d(0.1, -0.05, 0.8);
   scene->SetTargetPose("chessboard", pose);
