@@ -282,8 +282,10 @@ std::vector<Table> MakeTables(const ReportData& d) {
             "Servo maps at the ends of their configured range: σ of the angle with the tag sheets fused into the head "
             "fit and from the chessboard views alone (fit without the tags: " +
                 g.value("without_tags_fit", std::string()) + "; the calibration's head result: " +
-                g.value("head_result", std::string()) + ")" + (truth ? "; fitted minus true angle with both fits" : ""),
-            {"servo", "end", "pulse [µs]", "σ with tags [deg]", "σ without tags [deg]", "σ ratio"},
+                g.value("head_result", std::string()) + ")" + (truth ? "; fitted minus true angle with both fits" : "") +
+                (g.contains("note") && g["note"].is_string() ? ". NOTE: " + g["note"].get<std::string>() : std::string()),
+            {"servo", "end", "pulse [µs]", g.contains("note") ? "σ with tags [deg] (diagnostic)" : "σ with tags [deg]",
+             "σ without tags [deg]", "σ ratio"},
             {}};
     if (truth) e.header.insert(e.header.end(), {"error with tags [deg]", "error without tags [deg]"});
     for (const auto& x : servo_ends) {
