@@ -61,6 +61,8 @@ bool FixationDetectorOptions::Check(std::string* why) const {
     return fail("max_radius_px " + std::to_string(max_radius_px) + " must exceed min_radius_px");
   if (!(min_roundness >= 0 && min_roundness <= 1))
     return fail("min_roundness " + std::to_string(min_roundness) + " must be in [0, 1]");
+  if (!(size_hint_px >= 0) || !std::isfinite(size_hint_px))
+    return fail("size_hint_px " + std::to_string(size_hint_px) + " must be >= 0 and finite");
   if (border_px < 0) return fail("border_px " + std::to_string(border_px) + " must be >= 0");
   return true;
 }
@@ -74,8 +76,10 @@ FixationDetection DetectFixationTarget(const cv::Mat& image, const FixationDetec
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(bin, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
   double best_score = -1;
-  const double min_area = M_PI * options.min_radius_px * options.min_radius_px;
-  const double max_area = M_PI * options.max_radius_px * options.max_radius_px;
+  const double min_r = options.size_hint_px > 0 ? std::max(1.0, 0.5 * options.size_hint_px) : options.min_radius_px;
+  const double max_r = options.size_hint_px > 0 ? std::max(2.0, 2 * options.size_hint_px) : options.max_radius_px;
+  const double min_area = M_PI * min_r * min_r;
+  const double max_area = M_PI * max_r * max_r;
   for (const auto& c : contours) {
     const double area = cv::contourArea(c);
     if (area < min_area || area > max_area) continue;

@@ -30,6 +30,11 @@ struct FixationDetectorOptions {
   bool dark_on_light = true;    // a dark disc on a lighter surround (false: light on dark)
   double min_radius_px = 3;     // blobs smaller/larger than this are ignored
   double max_radius_px = 150;
+  // > 0: the disc's expected radius [px], from its known size, its placed distance and a nominal
+  // focal length. Blobs outside 0.5x..2x of it are ignored instead of those outside
+  // min/max_radius_px (a 24 mm disc at 2 m is 2.9 px on a 480 px lens, below the default
+  // minimum, and a 12 px dark spot of the wall must not stand in for it). At least 1 px.
+  double size_hint_px = 0;
   double min_roundness = 0.6;   // 0..1, see above
   double min_contrast = 25;     // grey levels between the blob and its surround
   int border_px = 2;            // blobs touching the image border closer than this are ignored

@@ -7,10 +7,23 @@ namespace owlcal::protocols {
 using models::kNumServos;
 using models::PwmVector;
 
-std::unique_ptr<TargetLocator> MakeStepLocator(const Protocol& p, Locator kind) {
+double ExpectedDiscRadiusPx(RunContext& run, const Protocol& p) {
+  const auto& placements = run.writer().Placements();
+  if (run.placement_index() < 0 || run.placement_index() >= int(placements.size())) return 0;
+  const PlacementRecord& pl = placements[run.placement_index()];
+  const auto def = p.targets.find(pl.target.empty() ? p.target : pl.target);
+  if (def == p.targets.end() || def->second.kind != calib::TargetKind::kFixation) return 0;
+  if (!(pl.distance_m > 0) || !(def->second.fixation_radius_m > 0)) return 0;
+  return NominalFocalPx(run.config()) * def->second.fixation_radius_m / pl.distance_m;
+}
+
+std::unique_ptr<TargetLocator> MakeStepLocator(RunContext& run, const Protocol& p, Locator kind) {
   switch (kind) {
-    case Locator::kFixation:
-      return MakeFixationLocator();
+    case Locator::kFixation: {
+      calib::FixationDetectorOptions o;
+      o.size_hint_px = ExpectedDiscRadiusPx(run, p);
+      return MakeFixationLocator(o);
+    }
     case Locator::kTemplate:
       return MakeTemplateLocator();
     case Locator::kAprilTag: {
@@ -42,7 +55,7 @@ void RunFixateStep(RunContext& run, const Protocol& p, const FixateStep& s) {
     run.Send(run.config().Centre());
     run.Settle(SettleRule{});
   }
-  auto loc = MakeStepLocator(p, s.loop.locator);
+  auto loc = MakeStepLocator(run, p, s.loop.locator);
   FixationOptions fo = FixationFromLoop(s.loop, run.config());
   fo.gain = s.gain;
   fo.eyes[models::kLeftEye] = Includes(s.eyes, models::kLeftEye);

@@ -49,6 +49,9 @@ class FixationLocator : public TargetLocator {
         o.border_px = 0;
         o.expected_px = last_[eye] - Eigen::Vector2d(roi.x, roi.y);
         o.expected_radius_px = last_radius_[eye];
+        // The disc may shrink to half its last size (it is moved away, or blurs into a smaller
+        // thresholded blob while it moves); a far disc found at 3.1 px must not be lost at 2.9.
+        if (o.size_hint_px <= 0) o.min_radius_px = std::min(o.min_radius_px, std::max(1.0, 0.5 * last_radius_[eye]));
         // The disc keeps its contrast; a background spot that a blurred, fast-moving disc
         // leaves alone in the window has far less (the sim's texture: ~0.35 of black-white).
         o.min_contrast = std::max(options_.min_contrast, 0.6 * last_contrast_[eye]);

@@ -43,7 +43,7 @@ struct LoopResult {
 class SaccadeController {
  public:
   SaccadeController(RunContext& run, const Protocol& p, const SaccadeStep& s)
-      : run_(run), s_(s), eye_(s.eye), loc_(MakeStepLocator(p, s.locator)) {
+      : run_(run), s_(s), eye_(s.eye), loc_(MakeStepLocator(run, p, s.locator)) {
     const auto& cal = run.options().calibration;
     head_ = cal ? cal->head : models::NominalHeadModel(run.config());
     map_name_ = cal ? "calibrated map (" + cal->source + ")" : std::string("nominal map (robot file: no calibration)");

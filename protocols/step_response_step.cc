@@ -15,7 +15,7 @@ void RunStepResponseStep(RunContext& run, const Protocol& p, const StepResponseS
   const bool pan = s.axis == Axis::kPan;
   const int servo = pan ? models::kPanServo[eye] : models::kTiltServo[eye];
   const models::ServoConfig& sc = run.config().servos[servo];
-  auto loc = MakeStepLocator(p, s.loop.locator);
+  auto loc = MakeStepLocator(run, p, s.loop.locator);
   int trial_counter = 0;
   for (double gain : s.gains) {
     for (double amp : s.amplitudes_deg) {
