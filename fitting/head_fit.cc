@@ -148,6 +148,15 @@ SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
     out.initial_cost = s1.initial_cost;
   }
   timer->Mark("solve_robust_s");
+  if (!options.tag_size_of_board.empty()) {
+    // Tag corners against the detector's straight-edge corners at the robust solution (the
+    // correction changes with the parameters only at second order).
+    fit->num_tag_edge_corrected = internal::CorrectTagEdgeCorners(*s, options, prepared);
+    double ss = 0;
+    for (const PreparedView& p : *prepared)
+      for (const Eigen::Vector2d& d : p.edge_offset) ss += d.squaredNorm();
+    fit->tag_edge_offset_rms_px = fit->num_tag_edge_corrected ? std::sqrt(ss / fit->num_tag_edge_corrected) : 0.0;
+  }
   if (options.outlier_threshold_sigma > 0) {
     for (PreparedView& p : *prepared) {
       const std::vector<double> err = internal::CornerErrorsPx(*s, p);
@@ -319,6 +328,10 @@ bool HeadFitOptions::Check(std::string* why) const {
   if (!(rank_tolerance > 0 && rank_tolerance < 1))
     return fail("rank_tolerance = " + std::to_string(rank_tolerance) + " must be in (0, 1)");
   if (num_threads < 1) return fail("num_threads = " + std::to_string(num_threads) + " must be >= 1");
+  for (const auto& [board, size] : tag_size_of_board)
+    if (board.empty() || !(size > 0 && size < 10))
+      return fail("tag_size_of_board: board '" + board + "' -> " + std::to_string(size) +
+                  " m: a named board and a tag size in (0, 10) m");
   for (const auto& [board, cls] : noise_class_of_board)
     if (board.empty() || cls.empty())
       return fail("noise_class_of_board: board '" + board + "' -> class '" + cls + "': names must not be empty");
@@ -405,6 +418,8 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   d["num_views"] = fit.num_views_used;
   d["num_corners"] = stats.num_corners;
   d["noise_factor"] = stats.noise_factor;
+  if (!options.tag_size_of_board.empty())
+    d["tag_edge_correction"] = {{"corners", fit.num_tag_edge_corrected}, {"rms_px", fit.tag_edge_offset_rms_px}};
   d["null_space_dimension"] = cov.analysis.null_dimension;
   d["reciprocal_condition"] = cov.analysis.reciprocal_condition;
   d["covariance_source"] = cov.analysis.ok ? "fitting/observability.h: Schur complement of J^T J, boards eliminated"

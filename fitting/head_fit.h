@@ -66,6 +66,12 @@ struct HeadFitOptions {
   // kDefaultNoiseClass. Each class gets its own sigma per eye: measured from its own residuals
   // with estimate_corner_sigma, else corner_sigma_px. One fit, each corner whitened by its class.
   std::map<std::string, std::string> noise_class_of_board;
+  // Boards whose corners are AprilTag quad corners (calib/apriltag_free.h), by physical board
+  // (as noise_class_of_board), with the tags' black-border size [m]: after the first (robust)
+  // solve each such corner is compared with where the detector puts it at that solution (the
+  // intersection of straight lines through the images of its two edges, which the lens bends;
+  // fitting/tag_edge_corner.h), not with its own projection. Empty: no board is treated so.
+  std::map<std::string, double> tag_size_of_board;
   // Floor of every servo's hysteresis sigma [us]: a frame exposed before the servo fully settled
   // looks like extra backlash on both approach sides (servo lag is not in the model); 0 = none.
   double hysteresis_sigma_floor_us = 0.0;
@@ -122,6 +128,10 @@ struct HeadFit {
     std::array<int, 2> num_corners{0, 0};
   };
   std::map<std::string, NoiseClass> noise_classes;
+  // Tag corners compared with the detector's straight-edge corner (tag_size_of_board), and the
+  // RMS of that correction [px].
+  int num_tag_edge_corrected = 0;
+  double tag_edge_offset_rms_px = 0;
   int num_views_used = 0;
   int num_corners_used = 0;
 };

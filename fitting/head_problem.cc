@@ -8,6 +8,7 @@
 #include <ceres/manifold.h>
 #include <ceres/product_manifold.h>
 
+#include "fitting/tag_edge_corner.h"
 #include "models/head_kinematics.h"
 #include "models/servo_map.h"
 
@@ -119,6 +120,41 @@ std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v) {
     if (cam.Project(p.data(), px.data())) err[i] = (px - v.pixels[i]).norm();
   }
   return err;
+}
+
+int CorrectTagEdgeCorners(const HeadState& s, const HeadFitOptions& options, std::vector<PreparedView>* views) {
+  int num = 0;
+  for (PreparedView& v : *views) {
+    const std::string board = BoardOfTarget(v.target_id);
+    const auto size = options.tag_size_of_board.find(board);
+    if (size == options.tag_size_of_board.end()) continue;
+    if (v.detected.empty()) v.detected = v.pixels;
+    v.edge_offset.assign(v.pixels.size(), Eigen::Vector2d::Zero());
+    const models::Rigid3d cam_from_target =
+        CamFromBase(s, v.command) * models::Rigid3d::Map(s.boards.at(v.target_id).data());
+    models::CameraIntrinsics cam;
+    cam.model = s.camera_model[v.command.eye];
+    cam.params = s.camera[v.command.eye].values;
+    const double* warp = s.warps.at(board).data();
+    const WarpSpan& span = s.warp_spans.at(board);
+    auto project = [&](const Eigen::Vector3d& x, Eigen::Vector2d* px) {
+      const Eigen::Vector3d p = cam_from_target * WarpedPoint(warp, x, span);
+      return cam.Project(p.data(), px->data());
+    };
+    for (size_t i = 0; i < v.pixels.size(); ++i) {
+      Eigen::Vector2d at;
+      if (v.corner_ids[i] >= 0 && project(v.points[i], &at)) {
+        const auto edge =
+            TagEdgeCornerPixel(project, TagCornersOf(v.points[i], v.corner_ids[i], size->second), v.corner_ids[i] % 4);
+        if (edge) {
+          v.edge_offset[i] = *edge - at;
+          ++num;
+        }
+      }
+      v.pixels[i] = v.detected[i] - v.edge_offset[i];
+    }
+  }
+  return num;
 }
 
 int BuildHeadProblem(HeadState* state,

@@ -65,8 +65,13 @@ struct PreparedView {
   int noise_class = 0;  // index into the fit's noise classes (HeadFitOptions::noise_class_of_board)
   std::vector<int> corner_ids;
   std::vector<Eigen::Vector3d> points;
-  std::vector<Eigen::Vector2d> pixels;
+  std::vector<Eigen::Vector2d> pixels;  // what the residuals compare with: detected minus edge_offset
   std::vector<bool> inlier;
+  // Tag corners (HeadFitOptions::tag_size_of_board): where the detector puts the corner minus
+  // the corner's projection (fitting/tag_edge_corner.h) at the state CorrectTagEdgeCorners saw,
+  // and the detected pixels; empty for other boards.
+  std::vector<Eigen::Vector2d> edge_offset;
+  std::vector<Eigen::Vector2d> detected;
 };
 
 struct HeadState {
@@ -97,6 +102,12 @@ models::Rigid3d CamFromBase(const HeadState& s, const HeadViewCommand& c);
 // Per-corner reprojection error |projected - measured| [px] at the current state; NaN where the
 // point does not project.
 std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v);
+
+// For the views of boards in options.tag_size_of_board: each corner's edge offset at the state
+// `s` (the detector's straight-edge corner minus the corner's projection, fitting/tag_edge_corner.h),
+// and pixels = detected - offset. A corner whose offset cannot be computed keeps offset 0.
+// Returns the number of corners corrected.
+int CorrectTagEdgeCorners(const HeadState& s, const HeadFitOptions& options, std::vector<PreparedView>* views);
 
 // Adds one residual block per view over its inlier corners (every `stride`-th when
 // max_corners_per_view > 0), the intrinsics priors, and the manifolds / constant blocks of

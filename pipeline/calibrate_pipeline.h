@@ -73,10 +73,13 @@ struct CalibratePipelineOptions {
   // The head result from the fit that fuses the servo sweep's tag sheets with the chessboard
   // (each kind whitened by its own measured noise), instead of the chessboard's alone. Both
   // fits run when the sweep saw tags, and diagnostics.tags compares them (pipeline/tag_study.h).
-  // Off: on the virtual Owl the tag corners carry a border bias of ~0.01 px (the quad's edges
-  // lie a little outside the printed square at the stream's blur) that their residual RMS does
-  // not show; fused, it pulls the focal lengths and servo scales by 0.06 % (about 9 sigma of the
-  // fused fit). A tag-border offset per sheet in the head model would remove it.
+  // Off: the tag corners lie 0.015 px farther from the principal point than their projections
+  // (the lens bends the tags' edges; the detector intersects straight lines through them). Fused
+  // as points, that pulled the focal lengths by +0.06 % and the servo scales by -0.04 % (errors at
+  // the servo ends 4-6 sigma). The fused fit now compares each tag corner with the detector's
+  // straight-edge corner (HeadFitOptions::tag_size_of_board, fitting/tag_edge_corner.h): errors at
+  // the ends 0.6-3.0 sigma on the default robot, the neck's still 3.0 (a common scale about
+  // 0.02 % off remains).
   bool fuse_tags = false;
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;

@@ -53,6 +53,18 @@ std::map<std::string, std::string> NoiseClassesOfDataset(const std::string& data
   return out;
 }
 
+std::map<std::string, double> TagSizesOfDataset(const std::string& dataset) {
+  std::map<std::string, double> out;
+  const nlohmann::json m = protocols::ReadManifest(dataset);
+  for (const auto& p : m.value("protocols", nlohmann::json::array())) {
+    if (!p.contains("text") || !p["text"].is_string()) continue;
+    const protocols::Protocol parsed = protocols::ParseProtocolYaml(p["text"].get<std::string>(), dataset + "/manifest.json");
+    for (const auto& [name, def] : parsed.targets)
+      if (def.kind == calib::TargetKind::kAprilGrid) out[name] = def.tag_size_m;
+  }
+  return out;
+}
+
 std::vector<calib::View> WithoutTags(const std::vector<calib::View>& views,
                                      const std::map<std::string, std::string>& noise_class_of_board) {
   std::vector<calib::View> out;

@@ -30,6 +30,10 @@ namespace owlcal::pipeline {
 // targets "apriltag", chessboards "chessboard". Empty when the manifest names no targets.
 std::map<std::string, std::string> NoiseClassesOfDataset(const std::string& dataset);
 
+// Tag sizes [m] of a dataset's aprilgrid targets (HeadFitOptions::tag_size_of_board: their
+// corners are compared with the detector's straight-edge corners, fitting/tag_edge_corner.h).
+std::map<std::string, double> TagSizesOfDataset(const std::string& dataset);
+
 // The views of the boards no noise class names "apriltag" (the chessboard-only fit's input).
 std::vector<calib::View> WithoutTags(const std::vector<calib::View>& views,
                                      const std::map<std::string, std::string>& noise_class_of_board);
