@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -98,6 +99,7 @@ const char* StepKindName(StepKind kind) {
     case StepKind::kLatency: return "latency";
     case StepKind::kWait: return "wait";
     case StepKind::kSaccade: return "saccade";
+    case StepKind::kVor: return "vor";
   }
   return "?";
 }
@@ -124,7 +126,8 @@ static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kAlignment
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kLatency), StepParams>, LatencyStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kWait), StepParams>, WaitStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kSaccade), StepParams>, SaccadeStep>);
-static_assert(std::variant_size_v<StepParams> == int(StepKind::kSaccade) + 1);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kVor), StepParams>, VorStep>);
+static_assert(std::variant_size_v<StepParams> == int(StepKind::kVor) + 1);
 
 const char* EyeSetName(EyeSet eyes) {
   switch (eyes) {
@@ -552,9 +555,46 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
     return s;
   }
+  if (kind == "vor") {
+    VorStep s;
+    // An empty list ([]) leaves that kind of profile out.
+    auto none = [&](const char* key) {
+      return f.Has(key) && f.Get(key).IsSequence() && f.Get(key).size() == 0;  // Get marks it used
+    };
+    const bool no_sines = none("sines_hz"), no_steps = none("steps_deg");
+    s.sines_hz = no_sines ? std::vector<double>{} : f.List<double>("sines_hz", s.sines_hz);
+    for (double hz : s.sines_hz)
+      if (!(hz >= 0.05 && hz <= 2)) f.Fail("sines_hz", std::to_string(hz) + " must be in [0.05, 2]");
+    s.amplitude_deg = f.PositiveDouble("amplitude_deg", s.amplitude_deg);
+    if (s.amplitude_deg > 30) f.Fail("amplitude_deg", std::to_string(s.amplitude_deg) + " must be in (0, 30]");
+    s.cycles = f.PositiveDouble("cycles", s.cycles);
+    if (s.cycles < 1 || s.cycles > 20) f.Fail("cycles", std::to_string(s.cycles) + " must be in [1, 20]");
+    s.steps_deg = no_steps ? std::vector<double>{} : f.List<double>("steps_deg", s.steps_deg);
+    for (double a : s.steps_deg)
+      if (!(a > 0 && a <= 30)) f.Fail("steps_deg", std::to_string(a) + " must be in (0, 30]");
+    if (s.sines_hz.empty() && s.steps_deg.empty()) f.Fail("sines_hz", "no sine and no step (steps_deg): nothing to run");
+    s.hold_ms = f.PositiveInt("hold_ms", s.hold_ms, 200);
+    s.range_m = f.PositiveDouble("range_m", s.range_m);
+    s.max_neck_deg_per_s = f.PositiveDouble("max_neck_deg_per_s", s.max_neck_deg_per_s);
+    if (s.max_neck_deg_per_s > 300)
+      f.Fail("max_neck_deg_per_s",
+             std::to_string(s.max_neck_deg_per_s) + " is above the servos' 300 deg/s slew at 4.8 V (the guide)");
+    for (double hz : s.sines_hz)
+      if (2 * M_PI * hz * s.amplitude_deg > s.max_neck_deg_per_s)
+        f.Fail("sines_hz",
+               std::to_string(hz) + " Hz at " + std::to_string(s.amplitude_deg) + " deg peaks at " +
+                   std::to_string(2 * M_PI * hz * s.amplitude_deg) + " deg/s, above max_neck_deg_per_s " +
+                   std::to_string(s.max_neck_deg_per_s));
+    s.locator =
+        f.Enum("locator",
+               Locator::kFixation,
+               {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+    s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
+    return s;
+  }
   throw ProtocolError(f.At(YAML::Node(YAML::NodeType::Undefined)) + "unknown step kind '" + kind +
                       "' (move-to, sweep, grid, place-target, capture, fixate, step-response, limits, "
-                      "alignment, latency, wait, saccade, repeat)");
+                      "alignment, latency, wait, saccade, vor, repeat)");
 }
 
 Step ParseStep(
@@ -723,6 +763,18 @@ std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
     for (int servo : li->servos) first(at_most("coarse_us", li->coarse_us, servo));
   if (const auto* fx = std::get_if<FixateStep>(&s.params)) loop(fx->loop);
   if (const auto* sr = std::get_if<StepResponseStep>(&s.params)) loop(sr->loop);
+  if (const auto* vo = std::get_if<VorStep>(&s.params)) {
+    // The neck's turn at the nominal scale must fit inside its range with the margin.
+    const models::ServoConfig& n = robot.servos[models::kNeck];
+    double amp = vo->sines_hz.empty() ? 0 : vo->amplitude_deg;
+    for (double a : vo->steps_deg) amp = std::max(amp, a);
+    const double us = amp / n.nominal_deg_per_us;
+    const double room = std::min(n.centre_us - n.min_us, n.max_us - n.centre_us) - vo->limit_margin_us;
+    if (us > room)
+      first(where + "amplitude_deg': " + std::to_string(amp) + " deg (" + std::to_string(int(std::lround(us))) +
+            " us of Neck) does not fit in the " + std::to_string(int(room)) +
+            " us between Neck's centre and its limits' margin in the robot file");
+  }
   if (const auto* sa = std::get_if<SaccadeStep>(&s.params))
     for (int servo = 0; servo < models::kNumServos; ++servo)
       if (2 * sa->limit_margin_us >= range(servo))

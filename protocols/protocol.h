@@ -43,6 +43,9 @@
 //                 locator: fixation, range_m: 1.0, tolerance_px: 1.0, max_corrections: 4,
 //                 latency_frames: 0, shape: true, limit_margin_us: 20}
 //                (the calibrated-map controller, protocols/saccade_step.h)
+//     - vor: {sines_hz: [0.2, 0.5, 1.0], amplitude_deg: 10, cycles: 2, steps_deg: [10], hold_ms: 1000,
+//             range_m: 1.0, max_neck_deg_per_s: 150, locator: fixation, limit_margin_us: 20}
+//            (the vestibulo-ocular reflex on the calibrated maps, protocols/vor_step.h)
 //     - wait: {ms: 500}
 //     - repeat: {times: 2, steps: [ ...steps... ]}
 //   Every step may also carry `name: text` (default "<kind><index>").
@@ -138,6 +141,7 @@ enum class StepKind {
   kLatency,
   kWait,
   kSaccade,
+  kVor,
 };
 const char* StepKindName(StepKind kind);  // "move-to", "sweep", ...
 
@@ -284,6 +288,24 @@ struct SaccadeStep {
   int limit_margin_us = 20;
 };
 
+// vor: the vestibulo-ocular reflex (protocols/vor_step.h). Both eyes fixate the protocol's target
+// with the calibrated maps; the neck then turns through each profile (a sine of amplitude_deg at
+// each of sines_hz for `cycles` cycles; a step of each of steps_deg held hold_ms and back), once
+// with the eyes held still and once with the eyes counter-rotating on the calibrated neck and
+// eye-pan maps. Every frame is logged (vor.csv), every trial is a row with status (vor_trials.csv).
+// Peak neck velocity 2 pi f A must stay within max_neck_deg_per_s (at most the guide's 300 deg/s).
+struct VorStep {
+  std::vector<double> sines_hz{0.2, 0.5, 1.0};
+  double amplitude_deg = 10;
+  double cycles = 2;
+  std::vector<double> steps_deg{10};
+  int hold_ms = 1000;
+  double range_m = 1.0;  // the target's distance, for the maps (the camera sits ahead of the eye's axis)
+  double max_neck_deg_per_s = 150;
+  Locator locator = Locator::kFixation;
+  int limit_margin_us = 20;
+};
+
 // One alternative per StepKind, in its order: StepKind(params.index()) is the kind.
 using StepParams = std::variant<MoveToStep,
                                 SweepStep,
@@ -296,7 +318,8 @@ using StepParams = std::variant<MoveToStep,
                                 AlignmentStep,
                                 LatencyStep,
                                 WaitStep,
-                                SaccadeStep>;
+                                SaccadeStep,
+                                VorStep>;
 
 // For std::visit on StepParams: Overloaded{[](const SweepStep& s) {...}, ...}.
 template <typename... F>

@@ -81,6 +81,18 @@ std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols,
                               "): commands computed at run time from the calibration, stopped " +
                               std::to_string(m.limit_margin_us) + " us inside every limit");
               },
+              [&](const VorStep& m) {
+                PwmVector a = robot.Centre(), b = robot.Centre();
+                double amp = m.sines_hz.empty() ? 0 : m.amplitude_deg;
+                for (double s : m.steps_deg) amp = std::max(amp, s);
+                const int us = int(std::lround(amp / robot.servos[models::kNeck].nominal_deg_per_us));
+                a[models::kNeck] -= us;
+                b[models::kNeck] += us;
+                line(a, "vor: neck turns to about");
+                line(b, "vor: neck turns to about");
+                out.push_back("    vor: eye commands computed at run time from the calibration, stopped " +
+                              std::to_string(m.limit_margin_us) + " us inside every limit");
+              },
           },
           s.params);
     }

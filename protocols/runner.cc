@@ -15,6 +15,7 @@
 #include "protocols/run_manifest.h"
 #include "protocols/run_plan.h"
 #include "protocols/saccade_step.h"
+#include "protocols/vor_step.h"
 #include "protocols/step_plan.h"
 #include "protocols/step_response_step.h"
 
@@ -94,6 +95,7 @@ void Runner::RunStep(const FlatStep& fs) {
                  [&](const AlignmentStep& s) { RunAlignmentStep(*this, p, s); },
                  [&](const LatencyStep& s) { RunLatencyStep(*this, s); },
                  [&](const SaccadeStep& s) { RunSaccadeStep(*this, p, s); },
+                 [&](const VorStep& s) { RunVorStep(*this, p, s); },
                  [&](const WaitStep& s) {
                    CheckStop();
                    robot_.SleepNs(int64_t(s.ms) * 1'000'000);

@@ -135,6 +135,14 @@ double StepWork(const Step& step) {
       const SaccadeStep& s = step.As<SaccadeStep>();
       return double(s.amplitudes_deg.size() * s.trials) * (s.frames + 20);
     }
+    case StepKind::kVor: {
+      // Frames at 30 fps, both conditions, plus the fixation.
+      const VorStep& s = step.As<VorStep>();
+      double seconds = 0;
+      for (double hz : s.sines_hz) seconds += s.cycles / hz + 1;
+      seconds += s.steps_deg.size() * (0.5 + 2 * s.hold_ms / 1000.0 + 1);
+      return 2 * 30 * seconds + 30;
+    }
     case StepKind::kPlaceTarget:
     case StepKind::kWait:
       return 1;

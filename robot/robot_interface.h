@@ -8,6 +8,7 @@
 //
 // Safety: SendServos never lets a value outside the robot file's limits reach the wire
 // (implementations pass commands through LimitsGuard, robot/limits_guard.h).
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -18,6 +19,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "models/head_model.h"
 #include "models/robot_config.h"
 
 namespace owlcal::robot {
@@ -49,6 +51,14 @@ class SceneControl {
   virtual std::vector<std::string> TargetNames() const = 0;
   // Full ground truth as JSON text (robot truth, scene, servo states).
   virtual std::string TruthJson() const = 0;
+  // The true head (servo maps, geometry, lenses) and the true joint angles at each eye's
+  // exposure of stream frame `seq` ([kLeftEye], [kRightEye]): what a measurement made from that
+  // frame is compared with. nullopt where no truth exists.
+  virtual std::optional<models::HeadModel> TruthHead() const { return std::nullopt; }
+  virtual std::optional<std::array<models::JointAngles, 2>> TruthAnglesForFrame(int64_t seq) const {
+    (void)seq;
+    return std::nullopt;
+  }
 };
 
 class RobotInterface {

@@ -195,6 +195,12 @@ std::array<double, kNumServos> VirtualOwl::ServoAnglesAt(int64_t t_ns) const {
   return s;
 }
 
+std::optional<std::array<models::JointAngles, 2>> VirtualOwl::TruthAnglesForFrame(int64_t seq) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const FrameTruth f = TruthForFrame(seq);
+  return std::array<models::JointAngles, 2>{f.angles[0], f.angles[1]};
+}
+
 robot::PwmVector VirtualOwl::LastCommand() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return last_command_;

@@ -96,6 +96,8 @@ class VirtualOwl : public robot::RobotInterface, public robot::SceneControl {
   std::optional<Eigen::Isometry3d> TargetPose(const std::string& name) const override;
   std::vector<std::string> TargetNames() const override;
   std::string TruthJson() const override;
+  std::optional<models::HeadModel> TruthHead() const override { return head_; }
+  std::optional<std::array<models::JointAngles, 2>> TruthAnglesForFrame(int64_t seq) const override;
   // Shows or hides a target (a person taking a board away). Throws on an unknown name.
   void SetTargetVisible(const std::string& name, bool visible);
   // Makes a target still (default) or held by a person (sim/scene.h TargetMotion). Throws on an
