@@ -40,8 +40,9 @@ protocols::CalibratedMaps FromTruth(const sim::RobotTruth& t) {
 }
 
 // Two sines and a step: the standard protocol's 0.5 and 1 Hz, fewer cycles.
-std::string VorProtocol(const std::string& vor = "{sines_hz: [0.5, 1.0], amplitude_deg: 10, cycles: 1.5, "
-                                                 "steps_deg: [8], hold_ms: 800, range_m: 1.0}") {
+// (Short: each frame is rendered, and the suite shares two cores.)
+std::string VorProtocol(const std::string& vor = "{sines_hz: [0.5, 1.0], amplitude_deg: 10, cycles: 1, "
+                                                 "steps_deg: [8], hold_ms: 600, range_m: 1.0}") {
   return "name: vor-test\ntarget: fixation\nsteps:\n"
          "  - move-to: {pose: {}, settle: {mode: time, time_ms: 300}}\n"
          "  - place-target: {target: fixation, distance_m: 1.0}\n"
