@@ -4,6 +4,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "apps/command_registry.h"
 #include "calib/image_pairs.h"
@@ -11,6 +12,7 @@
 #include "calib/target_file.h"
 #include "fitting/fit_points.h"
 #include "fitting/range_images_calib.h"
+#include "fitting/reference_comparison.h"
 #include "owlcal_version.h"
 #include "reports/exports.h"
 #include "reports/image_set_tables.h"
@@ -30,7 +32,22 @@ struct CalibrateImagesOptions {
   bool no_report = false;
   std::string rig = "auto";
   double ipd_mm = 65;
+  std::string reference;  // the course's intrinsics.xml/extrinsics.xml folder, or one calibration file
 };
+
+// The reference calibration: a folder holding intrinsics.xml and extrinsics.xml (the course's
+// stereo_calib output), or one OpenCV calibration file with every field.
+fitting::OpenCvStereoCalibration ReadReference(const std::string& path) {
+  if (fs::is_directory(path)) {
+    const fs::path in = fs::path(path) / "intrinsics.xml", ex = fs::path(path) / "extrinsics.xml";
+    if (!fs::exists(in) || !fs::exists(ex))
+      throw UsageError("--reference " + path +
+                       ": the folder needs intrinsics.xml and extrinsics.xml (the course's "
+                       "stereo_calib output)");
+    return fitting::ReadOpenCvSplitFiles(in.string(), ex.string());
+  }
+  return fitting::ReadOpenCvCalibration(path);
+}
 
 // The rig the sanity checks expect: the Owl (lens family, IPD) for a metric target, a generic
 // side-by-side pair otherwise (OpenCV's sample in squares), or as asked.
@@ -51,6 +68,12 @@ fitting::RigExpectation RigFor(const std::string& rig, const std::string& unit, 
 
 int RunCalibrateImages(const CalibrateImagesOptions& a) {
   const calib::TargetFile target = calib::LoadTargetFileWithUnit(a.target);
+  if (!a.reference.empty() && (a.mirror || a.swap))
+    throw UsageError(
+        "--reference: the reference was computed on the images as they are; --mirror/--swap change "
+        "them, so the two cannot be compared parameter by parameter");
+  const std::optional<fitting::OpenCvStereoCalibration> reference =
+      a.reference.empty() ? std::nullopt : std::optional(ReadReference(a.reference));
   calib::ImagePairOptions po;
   po.mirror = a.mirror;
   po.side_by_side = a.side_by_side;
@@ -95,11 +118,33 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
                      {"left_message", p.message[0]}, {"right_message", p.message[1]}});
   }
   c.result.diagnostics["detections"] = det_j;
+  const std::vector<calib::View> views = calib::GroupIntoViews(set.observations);
+  std::string reference_md;
+  if (reference) {
+    std::vector<calib::View> eye_views[2];
+    for (const auto& v : views) eye_views[v.eye == 0 ? 0 : 1].push_back(v);
+    fitting::ReferenceComparisonOptions ro;
+    ro.reference_name = "reference " + a.reference;
+    // The bow's part: the same fit with a flat board (the chosen lens model kept).
+    std::optional<fitting::StereoFit> flat;
+    if (c.fit.board_warp_fitted) {
+      fitting::StereoFitOptions fl = fo;
+      fl.intrinsics.model = c.fit.cameras[0].model;
+      fl.fit_board_warp = false;
+      flat = fitting::FitStereo(eye_views[0], eye_views[1], fl);
+    }
+    const fitting::ReferenceComparison cmp =
+        fitting::CompareWithReference(eye_views[0], eye_views[1], c.fit, flat ? &*flat : nullptr, *reference, ro);
+    c.result.diagnostics["reference_comparison"] = fitting::ReferenceComparisonToJson(cmp);
+    c.result.inputs["reference"] = a.reference;
+    reference_md = fitting::ReferenceComparisonMarkdown(cmp);
+    if (!cmp.ok) std::cerr << "warning: not compared with " << a.reference << ": " << cmp.message << "\n";
+  }
 
   fs::create_directories(a.out);
   const fs::path out(a.out);
   calib::WriteObservationsCsv((out / "observations.csv").string(), set.observations);
-  const std::string md = reports::ImageSetReportMarkdown(c, keys);
+  const std::string md = reports::ImageSetReportMarkdown(c, keys) + (reference_md.empty() ? "" : "\n" + reference_md);
   {
     std::ofstream f(out / "calibration.md");
     if (!f) throw std::runtime_error((out / "calibration.md").string() + ": cannot write");
@@ -123,7 +168,6 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
                  {"board_warp", a.board_warp},
                  {"owlcal_version", OWLCAL_VERSION},
                  {"robot", "none"}};
-  const std::vector<calib::View> views = calib::GroupIntoViews(set.observations);
   auto name_of = [&](int frame, int eye) {
     const std::string key = frame >= 0 && frame < int(list.pairs.size()) ? list.pairs[frame].key : std::to_string(frame);
     const std::string& path = frame >= 0 && frame < int(list.pairs.size())
@@ -195,6 +239,13 @@ const bool kRegistered = RegisterCommand(
                       "pair), auto (owl for a metric target)")
           ->capture_default_str();
       cmd->add_option("--ipd-mm", o->ipd_mm, "the robot's IPD for the baseline check [mm]")->capture_default_str();
+      cmd->add_option("--reference",
+                      o->reference,
+                      "a calibration of the same images made elsewhere (a folder with the course's intrinsics.xml and "
+                      "extrinsics.xml, or one OpenCV file): owlcal's result is compared parameter by parameter and the "
+                      "difference split into corner detection, lens-model choice and estimator (calibration.md, "
+                      "results.json diagnostics.reference_comparison, the report)")
+          ->check(CLI::ExistingPath);
       return [o] { return RunCalibrateImages(*o); };
     });
 

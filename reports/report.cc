@@ -324,6 +324,45 @@ std::vector<Table> MakeTables(const ReportData& d) {
     }
     if (!t.rows.empty()) out.push_back(t);
   }
+  if (d.result.diagnostics.contains("reference_comparison")) {
+    // Against a reference calibration of the same images (fitting/reference_comparison.h).
+    const nlohmann::json& rc = d.result.diagnostics["reference_comparison"];
+    auto num = [](const nlohmann::json& j, const char* k, int sig) {
+      return j.contains(k) && j[k].is_number() ? Fmt(j[k].get<double>(), sig) : std::string();
+    };
+    Table t{"reference_comparison",
+            (rc.value("ok", false) ? std::string("Against the reference: ")
+                                   : std::string("Not compared with the reference: ")) +
+                rc.value("message", std::string()),
+            {"parameter",
+             "unit",
+             "reference A",
+             "owlcal C",
+             "\u03c3",
+             "C \u2212 A",
+             "(C \u2212 A) / \u03c3",
+             "detection (B \u2212 A)",
+             "lens model (D \u2212 B)",
+             "estimator (E \u2212 D)",
+             "board bow (C \u2212 E)"},
+            {}};
+    for (const auto& r : rc.value("rows", nlohmann::json::array())) {
+      const bool sig =
+          r.contains("owlcal_sigma") && r["owlcal_sigma"].is_number() && r["owlcal_sigma"].get<double>() > 0;
+      t.rows.push_back({r.value("name", std::string()),
+                        r.value("unit", std::string()),
+                        num(r, "reference", 6),
+                        num(r, "owlcal", 6),
+                        num(r, "owlcal_sigma", 2),
+                        num(r, "total", 3),
+                        sig ? Fmt(r["total"].get<double>() / r["owlcal_sigma"].get<double>(), 2) : std::string(),
+                        num(r, "detection", 3),
+                        num(r, "model", 3),
+                        num(r, "estimator", 3),
+                        num(r, "bow", 3)});
+    }
+    out.push_back(t);
+  }
   if (!d.result.summaries.empty()) {
     Table t{"solver", "Solver summaries", {"problem", "termination", "iterations", "RMS [px]", "residuals", "outliers", "time [s]", "usable"}, {}};
     for (const auto& s : d.result.summaries)

@@ -279,6 +279,12 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
       body << "<p>Board bow chosen the same way: flat against mrcal's two-parameter deflection, each held-out view "
               "placed on the bow its training folds fitted.</p>\n"
            << page.Table("board_warp");
+    if (page.tables.count("reference_comparison"))
+      body << "<p>Against a reference calibration of the same images (e.g. the course's stereo_calib xml): A the "
+              "reference, B OpenCV's stereoCalibrate with the course program's flags on owlcal's corners, D the same "
+              "with owlcal's lens model, E owlcal with a flat board, C owlcal. The four parts add up to C \u2212 A; "
+              "the caption gives each part's share, weighted by owlcal's \u03c3.</p>\n"
+           << page.Table("reference_comparison");
     body << page.Figure("view_rms") << page.Pair("residual_field_left", "residual_field_right")
          << page.Pair("residual_hist_left", "residual_hist_right") << page.Pair("uncertainty_left", "uncertainty_right")
          << page.Pair("distortion_left", "distortion_right") << page.Figure("coverage");

@@ -13,6 +13,7 @@
 #include "calib/image_pairs.h"
 #include "fitting/range_images_calib.h"
 #include "fitting/range_images_ranging.h"
+#include "fitting/reference_comparison.h"
 #include "owlcal_version.h"
 #include "reports/image_set_tables.h"
 #include "tests/shared_data.h"
@@ -112,6 +113,93 @@ TEST(RealKit2020, StereoRmsBeatsOpenCvOnSameCornersAndTheStudents) {
             << " +- " << Get(c.result, "left.fx").sigma << " px\n";
   EXPECT_NEAR(b.value, 64.1, 1.5);
   EXPECT_TRUE(c.verdict.empty()) << c.verdict.front();
+}
+
+// Issue 11 item 3: how much of the difference from the course's reference calibration the lens
+// model explains. The difference splits into corner detection, model, estimator and board bow
+// (fitting/reference_comparison.h); the parts add up, owlcal's flat fit is OpenCV's with the same
+// model (estimator part ~0), and the course program rerun on owlcal's corners fits them better
+// than the course's own corners (its RMS 0.8269).
+TEST(RealKit2020, ReferenceDifferenceSplitsIntoDetectionModelAndBow) {
+  const std::vector<calib::View> views = calib::GroupIntoViews(KitCorners().observations);
+  std::vector<calib::View> eye[2];
+  for (const auto& v : views) eye[v.eye].push_back(v);
+  StereoFitOptions o = KitOptions();
+  const StereoFit flat = FitStereo(eye[0], eye[1], o);
+  o.fit_board_warp = true;
+  const StereoFit bowed = FitStereo(eye[0], eye[1], o);
+  ASSERT_TRUE(flat.ok && bowed.ok);
+  const std::string ref = SharedData() + "/owl-real/kit2020-chessboard/reference/";
+  const OpenCvStereoCalibration reference = ReadOpenCvSplitFiles(ref + "intrinsics.xml", ref + "extrinsics.xml");
+  const ReferenceComparison c = CompareWithReference(eye[0], eye[1], bowed, &flat, reference, {});
+  ASSERT_TRUE(c.ok) << c.message;
+  std::cout << ReferenceComparisonMarkdown(c);
+  EXPECT_EQ(c.num_pairs, 27);
+  EXPECT_EQ(c.rows.size(), 15u);
+  EXPECT_LT(c.rms_reference_model_px, 0.826912);
+  for (const auto& r : c.rows) {
+    EXPECT_NEAR(r.Detection() + r.Model() + r.Estimator() + r.Bow(), r.Total(), 1e-9) << r.name;
+    // Same corners, same model, flat board: owlcal's estimate is OpenCV's (within a tenth of sigma).
+    if (r.owlcal_sigma > 0) {
+      EXPECT_LT(std::abs(r.Estimator()), 0.1 * r.owlcal_sigma) << r.name;
+    }
+    // The two corner finders agree on this set: the course program on either's corners is the same
+    // calibration within owlcal's sigma.
+    if (r.owlcal_sigma > 0) {
+      EXPECT_LT(std::abs(r.Detection()), r.owlcal_sigma) << r.name;
+    }
+  }
+  EXPECT_NEAR(c.share_detection + c.share_model + c.share_estimator + c.share_bow, 1.0, 1e-9);
+  // Measured: the model 19 %, the bow 75 %, detection 7 %: the bow, not the model, explains most.
+  EXPECT_GT(c.share_model, 0.1);
+  EXPECT_LT(c.share_model, 0.3);
+  EXPECT_GT(c.share_bow, 0.5);
+  EXPECT_NE(c.message.find("lens-model choice (opencv5) explains"), std::string::npos) << c.message;
+
+  // The reference's program on the same corners: nothing is left for the detection part.
+  std::map<int, const calib::View*> right;
+  for (const auto& v : eye[1]) right[v.frame_index] = &v;
+  std::vector<std::vector<cv::Point3f>> obj;
+  std::vector<std::vector<cv::Point2f>> px[2];
+  for (const auto& l : eye[0]) {
+    if (!right.count(l.frame_index)) continue;
+    std::vector<cv::Point3f> op;
+    std::vector<cv::Point2f> p0, p1;
+    for (size_t i = 0; i < l.corner_ids.size(); ++i) {
+      op.emplace_back(float(l.points_in_target[i].x()), float(l.points_in_target[i].y()), 0.f);
+      p0.emplace_back(float(l.pixels[i].x()), float(l.pixels[i].y()));
+      p1.emplace_back(float(right[l.frame_index]->pixels[i].x()), float(right[l.frame_index]->pixels[i].y()));
+    }
+    obj.push_back(op);
+    px[0].push_back(p0);
+    px[1].push_back(p1);
+  }
+  OpenCvStereoCalibration same;
+  same.length_unit = "m";
+  same.M1 = cv::initCameraMatrix2D(obj, px[0], cv::Size(640, 480), 0);
+  same.M2 = cv::initCameraMatrix2D(obj, px[1], cv::Size(640, 480), 0);
+  same.D1 = cv::Mat::zeros(1, 8, CV_64F);
+  same.D2 = cv::Mat::zeros(1, 8, CV_64F);
+  cv::Mat e, f;
+  cv::stereoCalibrate(obj,
+                      px[0],
+                      px[1],
+                      same.M1,
+                      same.D1,
+                      same.M2,
+                      same.D2,
+                      cv::Size(640, 480),
+                      same.R,
+                      same.T,
+                      e,
+                      f,
+                      cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_USE_INTRINSIC_GUESS |
+                          cv::CALIB_SAME_FOCAL_LENGTH | cv::CALIB_RATIONAL_MODEL | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 |
+                          cv::CALIB_FIX_K5,
+                      cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5));
+  const ReferenceComparison s = CompareWithReference(eye[0], eye[1], bowed, &flat, same, {});
+  ASSERT_TRUE(s.ok) << s.message;
+  for (const auto& r : s.rows) EXPECT_NEAR(r.Detection(), 0.0, 1e-6 * std::max(1.0, std::abs(r.reference))) << r.name;
 }
 
 TEST(RealKit2020, DistanceTargetRangedWithin3PercentAndThreeSigma) {
