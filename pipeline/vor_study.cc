@@ -466,7 +466,7 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
       tr.series.push_back(series(vf, &VorFrame::true_pan_deg, -1, "-eye pan (truth)", std::string("lines dt 2 lw 1.5 lc rgb '") + red + "'", "minus_true_pan_deg"));
     }
     tr.settings = {"set grid"};
-    tr.key = "bottom left";
+    tr.key = "below";
     tr.caption = "Neck angle and the negated eye-pan angle measured from the frames (solid) during the " +
                  Fx(shown->frequency_hz, 2) + " Hz counter-rotating trial, and the truth (dashed): a perfect VOR " +
                  "makes the two curves coincide. Gain " +
@@ -485,7 +485,7 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
     if (s.has_truth)
       sl.series.push_back(series(vf, &VorFrame::true_x_px, 1, "VOR, true pixel", std::string("lines dt 2 lw 1.5 lc rgb '") + blue + "'", "true_x_px"));
     sl.settings = {"set grid"};
-    sl.key = "bottom left";
+    sl.key = "below";
     sl.caption = "The target's horizontal image position during the " + Fx(shown->frequency_hz, 2) +
                  " Hz neck sine, eyes held still and counter-rotating (RMS slip " +
                  Fx(shown->slip.rms_deg_per_s, 2) + " deg/s with the VOR).";
@@ -524,7 +524,7 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
       if (!se->rows.empty()) gf.series.push_back(*se);
   }
   gf.settings = {"set grid", "set xrange [0:*]", "set offsets 0.1, 0.1, 0.02, 0.02"};
-  gf.key = "bottom left";
+  gf.key = "below";  // inside, the legend hid the 0.5 Hz map points
   gf.caption = "VOR gain (amplitude of the eye's counter-rotation over the neck's) per frequency: measured from the "
                "frames with +-2 sigma bars, the truth (open circles) and what the commands asked for through the maps "
                "(crosses).";
