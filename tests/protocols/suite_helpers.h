@@ -7,9 +7,11 @@
 #include <gtest/gtest.h>
 
 #include "calib/csv.h"
+#include "owlcal_version.h"
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 
 namespace owlcal::protocols::testing {
@@ -33,9 +35,11 @@ struct Ran {
   std::string dir;
 };
 
-inline Ran RunStandard(const std::string& name, uint64_t seed = 1) {
+// truth_file: a robot-truth file relative to the source tree ("" = the default robot).
+inline Ran RunStandard(const std::string& name, uint64_t seed = 1, const std::string& truth_file = "") {
   sim::VirtualOwlOptions vo;
   vo.seed = seed;
+  if (!truth_file.empty()) vo.truth = sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/" + truth_file);
   sim::VirtualOwl owl(vo);
   std::vector<Protocol> p = {LoadProtocolFile(ResolveProtocolPath(name))};
   RunOptions o;

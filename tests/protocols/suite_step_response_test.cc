@@ -45,5 +45,34 @@ TEST(StandardSuite, StepResponseLogsEveryGain) {
   }
 }
 
+// Issue 12 item 3: on servos with 5 us PWM steps or 2-5 us dead bands the P loop used to cycle
+// endlessly before the step (0 of 6 trials ran). Each of the six trials is a row with a status,
+// and at least 5 of 6 run to a measured response.
+void ExpectTrialsRunOn(const std::string& truth_file) {
+  const Ran r = RunStandard("step_response", 1, truth_file);
+  EXPECT_EQ(r.summary.status, "complete") << r.summary.message;
+  const auto trials = ReadTableRows(r.dir + "/step_trials.csv");
+  ASSERT_EQ(trials.size(), 6u) << truth_file;
+  // step_trials: ...,outcome(9),frames(10),final_offset_px(11),message(12),status(13),reason(14)
+  int ran = 0;
+  for (const auto& t : trials) {
+    ASSERT_GE(t.size(), 15u);
+    EXPECT_FALSE(t[13].empty()) << "a trial without a status: " << t[12];
+    ran += (t[9] == "converged" || t[9] == "max-iterations") && std::stoi(t[10]) >= 40;
+    std::cout << truth_file << ": gain " << t[1] << " amplitude " << t[2] << ": " << t[9] << " after " << t[10]
+              << " frames, status " << t[13] << (t[14].empty() ? "" : " (" + t[14] + ")") << "\n";
+  }
+  EXPECT_GE(ran, 5) << truth_file;
+  const auto rows = ReadTableRows(r.dir + "/step_response.csv");
+  EXPECT_GE(rows.size(), 5u * 40) << truth_file;
+}
+
+TEST(StandardSuite, StepResponseTrialsRunOnFiveMicrosecondSteps) {
+  ExpectTrialsRunOn("tests/data/robots/owl_step5_truth.yaml");
+}
+TEST(StandardSuite, StepResponseTrialsRunOnDeadBands) {
+  ExpectTrialsRunOn("tests/data/robots/owl_deadband_truth.yaml");
+}
+
 }  // namespace
 }  // namespace owlcal::protocols
