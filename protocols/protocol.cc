@@ -11,6 +11,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "io/strict_number.h"
+#include "models/head_model.h"
 
 #include "owlcal_version.h"
 
@@ -100,6 +101,8 @@ const char* StepKindName(StepKind kind) {
     case StepKind::kWait: return "wait";
     case StepKind::kSaccade: return "saccade";
     case StepKind::kVor: return "vor";
+    case StepKind::kMainSequence:
+      return "main-sequence";
   }
   return "?";
 }
@@ -127,7 +130,8 @@ static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kLatency),
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kWait), StepParams>, WaitStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kSaccade), StepParams>, SaccadeStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kVor), StepParams>, VorStep>);
-static_assert(std::variant_size_v<StepParams> == int(StepKind::kVor) + 1);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kMainSequence), StepParams>, MainSequenceStep>);
+static_assert(std::variant_size_v<StepParams> == int(StepKind::kMainSequence) + 1);
 
 const char* EyeSetName(EyeSet eyes) {
   switch (eyes) {
@@ -592,9 +596,26 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
     return s;
   }
+  if (kind == "main-sequence") {
+    MainSequenceStep s;
+    s.eye = f.Enum("eye", models::kRightEye, {{"left", models::kLeftEye}, {"right", models::kRightEye}});
+    s.amplitudes_deg = f.List<double>("amplitudes_deg", s.amplitudes_deg);
+    for (double a : s.amplitudes_deg)
+      if (!(a >= 0.5 && a <= 45)) f.Fail("amplitudes_deg", std::to_string(a) + " must be in [0.5, 45]");
+    s.repeats = f.PositiveInt("repeats", s.repeats);
+    s.frames = f.PositiveInt("frames", s.frames, 6);
+    s.rest_ms = f.PositiveInt("rest_ms", s.rest_ms, 100);
+    s.range_m = f.PositiveDouble("range_m", s.range_m);
+    s.locator =
+        f.Enum("locator",
+               Locator::kFixation,
+               {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+    s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
+    return s;
+  }
   throw ProtocolError(f.At(YAML::Node(YAML::NodeType::Undefined)) + "unknown step kind '" + kind +
                       "' (move-to, sweep, grid, place-target, capture, fixate, step-response, limits, "
-                      "alignment, latency, wait, saccade, vor, repeat)");
+                      "alignment, latency, wait, saccade, vor, main-sequence, repeat)");
 }
 
 Step ParseStep(
@@ -774,6 +795,18 @@ std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
       first(where + "amplitude_deg': " + std::to_string(amp) + " deg (" + std::to_string(int(std::lround(us))) +
             " us of Neck) does not fit in the " + std::to_string(int(room)) +
             " us between Neck's centre and its limits' margin in the robot file");
+  }
+  if (const auto* ms = std::get_if<MainSequenceStep>(&s.params)) {
+    // The largest saccade at the nominal scale must fit inside the pan servo's range with the margin.
+    const int servo = models::kPanServo[ms->eye];
+    const models::ServoConfig& c = robot.servos[servo];
+    double amp = 0;
+    for (double a : ms->amplitudes_deg) amp = std::max(amp, a);
+    const double us = amp / c.nominal_deg_per_us;
+    if (us > range(servo) - 2 * ms->limit_margin_us)
+      first(where + "amplitudes_deg': " + std::to_string(amp) + " deg (" + std::to_string(int(std::lround(us))) +
+            " us of " + models::kServoNames[servo] + ") does not fit in its range of " + std::to_string(range(servo)) +
+            " us with the limits' margin");
   }
   if (const auto* sa = std::get_if<SaccadeStep>(&s.params))
     for (int servo = 0; servo < models::kNumServos; ++servo)

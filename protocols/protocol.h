@@ -142,6 +142,7 @@ enum class StepKind {
   kWait,
   kSaccade,
   kVor,
+  kMainSequence,
 };
 const char* StepKindName(StepKind kind);  // "move-to", "sweep", ...
 
@@ -306,6 +307,23 @@ struct VorStep {
   int limit_margin_us = 20;
 };
 
+// main-sequence: the saccade main sequence (protocols/main_sequence_step.h). One eye fixates the
+// protocol's target with the calibrated maps; then per amplitude and repeat its pan servo jumps
+// from amplitude/2 on one side of the fixation to amplitude/2 on the other (alternating
+// direction; the target stays in view), the command sent at a different phase of the frame
+// clock each time, and every frame from the command on is logged (main_sequence.csv). A saccade
+// whose ends would come within limit_margin_us of a limit is a skipped row, never sent.
+struct MainSequenceStep {
+  models::Eye eye = models::kRightEye;
+  std::vector<double> amplitudes_deg{2, 5, 10, 20, 30, 40};
+  int repeats = 4;
+  int frames = 18;       // frames logged per saccade from the command (600 ms at 30 fps)
+  int rest_ms = 400;     // at the saccade's start pose before the command
+  double range_m = 1.0;  // the target's distance, for the maps (the camera sits ahead of the eye's axis)
+  Locator locator = Locator::kFixation;
+  int limit_margin_us = 20;
+};
+
 // One alternative per StepKind, in its order: StepKind(params.index()) is the kind.
 using StepParams = std::variant<MoveToStep,
                                 SweepStep,
@@ -319,7 +337,8 @@ using StepParams = std::variant<MoveToStep,
                                 LatencyStep,
                                 WaitStep,
                                 SaccadeStep,
-                                VorStep>;
+                                VorStep,
+                                MainSequenceStep>;
 
 // For std::visit on StepParams: Overloaded{[](const SweepStep& s) {...}, ...}.
 template <typename... F>

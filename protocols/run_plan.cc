@@ -93,6 +93,21 @@ std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols,
                 out.push_back("    vor: eye commands computed at run time from the calibration, stopped " +
                               std::to_string(m.limit_margin_us) + " us inside every limit");
               },
+              [&](const MainSequenceStep& m) {
+                const int servo = models::kPanServo[m.eye];
+                double amp = 0;
+                for (double a : m.amplitudes_deg) amp = std::max(amp, a);
+                const int us = int(std::lround(amp / 2 / robot.servos[servo].nominal_deg_per_us));
+                PwmVector a = robot.Centre(), b = robot.Centre();
+                a[servo] -= us;
+                b[servo] += us;
+                line(a, "main sequence: the largest saccade from about");
+                line(b, "main sequence: the largest saccade to about");
+                out.push_back("    main sequence: " + std::to_string(m.amplitudes_deg.size() * m.repeats) +
+                              " saccades around the fixation computed at run time from the calibration; a "
+                              "saccade within " +
+                              std::to_string(m.limit_margin_us) + " us of a limit is skipped, never sent");
+              },
           },
           s.params);
     }

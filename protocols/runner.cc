@@ -10,14 +10,15 @@
 #include "protocols/fixate_step.h"
 #include "protocols/latency_step.h"
 #include "protocols/limits_step.h"
+#include "protocols/main_sequence_step.h"
 #include "protocols/placement_step.h"
 #include "protocols/run_context.h"
 #include "protocols/run_manifest.h"
 #include "protocols/run_plan.h"
 #include "protocols/saccade_step.h"
-#include "protocols/vor_step.h"
 #include "protocols/step_plan.h"
 #include "protocols/step_response_step.h"
+#include "protocols/vor_step.h"
 
 namespace owlcal::protocols {
 namespace {
@@ -96,6 +97,7 @@ void Runner::RunStep(const FlatStep& fs) {
                  [&](const LatencyStep& s) { RunLatencyStep(*this, s); },
                  [&](const SaccadeStep& s) { RunSaccadeStep(*this, p, s); },
                  [&](const VorStep& s) { RunVorStep(*this, p, s); },
+                 [&](const MainSequenceStep& s) { RunMainSequenceStep(*this, p, s); },
                  [&](const WaitStep& s) {
                    CheckStop();
                    robot_.SleepNs(int64_t(s.ms) * 1'000'000);

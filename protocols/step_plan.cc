@@ -143,6 +143,10 @@ double StepWork(const Step& step) {
       seconds += s.steps_deg.size() * (0.5 + 2 * s.hold_ms / 1000.0 + 1);
       return 2 * 30 * seconds + 30;
     }
+    case StepKind::kMainSequence: {
+      const MainSequenceStep& s = step.As<MainSequenceStep>();
+      return double(s.amplitudes_deg.size() * s.repeats) * (s.frames + 1) + 30;
+    }
     case StepKind::kPlaceTarget:
     case StepKind::kWait:
       return 1;

@@ -1,0 +1,108 @@
+// owlcal main-sequence: the saccade main-sequence experiment (pipeline/main_sequence_study.h).
+// Runs the standard `main-sequence` protocol on the robot (the virtual Owl by default) with the
+// eye on calibrate's fitted head (--calib) or the robot file's nominal head, and evaluates it; or
+// evaluates a recorded one (--dataset).
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "apps/command_registry.h"
+#include "apps/robot_factory.h"
+#include "apps/robot_options.h"
+#include "io/number_text.h"
+#include "models/head_kinematics.h"
+#include "pipeline/main_sequence_study.h"
+#include "pipeline/saccade_study.h"
+#include "protocols/protocol.h"
+#include "protocols/runner.h"
+#include "reports/report_data.h"
+
+namespace owlcal::apps {
+namespace {
+
+struct MainSequenceCmdOptions {
+  RobotOptions robot;
+  std::string out;
+  std::string dataset;
+  std::string calib;
+  std::string protocol = "main_sequence";
+  bool no_figures = false;
+  bool quiet = false;
+};
+
+int RunMainSequence(const MainSequenceCmdOptions& o) {
+  if (!o.dataset.empty() && !o.calib.empty())
+    throw UsageError("--calib is for a new recording; a recorded --dataset says which maps it used");
+  std::string dir = o.dataset;
+  if (dir.empty()) {
+    dir = o.out + "/datasets/main_sequence";
+    protocols::RunOptions ro;
+    ro.out_dir = dir;
+    o.robot.FillRunOptions(&ro);
+    ro.progress = o.quiet ? nullptr : &std::cout;
+    ro.stop_flag = protocols::InstallStopSignals();
+    if (!o.calib.empty()) {
+      const fitting::CalibrationRun run = reports::ReadReportData(o.calib);
+      ro.calibration = pipeline::ControllerCalibration(run, o.calib);
+      if (!o.quiet) std::cout << "eyes on the calibration in " << ro.calibration->source << "\n";
+    } else if (!o.quiet) {
+      std::cout << "no --calib: the eye moves on the robot file's NOMINAL maps (angles from its nominal lens)\n";
+    }
+    std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
+    const protocols::Protocol p = protocols::LoadProtocolFile(protocols::ResolveProtocolPath(o.protocol));
+    const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
+    if (s.status != "complete") {
+      std::cerr << "owlcal main-sequence: " << s.status << ": " << s.message << "\n"
+                << "the dataset in " << dir << " is closed; evaluate what it holds with --dataset " << dir << "\n";
+      return kExitFailed;
+    }
+  }
+  const pipeline::MainSequenceStudy study = pipeline::EvaluateMainSequenceDataset(dir);
+  const std::string page = pipeline::WriteMainSequenceStudy(study, o.out, !o.no_figures);
+  const fitting::MainSequenceFit& f = study.fit;
+  std::cout << "eye on the " << study.map << "\n";
+  std::cout << "pooled motion of " << study.servo << ": " << f.motion.message << "\n";
+  std::cout << "main sequence (peak velocity): "
+            << (f.peak.ok ? "slew " + io::FixedText(f.peak.vmax_deg_per_s, 1) + " +- " +
+                                io::FixedText(f.peak.vmax_sigma_deg_per_s, 1) + " deg/s, lag " +
+                                io::FixedText(1000 * f.peak.lag_s, 2) + " +- " +
+                                io::FixedText(1000 * f.peak.lag_sigma_s, 2) + " ms"
+                          : f.peak.message)
+            << "\n";
+  std::cout << "durations: " << f.duration.message << "\n";
+  if (study.has_truth)
+    std::cout << "truth: slew " << io::FixedText(study.true_slew_deg_per_s, 1) << " deg/s, lag "
+              << io::FixedText(1000 * study.true_lag_s, 2) << " ms\n";
+  std::cout << study.num_ok << " of " << study.num_saccades << " saccades ok";
+  if (study.num_ok < study.num_saccades) std::cout << " (see the report's notes)";
+  std::cout << "\nreport: " << page << "\n";
+  return study.num_ok == study.num_saccades && f.peak.ok ? kExitOk : kExitFailed;
+}
+
+const bool kRegistered = RegisterCommand(
+    "main-sequence",
+    "The saccade main sequence: the eye's pan makes saccades of 2-40 deg across a fixation disc, each command\n"
+    "at a different phase of the frame clock, on calibrate's fitted maps (--calib) or the robot file's nominal\n"
+    "maps (the report says so). From the frames (the eye's angle from the disc's pixel) it fits the servo's slew,\n"
+    "lag and the command-to-frame delay over all saccades, each saccade's amplitude, peak angular velocity and\n"
+    "duration, and the main sequence V = Vmax (1 - exp(-A / C)) and duration against amplitude, with sigma; on\n"
+    "the virtual Owl also the truth. Runs the standard `main_sequence` protocol (or --protocol FILE) on the robot,\n"
+    "or evaluates a recording (--dataset). Writes OUT/tables/main_sequence_*.{csv,md,tex},\n"
+    "OUT/figures/main_sequence_*, OUT/main_sequence.json and OUT/report/index.html; every saccade is a row with\n"
+    "its status. Exit 1 when a saccade failed or the main sequence could not be fitted.",
+    [](CLI::App* cmd) {
+      auto o = std::make_shared<MainSequenceCmdOptions>();
+      AddRobotOptions(cmd, &o->robot);
+      cmd->add_option("--out", o->out, "output folder")->required();
+      cmd->add_option("--dataset", o->dataset, "evaluate this recorded main-sequence dataset (no robot)")
+          ->check(CLI::ExistingDirectory);
+      cmd->add_option("--calib", o->calib, "calibrate output folder whose fitted head the eye uses")
+          ->check(CLI::ExistingDirectory);
+      cmd->add_option("--protocol", o->protocol, "protocol name or file (default: the standard main_sequence)");
+      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
+      cmd->add_flag("--quiet", o->quiet, "no progress output");
+      return [o] { return RunMainSequence(*o); };
+    });
+
+}  // namespace
+}  // namespace owlcal::apps
