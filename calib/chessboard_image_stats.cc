@@ -208,7 +208,10 @@ ChessboardImageStats MeasureChessboardImage(const cv::Mat& image,
     sd[white].push_back(std::sqrt(s.ss / std::max(1, s.dof)));
     sat += s.saturated;
     count += s.count;
-    if (white) out.shading.push_back({(s.centre - Eigen::Vector2d(cx, cy)).squaredNorm() / rc2, s.mean});
+    if (white) {
+      const Eigen::Vector2d d = (s.centre - Eigen::Vector2d(cx, cy)) / std::sqrt(rc2);
+      out.shading.push_back({d.x(), d.y(), s.mean});
+    }
   }
   out.white_level = Median(whites);
   out.black_level = Median(blacks);

@@ -46,8 +46,12 @@ struct ChessboardImageStats {
   int num_edges = 0;
   double saturated_fraction = 0;
   double board_area_fraction = 0;  // area of the corners' convex hull / image area
-  // (r^2 / r_corner^2 of a white square's centre from the image centre, its mean grey).
-  std::vector<std::pair<double, double>> shading;
+  // Per white square: its centre from the image centre over the centre-to-corner distance
+  // (x right, y down), and its mean grey.
+  struct ShadingSample {
+    double x = 0, y = 0, grey = 0;
+  };
+  std::vector<ShadingSample> shading;
 };
 
 // Needs a chessboard detection with every inner corner (classic or SB detector). `image` may

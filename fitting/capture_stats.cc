@@ -24,24 +24,39 @@ std::vector<unsigned char> ReadBytes(const std::string& path) {
   return std::vector<unsigned char>(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
 }
 
-// Shared relative shading s over images: grey = w_i (1 - s r2), by alternating least squares.
-double FitShading(const std::vector<std::vector<std::pair<double, double>>>& per_image) {
+// Shared relative shading s over images by alternating least squares: grey = w_i (1 - s r^2),
+// one brightness w_i per image; with `gradient`, grey = (w_i + a_i x + b_i y) (1 - s r^2), a
+// linear light gradient across each image's board besides, so that s comes only from the
+// brightness's curvature over each board (a lamp's gradient across a held board reads as
+// shading to the first model: the board sits off-centre, where r^2 is nearly linear).
+double FitShading(const std::vector<std::vector<calib::ChessboardImageStats::ShadingSample>>& per_image,
+                  bool gradient) {
+  const int m = gradient ? 3 : 1;
   double s = 0;
-  std::vector<double> w(per_image.size(), 0);
-  for (int it = 0; it < 20; ++it) {
+  std::vector<Eigen::Vector3d> light(per_image.size(), Eigen::Vector3d::Zero());
+  auto basis = [&](const calib::ChessboardImageStats::ShadingSample& q) {
+    return Eigen::Vector3d(1, gradient ? q.x : 0, gradient ? q.y : 0);
+  };
+  for (int it = 0; it < 50; ++it) {
     for (size_t i = 0; i < per_image.size(); ++i) {
-      double num = 0, den = 0;
-      for (const auto& [r2, g] : per_image[i]) {
-        num += g * (1 - s * r2);
-        den += (1 - s * r2) * (1 - s * r2);
+      Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+      for (const auto& q : per_image[i]) {
+        const Eigen::Vector3d row = (1 - s * (q.x * q.x + q.y * q.y)) * basis(q);
+        ata += row * row.transpose();
+        atb += row * q.grey;
       }
-      w[i] = den > 0 ? num / den : 0;
+      light[i].setZero();
+      if (int(per_image[i].size()) < 2 * m) continue;
+      light[i].head(m) = ata.topLeftCorner(m, m).ldlt().solve(atb.head(m));
     }
     double num = 0, den = 0;
     for (size_t i = 0; i < per_image.size(); ++i)
-      for (const auto& [r2, g] : per_image[i]) {
-        num += w[i] * r2 * (w[i] - g);
-        den += w[i] * r2 * w[i] * r2;
+      for (const auto& q : per_image[i]) {
+        const double l = light[i].dot(basis(q)), r2 = q.x * q.x + q.y * q.y;
+        if (l == 0) continue;
+        num += r2 * l * (l - q.grey);
+        den += r2 * l * r2 * l;
       }
     if (den <= 0) return 0;
     s = num / den;
@@ -149,7 +164,7 @@ CaptureStats MeasureCapture(const std::string& name,
   const calib::ImagePairList list = calib::ListImagePairs(dir, pair_options);
   std::vector<calib::CornerObservation> obs;
   std::vector<double> noise_w, noise_b, edge, white, black, block, sat;
-  std::vector<std::vector<std::pair<double, double>>> shading;
+  std::vector<std::vector<calib::ChessboardImageStats::ShadingSample>> shading;
   std::vector<double> area;
   std::map<int, int> qualities;
   int width = 0, height = 0;
@@ -199,7 +214,8 @@ CaptureStats MeasureCapture(const std::string& name,
   out.blockiness = SpreadOf(block);
   out.board_area = SpreadOf(area);
   out.saturated_fraction = SpreadOf(sat).mean;
-  out.lens_shading = FitShading(shading);
+  out.lens_shading = FitShading(shading, false);
+  out.lens_shading_curvature = FitShading(shading, true);
   int best = 0;
   for (const auto& [q, n] : qualities)
     if (n > best) best = n, out.jpeg_quality = q;

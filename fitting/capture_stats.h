@@ -9,7 +9,8 @@
 //   photometry  per image (calib/chessboard_image_stats.h): noise on white and black squares,
 //               edge blur sigma, white/black level, saturation, JPEG blockiness, the files' JPEG
 //               quality; lens shading fitted over all white squares as
-//               grey = w_image * (1 - shading * r^2 / r_corner^2) (one w per image);
+//               grey = w_image * (1 - shading * r^2 / r_corner^2) (one w per image), and again
+//               with a linear light gradient per image (lens_shading_curvature);
 //   board warp  mrcal's two-parameter bow (sim/scene.h SceneTarget::warp_m): the deflection of
 //               the board centre towards the camera along its x and y [mm] that minimises each
 //               eye's intrinsics-fit RMS (grid search within +-2.5 mm, to 0.06 mm), averaged over the eyes,
@@ -59,6 +60,9 @@ struct CaptureStats {
   Spread white_level, black_level;
   double saturated_fraction = 0;     // mean over images
   double lens_shading = 0;           // relative loss at the image corner
+  // The same with a linear light gradient across each image besides (only the brightness's
+  // curvature over each board measures it): a lamp's gradient does not read as shading.
+  double lens_shading_curvature = 0;
   Spread blockiness;
   int jpeg_quality = -1;             // most common quality of the files' tables
   double warp_mm[2] = {0, 0};        // along the board's x and y (0 when not measured)

@@ -73,7 +73,7 @@ DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name) {
   st.blur_px = uni(1.0, 2.2);
   st.white_level = uni(140, 200);
   st.black_level = uni(40, 70);
-  st.lens_shading = uni(0, 0.2);
+  st.lens_shading = uni(0.1, 0.5);
   st.eye_offset_ms = uni(-5, 12);
   st.latency_ms = uni(67, 133);
   st.drop_probability = uni(0, 0.02);

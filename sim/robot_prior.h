@@ -23,7 +23,7 @@
 //                                   k1 = -0.08 - 0.12 * (620 - fx) / 140 +-0.04 (wider lenses
 //                                   bend more), k2 0-0.12, p1 p2 +-0.001, k3 -0.03..0.01
 //   stream                          noise 0.8-2.5 grey, JPEG quality 70-95, blur 1-2.2 px,
-//                                   white 140-200 / black 40-70 grey, lens shading 0-0.2,
+//                                   white 140-200 / black 40-70 grey, lens shading 0.1-0.5,
 //                                   eye offset -5..12 ms, latency 67-133 ms, drops 0-2 %,
 //                                   rolling shutter 20-33 ms
 //   board (scene)                   the chessboard bows 0-1.2 mm along x, -0.3..0.3 mm along y

@@ -122,7 +122,7 @@ StreamTruth MeasuredOwlStream() {
   StreamTruth s;
   s.jpeg_quality = 95;
   s.noise_sigma = 1.0;
-  s.lens_shading = 0.05;
+  s.lens_shading = 0.25;
   s.blur_px = 1.0;
   s.white_level = 160;
   s.black_level = 60;

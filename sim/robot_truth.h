@@ -124,7 +124,9 @@ models::Rigid3d CamFromEyeMounting(const Eigen::Vector3d& cam_in_eye_m, const Ei
 // Image formation of a typical real Owl, measured on the course's real sets (kit2020-chessboard,
 // darvill2019 sessions 1-3; bench/sim_real_bench.cc prints the comparison): paper white ~160
 // and ink ~60 grey levels, noise ~0.9 grey levels after JPEG, edges as sharp as a 0.53 px
-// Gaussian, no visible lens shading (the Pi's ISP corrects it), JPEG blocks like quality 95, a
+// Gaussian, a quarter of the brightness lost at the image corners (lens shading 0.25: the real sets
+// read 0.14-0.47 with one brightness per image, 0.46-0.53 with a light gradient per image besides;
+// the Pi's ISP corrects only part of it), JPEG blocks like quality 95, a
 // rolling shutter read out over 30 ms. The rest of the stream as the defaults. The default robot's
 // stream (StreamTruth's own defaults are the older, cleaner ones that truth files written before
 // the levels and the rolling shutter existed keep).

@@ -43,6 +43,10 @@ TEST(CaptureStats, Kit2020LooksLikeARealOwl) {
   EXPECT_EQ(s.jpeg_quality, 95);
   EXPECT_NEAR(s.blockiness.median, 1.08, 0.04);
   EXPECT_NEAR(s.distance_m.median, 0.64, 0.05);
+  // Brightness falling towards the image corners: one brightness per image reads 0.14, with a
+  // light gradient across each board besides 0.53 (the room's light and the lens part only so).
+  EXPECT_NEAR(s.lens_shading, 0.14, 0.05);
+  EXPECT_NEAR(s.lens_shading_curvature, 0.53, 0.08);
   EXPECT_TRUE(s.problems.empty()) << s.problems.front();
 }
 
@@ -67,6 +71,9 @@ TEST(CaptureStats, RecoversTheWarpAndJitterOfAVirtualHeldBoard) {
   EXPECT_NEAR(held.warp_mm[0], 1.2, 0.3);
   EXPECT_NEAR(held.warp_mm[1], 0.0, 0.3);
   EXPECT_NEAR(held.white_level.median, 160, 8);
+  // Uniform light: both shading estimates find the lens's.
+  EXPECT_NEAR(held.lens_shading, truth.stream.lens_shading, 0.04);
+  EXPECT_NEAR(held.lens_shading_curvature, truth.stream.lens_shading, 0.06);
   // A still board: the eyes agree far better than on a held one.
   ho.hand_held = false;
   sim::CaptureHandHeldSet(&owl, dir, ho);
