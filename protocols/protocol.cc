@@ -103,6 +103,8 @@ const char* StepKindName(StepKind kind) {
     case StepKind::kVor: return "vor";
     case StepKind::kMainSequence:
       return "main-sequence";
+    case StepKind::kCatchUp:
+      return "catch-up";
   }
   return "?";
 }
@@ -131,7 +133,8 @@ static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kWait), St
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kSaccade), StepParams>, SaccadeStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kVor), StepParams>, VorStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kMainSequence), StepParams>, MainSequenceStep>);
-static_assert(std::variant_size_v<StepParams> == int(StepKind::kMainSequence) + 1);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kCatchUp), StepParams>, CatchUpStep>);
+static_assert(std::variant_size_v<StepParams> == int(StepKind::kCatchUp) + 1);
 
 const char* EyeSetName(EyeSet eyes) {
   switch (eyes) {
@@ -613,9 +616,33 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
     return s;
   }
+  if (kind == "catch-up") {
+    CatchUpStep s;
+    s.eye = f.Enum("eye", models::kRightEye, {{"left", models::kLeftEye}, {"right", models::kRightEye}});
+    s.speeds_deg_per_s = f.List<double>("speeds_deg_per_s", s.speeds_deg_per_s);
+    s.duration_ms = f.PositiveInt("duration_ms", s.duration_ms, 200);
+    for (double v : s.speeds_deg_per_s) {
+      if (!(v > 0 && v <= 60)) f.Fail("speeds_deg_per_s", std::to_string(v) + " must be in (0, 60]");
+      if (v * s.duration_ms / 1000.0 > 70)
+        f.Fail("speeds_deg_per_s",
+               std::to_string(v) + " deg/s for " + std::to_string(s.duration_ms) +
+                   " ms sweeps more than 70 deg (the eye's pan range)");
+    }
+    s.hold_ms = f.PositiveInt("hold_ms", s.hold_ms, 0);
+    s.threshold_deg = f.PositiveDouble("threshold_deg", s.threshold_deg);
+    s.pursuit_gain = f.PositiveDouble("pursuit_gain", s.pursuit_gain);
+    if (s.pursuit_gain > 1) f.Fail("pursuit_gain", std::to_string(s.pursuit_gain) + " must be in (0, 1]");
+    s.range_m = f.PositiveDouble("range_m", s.range_m);
+    s.locator =
+        f.Enum("locator",
+               Locator::kFixation,
+               {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+    s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
+    return s;
+  }
   throw ProtocolError(f.At(YAML::Node(YAML::NodeType::Undefined)) + "unknown step kind '" + kind +
                       "' (move-to, sweep, grid, place-target, capture, fixate, step-response, limits, "
-                      "alignment, latency, wait, saccade, vor, main-sequence, repeat)");
+                      "alignment, latency, wait, saccade, vor, main-sequence, catch-up, repeat)");
 }
 
 Step ParseStep(

@@ -143,6 +143,7 @@ enum class StepKind {
   kSaccade,
   kVor,
   kMainSequence,
+  kCatchUp,
 };
 const char* StepKindName(StepKind kind);  // "move-to", "sweep", ...
 
@@ -324,6 +325,23 @@ struct MainSequenceStep {
   int limit_margin_us = 20;
 };
 
+// catch-up: pursuit with catch-up saccades of a target moving at each of speeds_deg_per_s for
+// duration_ms (protocols/catch_up_step.h; needs a robot that can move the target: the virtual Owl).
+// The eye pursues with a P loop of pursuit_gain on the calibrated map and makes a catch-up saccade
+// when the retinal error passes threshold_deg. Every frame is logged (catch_up.csv), every trial is
+// a row with status (catch_up_trials.csv).
+struct CatchUpStep {
+  models::Eye eye = models::kRightEye;
+  std::vector<double> speeds_deg_per_s{10, 20, 30};
+  int duration_ms = 2000;      // the target moves for this long (centred on straight ahead), then holds
+  int hold_ms = 500;           // frames logged after it stopped
+  double threshold_deg = 3.0;  // retinal error that triggers a catch-up saccade
+  double pursuit_gain = 0.15;  // fraction of the map's correction sent per frame while pursuing
+  double range_m = 1.0;
+  Locator locator = Locator::kFixation;
+  int limit_margin_us = 20;
+};
+
 // One alternative per StepKind, in its order: StepKind(params.index()) is the kind.
 using StepParams = std::variant<MoveToStep,
                                 SweepStep,
@@ -338,7 +356,8 @@ using StepParams = std::variant<MoveToStep,
                                 WaitStep,
                                 SaccadeStep,
                                 VorStep,
-                                MainSequenceStep>;
+                                MainSequenceStep,
+                                CatchUpStep>;
 
 // For std::visit on StepParams: Overloaded{[](const SweepStep& s) {...}, ...}.
 template <typename... F>

@@ -93,6 +93,12 @@ std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols,
                 out.push_back("    vor: eye commands computed at run time from the calibration, stopped " +
                               std::to_string(m.limit_margin_us) + " us inside every limit");
               },
+              [&](const CatchUpStep& m) {
+                out.push_back("    catch-up: " + std::to_string(m.speeds_deg_per_s.size()) +
+                              " pursuit trials of a moving target (virtual Owl only), commands computed at run time "
+                              "from the calibration, stopped " +
+                              std::to_string(m.limit_margin_us) + " us inside every limit");
+              },
               [&](const MainSequenceStep& m) {
                 const int servo = models::kPanServo[m.eye];
                 double amp = 0;

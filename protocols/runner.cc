@@ -7,6 +7,7 @@
 
 #include "calib/observation_io.h"
 #include "protocols/alignment_step.h"
+#include "protocols/catch_up_step.h"
 #include "protocols/fixate_step.h"
 #include "protocols/latency_step.h"
 #include "protocols/limits_step.h"
@@ -98,6 +99,7 @@ void Runner::RunStep(const FlatStep& fs) {
                  [&](const SaccadeStep& s) { RunSaccadeStep(*this, p, s); },
                  [&](const VorStep& s) { RunVorStep(*this, p, s); },
                  [&](const MainSequenceStep& s) { RunMainSequenceStep(*this, p, s); },
+                 [&](const CatchUpStep& s) { RunCatchUpStep(*this, p, s); },
                  [&](const WaitStep& s) {
                    CheckStop();
                    robot_.SleepNs(int64_t(s.ms) * 1'000'000);

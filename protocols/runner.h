@@ -59,6 +59,8 @@
 //                      status (columns in protocols/vor_step.h)
 //   main_sequence.csv  one row per frame of a main-sequence step, main_sequence_trials.csv one row per
 //                      saccade with status (columns in protocols/main_sequence_step.h)
+//   catch_up.csv       one row per frame of a catch-up step, catch_up_trials.csv one row per trial with
+//                      status (columns in protocols/catch_up_step.h)
 //   coverage.csv       eye,num_views,x_min,x_max,x_progress,y_min,y_max,y_progress,size_min,size_max,
 //                      size_progress,skew_min,skew_max,skew_progress,good (protocols/coverage.h), written
 //                      at the end when steps with `detect: true` detected the protocol's target

@@ -147,6 +147,10 @@ double StepWork(const Step& step) {
       const MainSequenceStep& s = step.As<MainSequenceStep>();
       return double(s.amplitudes_deg.size() * s.repeats) * (s.frames + 1) + 30;
     }
+    case StepKind::kCatchUp: {
+      const CatchUpStep& s = step.As<CatchUpStep>();
+      return double(s.speeds_deg_per_s.size()) * ((s.duration_ms + s.hold_ms) / 1000.0 * 30 + 20);
+    }
     case StepKind::kPlaceTarget:
     case StepKind::kWait:
       return 1;
