@@ -26,6 +26,11 @@ std::unique_ptr<TargetLocator> MakeStepLocator(RunContext& run, const Protocol& 
     }
     case Locator::kTemplate:
       return MakeTemplateLocator();
+    case Locator::kLk: {
+      calib::FixationDetectorOptions o;
+      o.size_hint_px = ExpectedDiscRadiusPx(run, p);
+      return MakeLkLocator([o] { return MakeFixationLocator(o); });
+    }
     case Locator::kAprilTag: {
       // The board centre of the protocol's target (its geometry from `targets`).
       auto it = p.targets.find(p.target);

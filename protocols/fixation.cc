@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "calib/detector.h"
+#include "io/number_text.h"
 #include "models/head_model.h"
 
 namespace owlcal::protocols {
@@ -145,6 +146,113 @@ class BoardLocator : public TargetLocator {
   calib::TargetDefinition target_;
   std::map<int, Eigen::Vector3d> corners_;
   cv::Point2d centre_;
+};
+
+class PixelLocator : public TargetLocator {
+ public:
+  explicit PixelLocator(const std::array<std::optional<Eigen::Vector2d>, 2>& px) : px_(px) {}
+  std::optional<Eigen::Vector2d> Locate(const cv::Mat&, int eye) override { return px_[eye]; }
+  std::string LastReason(int eye) const override { return px_[eye] ? "" : "no seed pixel in this eye"; }
+  std::string Name() const override { return "pixel"; }
+
+ private:
+  std::array<std::optional<Eigen::Vector2d>, 2> px_;
+};
+
+class LkLocator : public TargetLocator {
+ public:
+  LkLocator(std::function<std::unique_ptr<TargetLocator>()> make_seed, const calib::LkTrackerOptions& o, bool reacquire)
+      : make_seed_(std::move(make_seed)), options_(o), reacquire_(reacquire) {}
+  bool Prepare(const robot::StereoFrame& frame, std::string* why) override {
+    std::unique_ptr<TargetLocator> seed = make_seed_();
+    if (!seed->Prepare(frame, why)) return false;
+    seed_name_ = seed->Name();
+    for (int e = 0; e < 2; ++e) {
+      first_[e] = cv::Mat();
+      const cv::Mat& img = e == models::kLeftEye ? frame.left : frame.right;
+      if (!Start(*seed, img, e, "")) lost_base_[e] = reason_[e];
+    }
+    return true;
+  }
+  std::optional<Eigen::Vector2d> Locate(const cv::Mat& image, int eye) override {
+    // The frame the track started on: the seed's position.
+    if (tracker_[eye].tracking() && image.data == start_[eye].data) {
+      reason_[eye].clear();
+      return tracker_[eye].position();
+    }
+    std::string lost;
+    if (tracker_[eye].tracking()) {
+      const calib::LkUpdate u = tracker_[eye].Track(image);
+      if (u.ok) {
+        reason_[eye].clear();
+        start_[eye] = cv::Mat();
+        return u.px;
+      }
+      lost = lost_base_[eye] = u.reason;
+    } else {
+      lost = "lost earlier: " + lost_base_[eye];
+    }
+    if (reacquire_) {
+      std::unique_ptr<TargetLocator> seed = make_seed_();
+      robot::StereoFrame alone;
+      alone.left = image;
+      alone.right = image;
+      if (seed->Prepare(alone, nullptr) && Start(*seed, image, eye, lost)) return tracker_[eye].position();
+      lost += "; not reacquired: " + reason_[eye];
+    }
+    reason_[eye] = lost;
+    return std::nullopt;
+  }
+  std::string LastReason(int eye) const override { return reason_[eye]; }
+  std::string Name() const override { return "lk"; }
+
+ private:
+  // Starts eye's track where the seed finds the target; `after` = why the old one was lost.
+  bool Start(TargetLocator& seed, const cv::Mat& img, int eye, const std::string& after) {
+    if (after.empty()) tracker_[eye] = calib::LkTracker(options_);
+    start_[eye] = cv::Mat();
+    const std::optional<Eigen::Vector2d> p = img.empty() ? std::nullopt : seed.Locate(img, eye);
+    if (!p) {
+      const std::string r = seed.LastReason(eye);
+      reason_[eye] = "the " + seed_name_ + " seed did not find the target" + (r.empty() ? "" : " (" + r + ")");
+      return false;
+    }
+    // A reacquired target must look like the one the track started on (the seed's whole-image
+    // search finds disc-like blobs on a textured wall when the target is out of view).
+    if (!after.empty() && !first_[eye].empty()) {
+      const double ncc = calib::PatchNcc(first_[eye], first_px_[eye], img, *p, options_.reacquire_window_px);
+      if (ncc < options_.min_reacquire_ncc) {
+        reason_[eye] = "the " + seed_name_ + " seed found a blob at (" + io::FixedText(p->x(), 1) + ", " +
+                       io::FixedText(p->y(), 1) + ") that does not look like the target (NCC " + io::FixedText(ncc, 2) +
+                       ")";
+        return false;
+      }
+    }
+    std::string why;
+    const bool resume = !after.empty() && !first_[eye].empty();
+    if (!(resume ? tracker_[eye].Resume(img, *p, &why) : tracker_[eye].Start(img, *p, &why))) {
+      reason_[eye] = why;
+      return false;
+    }
+    start_[eye] = img;
+    if (after.empty()) {
+      first_[eye] = img;
+      first_px_[eye] = *p;
+    }
+    reason_[eye] = after.empty() ? "" : "reacquired by the " + seed_name_ + " seed after: " + after;
+    return true;
+  }
+
+  std::function<std::unique_ptr<TargetLocator>()> make_seed_;
+  calib::LkTrackerOptions options_;
+  bool reacquire_;
+  std::string seed_name_ = "seed";
+  calib::LkTracker tracker_[2];
+  cv::Mat start_[2];  // the image each track started on (its seed position is the answer there)
+  cv::Mat first_[2];  // the image and position of the first start since Prepare (the target's look)
+  Eigen::Vector2d first_px_[2];
+  std::string reason_[2] = {"not prepared", "not prepared"};
+  std::string lost_base_[2] = {"not prepared", "not prepared"};  // why the track was (last) lost
 };
 
 // Half-cycle peak tracker of one error signal.
@@ -345,6 +453,14 @@ std::unique_ptr<TargetLocator> MakeTemplateLocator(int half_size, double min_sco
 std::unique_ptr<TargetLocator> MakeBoardLocator(const calib::TargetDefinition& target) {
   return std::make_unique<BoardLocator>(target);
 }
+std::unique_ptr<TargetLocator> MakeLkLocator(std::function<std::unique_ptr<TargetLocator>()> make_seed,
+                                             const calib::LkTrackerOptions& options,
+                                             bool reacquire) {
+  return std::make_unique<LkLocator>(std::move(make_seed), options, reacquire);
+}
+std::unique_ptr<TargetLocator> MakePixelLocator(const std::array<std::optional<Eigen::Vector2d>, 2>& px) {
+  return std::make_unique<PixelLocator>(px);
+}
 
 double NominalFocalPx(const models::RobotConfig& robot) { return 585.0 * robot.image_width / 640.0; }
 
@@ -467,6 +583,11 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       if (++lost >= o.lost_frames) {
         r.outcome = FixationResult::Outcome::kLost;
         r.message = "target not found in " + std::to_string(lost) + " consecutive frames";
+        // The locator's own reason (an LK track says why it was lost).
+        for (int e = 0; e < 2; ++e)
+          if (o.eyes[e] && !s.found[e])
+            if (const std::string why_lost = locator.LastReason(e); !why_lost.empty())
+              r.message += std::string(" (") + models::kEyeNames[e] + " eye: " + why_lost + ")";
         r.final_pwm_us = sent;
         return r;
       }

@@ -41,6 +41,7 @@
 // within limit_margin_us of a servo's limit, when the error's half-cycle peaks grow twice in
 // a row (an oscillation building up), when the error grows beyond twice its initial
 // value, or when the target is lost for lost_frames frames.
+#include <array>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -51,6 +52,7 @@
 #include <opencv2/core.hpp>
 
 #include "calib/fixation_detector.h"
+#include "calib/lk_tracker.h"
 #include "calib/target.h"
 #include "calib/trial_status.h"
 #include "models/robot_config.h"
@@ -77,6 +79,12 @@ class TargetLocator {
     (void)eye;
     return std::nullopt;
   }
+  // Why the last Locate in this eye found nothing ("" when it found the target, or when the
+  // locator does not say).
+  virtual std::string LastReason(int eye) const {
+    (void)eye;
+    return "";
+  }
   virtual std::string Name() const = 0;
 };
 
@@ -88,6 +96,21 @@ std::unique_ptr<TargetLocator> MakeTemplateLocator(int half_size = 20, double mi
 // The centre of an AprilTag (or chessboard) board found by calib::DetectTarget: the board
 // centre mapped through the homography fitted to the detected corners (partial views work).
 std::unique_ptr<TargetLocator> MakeBoardLocator(const calib::TargetDefinition& target);
+// Lucas-Kanade tracking (calib/lk_tracker.h: pyramidal LK, forward-backward check, refinement
+// against the first frame, appearance check). Prepare makes a seed locator (make_seed(), e.g. the
+// fixation locator), finds the target in each eye with it and starts a track there; every Locate
+// tracks from that eye's previous image. A lost track returns nullopt with LastReason (never the
+// stale position). With `reacquire`, a lost eye asks a fresh seed (prepared on that image alone)
+// at each later Locate, the frame it is lost included, and restarts the track where the seed finds
+// the target; LastReason then starts with "reacquired". Without it the eye stays lost until the
+// next Prepare.
+std::unique_ptr<TargetLocator> MakeLkLocator(std::function<std::unique_ptr<TargetLocator>()> make_seed,
+                                             const calib::LkTrackerOptions& options = {},
+                                             bool reacquire = true);
+// A seed that returns the given pixel per eye ([kLeftEye], [kRightEye]; nullopt = none in that
+// eye) for a tracker to start from: MakeLkLocator(MakePixelLocator(...)) fixates a salience
+// candidate.
+std::unique_ptr<TargetLocator> MakePixelLocator(const std::array<std::optional<Eigen::Vector2d>, 2>& px);
 
 struct FixationOptions {
   bool eyes[2] = {true, true};    // [kLeftEye], [kRightEye]

@@ -105,6 +105,8 @@ const char* StepKindName(StepKind kind) {
       return "main-sequence";
     case StepKind::kCatchUp:
       return "catch-up";
+    case StepKind::kTrack:
+      return "track";
   }
   return "?";
 }
@@ -114,6 +116,8 @@ const char* LocatorName(Locator locator) {
     case Locator::kFixation: return "fixation";
     case Locator::kTemplate: return "template";
     case Locator::kAprilTag: return "apriltag";
+    case Locator::kLk:
+      return "lk";
   }
   return "?";
 }
@@ -134,7 +138,8 @@ static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kSaccade),
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kVor), StepParams>, VorStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kMainSequence), StepParams>, MainSequenceStep>);
 static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kCatchUp), StepParams>, CatchUpStep>);
-static_assert(std::variant_size_v<StepParams> == int(StepKind::kCatchUp) + 1);
+static_assert(std::is_same_v<std::variant_alternative_t<int(StepKind::kTrack), StepParams>, TrackStep>);
+static_assert(std::variant_size_v<StepParams> == int(StepKind::kTrack) + 1);
 
 const char* EyeSetName(EyeSet eyes) {
   switch (eyes) {
@@ -397,10 +402,12 @@ EyeSet ParseEyeSet(Fields& f) {
 
 ClosedLoopSettings ParseClosedLoop(Fields& f) {
   ClosedLoopSettings l;
-  l.locator =
-      f.Enum("locator",
-             Locator::kFixation,
-             {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+  l.locator = f.Enum("locator",
+                     Locator::kFixation,
+                     {{"fixation", Locator::kFixation},
+                      {"template", Locator::kTemplate},
+                      {"apriltag", Locator::kAprilTag},
+                      {"lk", Locator::kLk}});
   l.max_iterations = f.PositiveInt("max_iterations", l.max_iterations);
   l.tolerance_px = f.PositiveDouble("tolerance_px", l.tolerance_px);
   l.still_frames = f.PositiveInt("still_frames", l.still_frames);
@@ -550,10 +557,12 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
       if (!(a > 0 && a <= 45)) f.Fail("amplitudes_deg", std::to_string(a) + " must be in (0, 45]");
     s.trials = f.PositiveInt("trials", s.trials);
     s.frames = f.PositiveInt("frames", s.frames, 2);
-    s.locator =
-        f.Enum("locator",
-               Locator::kFixation,
-               {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+    s.locator = f.Enum("locator",
+                       Locator::kFixation,
+                       {{"fixation", Locator::kFixation},
+                        {"template", Locator::kTemplate},
+                        {"apriltag", Locator::kAprilTag},
+                        {"lk", Locator::kLk}});
     s.range_m = f.PositiveDouble("range_m", s.range_m);
     s.tolerance_px = f.PositiveDouble("tolerance_px", s.tolerance_px);
     s.max_corrections = f.PositiveInt("max_corrections", s.max_corrections, 0);
@@ -592,10 +601,32 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
                std::to_string(hz) + " Hz at " + std::to_string(s.amplitude_deg) + " deg peaks at " +
                    std::to_string(2 * M_PI * hz * s.amplitude_deg) + " deg/s, above max_neck_deg_per_s " +
                    std::to_string(s.max_neck_deg_per_s));
-    s.locator =
-        f.Enum("locator",
-               Locator::kFixation,
-               {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+    s.locator = f.Enum("locator",
+                       Locator::kFixation,
+                       {{"fixation", Locator::kFixation},
+                        {"template", Locator::kTemplate},
+                        {"apriltag", Locator::kAprilTag},
+                        {"lk", Locator::kLk}});
+    s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
+    return s;
+  }
+  if (kind == "track") {
+    TrackStep s;
+    s.pan_deg = f.PositiveDouble("pan_deg", s.pan_deg, true);
+    s.tilt_deg = f.PositiveDouble("tilt_deg", s.tilt_deg, true);
+    if (s.pan_deg > 20 || s.tilt_deg > 20) f.Fail("pan_deg", "pan_deg and tilt_deg must be in [0, 20]");
+    s.frequency_hz = f.PositiveDouble("frequency_hz", s.frequency_hz);
+    if (s.frequency_hz > 2) f.Fail("frequency_hz", std::to_string(s.frequency_hz) + " must be in (0, 2]");
+    s.cycles = f.PositiveDouble("cycles", s.cycles);
+    if (s.cycles > 20) f.Fail("cycles", std::to_string(s.cycles) + " must be in (0, 20]");
+    s.leave_deg = f.PositiveDouble("leave_deg", s.leave_deg, true);
+    if (s.leave_deg > 40) f.Fail("leave_deg", std::to_string(s.leave_deg) + " must be in [0, 40]");
+    s.leave_ms = f.PositiveInt("leave_ms", s.leave_ms, 100);
+    s.return_ms = f.PositiveInt("return_ms", s.return_ms, 100);
+    s.salience_candidates = f.PositiveInt("salience_candidates", s.salience_candidates, 0);
+    if (s.salience_candidates > 10) f.Fail("salience_candidates", "at most 10");
+    s.gain = f.PositiveDouble("gain", s.gain);
+    if (s.gain >= 1) f.Fail("gain", std::to_string(s.gain) + " must be in (0, 1)");
     s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
     return s;
   }
@@ -609,10 +640,12 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.frames = f.PositiveInt("frames", s.frames, 6);
     s.rest_ms = f.PositiveInt("rest_ms", s.rest_ms, 100);
     s.range_m = f.PositiveDouble("range_m", s.range_m);
-    s.locator =
-        f.Enum("locator",
-               Locator::kFixation,
-               {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+    s.locator = f.Enum("locator",
+                       Locator::kFixation,
+                       {{"fixation", Locator::kFixation},
+                        {"template", Locator::kTemplate},
+                        {"apriltag", Locator::kAprilTag},
+                        {"lk", Locator::kLk}});
     s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
     return s;
   }
@@ -633,16 +666,18 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.pursuit_gain = f.PositiveDouble("pursuit_gain", s.pursuit_gain);
     if (s.pursuit_gain > 1) f.Fail("pursuit_gain", std::to_string(s.pursuit_gain) + " must be in (0, 1]");
     s.range_m = f.PositiveDouble("range_m", s.range_m);
-    s.locator =
-        f.Enum("locator",
-               Locator::kFixation,
-               {{"fixation", Locator::kFixation}, {"template", Locator::kTemplate}, {"apriltag", Locator::kAprilTag}});
+    s.locator = f.Enum("locator",
+                       Locator::kFixation,
+                       {{"fixation", Locator::kFixation},
+                        {"template", Locator::kTemplate},
+                        {"apriltag", Locator::kAprilTag},
+                        {"lk", Locator::kLk}});
     s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
     return s;
   }
   throw ProtocolError(f.At(YAML::Node(YAML::NodeType::Undefined)) + "unknown step kind '" + kind +
                       "' (move-to, sweep, grid, place-target, capture, fixate, step-response, limits, "
-                      "alignment, latency, wait, saccade, vor, main-sequence, catch-up, repeat)");
+                      "alignment, latency, wait, saccade, vor, main-sequence, catch-up, track, repeat)");
 }
 
 Step ParseStep(

@@ -27,9 +27,10 @@
 //     - place-target: {target: board, distance_m: 0.6, offset_m: [0, 0], rpy_deg: [0, 20, 0],
 //                      hide_others: true, prompt: "..."}
 //     - capture: {frames: 5, settle: {...}, detect: true}
-//     - fixate: {eyes: both, locator: fixation|template|apriltag, gain: 0.1, max_iterations: 90,
+//     - fixate: {eyes: both, locator: fixation|template|apriltag|lk, gain: 0.1, max_iterations: 90,
 //                (fixation: the disc detector; template: NCC of the right eye's centre patch;
-//                 apriltag: the centre of the protocol's `target` board via calib::DetectTarget)
+//                 apriltag: the centre of the protocol's `target` board via calib::DetectTarget;
+//                 lk: Lucas-Kanade tracking seeded by the disc detector, protocols/fixation.h)
 //                tolerance_px: 0.5, still_frames: 4, latency_frames: 0, max_step_us: 60,
 //                limit_margin_us: 20, record_frames: false, from: current|centre}
 //     - step-response: {eye: right, axis: pan, amplitudes_deg: [5, 10, 20], gains: [0.05, 0.1],
@@ -46,6 +47,10 @@
 //     - vor: {sines_hz: [0.2, 0.5, 1.0], amplitude_deg: 10, cycles: 2, steps_deg: [10], hold_ms: 1000,
 //             range_m: 1.0, max_neck_deg_per_s: 150, locator: fixation, limit_margin_us: 20}
 //            (the vestibulo-ocular reflex on the calibrated maps, protocols/vor_step.h)
+//     - track: {pan_deg: 6, tilt_deg: 3, frequency_hz: 0.5, cycles: 1, leave_deg: 0, leave_ms: 500,
+//               return_ms: 700, salience_candidates: 3, gain: 0.3, limit_margin_us: 20}
+//            (salience targets and the fixation and Lucas-Kanade trackers against truth,
+//             protocols/track_step.h)
 //     - wait: {ms: 500}
 //     - repeat: {times: 2, steps: [ ...steps... ]}
 //   Every step may also carry `name: text` (default "<kind><index>").
@@ -144,11 +149,13 @@ enum class StepKind {
   kVor,
   kMainSequence,
   kCatchUp,
+  kTrack,
 };
 const char* StepKindName(StepKind kind);  // "move-to", "sweep", ...
 
-enum class Locator { kFixation, kTemplate, kAprilTag };
-const char* LocatorName(Locator locator);  // "fixation", "template", "apriltag"
+// kLk: Lucas-Kanade tracking seeded by the fixation locator (protocols/fixation.h MakeLkLocator).
+enum class Locator { kFixation, kTemplate, kAprilTag, kLk };
+const char* LocatorName(Locator locator);  // "fixation", "template", "apriltag", "lk"
 
 // Which eyes a grid moves or a fixation controls.
 enum class EyeSet { kBoth, kLeft, kRight };
@@ -342,6 +349,24 @@ struct CatchUpStep {
   int limit_margin_us = 20;
 };
 
+// track: salience targets and tracking (protocols/track_step.h). With salience_candidates > 0 a
+// salience map of the right eye (calib/salience.h) picks that many candidates and the right eye
+// fixates each from the start pose with the LK tracker seeded at the candidate (gain, the fixation
+// loop). Then both eyes move through a figure of eight on the nominal servo scales (pan_deg sin(2
+// pi f t), tilt_deg sin(4 pi f t), `cycles` cycles at frequency_hz) and, with leave_deg > 0, pan
+// leave_deg to the robot's right for leave_ms (the target leaves the view) and back for return_ms;
+// every frame the target is located in both eyes by the fixation locator and by LK.
+struct TrackStep {
+  double pan_deg = 6, tilt_deg = 3;
+  double frequency_hz = 0.5;
+  double cycles = 1;
+  double leave_deg = 0;
+  int leave_ms = 500, return_ms = 700;
+  int salience_candidates = 3;
+  double gain = 0.3;
+  int limit_margin_us = 20;
+};
+
 // One alternative per StepKind, in its order: StepKind(params.index()) is the kind.
 using StepParams = std::variant<MoveToStep,
                                 SweepStep,
@@ -357,7 +382,8 @@ using StepParams = std::variant<MoveToStep,
                                 SaccadeStep,
                                 VorStep,
                                 MainSequenceStep,
-                                CatchUpStep>;
+                                CatchUpStep,
+                                TrackStep>;
 
 // For std::visit on StepParams: Overloaded{[](const SweepStep& s) {...}, ...}.
 template <typename... F>

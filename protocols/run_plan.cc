@@ -114,6 +114,24 @@ std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols,
                               "saccade within " +
                               std::to_string(m.limit_margin_us) + " us of a limit is skipped, never sent");
               },
+              [&](const TrackStep& m) {
+                PwmVector a = robot.Centre(), b = robot.Centre();
+                for (int e = 0; e < 2; ++e) {
+                  const models::ServoConfig& pan = robot.servos[models::kPanServo[e]];
+                  const models::ServoConfig& tilt = robot.servos[models::kTiltServo[e]];
+                  const double pan_deg = std::max(m.pan_deg, m.leave_deg);
+                  a[models::kPanServo[e]] -= int(std::lround(pan_deg / pan.nominal_deg_per_us));
+                  b[models::kPanServo[e]] += int(std::lround(pan_deg / pan.nominal_deg_per_us));
+                  a[models::kTiltServo[e]] -= int(std::lround(m.tilt_deg / tilt.nominal_deg_per_us));
+                  b[models::kTiltServo[e]] += int(std::lround(m.tilt_deg / tilt.nominal_deg_per_us));
+                }
+                line(a, "track: eyes move about the start pose to about");
+                line(b, "track: eyes move about the start pose to about");
+                if (m.salience_candidates > 0)
+                  out.push_back("    track: " + std::to_string(m.salience_candidates) +
+                                " salience fixations computed at run time, stopped " +
+                                std::to_string(m.limit_margin_us) + " us inside every limit");
+              },
           },
           s.params);
     }

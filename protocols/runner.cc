@@ -19,6 +19,7 @@
 #include "protocols/saccade_step.h"
 #include "protocols/step_plan.h"
 #include "protocols/step_response_step.h"
+#include "protocols/track_step.h"
 #include "protocols/vor_step.h"
 
 namespace owlcal::protocols {
@@ -100,6 +101,7 @@ void Runner::RunStep(const FlatStep& fs) {
                  [&](const VorStep& s) { RunVorStep(*this, p, s); },
                  [&](const MainSequenceStep& s) { RunMainSequenceStep(*this, p, s); },
                  [&](const CatchUpStep& s) { RunCatchUpStep(*this, p, s); },
+                 [&](const TrackStep& s) { RunTrackStep(*this, p, s); },
                  [&](const WaitStep& s) {
                    CheckStop();
                    robot_.SleepNs(int64_t(s.ms) * 1'000'000);

@@ -151,6 +151,12 @@ double StepWork(const Step& step) {
       const CatchUpStep& s = step.As<CatchUpStep>();
       return double(s.speeds_deg_per_s.size()) * ((s.duration_ms + s.hold_ms) / 1000.0 * 30 + 20);
     }
+    case StepKind::kTrack: {
+      const TrackStep& s = step.As<TrackStep>();
+      double seconds = s.cycles / s.frequency_hz + 1;
+      if (s.leave_deg > 0) seconds += (s.leave_ms + s.return_ms) / 1000.0;
+      return 30 * seconds + s.salience_candidates * 60.0;
+    }
     case StepKind::kPlaceTarget:
     case StepKind::kWait:
       return 1;
