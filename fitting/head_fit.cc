@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include <Eigen/Dense>
 #include <ceres/ceres.h>
 
 #include "fitting/board_warp.h"
@@ -390,6 +391,37 @@ HeadFit FitHead(const std::vector<calib::View>& views,
       const double floor = options.hysteresis_sigma_floor_us / b.scale[4];
       double& v = cov.analysis.covariance(it->second, it->second);
       v = std::max(v, floor * floor);
+    }
+  }
+  if (options.fit_intrinsics && cov.analysis.ok) {
+    for (int e = 0; e < 2; ++e) {
+      if (!options.intrinsics_covariance_floor[e]) continue;
+      const Eigen::MatrixXd& floor = *options.intrinsics_covariance_floor[e];
+      const Block& b = s.camera[e];
+      if (floor.rows() != b.size() || floor.cols() != b.size()) continue;
+      std::vector<int> tangent, ambient;
+      for (int a = 0; a < b.size(); ++a) {
+        auto it = cov.tangent_of.find({&b, a});
+        if (it == cov.tangent_of.end()) continue;
+        tangent.push_back(it->second);
+        ambient.push_back(a);
+      }
+      const int k = int(tangent.size());
+      if (k == 0) continue;
+      Eigen::MatrixXd& c = cov.analysis.covariance;
+      Eigen::MatrixXd ckk(k, k), f(k, k);
+      for (int i = 0; i < k; ++i) {
+        for (int j = 0; j < k; ++j) {
+          ckk(i, j) = c(tangent[i], tangent[j]);
+          f(i, j) = floor(ambient[i], ambient[j]);
+        }
+      }
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(f - ckk);
+      if (eig.info() != Eigen::Success || eig.eigenvalues().maxCoeff() <= 0) continue;
+      const Eigen::MatrixXd d =
+          eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+      for (int i = 0; i < k; ++i)
+        for (int j = 0; j < k; ++j) c(tangent[i], tangent[j]) += d(i, j);
     }
   }
   timer.Mark("covariance_s");

@@ -628,6 +628,9 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
       for (int e = 0; e < 2; ++e) {
         ho.intrinsics_prior_covariance[e] = IntrinsicsPriorFromStereo(*stereo, e, ho.measured_sigma_factor);
         prior_from_stereo |= ho.intrinsics_prior_covariance[e].has_value();
+        // ... and its covariance (as fitted) the floor of the head fit's: the sweep's views
+        // share the detector's bias with the stereo views (HeadFitOptions::intrinsics_covariance_floor).
+        ho.intrinsics_covariance_floor[e] = IntrinsicsPriorFromStereo(*stereo, e, 1.0);
       }
       if (prior_from_stereo) progress("  intrinsics prior: the stereo fit's covariance x " + Fmt(ho.measured_sigma_factor, 3) + "^2");
     }
