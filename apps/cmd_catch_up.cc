@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "apps/command_registry.h"
+#include "apps/experiment_recording.h"
 #include "apps/robot_factory.h"
 #include "apps/robot_options.h"
 #include "io/number_text.h"
@@ -31,32 +32,17 @@ struct CatchUpCmdOptions {
 };
 
 int RunCatchUp(const CatchUpCmdOptions& o) {
-  if (!o.dataset.empty() && !o.calib.empty())
-    throw UsageError("--calib is for a new recording; a recorded --dataset says which maps it used");
-  std::string dir = o.dataset;
-  if (dir.empty()) {
-    dir = o.out + "/datasets/catch_up";
-    protocols::RunOptions ro;
-    ro.out_dir = dir;
-    o.robot.FillRunOptions(&ro);
-    ro.progress = o.quiet ? nullptr : &std::cout;
-    ro.stop_flag = protocols::InstallStopSignals();
-    if (!o.calib.empty()) {
-      const fitting::CalibrationRun run = reports::ReadReportData(o.calib);
-      ro.calibration = pipeline::ControllerCalibration(run, o.calib);
-      if (!o.quiet) std::cout << "eyes on the calibration in " << ro.calibration->source << "\n";
-    } else if (!o.quiet) {
-      std::cout << "no --calib: the eye moves on the robot file's NOMINAL maps \n";
-    }
-    std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
-    const protocols::Protocol p = protocols::LoadProtocolFile(protocols::ResolveProtocolPath(o.protocol));
-    const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
-    if (s.status != "complete") {
-      std::cerr << "owlcal catch-up: " << s.status << ": " << s.message << "\n"
-                << "the dataset in " << dir << " is closed; evaluate what it holds with --dataset " << dir << "\n";
-      return kExitFailed;
-    }
-  }
+  const std::optional<std::string> recorded = RecordOrUseDataset({"catch-up",
+                                                                  o.protocol,
+                                                                  "catch_up",
+                                                                  "the eye moves on the robot file's NOMINAL maps",
+                                                                  o.robot,
+                                                                  o.out,
+                                                                  o.dataset,
+                                                                  o.calib,
+                                                                  o.quiet});
+  if (!recorded) return kExitFailed;
+  const std::string& dir = *recorded;
   const pipeline::CatchUpStudy study = pipeline::EvaluateCatchUpDataset(dir);
   const std::string page = pipeline::WriteCatchUpStudy(study, o.out, !o.no_figures);
   std::cout << "eye on the " << study.map << "\n";

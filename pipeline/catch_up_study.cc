@@ -15,6 +15,9 @@
 
 namespace owlcal::pipeline {
 namespace {
+
+// Measured and true retinal error further apart than this: the eye tracked something else.
+constexpr double kOffTargetDeg = 2.0;
 namespace fs = std::filesystem;
 
 std::string Fx(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : ""; }
@@ -133,6 +136,22 @@ CatchUpStudy EvaluateCatchUpDataset(const std::string& dir) {
     }
     t.rms_error_deg = n ? std::sqrt(ss / n) : NAN;
     t.true_rms_error_deg = tn ? std::sqrt(tss / tn) : NAN;
+    // With the truth (the virtual Owl): a trial whose measured retinal error leaves the true one
+    // tracked something else (a wall blob where the disc should be) and is no pursuit of the target,
+    // whatever its controller reported. The measured error goes through the maps' lens, so the two
+    // differ by a few tenths of a degree on nominal maps; 2 deg is far outside that.
+    std::vector<double> gap;
+    for (const CatchUpFrame* f : fr)
+      if (std::isfinite(f->error_deg) && std::isfinite(f->true_error_deg))
+        gap.push_back(std::abs(f->error_deg - f->true_error_deg));
+    const int off = int(std::count_if(gap.begin(), gap.end(), [](double g) { return g > kOffTargetDeg; }));
+    if (t.status == "ok" && off >= 3) {
+      t.status = "off target";
+      t.reason = "the eye tracked something else: the measured retinal error left the truth by more than " +
+                 Fx(kOffTargetDeg, 1) + " deg in " + std::to_string(off) + " of " + std::to_string(gap.size()) +
+                 " frames (median " + Fx(models::Median(gap), 2) + ", up to " +
+                 Fx(*std::max_element(gap.begin(), gap.end()), 1) + " deg)";
+    }
     t.mean_before_deg = Mean(before);
     t.mean_after_deg = Mean(after);
     t.median_response_ms = response.empty() ? NAN : models::Median(response);

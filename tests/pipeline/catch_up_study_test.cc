@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 
@@ -131,3 +132,36 @@ TEST(CatchUp, TrialsStoppedBeforeALimitOrWithoutFixationAreRowsWithTheirStatus) 
 
 }  // namespace
 }  // namespace owlcal::pipeline
+
+// A trial whose measured retinal error leaves the truth tracked something else (on the default
+// robot's nominal maps the 30 deg/s trial held a wall blob at the image centre, 16 deg median
+// from the disc, and was reported ok): it is an "off target" row, not a pursuit.
+TEST(CatchUp, ATrialThatTrackedSomethingElseIsOffTarget) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("owlcal_catch_up_off_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream t(dir / "catch_up_trials.csv");
+    t << "step_index,trial,speed_deg_per_s,direction,frames,found,saccades,map,status,reason\n"
+      << "2,0,10.000,1,20,20,0,nominal map,ok,\n"
+      << "2,1,30.000,1,20,20,0,nominal map,ok,\n";
+    std::ofstream f(dir / "catch_up.csv");
+    f << "step_index,trial,speed_deg_per_s,direction,k,t_s,target_az_deg,cmd_us,found,x_px,error_deg,true_error_deg,"
+         "action\n";
+    for (int trial = 0; trial < 2; ++trial)
+      for (int k = 0; k < 20; ++k) {
+        const double truth = trial == 0 ? 0.3 : -20 + 1.5 * k;  // trial 1: the target moves on, unseen
+        f << "2," << trial << "," << (trial ? 30 : 10) << ",1," << k << "," << k / 30.0 << "," << -10 + k << ",1500,1,"
+          << "320,0.1," << truth << ",pursuit\n";
+      }
+  }
+  const owlcal::pipeline::CatchUpStudy s = owlcal::pipeline::EvaluateCatchUpDataset(dir.string());
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(s.trials.size(), 2u);
+  EXPECT_EQ(s.trials[0].status, "ok");
+  EXPECT_EQ(s.trials[1].status, "off target");
+  EXPECT_NE(s.trials[1].reason.find("tracked something else"), std::string::npos) << s.trials[1].reason;
+  EXPECT_EQ(s.num_ok, 1);
+  ASSERT_FALSE(s.notes.empty());
+  EXPECT_NE(s.notes.back().find("off target"), std::string::npos);
+}
