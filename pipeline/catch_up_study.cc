@@ -10,6 +10,7 @@
 #include "io/number_text.h"
 #include "models/statistics.h"
 #include "protocols/dataset.h"
+#include "reports/experiment_page.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/table.h"
 
@@ -334,33 +335,20 @@ std::string WriteCatchUpStudy(const CatchUpStudy& s, const std::string& out, boo
     drawn.push_back(tr);
   }
   reports::WriteTextFile(out + "/catch_up.json", CatchUpStudyJson(s).dump(2) + "\n");
-  std::string html =
-      "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>owlcal catch-up saccades</title>\n"
-      "<style>body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}table{border-collapse:"
-      "collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px}img{max-width:100%}</style></head><body>\n"
-      "<h1>Catch-up saccades</h1>\n<p>Source: " +
-      reports::HtmlEscape(s.source) + ". Eye on the " + reports::HtmlEscape(s.map) + ". " + std::to_string(s.num_ok) +
-      " of " + std::to_string(s.num_trials) +
+  reports::ExperimentPage page;
+  page.title = "catch-up saccades";
+  page.heading = "Catch-up saccades";
+  page.intro_html = std::string(
+      "Source: " + reports::HtmlEscape(s.source) + ". Eye on the " + reports::HtmlEscape(s.map) + ". " +
+      std::to_string(s.num_ok) + " of " + std::to_string(s.num_trials) +
       " trials ok. The target moves at constant angular speed; the eye pursues it with a P loop on the map and makes a "
-      "catch-up saccade when the retinal error passes the threshold (protocols/catch_up_step.h).</p>\n";
-  for (size_t i = 0; i < figs.size(); ++i) {
-    if (figs[i].drawn)
-      html += "<figure><img src=\"../figures/" + drawn[i].name + ".png\" alt=\"" + reports::HtmlEscape(drawn[i].title) +
-              "\"><figcaption>" + reports::HtmlEscape(drawn[i].caption) + "</figcaption></figure>\n";
-    else
-      html += "<p>Figure " + drawn[i].name + " not drawn (" + reports::HtmlEscape(figs[i].message) + "): figures/" +
-              drawn[i].name + ".gp and .csv hold its data.</p>\n";
-  }
-  html += reports::ToHtml(trials) + "\n";
-  if (!s.notes.empty()) {
-    html += "<h2>Notes and failures</h2>\n<ul>\n";
-    for (const std::string& n : s.notes) html += "<li>" + reports::HtmlEscape(n) + "</li>\n";
-    html += "</ul>\n";
-  }
-  html += reports::ToHtml(sacc) + "\n<p>Every frame: tables/catch_up_frames.csv.</p>\n</body></html>\n";
-  const std::string page = out + "/report/index.html";
-  reports::WriteTextFile(page, html);
-  return page;
+      "catch-up saccade when the retinal error passes the threshold (protocols/catch_up_step.h).");
+  page.figures = drawn;
+  page.files = figs;
+  page.tables_html = reports::ToHtml(trials) + "\n";
+  page.notes = s.notes;
+  page.after_notes_html = reports::ToHtml(sacc) + "\n<p>Every frame: tables/catch_up_frames.csv.</p>\n";
+  return reports::WriteExperimentPage(page, out);
 }
 
 }  // namespace owlcal::pipeline

@@ -9,6 +9,7 @@
 #include "calib/csv.h"
 #include "io/number_text.h"
 #include "protocols/dataset.h"
+#include "reports/experiment_page.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/table.h"
 
@@ -560,35 +561,22 @@ std::string WriteMainSequenceStudy(const MainSequenceStudy& s, const std::string
 
   reports::WriteTextFile(out + "/main_sequence.json", MainSequenceStudyJson(s).dump(2) + "\n");
 
-  std::string html =
-      "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>owlcal saccade main sequence</title>\n"
-      "<style>body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}table{border-collapse:"
-      "collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px}img{max-width:100%}</style></head><body>\n"
-      "<h1>Saccade main sequence</h1>\n<p>Source: " +
-      reports::HtmlEscape(s.source) + ". Servo " + reports::HtmlEscape(s.servo) + ", eye on the " +
+  reports::ExperimentPage page;
+  page.title = "saccade main sequence";
+  page.heading = "Saccade main sequence";
+  page.intro_html = std::string(
+      "Source: " + reports::HtmlEscape(s.source) + ". Servo " + reports::HtmlEscape(s.servo) + ", eye on the " +
       reports::HtmlEscape(s.map) + ". " + std::to_string(s.num_ok) + " of " + std::to_string(s.num_saccades) +
       " saccades ok. Each saccade jumps across the fixation target; the eye's angle in every frame comes from the "
       "target's pixel through the lens and head geometry (protocols/main_sequence_step.h). The servo's slew, lag "
       "and the command-to-frame delay are fitted to all frames at once, each saccade's peak velocity and duration "
-      "follow from its own fit (fitting/main_sequence_fit.h).</p>\n";
-  for (size_t i = 0; i < figs.size(); ++i) {
-    if (figs[i].drawn)
-      html += "<figure><img src=\"../figures/" + drawn[i].name + ".png\" alt=\"" + reports::HtmlEscape(drawn[i].title) +
-              "\"><figcaption>" + reports::HtmlEscape(drawn[i].caption) + "</figcaption></figure>\n";
-    else
-      html += "<p>Figure " + drawn[i].name + " not drawn (" + reports::HtmlEscape(figs[i].message) + "): figures/" +
-              drawn[i].name + ".gp and .csv hold its data.</p>\n";
-  }
-  html += reports::ToHtml(sum) + "\n";
-  if (!s.notes.empty()) {
-    html += "<h2>Notes and failures</h2>\n<ul>\n";
-    for (const std::string& n : s.notes) html += "<li>" + reports::HtmlEscape(n) + "</li>\n";
-    html += "</ul>\n";
-  }
-  html += reports::ToHtml(sac) + "\n<p>Every frame: tables/main_sequence_frames.csv.</p>\n</body></html>\n";
-  const std::string page = out + "/report/index.html";
-  reports::WriteTextFile(page, html);
-  return page;
+      "follow from its own fit (fitting/main_sequence_fit.h).");
+  page.figures = drawn;
+  page.files = figs;
+  page.tables_html = reports::ToHtml(sum) + "\n";
+  page.notes = s.notes;
+  page.after_notes_html = reports::ToHtml(sac) + "\n<p>Every frame: tables/main_sequence_frames.csv.</p>\n";
+  return reports::WriteExperimentPage(page, out);
 }
 
 }  // namespace owlcal::pipeline

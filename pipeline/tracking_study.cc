@@ -10,6 +10,7 @@
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "protocols/dataset.h"
+#include "reports/experiment_page.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/table.h"
 
@@ -504,38 +505,25 @@ std::string WriteTrackingStudy(const TrackingStudy& s, const std::string& out, b
 
   reports::WriteTextFile(out + "/track.json", TrackingStudyJson(s).dump(2) + "\n");
 
-  std::string html =
-      "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>owlcal salience and tracking</title>\n"
-      "<style>body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}table{border-collapse:"
-      "collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px}img{max-width:100%}</style></head><body>\n"
-      "<h1>Salience targets and tracking</h1>\n<p>Source: " +
-      reports::HtmlEscape(s.source) +
+  reports::ExperimentPage page;
+  page.title = "salience and tracking";
+  page.heading = "Salience targets and tracking";
+  page.intro_html = std::string(
+      "Source: " + reports::HtmlEscape(s.source) +
       ". A salience map of the right eye picks the next fixation targets and the right eye fixates each with a "
       "Lucas-Kanade tracker; then the eyes move through a figure of eight (and, when asked, turn until the target "
       "leaves the view and back) while the target is tracked in both eyes by the fixation locator and by "
       "Lucas-Kanade (pyramidal LK with a forward-backward check, protocols/track_step.h). Salience candidates on a "
       "scene object: " +
       std::to_string(s.num_on_object) + " of " + std::to_string(s.salience.size()) +
-      "; fixated: " + std::to_string(s.num_fixated) + ".</p>\n";
-  for (size_t i = 0; i < figs.size(); ++i) {
-    if (figs[i].drawn)
-      html += "<figure><img src=\"../figures/" + drawn[i].name + ".png\" alt=\"" + reports::HtmlEscape(drawn[i].title) +
-              "\"><figcaption>" + reports::HtmlEscape(drawn[i].caption) + "</figcaption></figure>\n";
-    else
-      html += "<p>Figure " + drawn[i].name + " not drawn (" + reports::HtmlEscape(figs[i].message) + "): figures/" +
-              drawn[i].name + ".gp and .csv hold its data.</p>\n";
-  }
-  html += reports::ToHtml(summary) + "\n" + reports::ToHtml(lost) + "\n";
-  if (!s.salience.empty()) html += reports::ToHtml(sal) + "\n";
-  if (!s.notes.empty()) {
-    html += "<h2>Notes and failures</h2>\n<ul>\n";
-    for (const std::string& n : s.notes) html += "<li>" + reports::HtmlEscape(n) + "</li>\n";
-    html += "</ul>\n";
-  }
-  html += "<p>Every frame: tables/track_frames.csv.</p>\n</body></html>\n";
-  const std::string page = out + "/report/index.html";
-  reports::WriteTextFile(page, html);
-  return page;
+      "; fixated: " + std::to_string(s.num_fixated) + ".");
+  page.figures = drawn;
+  page.files = figs;
+  page.tables_html = reports::ToHtml(summary) + "\n" + reports::ToHtml(lost) + "\n" +
+                     (s.salience.empty() ? std::string() : reports::ToHtml(sal) + "\n");
+  page.notes = s.notes;
+  page.after_notes_html = "<p>Every frame: tables/track_frames.csv.</p>\n";
+  return reports::WriteExperimentPage(page, out);
 }
 
 }  // namespace owlcal::pipeline

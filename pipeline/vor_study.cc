@@ -10,6 +10,7 @@
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "protocols/dataset.h"
+#include "reports/experiment_page.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/table.h"
 
@@ -535,35 +536,22 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
 
   reports::WriteTextFile(out + "/vor.json", VorStudyJson(s).dump(2) + "\n");
 
-  std::string html =
-      "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>owlcal vestibulo-ocular reflex</title>\n"
-      "<style>body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}table{border-collapse:"
-      "collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px}img{max-width:100%}</style></head><body>\n"
-      "<h1>Vestibulo-ocular reflex</h1>\n<p>Source: " +
-      reports::HtmlEscape(s.source) + ". Eyes on the " + reports::HtmlEscape(s.map) + ". " +
+  reports::ExperimentPage page;
+  page.title = "vestibulo-ocular reflex";
+  page.heading = "Vestibulo-ocular reflex";
+  page.intro_html = std::string(
+      "Source: " + reports::HtmlEscape(s.source) + ". Eyes on the " + reports::HtmlEscape(s.map) + ". " +
       std::to_string(s.num_ok) + " of " + std::to_string(s.num_trials) +
       " trials ok. The neck turns through each profile twice: eyes held still, then counter-rotating on the maps. "
       "Angles from the frames: the still trial's image gives the neck's motion, the VOR trial's image the eye's "
       "(protocols/vor_step.h); gain = eye amplitude / neck amplitude of fitted sines, phase lag = how far the eye's "
-      "counter-rotation trails the neck.</p>\n";
-  for (size_t i = 0; i < figs.size(); ++i) {
-    if (figs[i].drawn)
-      html += "<figure><img src=\"../figures/" + drawn[i].name + ".png\" alt=\"" + reports::HtmlEscape(drawn[i].title) +
-              "\"><figcaption>" + reports::HtmlEscape(drawn[i].caption) + "</figcaption></figure>\n";
-    else
-      html += "<p>Figure " + drawn[i].name + " not drawn (" + reports::HtmlEscape(figs[i].message) + "): figures/" +
-              drawn[i].name + ".gp and .csv hold its data.</p>\n";
-  }
-  html += reports::ToHtml(summary) + "\n";
-  if (!s.notes.empty()) {
-    html += "<h2>Notes and failures</h2>\n<ul>\n";
-    for (const std::string& n : s.notes) html += "<li>" + reports::HtmlEscape(n) + "</li>\n";
-    html += "</ul>\n";
-  }
-  html += reports::ToHtml(results) + "\n<p>Every frame: tables/vor_frames.csv.</p>\n</body></html>\n";
-  const std::string page = out + "/report/index.html";
-  reports::WriteTextFile(page, html);
-  return page;
+      "counter-rotation trails the neck.");
+  page.figures = drawn;
+  page.files = figs;
+  page.tables_html = reports::ToHtml(summary) + "\n";
+  page.notes = s.notes;
+  page.after_notes_html = reports::ToHtml(results) + "\n<p>Every frame: tables/vor_frames.csv.</p>\n";
+  return reports::WriteExperimentPage(page, out);
 }
 
 }  // namespace owlcal::pipeline
