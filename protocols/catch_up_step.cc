@@ -21,6 +21,7 @@ constexpr double kFrameS = 1.0 / 30;
 constexpr int kDefaultDelayFrames = 4;
 constexpr int kLostFrames = 5;
 constexpr int kFixationMoves = 8;
+constexpr double kNearEnough = 0.5;      // of the saccade threshold: a fixation not centred to 1 px
 constexpr int kVelocityFrames = 6;       // pursuit frames in the target's velocity estimate
 constexpr double kFoundFraction = 0.9;   // of a trial's frames, for status ok
 constexpr double kEyeSlewDegPerS = 300;  // the move time's slew when the calibration has none (guide, 4.8 V)
@@ -38,7 +39,7 @@ Eigen::Isometry3d TurnedAboutVertical(const Eigen::Isometry3d& pose, double angl
 class CatchUpRun {
  public:
   CatchUpRun(RunContext& run, const Protocol& p, const CatchUpStep& s)
-      : run_(run), p_(p), s_(s), eye_(s.eye), loc_(MakeStepLocator(run, p, s.locator)) {
+      : run_(run), p_(p), s_(s), eye_(s.eye), loc_(MakeAppearanceCheckedLocator(MakeStepLocator(run, p, s.locator))) {
     const auto& cal = run.options().calibration;
     head_ = cal ? cal->head : models::NominalHeadModel(run.config());
     map_name_ = cal ? "calibrated map (" + cal->source + ")" : std::string("nominal map (robot file: no calibration)");
@@ -77,10 +78,15 @@ class CatchUpRun {
     run_.Settle(rest);
     for (int move = 0; move <= kFixationMoves; ++move) {
       const robot::StereoFrame frame = run_.Grab();
-      if (!loc_->Prepare(frame, why)) return false;
-      const std::optional<Eigen::Vector2d> px = Locate(frame);
+      // A whole-image search at the first move, then tracking; the appearance check rejects what
+      // is not the target's first look (the darker image corners, wall blobs) and finds it again.
+      if (move == 0 && !loc_->Prepare(frame, why)) return false;
+      std::optional<Eigen::Vector2d> px = Locate(frame);
+      // A frame exposed while the eye still moved can miss it (variant A: the disc at NCC 0.85).
+      for (int retry = 1; !px && retry < kLostFrames; ++retry) px = Locate(run_.Grab());
       if (!px) {
         *why = std::string("target not found in the ") + models::kEyeNames[eye_] + " eye";
+        if (const std::string r = loc_->LastReason(eye_); !r.empty()) *why += ": " + r;
         return false;
       }
       const models::JointAngles a = Angles(run_.cmd());
@@ -95,14 +101,31 @@ class CatchUpRun {
       target[models::kPanServo[eye_]] = int(std::lround((*goal)[0]));
       target[models::kTiltServo[eye_]] = int(std::lround((*goal)[1]));
       if ((*px - Centre(frame)).norm() <= 1.0 || target == run_.cmd()) return true;
+      // A servo with a PWM step or dead band cannot put it closer than a step (6.5 px on variant
+      // A; the eye settles slowly there): near enough for a pursuit to start from after the last move.
+      if (move == kFixationMoves) {
+        Eigen::Vector3d ray;
+        const Eigen::Vector2d c = Centre(frame);
+        Eigen::Vector3d axis;
+        if (head_.intrinsics[eye_].Unproject(px->data(), ray.data()) &&
+            head_.intrinsics[eye_].Unproject(c.data(), axis.data())) {
+          const double off_deg = std::acos(std::clamp(ray.normalized().dot(axis.normalized()), -1.0, 1.0)) / kDeg;
+          if (off_deg <= kNearEnough * s_.threshold_deg) return true;
+          *why = "the target still " + FixedText(off_deg, 2) + " deg from the image centre after " +
+                 std::to_string(kFixationMoves) + " moves of the map";
+          return false;
+        }
+      }
       if (const std::string lim = OutsideMargin(target); !lim.empty()) {
         *why = lim;
         return false;
       }
       run_.Send(target);
+      loc_->Expect(eye_, Centre(frame));  // where the move puts it
       run_.Settle(rest);
     }
-    return true;
+    *why = "the target not centred within 1 px in " + std::to_string(kFixationMoves) + " moves of the map";
+    return false;
   }
 
   struct Result {
@@ -124,21 +147,19 @@ class CatchUpRun {
       run_.CheckStop();
       const double t = (run_.robot().NowNs() - t0) * 1e-9;
       const double az = -dir * half + dir * speed * std::min(t, s_.duration_ms / 1000.0);
-      PlaceAt(az);
+      const bool hidden = s_.hide_after_ms > 0 && t * 1000 >= s_.hide_after_ms;
+      PlaceAt(hidden ? az + 180 : az);
       const robot::StereoFrame frame = run_.Grab();
       const double ta = (frame.stamp_ns - t0) * 1e-9;
-      std::optional<Eigen::Vector2d> px = Locate(frame);
-      if (!px) {
-        loc_->Prepare(frame, nullptr);
-        px = Locate(frame);
-      }
+      // Checked against the target's first look; a lost target is searched for in the whole image.
+      const std::optional<Eigen::Vector2d> px = Locate(frame);
       std::optional<double> err, true_err;
       if (px) {
         Eigen::Vector3d ray;
         if (head_.intrinsics[eye_].Unproject(px->data(), ray.data())) err = std::atan2(ray.x(), ray.z()) / kDeg;
       }
       if (robot::SceneControl* sc = run_.robot().Scene())
-        if (const auto truth = sc->TruthAnglesForFrame(frame.seq); truth && truth_head_) {
+        if (const auto truth = sc->TruthAnglesForFrame(frame.seq); truth && truth_head_ && !hidden) {
           const Eigen::Vector3d c = truth_head_->PointInCam(models::Eye(eye_), (*truth)[eye_], pose_.translation());
           true_err = std::atan2(c.x(), c.z()) / kDeg;
         }
@@ -166,7 +187,9 @@ class CatchUpRun {
         action = "wait";
       } else if (!err) {
         action = "lost";
-        if (++lost >= kLostFrames) stop = "target not found in " + std::to_string(lost) + " consecutive frames";
+        if (++lost >= kLostFrames)
+          stop = "target not found in " + std::to_string(lost) +
+                 " consecutive frames (last: " + loc_->LastReason(eye_) + ")";
       } else if (k * kFrameS * 1000 > s_.duration_ms + 200 && std::abs(*err) <= s_.threshold_deg) {
         action = "hold";  // the target stopped: pursuit continues but is logged as hold
       }
@@ -274,7 +297,7 @@ class CatchUpRun {
   const Protocol& p_;
   const CatchUpStep& s_;
   int eye_;
-  std::unique_ptr<TargetLocator> loc_;
+  std::unique_ptr<AppearanceCheckedLocator> loc_;
   models::HeadModel head_;
   std::string map_name_;
   double delay_s_ = 0, slew_deg_per_s_ = kEyeSlewDegPerS, settle_s_ = 0.1;

@@ -21,6 +21,17 @@
 //      step's latency-aware wait: delay = the calibration's exposure delay, else 4 frames).
 //   4. Every frame is logged with the action taken and, on the virtual Owl, the true retinal
 //      error (the truth head at the frame's exposure angles and the target's pose in force).
+// The locator (`locator`, the fixation disc by default) is checked against the target's first
+// look (protocols/fixation.h AppearanceCheckedLocator: NCC of the patch inside the disc's card,
+// >= 0.85; the disc scores 0.85-0.999, moving or not, wall blobs and the image's darker corners
+// less), and a target it loses or mistakes is searched for by that patch near its last position,
+// then in the whole image. So a lost target is a lost frame from the image alone: on the default
+// robot's nominal maps the whole-image search at every fixation move used to take the darker
+// image corner for the disc and the 30 deg/s trial pursued a wall blob, reported ok. The fixation
+// before a trial moves at most 8 times and must end within half the saccade threshold of the
+// image centre (a servo with a PWM step cannot reach 1 px), else the trial is skipped with why.
+// hide_after_ms > 0 turns the target behind the robot that long into each trial (an induced
+// loss, for tests); the true error is then not computed.
 //
 // Tables (runner.h):
 //   catch_up.csv         one row per frame: step_index,trial,speed_deg_per_s,direction,k,t_s,
@@ -29,7 +40,8 @@
 //   catch_up_trials.csv  one row per trial: step_index,trial,speed_deg_per_s,direction,frames,found,
 //                        saccades,map,status,reason
 // Trial status: ok when the target was found in at least 90 % of the frames; lost target when it
-// was missing in 5 consecutive frames (the trial stops); not settled when a command would come
+// was missing in 5 consecutive frames (the trial stops; the reason quotes the locator's last
+// reason); not settled when a command would come
 // within limit_margin_us of a limit (stopped before sending); skipped: no scene control, or the
 // fixation failed.
 #include "protocols/protocol.h"

@@ -673,6 +673,7 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
                         {"apriltag", Locator::kAprilTag},
                         {"lk", Locator::kLk}});
     s.limit_margin_us = f.PulseUs("limit_margin_us", s.limit_margin_us, 0);
+    s.hide_after_ms = f.PositiveInt("hide_after_ms", s.hide_after_ms, 0);
     return s;
   }
   throw ProtocolError(f.At(YAML::Node(YAML::NodeType::Undefined)) + "unknown step kind '" + kind +

@@ -347,6 +347,9 @@ struct CatchUpStep {
   double range_m = 1.0;
   Locator locator = Locator::kFixation;
   int limit_margin_us = 20;
+  // > 0: an induced loss: this long after each trial starts the target is turned behind the robot
+  // (out of view), so that the step must say lost from the images alone (tests).
+  int hide_after_ms = 0;
 };
 
 // track: salience targets and tracking (protocols/track_step.h). With salience_candidates > 0 a
