@@ -11,7 +11,17 @@
 //
 // Usage: robot_prior_mc_bench [num_robots=30] [first_seed=1] [protocol ...]
 //        robot_prior_mc_bench shipped [seeds_per_robot=1] [first_seed=1] [protocol ...]
-// `shipped`: the three robots in data/sim (default, variant a, variant b) instead of drawn ones.
+//        robot_prior_mc_bench shipped+rim [seeds_per_robot=1] [first_seed=1] [protocol ...]
+// `shipped`: the three robots in data/sim (default, variant a, variant b) instead of drawn ones;
+// `shipped+rim` adds tests/data/robots/owl_narrow_rim_truth.yaml (the rim hides the chessboard
+// near the pan ends; the tag sheets carry the sweep there).
+// When the sweep has tag sheets (the standard servo_sweep), calibrate fits the head twice, on the
+// chessboard alone and fused with the tags (pipeline/tag_study.h), and writes both fits'
+// parameters with the truth (diagnostics.tags.parameters): they are scored as their own groups,
+// "servo maps (fused)", "head geometry (fused)", "lens (fused)" and the same "(chessboard)", and
+// each servo map's error at both ends of its configured range (diagnostics.tags.servo_ends) as
+// "servo ends (fused)" and "servo ends (chessboard)". The groups without a suffix are the
+// calibration's result (its head is one of the two fits: CalibratePipelineOptions::fuse_tags).
 // OWLCAL_MC_KEEP=1 keeps each robot's observations and manifests (not the frames) under the temp
 // folder, for refits (`owlcal fit-datasets DIR/cal --out ...`); OWLCAL_MC_PER_PARAMETER=1 adds
 // the per-parameter table; OWLCAL_MC_JOBS=N runs N robots at once (the output is the same).
@@ -23,8 +33,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <random>
+#include <map>
 #include <mutex>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
@@ -38,10 +49,15 @@ namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
   using namespace owlcal;
-  const bool shipped = argc > 1 && std::string(argv[1]) == "shipped";
-  const char* const kShipped[3] = {"owl_default_truth.yaml", "owl_variant_a_truth.yaml", "owl_variant_b_truth.yaml"};
+  const bool with_rim = argc > 1 && std::string(argv[1]) == "shipped+rim";
+  const bool shipped = argc > 1 && (std::string(argv[1]) == "shipped" || with_rim);
+  const std::string kShipped[4] = {std::string(OWLCAL_SOURCE_DIR) + "/data/sim/owl_default_truth.yaml",
+                                   std::string(OWLCAL_SOURCE_DIR) + "/data/sim/owl_variant_a_truth.yaml",
+                                   std::string(OWLCAL_SOURCE_DIR) + "/data/sim/owl_variant_b_truth.yaml",
+                                   std::string(OWLCAL_SOURCE_DIR) + "/tests/data/robots/owl_narrow_rim_truth.yaml"};
+  const int num_shipped = with_rim ? 4 : 3;
   const int per_robot = shipped ? (argc > 2 ? std::atoi(argv[2]) : 1) : 1;
-  const int num_robots = shipped ? 3 * per_robot : (argc > 1 ? std::atoi(argv[1]) : 30);
+  const int num_robots = shipped ? num_shipped * per_robot : (argc > 1 ? std::atoi(argv[1]) : 30);
   const uint64_t first_seed = argc > 2 + shipped ? std::strtoull(argv[2 + shipped], nullptr, 10) : 1;
   if (num_robots < 1) {
     std::fprintf(stderr, "robot_prior_mc_bench: need at least one robot\n");
@@ -50,7 +66,10 @@ int main(int argc, char** argv) {
   std::vector<std::string> protocols;
   for (int i = 3 + shipped; i < argc; ++i) protocols.push_back(argv[i]);
   if (protocols.empty()) protocols = {"intrinsics", "stereo", "servo_sweep"};
-  const fs::path root = fs::temp_directory_path() / ("owlcal_prior_mc_" + std::to_string(first_seed));
+  // The shipped robots' runs in their own folder: a `shipped` run after a prior run with the same
+  // first seed removed the prior robots' kept results.
+  const fs::path root =
+      fs::temp_directory_path() / ((shipped ? "owlcal_shipped_mc_" : "owlcal_prior_mc_") + std::to_string(first_seed));
   fs::remove_all(root);
   fs::create_directories(root);
 
@@ -61,6 +80,9 @@ int main(int argc, char** argv) {
   struct RobotRun {
     std::string name, line, failure;
     std::vector<fitting::Parameter> parameters;
+    // The two head fits' parameters and their servo-map errors at the range ends, by fit
+    // ("fused", "chessboard"); empty without tag sheets.
+    std::map<std::string, std::vector<fitting::Parameter>> fit_parameters, fit_ends;
   };
   auto run_robot = [&](int i) {
     RobotRun out;
@@ -70,9 +92,10 @@ int main(int argc, char** argv) {
     sim::DrawnRobot robot = sim::DrawRobot(&rng, name);
     if (shipped) {
       const std::string file = kShipped[i / per_robot];
-      robot.truth = sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/data/sim/" + file);
+      robot.truth = sim::LoadRobotTruth(file);
       robot.scene = sim::DefaultScene();
-      name = file.substr(0, file.find("_truth")) + "-seed" + std::to_string(seed);
+      const std::string base = fs::path(file).filename().string();
+      name = base.substr(0, base.find("_truth")) + "-seed" + std::to_string(seed);
     }
     out.name = name;
     const fs::path dir = root / name;
@@ -92,6 +115,26 @@ int main(int argc, char** argv) {
     }
     const fitting::CalibrationResult r = fitting::ReadResultJson((dir / "cal" / "results.json").string());
     out.parameters = r.parameters;
+    const nlohmann::json tags = r.diagnostics.value("tags", nlohmann::json::object());
+    const nlohmann::json fits = tags.value("parameters", nlohmann::json::object());
+    for (const auto& [fit, params] : fits.items())
+      out.fit_parameters[fit] = fitting::ResultFromJson({{"parameters", params}}).parameters;
+    const nlohmann::json ends = tags.value("servo_ends", nlohmann::json::array());
+    for (const auto& e : ends) {
+      for (const auto& [fit, key] :
+           {std::pair<std::string, std::string>{"fused", "with_tags"}, {"chessboard", "without_tags"}}) {
+        const nlohmann::json err = e.value("error_" + key + "_deg", nlohmann::json());
+        const nlohmann::json sig = e.value("sigma_" + key + "_deg", nlohmann::json());
+        if (!err.is_number() || !sig.is_number()) continue;
+        fitting::Parameter p;
+        p.name = "servo_end." + e.value("servo", std::string()) + "." + e.value("end", std::string());
+        p.value = err.get<double>();
+        p.sigma = sig.get<double>();
+        p.unit = "deg";
+        p.truth = 0.0;
+        out.fit_ends[fit].push_back(p);
+      }
+    }
     double worst = 0, sum = 0;
     int n = 0;
     std::string worst_name;
@@ -131,6 +174,34 @@ int main(int argc, char** argv) {
                 1000 * robot.scene.Find("chessboard")->warp_m.x(), bow ? bow->value : NAN, n, n ? std::sqrt(sum / n) : NAN,
                 worst_name.c_str(), worst, worst_map, worst_servo.c_str());
     out.line = buf;
+    // Per head fit: RMS(z) and the worst |z| of its parameters, and the worst servo end.
+    for (const char* fit : {"fused", "chessboard"}) {
+      if (!out.fit_parameters.count(fit)) continue;
+      double ss = 0, worst_z = 0, worst_end = 0;
+      int m = 0;
+      std::string wn, we;
+      for (const auto& p : out.fit_parameters[fit]) {
+        if (!p.determined || !p.truth || !(p.sigma > 0)) continue;
+        const double z = (p.value - *p.truth) / p.sigma;
+        ss += z * z;
+        ++m;
+        if (std::abs(z) > std::abs(worst_z)) worst_z = z, wn = p.name;
+      }
+      for (const auto& p : out.fit_ends[fit]) {
+        const double z = p.value / p.sigma;
+        if (std::abs(z) > std::abs(worst_end)) worst_end = z, we = p.name.substr(10);
+      }
+      std::snprintf(buf,
+                    sizeof buf,
+                    "    %s fit: RMS(z) %.2f, worst %s z = %+.2f | servo ends worst %s z = %+.2f\n",
+                    fit,
+                    m ? std::sqrt(ss / m) : NAN,
+                    wn.c_str(),
+                    worst_z,
+                    we.c_str(),
+                    worst_end);
+      out.line += buf;
+    }
     // Keep results.json and the log, not the frames (OWLCAL_MC_KEEP: the observations too).
     if (std::getenv("OWLCAL_MC_KEEP")) {
       for (const auto& e : fs::recursive_directory_iterator(dir / "cal" / "datasets"))
@@ -179,6 +250,8 @@ int main(int argc, char** argv) {
       coverage.AddFailure(r.failure);
     else
       coverage.Add(r.parameters);
+    for (const auto& [fit, params] : r.fit_parameters) coverage.Add(params, " (" + fit + ")");
+    for (const auto& [fit, ends] : r.fit_ends) coverage.Add(ends, " (" + fit + ")");
     std::fputs(r.line.c_str(), stdout);
     std::fflush(stdout);
   }

@@ -7,19 +7,19 @@
 
 namespace owlcal::fitting {
 
-void SigmaCoverage::Add(const std::vector<Parameter>& parameters) {
-  ++num_fits_;
+void SigmaCoverage::Add(const std::vector<Parameter>& parameters, const std::string& group_suffix) {
+  if (group_suffix.empty()) ++num_fits_;
   for (const Parameter& p : parameters) {
     if (!p.determined || !p.truth || !std::isfinite(p.sigma) || !(p.sigma > 0) || !std::isfinite(p.value)) continue;
     const double z = std::abs(p.value - *p.truth) / p.sigma;
     abs_z_.push_back(z);
     ++total_;
-    PerParameter& pp = per_[p.name];
+    PerParameter& pp = per_[p.name + group_suffix];
     ++pp.count;
     if (z <= 1.0) ++pp.within1;
     if (z <= 3.0) ++pp.within3;
     pp.sum_z2 += z * z;
-    Group& g = groups_[ParameterGroup(p.name)];
+    Group& g = groups_[ParameterGroup(p.name) + group_suffix];
     ++g.count;
     if (z <= 1.0) ++g.within1;
     if (z <= 2.0) ++g.within2;
@@ -27,7 +27,7 @@ void SigmaCoverage::Add(const std::vector<Parameter>& parameters) {
     g.sum_z2 += z * z;
     if (z > g.worst_z) {
       g.worst_z = z;
-      g.worst = (label_.empty() ? "" : label_ + " ") + p.name;
+      g.worst = (label_.empty() ? "" : label_ + " ") + p.name + group_suffix;
     }
   }
 }
@@ -37,6 +37,7 @@ std::string ParameterGroup(const std::string& name) {
   if (starts("left.") || starts("right.")) return "lens";
   if (starts("stereo.")) return "stereo";
   if (starts("servo.")) return "servo maps";
+  if (starts("servo_end.")) return "servo ends";
   if (starts("head.")) {
     const std::string last = name.substr(name.rfind('.') + 1);
     static const char* kLens[] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"};

@@ -22,8 +22,10 @@ namespace owlcal::fitting {
 
 class SigmaCoverage {
  public:
-  // Scores one fit's parameters.
-  void Add(const std::vector<Parameter>& parameters);
+  // Scores one fit's parameters. `group_suffix` is appended to each parameter's group and name:
+  // the bench scores the fused head fit's parameters as "servo maps (fused)" and so on beside
+  // the calibration's own (a call with a suffix is not counted as another fit).
+  void Add(const std::vector<Parameter>& parameters, const std::string& group_suffix = "");
   // Records a fit that failed (not scored, counted).
   void AddFailure(const std::string& why);
 
@@ -71,7 +73,8 @@ class SigmaCoverage {
 
 // The group a result parameter belongs to: "lens" (left.*, right.* and the head fit's refined
 // head.<eye>.fx ... k3), "stereo" (stereo.*), "servo maps" (servo.*), "head geometry" (other
-// head.*), else "other".
+// head.*), "servo ends" (servo_end.<servo>.<min|max>: a servo map's angle at an end of its
+// configured range, value the error against the truth, truth 0), else "other".
 std::string ParameterGroup(const std::string& name);
 
 // Runs fit_one(seed) for seeds first_seed .. first_seed + num_seeds - 1. fit_one returns the

@@ -56,5 +56,24 @@ TEST(MonteCarlo, FailuresAreCountedNotScored) {
   EXPECT_NE(c.Report().find("seed 1: diverged"), std::string::npos);
 }
 
+// The bench scores a second head fit (the fused one) and the servo maps' errors at their range
+// ends as their own groups beside the calibration's, without counting them as more fits.
+TEST(MonteCarlo, SuffixedFitsAreTheirOwnGroups) {
+  SigmaCoverage c;
+  Parameter scale{"servo.Rx.deg_per_us", 0.11305, 0.0001, "deg/us", 0.1130, true, ""};
+  Parameter end{"servo_end.Rx.max", 0.02, 0.005, "deg", 0.0, true, ""};
+  c.Add({scale});
+  scale.value = 0.1126;  // 4 sigma off in the second fit
+  c.Add({scale, end}, " (fused)");
+  EXPECT_EQ(c.num_fits(), 1);
+  EXPECT_EQ(c.num_scored(), 3);
+  ASSERT_EQ(c.per_group().size(), 3u);
+  EXPECT_EQ(c.per_group().at("servo maps").within1, 1);
+  EXPECT_EQ(c.per_group().at("servo maps (fused)").within3, 0);
+  EXPECT_EQ(c.per_group().at("servo ends (fused)").within3, 0);  // 4 sigma
+  EXPECT_EQ(c.per_group().at("servo maps (fused)").worst, "servo.Rx.deg_per_us (fused)");
+  EXPECT_TRUE(c.per_parameter().count("servo_end.Rx.max (fused)"));
+}
+
 }  // namespace
 }  // namespace owlcal::fitting
