@@ -13,8 +13,12 @@
 // phases of the frame clock, and together they sample the trajectory densely.
 //
 //   1. Pooled fit: slew, lag and D common, theta0 and a per saccade, least squares on the angles
-//      (Ceres, autodiff), started from a grid over (slew, lag, D); sigmas from the covariance
-//      scaled by the residual variance.
+//      (Ceres, autodiff), started from a grid over (slew, lag, D). Sigmas: the larger of the
+//      covariance scaled by the residual variance and the jackknife over saccades (the fit
+//      repeated without each saccade): the frames of one saccade share their errors (the disc's
+//      centroid, the servo's PWM step and backlash, the frame clock's phase), so the covariance,
+//      which counts every frame as independent, is several times too small. Then the angles'
+//      scale (options.angle_scale_sigma) in quadrature: slew = angle / time scales with it.
 //   2. Per saccade: its own slew (theta0, a free; lag and D the pooled ones): its peak angular
 //      velocity V = slew (1 - exp(-a / (slew lag))) and its duration (the time the angular velocity
 //      is above velocity_threshold_deg_per_s, the eye-tracking convention), with sigmas.
@@ -37,15 +41,24 @@ struct MainSequenceFitOptions {
   double delay_min_s = 0, delay_max_s = 0.4;  // the delay's search window
   int rest_frames = 3;                        // last frames averaged for the end angle (the start guess)
   double velocity_threshold_deg_per_s = 30;   // duration: time above this angular velocity
+  // Relative sigma of the measured angles' scale (the lens and head geometry they come through:
+  // a scale error of the angles is the same error of every slew and of C, and no scatter shows
+  // it). Added in quadrature to the slews' and C's sigmas; 0 = none.
+  double angle_scale_sigma = 0;
   bool Check(std::string* why) const;
 };
 
 struct PooledSaccadeMotion {
   bool ok = false;
   std::string message;
+  // Sigmas: the larger of the fit's (fit_*) and the jackknife's over saccades (jackknife_*).
   double slew_deg_per_s = 0, slew_sigma_deg_per_s = 0;
   double lag_s = 0, lag_sigma_s = 0;
   double delay_s = 0, delay_sigma_s = 0;
+  double fit_slew_sigma_deg_per_s = 0, fit_lag_sigma_s = 0, fit_delay_sigma_s = 0;
+  double jackknife_slew_sigma_deg_per_s = 0, jackknife_lag_sigma_s = 0, jackknife_delay_sigma_s = 0;
+  int jackknife_saccades = 0;
+  double scale_slew_sigma_deg_per_s = 0;  // slew x angle_scale_sigma, in slew_sigma_deg_per_s
   double rms_deg = 0;
   int num_frames = 0, num_saccades = 0;
 };

@@ -95,11 +95,19 @@ void ExpectMatchesTruth(const Recorded& r, int num_saccades) {
   ASSERT_TRUE(f.duration.ok) << f.duration.message;
   const double ts = s.true_slew_deg_per_s, tl = s.true_lag_s;
   // The acceptance: the main sequence's slew within 5 % of the truth; the pooled and the duration
-  // estimates too, each sigma honest-sized (the error within 3 sigma or 1 %).
+  // estimates too, each sigma honest (the truth within 3 sigma, no other allowance: the pooled
+  // fit's residual-based sigma alone put the default robot's 381.9 deg/s 6.3 sigma off).
   EXPECT_NEAR(f.peak.vmax_deg_per_s, ts, 0.05 * ts);
   EXPECT_NEAR(f.motion.slew_deg_per_s, ts, 0.05 * ts);
   EXPECT_NEAR(f.duration.slew_deg_per_s, ts, 0.05 * ts);
-  EXPECT_LT(std::abs(f.motion.slew_deg_per_s - ts), std::max(3 * f.motion.slew_sigma_deg_per_s, 0.01 * ts));
+  EXPECT_LT(std::abs(f.motion.slew_deg_per_s - ts), 3 * f.motion.slew_sigma_deg_per_s);
+  EXPECT_LT(std::abs(f.peak.vmax_deg_per_s - ts), 3 * f.peak.vmax_sigma_deg_per_s);
+  EXPECT_LT(std::abs(f.duration.slew_deg_per_s - ts), 3 * f.duration.slew_sigma_deg_per_s);
+  // The statistical part alone (the jackknife over saccades) is several times the residual-based
+  // one: the frames of one saccade share their errors.
+  EXPECT_GT(f.motion.jackknife_slew_sigma_deg_per_s, f.motion.fit_slew_sigma_deg_per_s);
+  // Not inflated beyond use: 5 % of the truth is 10 sigma or more.
+  EXPECT_LT(f.motion.slew_sigma_deg_per_s, 0.005 * ts);
   EXPECT_NEAR(f.peak.lag_s, tl, 0.15 * tl);
   EXPECT_NEAR(f.motion.lag_s, tl, 0.15 * tl);
   for (const MainSequenceSaccade& sa : s.saccades) {
