@@ -29,6 +29,7 @@ struct CatchUpCmdOptions {
   std::string protocol = "catch_up";
   bool no_figures = false;
   bool quiet = false;
+  std::string tracker;
 };
 
 int RunCatchUp(const CatchUpCmdOptions& o) {
@@ -40,7 +41,8 @@ int RunCatchUp(const CatchUpCmdOptions& o) {
                                                                   o.out,
                                                                   o.dataset,
                                                                   o.calib,
-                                                                  o.quiet});
+                                                                  o.quiet,
+                                                                  o.tracker});
   if (!recorded) return kExitFailed;
   const std::string& dir = *recorded;
   const pipeline::CatchUpStudy study = pipeline::EvaluateCatchUpDataset(dir);
@@ -83,6 +85,7 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--protocol", o->protocol, "protocol name or file (default: the standard catch_up)");
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
       cmd->add_flag("--quiet", o->quiet, "no progress output");
+      AddTrackerOption(cmd, &o->tracker);
       return [o] { return RunCatchUp(*o); };
     });
 

@@ -29,6 +29,7 @@ struct MainSequenceCmdOptions {
   std::string protocol = "main_sequence";
   bool no_figures = false;
   bool quiet = false;
+  std::string tracker;
 };
 
 int RunMainSequence(const MainSequenceCmdOptions& o) {
@@ -41,7 +42,8 @@ int RunMainSequence(const MainSequenceCmdOptions& o) {
                           o.out,
                           o.dataset,
                           o.calib,
-                          o.quiet});
+                          o.quiet,
+                          o.tracker});
   if (!recorded) return kExitFailed;
   const std::string& dir = *recorded;
   const pipeline::MainSequenceStudy study = pipeline::EvaluateMainSequenceDataset(dir);
@@ -88,6 +90,7 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--protocol", o->protocol, "protocol name or file (default: the standard main_sequence)");
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
       cmd->add_flag("--quiet", o->quiet, "no progress output");
+      AddTrackerOption(cmd, &o->tracker);
       return [o] { return RunMainSequence(*o); };
     });
 

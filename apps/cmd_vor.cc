@@ -29,6 +29,7 @@ struct VorCmdOptions {
   std::string protocol = "vor";
   bool no_figures = false;
   bool quiet = false;
+  std::string tracker;
 };
 
 int RunVor(const VorCmdOptions& o) {
@@ -41,7 +42,8 @@ int RunVor(const VorCmdOptions& o) {
                           o.out,
                           o.dataset,
                           o.calib,
-                          o.quiet});
+                          o.quiet,
+                          o.tracker});
   if (!recorded) return kExitFailed;
   const std::string& dir = *recorded;
   const pipeline::VorStudy study = pipeline::EvaluateVorDataset(dir);
@@ -91,6 +93,7 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--protocol", o->protocol, "protocol name or file (default: the standard vor)");
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
       cmd->add_flag("--quiet", o->quiet, "no progress output");
+      AddTrackerOption(cmd, &o->tracker);
       return [o] { return RunVor(*o); };
     });
 

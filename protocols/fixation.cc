@@ -36,13 +36,12 @@ class FixationLocator : public TargetLocator {
     found_[eye] = p.has_value();
     return p;
   }
-  // Tracks from px next (the radius of the last find, else the size hint; no radius: ignored).
+  // Tracks from px next: the blob of the last find's radius (else the size hint) closest to px,
+  // or with no radius known the best blob, within the windows around px.
   void Expect(int eye, const Eigen::Vector2d& px) override {
-    const double r = last_radius_[eye] > 0 ? last_radius_[eye] : options_.size_hint_px;
-    if (!(r > 0)) return;
     has_last_[eye] = true;
     last_[eye] = px;
-    last_radius_[eye] = r;
+    if (!(last_radius_[eye] > 0)) last_radius_[eye] = std::max(0.0, options_.size_hint_px);
   }
   std::string Name() const override { return "fixation"; }
 
@@ -61,7 +60,8 @@ class FixationLocator : public TargetLocator {
         o.expected_radius_px = last_radius_[eye];
         // The disc may shrink to half its last size (it is moved away, or blurs into a smaller
         // thresholded blob while it moves); a far disc found at 3.1 px must not be lost at 2.9.
-        if (o.size_hint_px <= 0) o.min_radius_px = std::min(o.min_radius_px, std::max(1.0, 0.5 * last_radius_[eye]));
+        if (o.size_hint_px <= 0 && last_radius_[eye] > 0)
+          o.min_radius_px = std::min(o.min_radius_px, std::max(1.0, 0.5 * last_radius_[eye]));
         // The disc keeps its contrast; a background spot that a blurred, fast-moving disc
         // leaves alone in the window has far less (the sim's texture: ~0.35 of black-white).
         o.min_contrast = std::max(options_.min_contrast, 0.6 * last_contrast_[eye]);
@@ -206,13 +206,25 @@ class LkLocator : public TargetLocator {
       robot::StereoFrame alone;
       alone.left = image;
       alone.right = image;
-      if (seed->Prepare(alone, nullptr) && Start(*seed, image, eye, lost)) return tracker_[eye].position();
+      const bool prepared = seed->Prepare(alone, nullptr);
+      if (prepared && expect_[eye]) seed->Expect(eye, *expect_[eye]);
+      expect_[eye].reset();
+      if (prepared && Start(*seed, image, eye, lost)) return tracker_[eye].position();
       lost += "; not reacquired: " + reason_[eye];
     }
     reason_[eye] = lost;
     return std::nullopt;
   }
   std::string LastReason(int eye) const override { return reason_[eye]; }
+  // The seed's radius of the target where the track last (re)started; nullopt while lost.
+  std::optional<double> LastRadiusPx(int eye) const override {
+    if (!reason_[eye].empty() && reason_[eye].rfind("reacquired", 0) != 0) return std::nullopt;
+    return radius_[eye] > 0 ? std::optional<double>(radius_[eye]) : std::nullopt;
+  }
+  // A lost track's next reacquisition asks the seed there first (a tracking track ignores it).
+  void Expect(int eye, const Eigen::Vector2d& px) override {
+    if (!tracker_[eye].tracking()) expect_[eye] = px;
+  }
   std::string Name() const override { return "lk"; }
 
  private:
@@ -237,6 +249,7 @@ class LkLocator : public TargetLocator {
         return false;
       }
     }
+    if (const std::optional<double> r = seed.LastRadiusPx(eye)) radius_[eye] = *r;
     std::string why;
     const bool resume = !after.empty() && !first_[eye].empty();
     if (!(resume ? tracker_[eye].Resume(img, *p, &why) : tracker_[eye].Start(img, *p, &why))) {
@@ -262,6 +275,8 @@ class LkLocator : public TargetLocator {
   Eigen::Vector2d first_px_[2];
   std::string reason_[2] = {"not prepared", "not prepared"};
   std::string lost_base_[2] = {"not prepared", "not prepared"};  // why the track was (last) lost
+  std::optional<Eigen::Vector2d> expect_[2];                     // Expect's hint for a reacquisition
+  double radius_[2] = {0, 0};
 };
 
 // Half-cycle peak tracker of one error signal.

@@ -153,7 +153,7 @@ class AppearanceCheckedLocator : public TargetLocator {
     has_last_[eye] = true;
     last_px_[eye] = px;
   }
-  std::string Name() const override { return inner_->Name() + "+look"; }
+  std::string Name() const override { return inner_->Name(); }
   // Drops the reference: the next position found becomes the first look.
   void ForgetLook();
   bool has_look(int eye) const { return !look_[eye].empty(); }

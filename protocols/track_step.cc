@@ -199,14 +199,14 @@ void RunSalience(RunContext& run, const Protocol& p, const TrackStep& s, const P
 
 struct TrackerState {
   std::unique_ptr<TargetLocator> loc;
-  bool is_fixation = false;
 };
 
 void RunTracking(RunContext& run, const Protocol& p, const TrackStep& s, const PwmVector& start) {
   const std::string step = std::to_string(run.step_index());
   TrackerState trackers[2];
-  trackers[0].loc = MakeStepLocator(run, p, Locator::kFixation);
-  trackers[0].is_fixation = true;
+  // The disc detector checked against the disc's first look (it found wall blobs and the image's
+  // darker corners while the disc was out of view, and reported them as the target).
+  trackers[0].loc = MakeAppearanceCheckedLocator(MakeStepLocator(run, p, Locator::kFixation));
   trackers[1].loc = MakeStepLocator(run, p, Locator::kLk);
   robot::SceneControl* sc = run.robot().Scene();
   std::optional<models::HeadModel> truth_head;
@@ -273,16 +273,7 @@ void RunTracking(RunContext& run, const Protocol& p, const TrackStep& s, const P
         std::optional<Eigen::Vector2d> px = t.loc->Locate(img, e);
         std::string reason = t.loc->LastReason(e);
         std::string status = px ? "ok" : "lost";
-        if (t.is_fixation && !px) {
-          // Out of its window: the whole image is searched again (as the vor step does).
-          robot::StereoFrame alone;
-          alone.left = alone.right = img;
-          const std::string miss = "not found near its last position";
-          t.loc->Prepare(alone, nullptr);
-          px = t.loc->Locate(img, e);
-          reason = px ? "reacquired by a whole-image search after: " + miss : miss + ", nor anywhere in the image";
-          if (px) status = "reacquired";
-        } else if (px && !reason.empty()) {
+        if (px && !reason.empty()) {
           status = "reacquired";
         }
         run.writer().AppendRow("track.csv",

@@ -16,9 +16,13 @@
 //      robot's clock from the first frame), then, with leave_deg > 0, pan leave_deg to the robot's
 //      right (the target leaves the view) for leave_ms and come back for return_ms. Every frame the
 //      protocol's target is located in both eyes by two trackers started on the first frame: the
-//      fixation locator (the disc detector near its last position; on a miss the whole image is
-//      searched again: "reacquired" when that finds it) and LK (MakeLkLocator seeded and reacquired by
-//      the fixation locator). Truth: the target's true pixel at the frame's exposure.
+//      fixation locator (the disc detector near its last position, checked against the disc's first
+//      look, protocols/fixation.h AppearanceCheckedLocator; a miss or a blob that does not look
+//      like the disc is searched for by that look near the last position, then in the whole image:
+//      "reacquired" when that finds it, else "lost" with why; it used to take wall blobs and the
+//      image's darker corners for the disc while the disc was out of view) and LK (MakeLkLocator
+//      seeded and reacquired by the fixation locator). Truth: the target's true pixel at the
+//      frame's exposure.
 // A command that would come within limit_margin_us of a limit is not sent: the trial stops and its
 // row says so (status not_settled).
 //
