@@ -61,12 +61,8 @@ std::vector<End> EndsAgainstTruth(const fitting::HeadFit& fit, const models::Rob
   return out;
 }
 
-TEST(TagRimRobot, FusedFitHoldsWhereTheRimHidesTheChessboard) {
-  sim::VirtualOwlOptions vo;
-  vo.truth = sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/tests/data/robots/owl_narrow_rim_truth.yaml");
-  if (const char* rim = std::getenv("OWLCAL_RIM_DEG")) vo.truth->socket.rim_half_angle_deg = std::atof(rim);
-  vo.seed = 7;
-  sim::VirtualOwl owl(vo);
+// The standard servo_sweep (chessboard and tag sheets) recorded on `owl`, its views by placement.
+std::vector<calib::View> RecordSweep(sim::VirtualOwl& owl) {
   const std::string dir =
       (std::filesystem::temp_directory_path() / ("owlcal_tag_rim_" + std::to_string(::getpid()))).string();
   std::filesystem::remove_all(dir);
@@ -75,9 +71,25 @@ TEST(TagRimRobot, FusedFitHoldsWhereTheRimHidesTheChessboard) {
   o.robot_spec = "sim";
   const protocols::RunSummary run = protocols::RunProtocols(
       {protocols::LoadProtocolFile(protocols::ResolveProtocolPath("servo_sweep"))}, owl, o);
-  ASSERT_EQ(run.status, "complete") << run.message;
-  const std::vector<calib::View> views = protocols::ReadViewsByPlacement(dir);
+  EXPECT_EQ(run.status, "complete") << run.message;
+  std::vector<calib::View> views = protocols::ReadViewsByPlacement(dir);
   std::filesystem::remove_all(dir);
+  return views;
+}
+
+// Both head fits as owlcal calibrate makes them (intrinsics from a stereo fit, here the truth with
+// the default run's stereo errors, refined with its prior; each kind whitened by its own noise),
+// and every servo map within 3 sigma of the truth at both ends of its configured range with tags.
+void ExpectFusedEndsWithinThreeSigma(const sim::VirtualOwl& owl, const std::vector<calib::View>& views);
+
+TEST(TagRimRobot, FusedFitHoldsWhereTheRimHidesTheChessboard) {
+  sim::VirtualOwlOptions vo;
+  vo.truth = sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/tests/data/robots/owl_narrow_rim_truth.yaml");
+  if (const char* rim = std::getenv("OWLCAL_RIM_DEG")) vo.truth->socket.rim_half_angle_deg = std::atof(rim);
+  vo.seed = 7;
+  sim::VirtualOwl owl(vo);
+  const std::vector<calib::View> views = RecordSweep(owl);
+  ASSERT_FALSE(views.empty());
   const models::RobotConfig& config = owl.Config();
 
   // Where each pan servo's own eye saw the chessboard and the tags.
@@ -108,9 +120,11 @@ TEST(TagRimRobot, FusedFitHoldsWhereTheRimHidesTheChessboard) {
     ends_reached += (tags[0] <= lim.min_us + 15) + (tags[1] >= lim.max_us - 15);
   }
   EXPECT_GE(ends_reached, 3) << "pan ends the tags reach";
+  ExpectFusedEndsWithinThreeSigma(owl, views);
+}
 
-  // Both fits as owlcal calibrate makes them: intrinsics from a stereo fit (here the truth with
-  // the default run's stereo errors) refined with its prior, each kind whitened by its own noise.
+void ExpectFusedEndsWithinThreeSigma(const sim::VirtualOwl& owl, const std::vector<calib::View>& views) {
+  const models::RobotConfig& config = owl.Config();
   const models::HeadModel truth = owl.TruthHeadModel();
   models::HeadModel initial = models::NominalHeadModel(config);
   for (int e = 0; e < 2; ++e) initial.intrinsics[e] = truth.intrinsics[e];
@@ -159,6 +173,23 @@ TEST(TagRimRobot, FusedFitHoldsWhereTheRimHidesTheChessboard) {
     ASSERT_GT(a.sigma_deg, 0);
     EXPECT_LE(std::abs(a.error_deg / a.sigma_deg), 3.0) << models::kServoNames[a.servo] << " at " << a.pwm_us << " us";
   }
+}
+
+// A second robot away from the default: variant A (5 us PWM steps, dead bands 2 and 5 us, 4-8 us
+// backlash, a noisy JPEG stream: noise 2.5, quality 70), its ordinary 60 deg rims. Measured (seed 3):
+// with tags |z| 0.6-1.3 at the pan ends (sigma 0.020-0.022 deg, chessboard only 0.032-0.035), 0.5-2.5
+// at the tilt ends (0.005-0.006 deg, chessboard only 0.016-0.035), 2.4 / 2.8 at the neck's (0.005
+// deg, chessboard only 0.021-0.023). The neck's ends are close to the bound: over 12 robots of the
+// prior the fused fit's servo ends are 85 % within 3 sigma (bench/robot_prior_mc_bench.cc; its five
+// servo scales low together by 1-5e-4), so this pins a robot where it holds, not the fit's honesty.
+TEST(TagRimRobot, FusedFitHoldsOnVariantA) {
+  sim::VirtualOwlOptions vo;
+  vo.truth = sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/data/sim/owl_variant_a_truth.yaml");
+  vo.seed = 3;
+  sim::VirtualOwl owl(vo);
+  const std::vector<calib::View> views = RecordSweep(owl);
+  ASSERT_FALSE(views.empty());
+  ExpectFusedEndsWithinThreeSigma(owl, views);
 }
 
 }  // namespace
