@@ -32,6 +32,9 @@ struct FitDatasetsOptions {
   bool no_hysteresis = false;
   double hysteresis_sigma_floor_us = 0.01;
   double view_outlier_factor = 5.0;
+  std::string covariance_clusters;  // "" (calibrate's), "view" or "placement"
+  double robust_sigma_factor = 1.0;
+  bool floor_to_centres = false;
   bool no_figures = false;
   bool quiet = false;
   std::string lens_model = "auto";
@@ -103,6 +106,9 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
   po.head.fit_hysteresis = !o.no_hysteresis;
   po.head.hysteresis_sigma_floor_us = o.hysteresis_sigma_floor_us;
   po.head.view_outlier_factor = o.view_outlier_factor;
+  po.head.covariance_clusters = o.covariance_clusters;
+  po.head.robust_sigma_factor = o.robust_sigma_factor;
+  po.head.intrinsics_floor_to_servo_centres = o.floor_to_centres;
   std::string why;
   if (!pipeline::SetLensModel(o.lens_model, &po, &why)) throw UsageError(why);
   if (!po.Check(&why)) throw UsageError(why);
@@ -118,6 +124,9 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
                   {"no_hysteresis", o.no_hysteresis},
                   {"hysteresis_floor", o.hysteresis_sigma_floor_us},
                   {"view_outlier_factor", o.view_outlier_factor},
+                  {"covariance_clusters", o.covariance_clusters},
+                  {"robust_sigma_factor", o.robust_sigma_factor},
+                  {"floor_to_centres", o.floor_to_centres},
                   {"no_figures", o.no_figures},
                   {"lens_model", o.lens_model},
                   {"owlcal_version", OWLCAL_VERSION}};
@@ -149,6 +158,18 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--view-outlier-factor", o->view_outlier_factor,
                       "head fit: drop views whose RMS exceeds this times the median view's (0 = off)")
           ->check(CLI::Range(0.0, 1e6));
+      cmd->add_option("--covariance-clusters",
+                      o->covariance_clusters,
+                      "head fit: sigma from the residuals, clustered by view or placement (fitting/observability.h "
+                      "ClusterRobustCovariance; default: the model covariance)")
+          ->check(CLI::IsMember({"view", "placement"}));
+      cmd->add_option("--robust-sigma-factor",
+                      o->robust_sigma_factor,
+                      "head fit: factor on the clustered sigma, for the bias every view shares")
+          ->check(CLI::Range(1.0, 10.0));
+      cmd->add_flag("--floor-to-centres",
+                    o->floor_to_centres,
+                    "head fit: carry the intrinsics floor (the stereo fit's covariance) to the servo centres");
       AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
       return [o] { return RunFitDatasets(*o); };
     });

@@ -60,6 +60,16 @@ struct HeadFitOptions {
   // Widening sigma for it is a choice the caller documents (owlcal calibrate: 2).
   double measured_sigma_factor = 1.0;
   double min_corner_sigma_px = 0.0;
+  // Covariance from the residuals themselves (fitting/observability.h ClusterRobustCovariance):
+  // the corners of one cluster may share an error; "view": each view is a cluster, "placement":
+  // each board placement seen by one eye (10 clusters for the standard sweep: too few for the
+  // ~80 parameters); "" (default): the model covariance alone. The result is never below the
+  // white-noise covariance at the measured sigma (the model covariance divided by
+  // measured_sigma_factor^2), and it does not depend on measured_sigma_factor otherwise.
+  std::string covariance_clusters;
+  // The clustered covariance times this squared: the residuals cannot show a corner bias that
+  // every view shares (it moves the fit, not the residuals), so sigma is widened for it (1: none).
+  double robust_sigma_factor = 1.0;
   // Noise classes: corners of different kinds of target (chessboard saddles, AprilTag quad
   // corners) have different noise. A physical board (target id before "@placement",
   // fitting/board_warp.h BoardOfTarget) listed here belongs to that class; unlisted boards to
@@ -96,6 +106,8 @@ struct HeadFitOptions {
   // where the stereo set is small and its covariance noise-limited, not a bias floor (the
   // 6-robot Monte-Carlo test's 8 stereo views: 90 and 97 % within 1 sigma).
   std::optional<Eigen::MatrixXd> intrinsics_covariance_floor[2];
+  // Carry the shortfall to the servo centres too (fitting/head_fit.cc says why).
+  bool intrinsics_floor_to_servo_centres = false;
   bool fit_nonlinear = true;           // quad_deg and cubic_deg; false: held at 0
   bool fit_hysteresis = true;          // false: held at 0
   double huber_sigma = 3.0;            // robust loss scale in sigma units for the first solve; 0 = none

@@ -199,23 +199,27 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
                      {"measured_sigma_px", c.measured_sigma_px},
                      {"num_corners", c.num_corners}};
   result.diagnostics["head"]["noise_classes"] = classes;
-  result.inputs["head_fit"] = {{"corner_sigma_px", options.corner_sigma_px},
-                               {"estimate_corner_sigma", options.estimate_corner_sigma},
-                               {"measured_sigma_factor", options.measured_sigma_factor},
-                               {"min_corner_sigma_px", options.min_corner_sigma_px},
-                               {"hysteresis_sigma_floor_us", options.hysteresis_sigma_floor_us},
-                               {"view_outlier_factor", options.view_outlier_factor},
-                               {"noise_class_of_board", options.noise_class_of_board},
-                               {"tag_size_of_board", options.tag_size_of_board},
-                               {"whitening_sigma_px", {fit.corner_sigma_px[0], fit.corner_sigma_px[1]}},
-                               {"measured_corner_sigma_px", {fit.measured_corner_sigma_px[0], fit.measured_corner_sigma_px[1]}},
-                               {"fit_intrinsics", options.fit_intrinsics},
-                               {"fit_board_warp", options.fit_board_warp},
-                               {"fit_nonlinear", options.fit_nonlinear},
-                               {"fit_hysteresis", options.fit_hysteresis},
-                               {"huber_sigma", options.huber_sigma},
-                               {"outlier_threshold_sigma", options.outlier_threshold_sigma},
-                               {"num_views_given", num_views_given}};
+  result.inputs["head_fit"] = {
+      {"corner_sigma_px", options.corner_sigma_px},
+      {"estimate_corner_sigma", options.estimate_corner_sigma},
+      {"measured_sigma_factor", options.measured_sigma_factor},
+      {"min_corner_sigma_px", options.min_corner_sigma_px},
+      {"hysteresis_sigma_floor_us", options.hysteresis_sigma_floor_us},
+      {"covariance_clusters", options.covariance_clusters},
+      {"robust_sigma_factor", options.robust_sigma_factor},
+      {"intrinsics_floor_to_servo_centres", options.intrinsics_floor_to_servo_centres},
+      {"view_outlier_factor", options.view_outlier_factor},
+      {"noise_class_of_board", options.noise_class_of_board},
+      {"tag_size_of_board", options.tag_size_of_board},
+      {"whitening_sigma_px", {fit.corner_sigma_px[0], fit.corner_sigma_px[1]}},
+      {"measured_corner_sigma_px", {fit.measured_corner_sigma_px[0], fit.measured_corner_sigma_px[1]}},
+      {"fit_intrinsics", options.fit_intrinsics},
+      {"fit_board_warp", options.fit_board_warp},
+      {"fit_nonlinear", options.fit_nonlinear},
+      {"fit_hysteresis", options.fit_hysteresis},
+      {"huber_sigma", options.huber_sigma},
+      {"outlier_threshold_sigma", options.outlier_threshold_sigma},
+      {"num_views_given", num_views_given}};
 }
 
 }  // namespace

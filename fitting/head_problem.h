@@ -157,6 +157,12 @@ void InitialiseWarps(const std::vector<calib::View>& views,
 struct HeadCovariance {
   Observability analysis;  // over the tangent coordinates below (ok = false: nothing free)
   std::map<std::pair<const Block*, int>, int> tangent_of;  // (block, ambient index) -> tangent index
+  // HeadFitOptions::covariance_clusters: the clusters used, and the sigma of each coordinate
+  // from the residuals over the model's (white noise at the measured sigma); empty when off.
+  int num_clusters = 0;
+  std::string clusters_message;
+  std::vector<std::string> names;  // per tangent coordinate
+  Eigen::VectorXd robust_sigma_ratio;
 };
 
 // Outputs of FitHead (fitting/head_fit_output.cc): the head model, every parameter with sigma

@@ -35,6 +35,7 @@
 // Usage:
 //   const Observability o = AnalyseObservability(&problem, {cam.data()}, pose_blocks, names, kDefaultRankTolerance);
 //   if (!o.determined[k]) note = o.reasons[k];
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -74,6 +75,35 @@ Observability AnalyseObservability(ceres::Problem* problem,
                                    const std::vector<double*>& local_blocks,
                                    const std::vector<std::string>& names,
                                    double rank_tolerance);
+
+// The cluster-robust ("sandwich", Huber-White) covariance of the globals of a solved problem:
+//   V = B M B,  M = G/(G-1) sum_c g_c g_c^T + sum_(modelled blocks) Jp^T Jp,
+// with B the model covariance over the globals (Observability::covariance; NaN rows and columns,
+// the undetermined coordinates, are taken as 0 and stay NaN in V), g_c the score of cluster c
+// (J_c^T r_c over the residual blocks in it) with the local blocks profiled out
+// (g_global - H_gl H_ll^+ g_local, per local block, as rule 2 eliminates them), and G the number
+// of clusters. Where residuals in one cluster share an error (a detector bias common to the corners
+// of one view or one board placement) that white-noise weighting treats as independent, M
+// measures it from the residuals themselves and V is wider than B along the directions it moves;
+// where the residuals are white and B's weights right, V -> B. V does not depend on a common scale
+// of the whitening sigma. cluster_of: a cluster index >= 0 per residual block, or -1 for a block
+// whose model information is taken as it is (a prior: its M term is Jp^T Jp).
+struct ClusterRobust {
+  bool ok = false;
+  std::string message;
+  Eigen::MatrixXd covariance;  // over the free global tangent coordinates, like Observability
+  int num_clusters = 0;
+};
+ClusterRobust ClusterRobustCovariance(ceres::Problem* problem,
+                                      const std::vector<double*>& global_blocks,
+                                      const std::vector<double*>& local_blocks,
+                                      const std::function<int(ceres::ResidualBlockId)>& cluster_of,
+                                      const Eigen::MatrixXd& model_covariance);
+
+// Raises a symmetric positive semi-definite matrix c to at least `floor` in the Loewner order
+// (c + the positive part of floor - c): the result is >= both, and equals c where c already
+// covers the floor.
+void RaiseToFloor(const Eigen::MatrixXd& floor, Eigen::MatrixXd* c);
 
 // Tangent size of the non-constant blocks among `blocks` in `problem` (0 for constant ones).
 int FreeTangentSize(ceres::Problem* problem, const std::vector<double*>& blocks);
