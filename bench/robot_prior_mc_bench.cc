@@ -24,7 +24,9 @@
 // calibration's result (its head is one of the two fits: CalibratePipelineOptions::fuse_tags).
 // OWLCAL_MC_KEEP=1 keeps each robot's observations and manifests (not the frames) under the temp
 // folder, for refits (`owlcal fit-datasets DIR/cal --out ...`); OWLCAL_MC_PER_PARAMETER=1 adds
-// the per-parameter table; OWLCAL_MC_JOBS=N runs N robots at once (the output is the same).
+// the per-parameter table; OWLCAL_MC_JOBS=N runs N robots at once (the output is the same);
+// OWLCAL_MC_BINARY=PATH runs that owlcal instead of the build's (e.g. a copy of a baseline
+// build, while the build tree is rebuilt).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -102,7 +104,8 @@ int main(int argc, char** argv) {
     fs::create_directories(dir);
     sim::SaveRobotTruth(robot.truth, (dir / "truth.yaml").string());
     std::ofstream((dir / "scene.yaml").string()) << sim::SceneJson(robot.scene).dump(2);
-    std::string cmd = std::string(OWLCAL_BINARY) + " calibrate --quiet --no-figures --robot-truth " +
+    const char* binary = std::getenv("OWLCAL_MC_BINARY");
+    std::string cmd = std::string(binary ? binary : OWLCAL_BINARY) + " calibrate --quiet --no-figures --robot-truth " +
                       (dir / "truth.yaml").string() + " --scene " + (dir / "scene.yaml").string() + " --seed " +
                       std::to_string(seed) + " --out " + (dir / "cal").string() + " --protocols";
     for (const auto& p : protocols) cmd += " " + p;
