@@ -138,6 +138,11 @@ SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
                                        HeadFit* fit,
                                        StageTimer* timer) {
   const double sigma = options.corner_sigma_px;
+  // Each class's widening for errors its views share (HeadFitOptions::sigma_factor_of_class).
+  std::vector<double> class_factor(classes.size(), 1.0);
+  for (size_t k = 0; k < classes.size(); ++k)
+    if (const auto it = options.sigma_factor_of_class.find(classes[k]); it != options.sigma_factor_of_class.end())
+      class_factor[k] = it->second;
   std::vector<std::array<double, 2>> class_sigma(classes.size(), {sigma, sigma});
   SolveOutcome out;
   {
@@ -171,6 +176,10 @@ SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
     }
   }
   if (options.view_outlier_factor > 0) DropViewsTheModelDoesNotExplain(views, options, *s, prepared, fit);
+  // The classes' widening from the final solve on (the robust stage only finds the basin and the
+  // outliers, at the plain sigma).
+  for (size_t k = 0; k < classes.size(); ++k)
+    for (double& c : class_sigma[k]) c *= class_factor[k];
   *problem = std::make_unique<ceres::Problem>();
   fit->num_corners_used = internal::BuildHeadProblem(s, *prepared, class_sigma, 0.0, options, 0, problem->get());
   out.final_summary = internal::SolveHeadProblem(problem->get(), options, 1e-12);
@@ -197,7 +206,8 @@ SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
         if (count[k][e] == 0) continue;
         const double dof = double(num_residuals) / (num_residuals - num_free);
         measured[k][e] = std::sqrt(ssq[k][e] / (2.0 * count[k][e]) * dof);
-        const double use = std::max(options.measured_sigma_factor * measured[k][e], options.min_corner_sigma_px);
+        const double use =
+            std::max(options.measured_sigma_factor * measured[k][e], options.min_corner_sigma_px) * class_factor[k];
         changed |= std::abs(use - class_sigma[k][e]) > 1e-3 * class_sigma[k][e];
         if (use > 0) class_sigma[k][e] = use;
       }
@@ -375,6 +385,10 @@ bool HeadFitOptions::Check(std::string* why) const {
     if (board.empty() || !(size > 0 && size < 10))
       return fail("tag_size_of_board: board '" + board + "' -> " + std::to_string(size) +
                   " m: a named board and a tag size in (0, 10) m");
+  for (const auto& [cls, factor] : sigma_factor_of_class)
+    if (cls.empty() || !(factor >= 1 && factor < 100))
+      return fail("sigma_factor_of_class: class '" + cls + "' -> " + std::to_string(factor) +
+                  ": a named class and a factor in [1, 100)");
   for (const auto& [board, cls] : noise_class_of_board)
     if (board.empty() || cls.empty())
       return fail("noise_class_of_board: board '" + board + "' -> class '" + cls + "': names must not be empty");

@@ -82,6 +82,13 @@ struct HeadFitOptions {
   // intersection of straight lines through the images of its two edges, which the lens bends;
   // fitting/tag_edge_corner.h), not with its own projection. Empty: no board is treated so.
   std::map<std::string, double> tag_size_of_board;
+  // Noise classes (noise_class_of_board) whitened by this many times their sigma (given or
+  // measured, after measured_sigma_factor), each factor >= 1; unlisted classes: 1. A tag sheet
+  // stays put through the whole sweep and every view sees the same corners from nearly the same
+  // place, so their detection errors repeat from view to view and more views do not average them
+  // away; the residuals' scatter does not show that (owlcal calibrate: "apriltag" 3,
+  // pipeline/calibrate_pipeline.cc CalibratePipelineOptions::tag_sigma_factor).
+  std::map<std::string, double> sigma_factor_of_class;
   // Floor of every servo's hysteresis sigma [us]: a frame exposed before the servo fully settled
   // looks like extra backlash on both approach sides (servo lag is not in the model); 0 = none.
   double hysteresis_sigma_floor_us = 0.0;

@@ -211,6 +211,7 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
       {"view_outlier_factor", options.view_outlier_factor},
       {"noise_class_of_board", options.noise_class_of_board},
       {"tag_size_of_board", options.tag_size_of_board},
+      {"sigma_factor_of_class", options.sigma_factor_of_class},
       {"whitening_sigma_px", {fit.corner_sigma_px[0], fit.corner_sigma_px[1]}},
       {"measured_corner_sigma_px", {fit.measured_corner_sigma_px[0], fit.measured_corner_sigma_px[1]}},
       {"fit_intrinsics", options.fit_intrinsics},

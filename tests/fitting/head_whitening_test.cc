@@ -101,6 +101,49 @@ TEST(HeadWhitening, EachNoiseClassIsWhitenedWithItsOwnMeasuredSigma) {
   EXPECT_TRUE(fit.result.diagnostics["head"]["noise_classes"].contains("apriltag"));
 }
 
+TEST(HeadWhitening, AClassFactorWidensThatClassAfterTheRobustStage) {
+  // HeadFitOptions::sigma_factor_of_class (calibrate: the tag sheets' class x 3, for the errors a
+  // static sheet repeats in every view): the class is whitened by the factor times its measured
+  // sigma, the other class as before, and the measured sigma is still reported as measured.
+  constexpr double kBoardPx = 0.03, kTagPx = 0.12, kFactor = 3;
+  std::mt19937_64 rng(31);
+  const models::RobotConfig robot = models::DefaultRobotConfig();
+  const models::HeadModel truth = PerturbedHead(robot, &rng);
+  SyntheticHeadOptions so;
+  so.steps_per_sweep = 5;
+  so.grid_side = 3;
+  so.noise_px = 0;
+  SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
+  HeadFitOptions o;
+  o.estimate_corner_sigma = true;
+  for (const char* side : {"left", "right", "up", "down"}) o.noise_class_of_board[side] = "apriltag";
+  std::normal_distribution<double> unit(0, 1);
+  for (calib::View& v : data.views) {
+    const bool tag = o.noise_class_of_board.count(v.target_id) > 0;
+    for (Eigen::Vector2d& p : v.pixels) p += (tag ? kTagPx : kBoardPx) * Eigen::Vector2d(unit(rng), unit(rng));
+  }
+  models::HeadModel init = models::NominalHeadModel(robot);
+  for (int e = 0; e < 2; ++e) init.intrinsics[e] = truth.intrinsics[e];
+  const HeadFit plain = FitHead(data.views, robot, init, o);
+  o.sigma_factor_of_class["apriltag"] = kFactor;
+  const HeadFit widened = FitHead(data.views, robot, init, o);
+  ASSERT_TRUE(plain.ok) << plain.message;
+  ASSERT_TRUE(widened.ok) << widened.message;
+  for (int e = 0; e < 2; ++e) {
+    const auto& tags = widened.noise_classes.at("apriltag");
+    EXPECT_NEAR(tags.measured_sigma_px[e], kTagPx, 0.1 * kTagPx) << "eye " << e;
+    EXPECT_NEAR(tags.sigma_px[e], kFactor * tags.measured_sigma_px[e], 1e-9) << "eye " << e;
+    EXPECT_NEAR(widened.noise_classes.at("board").sigma_px[e], kBoardPx, 0.1 * kBoardPx) << "eye " << e;
+  }
+  // The tags weigh less: every servo's scale sigma grows (the boards still carry it).
+  for (const char* servo : {"Rx", "Ry", "Lx", "Ly", "Neck"}) {
+    const std::string name = std::string("servo.") + servo + ".deg_per_us";
+    ASSERT_NE(plain.result.Find(name), nullptr) << name;
+    EXPECT_GT(widened.result.Find(name)->sigma, 1.01 * plain.result.Find(name)->sigma) << name;
+  }
+  EXPECT_EQ(widened.result.inputs["head_fit"]["sigma_factor_of_class"]["apriltag"].get<double>(), kFactor);
+}
+
 TEST(HeadWhitening, AViewTheModelDoesNotExplainIsDroppedWhole) {
   // One frame exposed while the servo was still moving: every corner of that view is 0.6 px
   // off (below the per-corner outlier threshold of 5 x 0.15 px), consistently.
@@ -143,6 +186,10 @@ TEST(HeadWhitening, FloorAndOptionsAreChecked) {
   o.view_outlier_factor = 1.0;
   EXPECT_FALSE(o.Check(&why));
   EXPECT_NE(why.find("view_outlier_factor"), std::string::npos) << why;
+  o = HeadFitOptions();
+  o.sigma_factor_of_class["apriltag"] = 0.5;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("sigma_factor_of_class"), std::string::npos) << why;
 }
 
 }  // namespace

@@ -180,8 +180,10 @@ void ExpectFusedEndsWithinThreeSigma(const sim::VirtualOwl& owl, const std::vect
 // with tags |z| 0.6-1.3 at the pan ends (sigma 0.020-0.022 deg, chessboard only 0.032-0.035), 0.5-2.5
 // at the tilt ends (0.005-0.006 deg, chessboard only 0.016-0.035), 2.4 / 2.8 at the neck's (0.005
 // deg, chessboard only 0.021-0.023). The neck's ends are close to the bound: over 12 robots of the
-// prior the fused fit's servo ends are 85 % within 3 sigma (bench/robot_prior_mc_bench.cc; its five
-// servo scales low together by 1-5e-4), so this pins a robot where it holds, not the fit's honesty.
+// prior the fused fit's servo ends were 85 % within 3 sigma with the tags whitened by their measured
+// sigma, as here (bench/robot_prior_mc_bench.cc; its five servo scales low together by 1-5e-4), and
+// 100 % with calibrate's 3 x (CalibratePipelineOptions::tag_sigma_factor), so this pins a robot
+// where it holds, not the fit's honesty.
 TEST(TagRimRobot, FusedFitHoldsOnVariantA) {
   sim::VirtualOwlOptions vo;
   vo.truth = sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/data/sim/owl_variant_a_truth.yaml");
