@@ -30,11 +30,11 @@ struct FitDatasetsOptions {
   bool hold_intrinsics = false;
   bool no_nonlinear = false;
   bool no_hysteresis = false;
-  double hysteresis_sigma_floor_us = 0.01;
+  double hysteresis_sigma_floor_us = -1;  // < 0: calibrate's
   double view_outlier_factor = 5.0;
-  std::string covariance_clusters;  // "" (calibrate's), "view" or "placement"
-  double robust_sigma_factor = 1.0;
-  bool floor_to_centres = false;
+  std::string covariance_clusters;  // "" (calibrate's), "model", "view", "placement" or "cell:B"
+  double robust_sigma_factor = 0;  // 0: calibrate's
+  std::string floor_carry;  // "" (calibrate's), none, centres, servo_maps
   bool no_figures = false;
   bool quiet = false;
   std::string lens_model = "auto";
@@ -104,11 +104,11 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
   po.head.fit_intrinsics = !o.hold_intrinsics;
   po.head.fit_nonlinear = !o.no_nonlinear;
   po.head.fit_hysteresis = !o.no_hysteresis;
-  po.head.hysteresis_sigma_floor_us = o.hysteresis_sigma_floor_us;
+  if (o.hysteresis_sigma_floor_us >= 0) po.head.hysteresis_sigma_floor_us = o.hysteresis_sigma_floor_us;
   po.head.view_outlier_factor = o.view_outlier_factor;
-  po.head.covariance_clusters = o.covariance_clusters;
-  po.head.robust_sigma_factor = o.robust_sigma_factor;
-  po.head.intrinsics_floor_to_servo_centres = o.floor_to_centres;
+  if (!o.covariance_clusters.empty()) po.head.covariance_clusters = o.covariance_clusters == "model" ? "" : o.covariance_clusters;
+  if (o.robust_sigma_factor > 0) po.head.robust_sigma_factor = o.robust_sigma_factor;
+  if (!o.floor_carry.empty()) po.head.intrinsics_floor_carry = o.floor_carry;
   std::string why;
   if (!pipeline::SetLensModel(o.lens_model, &po, &why)) throw UsageError(why);
   if (!po.Check(&why)) throw UsageError(why);
@@ -126,7 +126,7 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
                   {"view_outlier_factor", o.view_outlier_factor},
                   {"covariance_clusters", o.covariance_clusters},
                   {"robust_sigma_factor", o.robust_sigma_factor},
-                  {"floor_to_centres", o.floor_to_centres},
+                  {"floor_carry", o.floor_carry},
                   {"no_figures", o.no_figures},
                   {"lens_model", o.lens_model},
                   {"owlcal_version", OWLCAL_VERSION}};
@@ -160,16 +160,23 @@ const bool kRegistered = RegisterCommand(
           ->check(CLI::Range(0.0, 1e6));
       cmd->add_option("--covariance-clusters",
                       o->covariance_clusters,
-                      "head fit: sigma from the residuals, clustered by view or placement (fitting/observability.h "
-                      "ClusterRobustCovariance; default: the model covariance)")
-          ->check(CLI::IsMember({"view", "placement"}));
+                      "head fit: sigma from the residuals, clustered by view, placement or cell:B (the views of a placement "
+                      "whose commands share a B us cell; fitting/observability.h ClusterRobustCovariance), or model "
+                      "(the model covariance alone); default: calibrate's")
+          ->check([](const std::string& v) {
+            if (v == "model" || v == "view" || v == "placement") return std::string();
+            if (v.rfind("cell:", 0) == 0 && std::strtod(v.c_str() + 5, nullptr) >= 1) return std::string();
+            return std::string("must be model, view, placement or cell:B (B >= 1 us)");
+          });
       cmd->add_option("--robust-sigma-factor",
                       o->robust_sigma_factor,
                       "head fit: factor on the clustered sigma, for the bias every view shares")
           ->check(CLI::Range(1.0, 10.0));
-      cmd->add_flag("--floor-to-centres",
-                    o->floor_to_centres,
-                    "head fit: carry the intrinsics floor (the stereo fit's covariance) to the servo centres");
+      cmd->add_option("--floor-carry",
+                      o->floor_carry,
+                      "head fit: where the intrinsics floor (the stereo fit's covariance) is carried beyond the "
+                      "intrinsics: none, centres (servo centres) or servo_maps (every servo map coordinate)")
+          ->check(CLI::IsMember({"none", "centres", "servo_maps"}));
       AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
       return [o] { return RunFitDatasets(*o); };
     });

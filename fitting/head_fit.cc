@@ -292,7 +292,10 @@ ResidualStatistics ComputeResidualStatistics(const std::vector<calib::View>& vie
 }
 
 // The observability analysis over the free head blocks with the boards eliminated.
-internal::HeadCovariance AnalyseHead(ceres::Problem* problem, HeadState* s, const HeadFitOptions& options) {
+internal::HeadCovariance AnalyseHead(ceres::Problem* problem,
+                                     HeadState* s,
+                                     const std::vector<calib::View>& views,
+                                     const HeadFitOptions& options) {
   internal::HeadCovariance c;
   std::vector<double*> globals, locals;
   std::vector<std::string> names;
@@ -316,14 +319,24 @@ internal::HeadCovariance AnalyseHead(ceres::Problem* problem, HeadState* s, cons
   // The covariance the residuals show, clustered (HeadFitOptions::covariance_clusters), never
   // below white noise at the measured sigma.
   auto sandwich = [&](const std::string& spec) {
-    // "view": one residual block per view; "placement": the views of one board placement by one eye.
+    // "view": one residual block per view; "placement": the views of one board placement by one
+    // eye; "cell:B": the views of one board placement whose five commands fall in the same B us
+    // cell (both eyes' views of a frame together).
+    const double cell_us = spec.rfind("cell:", 0) == 0 ? std::strtod(spec.c_str() + 5, nullptr) : 0.0;
     std::map<std::pair<const double*, const double*>, int> placement;
     std::map<ceres::ResidualBlockId, int> view_index;
+    std::map<std::pair<const double*, std::array<long, models::kNumServos>>, int> cell;
     auto cluster_of = [&](ceres::ResidualBlockId id) {
       std::vector<double*> blocks;
       problem->GetParameterBlocksForResidualBlock(id, &blocks);
       if (blocks.size() != 8) return -1;  // a prior
       if (spec == "view") return view_index.try_emplace(id, int(view_index.size())).first->second;
+      if (cell_us > 0) {
+        const calib::View& v = views.at(s->input_view_of_residual.at(id));
+        std::array<long, models::kNumServos> key{};
+        for (int k = 0; k < models::kNumServos; ++k) key[k] = std::lround(std::floor(v.pwm_us[k] / cell_us));
+        return cell.try_emplace({blocks[5], key}, int(cell.size())).first->second;
+      }
       return placement.try_emplace({blocks[5], blocks[6]}, int(placement.size())).first->second;
     };
     return ClusterRobustCovariance(problem, globals, locals, cluster_of, c.analysis.covariance);
@@ -368,6 +381,12 @@ bool HeadFitOptions::Check(std::string* why) const {
     return fail("min_corner_sigma_px = " + std::to_string(min_corner_sigma_px) + " must be in [0, 10)");
   if (!(measured_sigma_factor >= 1 && measured_sigma_factor <= 10))
     return fail("measured_sigma_factor = " + std::to_string(measured_sigma_factor) + " must be in [1, 10]");
+  if (!(covariance_clusters.empty() || covariance_clusters == "view" || covariance_clusters == "placement" ||
+        (covariance_clusters.rfind("cell:", 0) == 0 && std::strtod(covariance_clusters.c_str() + 5, nullptr) >= 1)))
+    return fail("covariance_clusters = '" + covariance_clusters +
+                "' must be empty, view, placement or cell:B with B >= 1 us");
+  if (intrinsics_floor_carry != "none" && intrinsics_floor_carry != "centres" && intrinsics_floor_carry != "servo_maps")
+    return fail("intrinsics_floor_carry = '" + intrinsics_floor_carry + "' must be none, centres or servo_maps");
   if (!(hysteresis_sigma_floor_us >= 0 && hysteresis_sigma_floor_us < 100))
     return fail("hysteresis_sigma_floor_us = " + std::to_string(hysteresis_sigma_floor_us) + " must be in [0, 100)");
   if (!(view_outlier_factor == 0 || view_outlier_factor >= 1.5))
@@ -438,7 +457,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   fit.num_views_used = static_cast<int>(prepared.size());
 
   // 3. Observability and covariance.
-  internal::HeadCovariance cov = AnalyseHead(problem.get(), &s, options);
+  internal::HeadCovariance cov = AnalyseHead(problem.get(), &s, views, options);
   if (options.hysteresis_sigma_floor_us > 0 && cov.analysis.ok) {
     // Raising a diagonal entry keeps the covariance positive semi-definite.
     for (const Block& b : s.servo) {
@@ -486,10 +505,13 @@ HeadFit FitHead(const std::vector<calib::View>& views,
       const int n = int(c.rows());
       std::vector<bool> carry(n, false);
       for (int t : tangent) carry[t] = true;
-      if (options.intrinsics_floor_to_servo_centres) {
+      if (options.intrinsics_floor_carry != "none") {
         for (const Block& servo : s.servo) {
-          auto it = cov.tangent_of.find({&servo, 0});  // centre_us
-          if (it != cov.tangent_of.end()) carry[it->second] = true;
+          for (int a = 0; a < servo.size(); ++a) {
+            if (a != 0 && options.intrinsics_floor_carry == "centres") continue;  // 0: centre_us
+            auto it = cov.tangent_of.find({&servo, a});
+            if (it != cov.tangent_of.end()) carry[it->second] = true;
+          }
         }
       }
       Eigen::MatrixXd cak = Eigen::MatrixXd::Zero(n, k);

@@ -63,7 +63,9 @@ struct HeadFitOptions {
   // Covariance from the residuals themselves (fitting/observability.h ClusterRobustCovariance):
   // the corners of one cluster may share an error; "view": each view is a cluster, "placement":
   // each board placement seen by one eye (10 clusters for the standard sweep: too few for the
-  // ~80 parameters); "" (default): the model covariance alone. The result is never below the
+  // ~80 parameters); "cell:B": the views of one placement whose five commands fall in the same
+  // B us cell, both eyes together (a bias neighbouring views share counts once per cell; owlcal
+  // calibrate: cell:100); "" (default): the model covariance alone. The result is never below the
   // white-noise covariance at the measured sigma (the model covariance divided by
   // measured_sigma_factor^2), and it does not depend on measured_sigma_factor otherwise.
   std::string covariance_clusters;
@@ -113,8 +115,10 @@ struct HeadFitOptions {
   // where the stereo set is small and its covariance noise-limited, not a bias floor (the
   // 6-robot Monte-Carlo test's 8 stereo views: 90 and 97 % within 1 sigma).
   std::optional<Eigen::MatrixXd> intrinsics_covariance_floor[2];
-  // Carry the shortfall to the servo centres too (fitting/head_fit.cc says why).
-  bool intrinsics_floor_to_servo_centres = false;
+  // Where else the shortfall goes, as the fit's covariance says those parameters move with the
+  // intrinsics (fitting/head_fit.cc says why): "none", "centres" (each servo's centre_us) or
+  // "servo_maps" (every servo map coordinate: a focal-length error scales every angle the maps give).
+  std::string intrinsics_floor_carry = "none";
   bool fit_nonlinear = true;           // quad_deg and cubic_deg; false: held at 0
   bool fit_hysteresis = true;          // false: held at 0
   double huber_sigma = 3.0;            // robust loss scale in sigma units for the first solve; 0 = none

@@ -207,7 +207,7 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
       {"hysteresis_sigma_floor_us", options.hysteresis_sigma_floor_us},
       {"covariance_clusters", options.covariance_clusters},
       {"robust_sigma_factor", options.robust_sigma_factor},
-      {"intrinsics_floor_to_servo_centres", options.intrinsics_floor_to_servo_centres},
+      {"intrinsics_floor_carry", options.intrinsics_floor_carry},
       {"view_outlier_factor", options.view_outlier_factor},
       {"noise_class_of_board", options.noise_class_of_board},
       {"tag_size_of_board", options.tag_size_of_board},

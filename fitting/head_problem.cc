@@ -165,6 +165,7 @@ int BuildHeadProblem(HeadState* state,
                      int max_corners_per_view,
                      ceres::Problem* problem) {
   HeadState& s = *state;
+  s.input_view_of_residual.clear();
   int num_corners = 0;
   for (const PreparedView& v : views) {
     const int eye = v.command.eye;
@@ -210,8 +211,8 @@ int BuildHeadProblem(HeadState* state,
                                              2>(f, f->NumResiduals());
     });
     if (cost == nullptr) continue;
-    problem->AddResidualBlock(
-        cost, nullptr, blocks[0], blocks[1], blocks[2], blocks[3], blocks[4], blocks[5], blocks[6], blocks[7]);
+    s.input_view_of_residual[problem->AddResidualBlock(
+        cost, nullptr, blocks[0], blocks[1], blocks[2], blocks[3], blocks[4], blocks[5], blocks[6], blocks[7])] = v.index;
   }
   // Priors on the intrinsics.
   for (int e = 0; e < 2; ++e) {

@@ -90,6 +90,9 @@ struct HeadState {
   // is solved up to three times (robust, final, re-whitened), and a prior rebuilt around the
   // previous solve's intrinsics would pull towards that solve, not towards the stereo fit's.
   std::array<std::vector<double>, 2> prior_mean;
+  // Which input view (PreparedView::index) each view residual block of the last built problem
+  // holds (BuildHeadProblem fills it): the clusters of the cluster-robust covariance.
+  std::map<ceres::ResidualBlockId, int> input_view_of_residual;
 
   // The blocks in the order of the observability analysis and the covariance: servos, mounts,
   // centres, cameras, warps (`head_blocks`), then the boards.

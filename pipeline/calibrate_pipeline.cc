@@ -408,27 +408,34 @@ fitting::HeadFitOptions CalibratePipelineOptions::CalibrateHeadFitOptions() {
   // (85-88 % within 1 sigma), so the bias adds about 0.7 x 2 = 1.4 x the measured noise.
   // (Factor 2 had been set on the default robot and variant A while a bow fitted as flat and
   // frames exposed before the servos settled still biased the fit.)
-  // Hysteresis is floored at 0.01 us: frames exposed before a servo fully settled read as
-  // extra backlash, and lag is not modelled (the sweep waits 850 ms, protocols/standard/
-  // servo_sweep.yaml, so the rest is 0.005 % of a step).
+  // The factor now matters only where the sigma is not from the residuals: the white-noise
+  // floor under the clustered covariance and the intrinsics prior from the stereo fit.
   // The board's bow is fitted (fitting/board_warp.h): the prior's robots bow their boards by up
   // to 1.2 mm like the course's, and a bow fitted as flat moved the focal lengths, servo scales
   // and IPD together by 20-50 sigma.
   ho.fit_board_warp = true;
   ho.estimate_corner_sigma = true;
   ho.measured_sigma_factor = 1.4;
-  ho.hysteresis_sigma_floor_us = 0.01;
-  // Not yet the default: the head fit's covariance from the residuals (HeadFitOptions::
-  // covariance_clusters "view", robust_sigma_factor 1.3, intrinsics_floor_to_servo_centres, no
-  // hysteresis floor; `owlcal fit-datasets --covariance-clusters view --robust-sigma-factor 1.3
-  // --floor-to-centres --hysteresis-floor 0`). On 30 robots of the prior with the standard
-  // protocols (seeds 101-130) it put head geometry 72.3 %, lens 70.0, servo maps 68.1, stereo
-  // 67.6 % within 1 sigma (servo maps 98.75 % within 3: hysteresis and pan-centre tails), where
-  // this default gives 59.8 / 69.2 / 66.7 / 67.6 % and 98.54 / 99.63 / 97.92 / 100 % within 3;
-  // but on the Monte-Carlo test's short protocols (tests/pipeline/robot_prior_mc_test.cc) it was
-  // over-wide (head geometry 89.6 %, servo maps 77.5 % within 1 sigma): the bias every view
-  // shares does not grow with the number of views, so it belongs in sigma as an added term,
-  // not a factor.
+  // Sigma from the residuals (HeadFitOptions::covariance_clusters "cell:100": a cluster-robust
+  // covariance whose clusters are the views of one board placement with commands in the same
+  // 100 us cell, so a corner bias shared by neighbouring views counts once per cell, not once
+  // per view), the stereo fit's intrinsics covariance as a floor carried to every servo map
+  // coordinate (a focal-length error scales every angle the maps give: the five servo scales'
+  // relative errors are minus the focal length's on every robot), no hysteresis floor (it made
+  // hysteresis 7-12x too wide; its natural sigma is 0.0005-0.0008 us) and no extra factor.
+  // 30 robots of the prior (seeds 101-130, standard protocols; robot_prior_mc_bench then
+  // refits), within 1 / 3 sigma: head geometry 68.3 / 100 %, lens 70.0 / 99.63, servo maps
+  // 70.8 / 98.89, stereo 67.6 / 100 (was 59.8 / 98.54, 69.2 / 99.63, 66.7 / 97.92, 67.6 / 100
+  // with the measured sigma x 1.4 and the 0.01 us floor). Clustering by view alone left the
+  // servo maps at 55.3 % (the bias of neighbouring views is shared); cells alone without the
+  // carried floor 61.0 % (the scales 1.35 sigma RMS). On 30 robots with the Monte-Carlo test's
+  // short protocols: head geometry 78 %, servo maps 71 % (tests/data/protocols/mc_*.yaml).
+  // Left: 8 of 720 servo coordinates beyond 3 sigma, 7 of them pan centres and quad terms of
+  // three robots (the head-yaw gauge's pan zero), one hysteresis.
+  ho.hysteresis_sigma_floor_us = 0;
+  ho.covariance_clusters = "cell:100";
+  ho.robust_sigma_factor = 1.0;
+  ho.intrinsics_floor_carry = "servo_maps";
   return ho;
 }
 
@@ -464,7 +471,7 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
       {"hysteresis_sigma_floor_us", head.hysteresis_sigma_floor_us},
       {"covariance_clusters", head.covariance_clusters},
       {"robust_sigma_factor", head.robust_sigma_factor},
-      {"intrinsics_floor_to_servo_centres", head.intrinsics_floor_to_servo_centres},
+      {"intrinsics_floor_carry", head.intrinsics_floor_carry},
       {"view_outlier_factor", head.view_outlier_factor},
       {"noise_class_of_board", head.noise_class_of_board},
       {"tag_size_of_board", head.tag_size_of_board},

@@ -78,10 +78,12 @@ TEST(CalibratePipeline, OptionsAreCheckedAndRecorded) {
   EXPECT_EQ(o.head.measured_sigma_factor, 1.4);
   const nlohmann::json j = o.ToJson();
   EXPECT_EQ(j.at("head").at("measured_sigma_factor"), 1.4);
-  // The clustered covariance is an option, recorded (off by default: pipeline/calibrate_pipeline.cc).
-  EXPECT_EQ(j.at("head").at("covariance_clusters"), "");
+  // The head's sigma from the residuals clustered by 100 us cells, the stereo fit's intrinsics
+  // floor carried to the servo maps, no hysteresis floor (pipeline/calibrate_pipeline.cc says why).
+  EXPECT_EQ(j.at("head").at("covariance_clusters"), "cell:100");
   EXPECT_EQ(j.at("head").at("robust_sigma_factor"), 1.0);
-  EXPECT_EQ(j.at("head").at("hysteresis_sigma_floor_us"), 0.01);
+  EXPECT_EQ(j.at("head").at("intrinsics_floor_carry"), "servo_maps");
+  EXPECT_EQ(j.at("head").at("hysteresis_sigma_floor_us"), 0.0);
   EXPECT_EQ(j.at("stereo").at("intrinsics").at("model"), "opencv5");
   EXPECT_EQ(j.at("truth"), false);
   o.fps = 0;
