@@ -165,7 +165,7 @@ const bool kRegistered = RegisterCommand(
                       "(the model covariance alone); default: calibrate's")
           ->check([](const std::string& v) {
             if (v == "model" || v == "view" || v == "placement") return std::string();
-            if (v.rfind("cell:", 0) == 0 && std::strtod(v.c_str() + 5, nullptr) >= 1) return std::string();
+            if (fitting::HeadFitOptions::CellOfClusters(v) >= 1) return std::string();
             return std::string("must be model, view, placement or cell:B (B >= 1 us)");
           });
       cmd->add_option("--robust-sigma-factor",

@@ -322,7 +322,7 @@ internal::HeadCovariance AnalyseHead(ceres::Problem* problem,
     // "view": one residual block per view; "placement": the views of one board placement by one
     // eye; "cell:B": the views of one board placement whose five commands fall in the same B us
     // cell (both eyes' views of a frame together).
-    const double cell_us = spec.rfind("cell:", 0) == 0 ? std::strtod(spec.c_str() + 5, nullptr) : 0.0;
+    const double cell_us = HeadFitOptions::CellOfClusters(spec);
     std::map<std::pair<const double*, const double*>, int> placement;
     std::map<ceres::ResidualBlockId, int> view_index;
     std::map<std::pair<const double*, std::array<long, models::kNumServos>>, int> cell;
@@ -370,6 +370,13 @@ internal::HeadCovariance AnalyseHead(ceres::Problem* problem,
 
 }  // namespace
 
+double HeadFitOptions::CellOfClusters(const std::string& spec) {
+  if (spec.rfind("cell:", 0) != 0) return 0.0;
+  char* end = nullptr;
+  const double b = std::strtod(spec.c_str() + 5, &end);
+  return end != spec.c_str() + 5 && *end == '\0' && b >= 1 ? b : NAN;
+}
+
 bool HeadFitOptions::Check(std::string* why) const {
   auto fail = [&](const std::string& m) {
     if (why) *why = "HeadFitOptions: " + m;
@@ -382,7 +389,7 @@ bool HeadFitOptions::Check(std::string* why) const {
   if (!(measured_sigma_factor >= 1 && measured_sigma_factor <= 10))
     return fail("measured_sigma_factor = " + std::to_string(measured_sigma_factor) + " must be in [1, 10]");
   if (!(covariance_clusters.empty() || covariance_clusters == "view" || covariance_clusters == "placement" ||
-        (covariance_clusters.rfind("cell:", 0) == 0 && std::strtod(covariance_clusters.c_str() + 5, nullptr) >= 1)))
+        CellOfClusters(covariance_clusters) >= 1))
     return fail("covariance_clusters = '" + covariance_clusters +
                 "' must be empty, view, placement or cell:B with B >= 1 us");
   if (intrinsics_floor_carry != "none" && intrinsics_floor_carry != "centres" && intrinsics_floor_carry != "servo_maps")
@@ -495,13 +502,15 @@ HeadFit FitHead(const std::vector<calib::View>& views,
       if (eig.info() != Eigen::Success || eig.eigenvalues().maxCoeff() <= 0) continue;
       const Eigen::MatrixXd d =
           eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
-      // The shortfall on the intrinsics' block, and carried to the servo centres as the fit's own
-      // covariance says they move with the intrinsics: C += B D B^T, B = C_(rows,k) C_kk^-1 on the
-      // intrinsics' rows (there the identity) and the centres' rows, 0 elsewhere. A principal-point
-      // error turns the camera frame, and each eye's pan and tilt zeros (centre_us) turn with it
-      // (the gauge ties them): on 30 robots of the prior the tilt centres, left out, were 1.7-2.3
-      // sigma RMS. Carried to every correlated parameter it made the head geometry over-wide
-      // (90.6 % within 1 sigma on 8 robots of the prior, RMS(z) 0.64).
+      // The shortfall on the intrinsics' block, and carried (intrinsics_floor_carry) to the servo
+      // centres or every servo map coordinate as the fit's own covariance says they move with the
+      // intrinsics: C += B D B^T, B = C_(rows,k) C_kk^-1 on the intrinsics' rows (there the
+      // identity) and the carried rows, 0 elsewhere. A principal-point error turns the camera
+      // frame, and each eye's pan and tilt zeros turn with it (the gauge ties them: on 30 robots
+      // of the prior the tilt centres, left out, were 1.7-2.3 sigma RMS); a focal-length error
+      // scales every angle the maps give (the five servo scales' relative errors are minus the
+      // focal length's). Carried to every correlated parameter it made the head geometry
+      // over-wide (90.6 % within 1 sigma on 8 robots of the prior, RMS(z) 0.64).
       const int n = int(c.rows());
       std::vector<bool> carry(n, false);
       for (int t : tangent) carry[t] = true;

@@ -129,6 +129,9 @@ struct HeadFitOptions {
   int num_threads = 1;
 
   bool Check(std::string* why) const;
+  // covariance_clusters "cell:B": B [us]; 0 for any other spec, NaN for "cell:" with B < 1 or
+  // not a number. The one parser of the spec (Check, the head fit, owlcal fit-datasets).
+  static double CellOfClusters(const std::string& spec);
 };
 
 struct HeadOutlier {

@@ -1,5 +1,6 @@
 #include "fitting/head_fit.h"
 
+#include <cmath>
 #include <iostream>
 #include <random>
 
@@ -64,6 +65,32 @@ int ExpectAccurate(const HeadFit& fit, const models::HeadModel& truth_canonical,
   }
   EXPECT_GE(within3, compared - 1) << "of " << compared;
   return compared;
+}
+
+// The cluster spec has one parser (HeadFitOptions::CellOfClusters), used by Check, the fit and
+// owlcal fit-datasets; a malformed cell is refused, not read as 0 (no cells) or as its prefix.
+TEST(HeadFitOptions, CovarianceClusterSpecsAreParsedOnceAndMalformedOnesRefused) {
+  EXPECT_EQ(HeadFitOptions::CellOfClusters("cell:100"), 100.0);
+  EXPECT_EQ(HeadFitOptions::CellOfClusters("cell:2.5"), 2.5);
+  EXPECT_EQ(HeadFitOptions::CellOfClusters("view"), 0.0);
+  EXPECT_TRUE(std::isnan(HeadFitOptions::CellOfClusters("cell:")));
+  EXPECT_TRUE(std::isnan(HeadFitOptions::CellOfClusters("cell:0.5")));
+  EXPECT_TRUE(std::isnan(HeadFitOptions::CellOfClusters("cell:100us")));
+  HeadFitOptions o;
+  std::string why;
+  for (const char* ok : {"", "view", "placement", "cell:100"}) {
+    o.covariance_clusters = ok;
+    EXPECT_TRUE(o.Check(&why)) << ok << ": " << why;
+  }
+  for (const char* bad : {"cell:", "cell:0", "cell:100us", "frame"}) {
+    o.covariance_clusters = bad;
+    EXPECT_FALSE(o.Check(&why)) << bad;
+    EXPECT_NE(why.find("covariance_clusters"), std::string::npos) << why;
+  }
+  o.covariance_clusters = "";
+  o.intrinsics_floor_carry = "scales";
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("intrinsics_floor_carry"), std::string::npos) << why;
 }
 
 TEST(FitHead, RecoversServoMapsMountsAndIpdFromSweepWithNeck) {
