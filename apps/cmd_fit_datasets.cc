@@ -35,6 +35,10 @@ struct FitDatasetsOptions {
   std::string covariance_clusters;  // "" (calibrate's), "model", "view", "placement" or "cell:B"
   double robust_sigma_factor = 0;  // 0: calibrate's
   std::string floor_carry;  // "" (calibrate's), none, centres, servo_maps
+  double tag_sigma_factor = 0;  // 0: calibrate's
+  double pan_zero_factor = 0;  // 0: calibrate's
+  std::string fuse_tags;  // "" (calibrate's), on, off
+  std::string fused_floor;  // "" (calibrate's), on, off
   bool no_figures = false;
   bool quiet = false;
   std::string lens_model = "auto";
@@ -109,6 +113,10 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
   if (!o.covariance_clusters.empty()) po.head.covariance_clusters = o.covariance_clusters == "model" ? "" : o.covariance_clusters;
   if (o.robust_sigma_factor > 0) po.head.robust_sigma_factor = o.robust_sigma_factor;
   if (!o.floor_carry.empty()) po.head.intrinsics_floor_carry = o.floor_carry;
+  if (o.tag_sigma_factor > 0) po.tag_sigma_factor = o.tag_sigma_factor;
+  if (o.pan_zero_factor > 0) po.head.pan_zero_sigma_factor = o.pan_zero_factor;
+  if (!o.fuse_tags.empty()) po.fuse_tags = o.fuse_tags == "on";
+  if (!o.fused_floor.empty()) po.fused_intrinsics_floor = o.fused_floor == "on";
   std::string why;
   if (!pipeline::SetLensModel(o.lens_model, &po, &why)) throw UsageError(why);
   if (!po.Check(&why)) throw UsageError(why);
@@ -127,6 +135,10 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
                   {"covariance_clusters", o.covariance_clusters},
                   {"robust_sigma_factor", o.robust_sigma_factor},
                   {"floor_carry", o.floor_carry},
+                  {"tag_sigma_factor", o.tag_sigma_factor},
+                  {"pan_zero_factor", o.pan_zero_factor},
+                  {"fuse_tags", o.fuse_tags},
+                  {"fused_floor", o.fused_floor},
                   {"no_figures", o.no_figures},
                   {"lens_model", o.lens_model},
                   {"owlcal_version", OWLCAL_VERSION}};
@@ -177,6 +189,26 @@ const bool kRegistered = RegisterCommand(
                       "head fit: where the intrinsics floor (the stereo fit's covariance) is carried beyond the "
                       "intrinsics: none, centres (servo centres) or servo_maps (every servo map coordinate)")
           ->check(CLI::IsMember({"none", "centres", "servo_maps"}));
+      cmd->add_option("--pan-zero-factor",
+                      o->pan_zero_factor,
+                      "head fit: factor on the sigma of the pan zero (both pan maps' common angle; "
+                      "HeadFitOptions::pan_zero_sigma_factor; default: calibrate's)")
+          ->check(CLI::Range(1.0, 99.0));
+      cmd->add_option("--tag-sigma-factor",
+                      o->tag_sigma_factor,
+                      "head fit fused with the servo sweep's tag sheets: factor on the tag corners' measured sigma "
+                      "(default: calibrate's)")
+          ->check(CLI::Range(1.0, 99.0));
+      cmd->add_option("--fuse-tags",
+                      o->fuse_tags,
+                      "on: the result's head is the fit fusing the chessboard with the tag sheets; off: the "
+                      "chessboard's alone (default: calibrate's)")
+          ->check(CLI::IsMember({"on", "off"}));
+      cmd->add_option("--fused-floor",
+                      o->fused_floor,
+                      "on: the fit fusing the tag sheets keeps the stereo fit's intrinsics covariance as its floor, "
+                      "like the chessboard's; off: no floor (default: calibrate's)")
+          ->check(CLI::IsMember({"on", "off"}));
       AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
       return [o] { return RunFitDatasets(*o); };
     });

@@ -368,6 +368,52 @@ internal::HeadCovariance AnalyseHead(ceres::Problem* problem,
   return c;
 }
 
+// HeadFitOptions::pan_zero_sigma_factor: C += (factor^2 - 1) var(g) w w^T / (a^T w)^2, with g = a^T x
+// the two pan maps' mean angle at the robot file's centres and w the tangent direction that shifts
+// both pan maps by one angle (fitting/head_gauge.h ShiftServoMapAngle), so g's sigma grows by the
+// factor and every other parameter keeps its own.
+void WidenPanZero(const HeadState& s, const models::RobotConfig& robot, double factor, internal::HeadCovariance* cov) {
+  Eigen::MatrixXd& c = cov->analysis.covariance;
+  const int n = static_cast<int>(c.rows());
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(n), a = Eigen::VectorXd::Zero(n);
+  constexpr double kDelta = 1e-4;  // rad
+  for (int e = 0; e < 2; ++e) {
+    const int servo = models::kPanServo[e];
+    const Block& b = s.servo[servo];
+    if (b.size() != 5) return;
+    std::array<double, 5> p;
+    std::copy(b.values.begin(), b.values.end(), p.begin());
+    const int dir = robot.servos[servo].direction;
+    const std::array<double, 5> up = ShiftServoMapAngle(p, dir, kDelta), down = ShiftServoMapAngle(p, dir, -kDelta);
+    const double u0 = robot.servos[servo].centre_us;
+    for (int k = 0; k < 5; ++k) {
+      const auto it = cov->tangent_of.find({&b, k});
+      if (it == cov->tangent_of.end()) continue;
+      w(it->second) = (up[k] - down[k]) / (2 * kDelta);
+      const double h = 1e-6 * std::max(1.0, std::abs(p[k]));
+      std::array<double, 5> hi = p, lo = p;
+      hi[k] += h;
+      lo[k] -= h;
+      a(it->second) = 0.5 * (models::ServoMap::JointAngle(hi.data(), dir, u0, 0) -
+                             models::ServoMap::JointAngle(lo.data(), dir, u0, 0)) / (2 * h);
+    }
+  }
+  std::vector<int> idx;
+  for (int i = 0; i < n; ++i)
+    if (w(i) != 0 || a(i) != 0) idx.push_back(i);
+  double var = 0;
+  for (int i : idx)
+    for (int j : idx) {
+      if (!std::isfinite(c(i, j))) return;
+      var += a(i) * c(i, j) * a(j);
+    }
+  const double aw = a.dot(w);
+  if (!(var > 0) || !(std::abs(aw) > 0)) return;
+  const double add = (factor * factor - 1) * var / (aw * aw);
+  for (int i : idx)
+    for (int j : idx) c(i, j) += add * w(i) * w(j);
+}
+
 }  // namespace
 
 double HeadFitOptions::CellOfClusters(const std::string& spec) {
@@ -392,6 +438,8 @@ bool HeadFitOptions::Check(std::string* why) const {
         CellOfClusters(covariance_clusters) >= 1))
     return fail("covariance_clusters = '" + covariance_clusters +
                 "' must be empty, view, placement or cell:B with B >= 1 us");
+  if (!(pan_zero_sigma_factor >= 1 && pan_zero_sigma_factor < 100))
+    return fail("pan_zero_sigma_factor = " + std::to_string(pan_zero_sigma_factor) + " must be in [1, 100)");
   if (intrinsics_floor_carry != "none" && intrinsics_floor_carry != "centres" && intrinsics_floor_carry != "servo_maps")
     return fail("intrinsics_floor_carry = '" + intrinsics_floor_carry + "' must be none, centres or servo_maps");
   if (!(hysteresis_sigma_floor_us >= 0 && hysteresis_sigma_floor_us < 100))
@@ -534,6 +582,7 @@ HeadFit FitHead(const std::vector<calib::View>& views,
           if (std::isfinite(c(i, j))) c(i, j) += add(i, j);
     }
   }
+  if (options.pan_zero_sigma_factor > 1 && cov.analysis.ok) WidenPanZero(s, robot, options.pan_zero_sigma_factor, &cov);
   timer.Mark("covariance_s");
 
   // 4. Outputs.

@@ -119,6 +119,14 @@ struct HeadFitOptions {
   // intrinsics (fitting/head_fit.cc says why): "none", "centres" (each servo's centre_us) or
   // "servo_maps" (every servo map coordinate: a focal-length error scales every angle the maps give).
   std::string intrinsics_floor_carry = "none";
+  // Widening of the pan zero (the head-yaw gauge, fitting/head_gauge.h item 2): the sigma of the
+  // two pan maps' mean angle at the robot file's centres times this factor (>= 1; 1 = none),
+  // added along the direction that shifts both pan maps by one angle (ShiftServoMapAngle), so
+  // nothing else changes. Pan zero is where the eye baseline is perpendicular to the optical
+  // axes: it hangs on the difference of the two eye centres' depths behind the cameras (each
+  // found from a 15 mm lever seen through the whole sweep), and a detector bias that every view
+  // shares moves that difference in every view alike, so no clustering of the residuals sees it.
+  double pan_zero_sigma_factor = 1.0;
   bool fit_nonlinear = true;           // quad_deg and cubic_deg; false: held at 0
   bool fit_hysteresis = true;          // false: held at 0
   double huber_sigma = 3.0;            // robust loss scale in sigma units for the first solve; 0 = none

@@ -208,6 +208,7 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
       {"covariance_clusters", options.covariance_clusters},
       {"robust_sigma_factor", options.robust_sigma_factor},
       {"intrinsics_floor_carry", options.intrinsics_floor_carry},
+      {"pan_zero_sigma_factor", options.pan_zero_sigma_factor},
       {"view_outlier_factor", options.view_outlier_factor},
       {"noise_class_of_board", options.noise_class_of_board},
       {"tag_size_of_board", options.tag_size_of_board},

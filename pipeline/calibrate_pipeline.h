@@ -91,6 +91,10 @@ struct CalibratePipelineOptions {
   // (neck) x smaller than the chessboard's (medians). The tag detector is not the cause:
   // tests/sim/tag_corner_bias_test.cc.
   double tag_sigma_factor = 3.0;
+  // The fused fit keeps the stereo fit's intrinsics covariance as the floor of its own (and the
+  // carry to the servo maps, HeadFitOptions::intrinsics_covariance_floor) like the chessboard's;
+  // false: the fused fit has no floor (the tag sheets do not share the chessboard's corner bias).
+  bool fused_intrinsics_floor = true;
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
   // Progress lines (may be null).

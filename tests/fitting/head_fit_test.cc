@@ -1,5 +1,6 @@
 #include "fitting/head_fit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <random>
@@ -9,6 +10,7 @@
 #include "fitting/head_synthetic.h"
 #include "fitting/servo_map_eval.h"
 #include "models/head_model.h"
+#include "models/servo_map.h"
 
 namespace owlcal::fitting {
 namespace {
@@ -122,6 +124,66 @@ TEST(FitHead, RecoversServoMapsMountsAndIpdFromSweepWithNeck) {
   std::cout << "timing " << fit.result.diagnostics["head"]["timing"].dump() << " reciprocal condition "
             << fit.result.diagnostics["head"]["reciprocal_condition"] << " views " << fit.num_views_used
             << " corners " << fit.num_corners_used << "\n";
+}
+
+// HeadFitOptions::pan_zero_sigma_factor widens the pan zero (both pan maps' mean angle at the
+// robot file's centres) by the factor and nothing else: the values, the tilt, neck and head
+// sigmas are those of the fit without it.
+TEST(FitHead, PanZeroFactorWidensOnlyThePanZero) {
+  std::mt19937_64 rng(20261128);
+  const models::RobotConfig robot = models::DefaultRobotConfig();
+  const models::HeadModel truth = PerturbedHead(robot, &rng);
+  SyntheticHeadOptions so;
+  so.steps_per_sweep = 5;
+  so.grid_side = 4;
+  const SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
+  HeadFitOptions opt;
+  const HeadFit plain = FitHead(data.views, robot, InitialFor(robot, truth), opt);
+  opt.pan_zero_sigma_factor = 2.0;
+  const HeadFit wide = FitHead(data.views, robot, InitialFor(robot, truth), opt);
+  ASSERT_TRUE(plain.ok && wide.ok) << plain.message << " / " << wide.message;
+  ASSERT_EQ(plain.param_names, wide.param_names);
+  // sigma of g = mean over both pans of the map's angle at the robot file's centre, from each
+  // fit's covariance (numerical gradient of the map in its parameters).
+  auto sigma_of_pan_zero = [&](const HeadFit& fit) {
+    Eigen::VectorXd a = Eigen::VectorXd::Zero(Eigen::Index(fit.param_names.size()));
+    for (int e = 0; e < 2; ++e) {
+      const int servo = models::kPanServo[e];
+      const auto& p = fit.head.servo_params[servo];
+      for (int k = 0; k < 5; ++k) {
+        const std::string name = std::string("servo.") + models::kServoNames[servo] + "." + kServoParamNames[k];
+        const auto it = std::find(fit.param_names.begin(), fit.param_names.end(), name);
+        if (it == fit.param_names.end()) continue;
+        auto hi = p, lo = p;
+        const double h = 1e-6 * std::max(1.0, std::abs(p[k]));
+        hi[k] += h;
+        lo[k] -= h;
+        const int dir = robot.servos[servo].direction;
+        const double u0 = robot.servos[servo].centre_us;
+        a(it - fit.param_names.begin()) = 0.5 * (models::ServoMap::JointAngle(hi.data(), dir, u0, 0) -
+                                                 models::ServoMap::JointAngle(lo.data(), dir, u0, 0)) / (2 * h);
+      }
+    }
+    return std::sqrt(a.dot(fit.covariance * a));
+  };
+  const double s1 = sigma_of_pan_zero(plain), s2 = sigma_of_pan_zero(wide);
+  ASSERT_GT(s1, 0);
+  EXPECT_NEAR(s2 / s1, 2.0, 1e-3) << s1 << " rad -> " << s2 << " rad";
+  int pans_wider = 0;
+  for (const Parameter& p : plain.result.parameters) {
+    const Parameter* q = wide.result.Find(p.name);
+    ASSERT_NE(q, nullptr) << p.name;
+    EXPECT_EQ(p.value, q->value) << p.name;
+    if (!(p.sigma > 0)) continue;
+    const bool pan = p.name.rfind("servo.Lx.", 0) == 0 || p.name.rfind("servo.Rx.", 0) == 0;
+    if (pan) {
+      EXPECT_GE(q->sigma, p.sigma * (1 - 1e-12)) << p.name;
+      pans_wider += q->sigma > 1.5 * p.sigma;
+    } else {
+      EXPECT_NEAR(q->sigma, p.sigma, 1e-12 * std::abs(p.sigma)) << p.name;
+    }
+  }
+  EXPECT_GE(pans_wider, 2);  // at least both centres
 }
 
 TEST(FitHead, NonCanonicalTruthMatchesItsCanonicalFormAndJointIntrinsics) {

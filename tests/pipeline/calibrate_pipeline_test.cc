@@ -83,6 +83,7 @@ TEST(CalibratePipeline, OptionsAreCheckedAndRecorded) {
   EXPECT_EQ(j.at("head").at("covariance_clusters"), "cell:100");
   EXPECT_EQ(j.at("head").at("robust_sigma_factor"), 1.0);
   EXPECT_EQ(j.at("head").at("intrinsics_floor_carry"), "servo_maps");
+  EXPECT_EQ(j.at("head").at("pan_zero_sigma_factor"), 1.25);
   EXPECT_EQ(j.at("head").at("hysteresis_sigma_floor_us"), 0.0);
   EXPECT_EQ(j.at("stereo").at("intrinsics").at("model"), "opencv5");
   EXPECT_EQ(j.at("truth"), false);
