@@ -38,7 +38,7 @@ struct FitDatasetsOptions {
   double tag_sigma_factor = 0;  // 0: calibrate's
   double pan_zero_factor = 0;  // 0: calibrate's
   std::string fuse_tags;  // "" (calibrate's), on, off
-  std::string fused_floor;  // "" (calibrate's), on, off
+  double fused_floor_scale = -1;  // < 0: calibrate's
   bool no_figures = false;
   bool quiet = false;
   std::string lens_model = "auto";
@@ -116,7 +116,7 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
   if (o.tag_sigma_factor > 0) po.tag_sigma_factor = o.tag_sigma_factor;
   if (o.pan_zero_factor > 0) po.head.pan_zero_sigma_factor = o.pan_zero_factor;
   if (!o.fuse_tags.empty()) po.fuse_tags = o.fuse_tags == "on";
-  if (!o.fused_floor.empty()) po.fused_intrinsics_floor = o.fused_floor == "on";
+  if (o.fused_floor_scale >= 0) po.fused_floor_scale = o.fused_floor_scale;
   std::string why;
   if (!pipeline::SetLensModel(o.lens_model, &po, &why)) throw UsageError(why);
   if (!po.Check(&why)) throw UsageError(why);
@@ -138,7 +138,7 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
                   {"tag_sigma_factor", o.tag_sigma_factor},
                   {"pan_zero_factor", o.pan_zero_factor},
                   {"fuse_tags", o.fuse_tags},
-                  {"fused_floor", o.fused_floor},
+                  {"fused_floor_scale", o.fused_floor_scale},
                   {"no_figures", o.no_figures},
                   {"lens_model", o.lens_model},
                   {"owlcal_version", OWLCAL_VERSION}};
@@ -204,11 +204,11 @@ const bool kRegistered = RegisterCommand(
                       "on: the result's head is the fit fusing the chessboard with the tag sheets; off: the "
                       "chessboard's alone (default: calibrate's)")
           ->check(CLI::IsMember({"on", "off"}));
-      cmd->add_option("--fused-floor",
-                      o->fused_floor,
-                      "on: the fit fusing the tag sheets keeps the stereo fit's intrinsics covariance as its floor, "
-                      "like the chessboard's; off: no floor (default: calibrate's)")
-          ->check(CLI::IsMember({"on", "off"}));
+      cmd->add_option("--fused-floor-scale",
+                      o->fused_floor_scale,
+                      "the fit fusing the tag sheets: its intrinsics covariance floor is the stereo fit's times this "
+                      "squared (1: the chessboard fit's; 0: none; default: calibrate's)")
+          ->check(CLI::Range(0.0, 10.0));
       AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
       return [o] { return RunFitDatasets(*o); };
     });

@@ -459,6 +459,10 @@ bool CalibratePipelineOptions::Check(std::string* why) const {
     *why = "default_delay_frames must be >= 1";
     return false;
   }
+  if (!(fused_floor_scale >= 0 && fused_floor_scale <= 10)) {
+    *why = "fused_floor_scale must be in [0, 10]";
+    return false;
+  }
   if (!(tag_sigma_factor >= 1 && tag_sigma_factor < 100)) {
     *why = "tag_sigma_factor must be in [1, 100)";
     return false;
@@ -537,7 +541,7 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
           {"default_delay_frames", default_delay_frames},
           {"fuse_tags", fuse_tags},
           {"tag_sigma_factor", tag_sigma_factor},
-          {"fused_intrinsics_floor", fused_intrinsics_floor},
+          {"fused_floor_scale", fused_floor_scale},
           {"stereo", s},
           {"head", h},
           {"theory_distances_m", {theory_min_m, theory_max_m, theory_step_m}}};
@@ -685,8 +689,13 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     const bool has_tags = num_chessboard_views < views.size();
     std::vector<fitting::HeadFit> fits(has_tags ? 2 : 1);
     fitting::HeadFitOptions fused_options = ho;
-    if (!o.fused_intrinsics_floor)
-      for (auto& floor : fused_options.intrinsics_covariance_floor) floor.reset();
+    for (auto& floor : fused_options.intrinsics_covariance_floor) {
+      if (!floor) continue;
+      if (o.fused_floor_scale > 0)
+        *floor *= o.fused_floor_scale * o.fused_floor_scale;
+      else
+        floor.reset();
+    }
     cv::parallel_for_(cv::Range(0, int(fits.size())), [&](const cv::Range& r) {
       for (int k = r.start; k < r.end; ++k)
         fits[k] = k == 0 ? fitting::FitHead(WithoutTags(views, head_options.noise_class_of_board), config, initial, ho)

@@ -8,6 +8,8 @@
 #include <fstream>
 #include <functional>
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "fitting/robot_config_json.h"
@@ -87,6 +89,13 @@ TEST(CalibratePipeline, OptionsAreCheckedAndRecorded) {
   EXPECT_EQ(j.at("head").at("hysteresis_sigma_floor_us"), 0.0);
   EXPECT_EQ(j.at("stereo").at("intrinsics").at("model"), "opencv5");
   EXPECT_EQ(j.at("truth"), false);
+  EXPECT_EQ(j.at("fused_floor_scale"), 1.0);  // the fused fit's floor is the chessboard fit's
+  for (double bad : {-0.5, 11.0, std::nan("")}) {
+    CalibratePipelineOptions b;
+    b.fused_floor_scale = bad;
+    EXPECT_FALSE(b.Check(&why)) << bad;
+    EXPECT_NE(why.find("fused_floor_scale"), std::string::npos) << why;
+  }
   o.fps = 0;
   EXPECT_FALSE(o.Check(&why));
   EXPECT_NE(why.find("fps"), std::string::npos);
