@@ -371,47 +371,43 @@ internal::HeadCovariance AnalyseHead(ceres::Problem* problem,
 // HeadFitOptions::pan_zero_sigma_factor: C += (factor^2 - 1) var(g) w w^T / (a^T w)^2, with g = a^T x
 // the two pan maps' mean angle at the robot file's centres and w the tangent direction that shifts
 // both pan maps by one angle (fitting/head_gauge.h ShiftServoMapAngle), so g's sigma grows by the
-// factor and every other parameter keeps its own.
+// factor and every other parameter keeps its own. Coordinates without a finite variance (held or
+// undetermined) take no part.
 void WidenPanZero(const HeadState& s, const models::RobotConfig& robot, double factor, internal::HeadCovariance* cov) {
   Eigen::MatrixXd& c = cov->analysis.covariance;
-  const int n = static_cast<int>(c.rows());
-  Eigen::VectorXd w = Eigen::VectorXd::Zero(n), a = Eigen::VectorXd::Zero(n);
+  std::vector<int> idx;  // tangent coordinates of the pan maps
+  std::vector<double> w, a;
   constexpr double kDelta = 1e-4;  // rad
   for (int e = 0; e < 2; ++e) {
     const int servo = models::kPanServo[e];
     const Block& b = s.servo[servo];
-    if (b.size() != 5) return;
     std::array<double, 5> p;
     std::copy(b.values.begin(), b.values.end(), p.begin());
     const int dir = robot.servos[servo].direction;
     const std::array<double, 5> up = ShiftServoMapAngle(p, dir, kDelta), down = ShiftServoMapAngle(p, dir, -kDelta);
-    const double u0 = robot.servos[servo].centre_us;
+    // d angle / d params at the centre command (models/servo_map.h: the angle is linear in the
+    // scale and the nonlinear terms; hysteresis does not enter at approach 0).
+    const double u0 = robot.servos[servo].centre_us, du = u0 - p[0], x = du / models::ServoMap::kNormUs;
+    const double rad = dir * M_PI / 180.0;
+    const std::array<double, 5> grad = {-models::ServoMap::Slope(p.data(), dir, u0, 0), rad * du, rad * x * x,
+                                        rad * x * x * x, 0.0};
     for (int k = 0; k < 5; ++k) {
       const auto it = cov->tangent_of.find({&b, k});
-      if (it == cov->tangent_of.end()) continue;
-      w(it->second) = (up[k] - down[k]) / (2 * kDelta);
-      const double h = 1e-6 * std::max(1.0, std::abs(p[k]));
-      std::array<double, 5> hi = p, lo = p;
-      hi[k] += h;
-      lo[k] -= h;
-      a(it->second) = 0.5 * (models::ServoMap::JointAngle(hi.data(), dir, u0, 0) -
-                             models::ServoMap::JointAngle(lo.data(), dir, u0, 0)) / (2 * h);
+      if (it == cov->tangent_of.end() || !std::isfinite(c(it->second, it->second))) continue;
+      idx.push_back(it->second);
+      w.push_back((up[k] - down[k]) / (2 * kDelta));
+      a.push_back(0.5 * grad[k]);
     }
   }
-  std::vector<int> idx;
-  for (int i = 0; i < n; ++i)
-    if (w(i) != 0 || a(i) != 0) idx.push_back(i);
-  double var = 0;
-  for (int i : idx)
-    for (int j : idx) {
-      if (!std::isfinite(c(i, j))) return;
-      var += a(i) * c(i, j) * a(j);
-    }
-  const double aw = a.dot(w);
+  double var = 0, aw = 0;
+  for (size_t i = 0; i < idx.size(); ++i) {
+    aw += a[i] * w[i];
+    for (size_t j = 0; j < idx.size(); ++j) var += a[i] * c(idx[i], idx[j]) * a[j];
+  }
   if (!(var > 0) || !(std::abs(aw) > 0)) return;
   const double add = (factor * factor - 1) * var / (aw * aw);
-  for (int i : idx)
-    for (int j : idx) c(i, j) += add * w(i) * w(j);
+  for (size_t i = 0; i < idx.size(); ++i)
+    for (size_t j = 0; j < idx.size(); ++j) c(idx[i], idx[j]) += add * w[i] * w[j];
 }
 
 }  // namespace

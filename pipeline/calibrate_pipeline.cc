@@ -435,7 +435,7 @@ fitting::HeadFitOptions CalibratePipelineOptions::CalibrateHeadFitOptions() {
   // modelled). It is where the eye baseline is perpendicular to the optical axes (the head-yaw
   // gauge), so it hangs on the difference of the eye centres' depths, and both pans' errors are
   // one offset (correlation 0.96 over 30 robots). Its residual-based sigma is the white noise's
-  // (sigma / white 1.0-1.2): no clustering of the residuals sees the error (cell:200 and placement
+  // (sigma / white 1.0-1.2 on the three tail robots and prior-101): no clustering of the residuals sees the error (cell:200 and placement
   // clusters left the same tail), yet the errors were 1.34-1.41 sigma RMS with a heavy tail (on
   // three robots of 30, 3-4 sigma: 7 of the 8 servo coordinates beyond 3 sigma). The factor was
   // chosen on seeds 1-30 (pan zero 1.34 sigma RMS at 1, median-based 1.14; at 1.25 the servo maps

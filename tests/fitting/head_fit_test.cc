@@ -95,14 +95,28 @@ TEST(HeadFitOptions, CovarianceClusterSpecsAreParsedOnceAndMalformedOnesRefused)
   EXPECT_NE(why.find("intrinsics_floor_carry"), std::string::npos) << why;
 }
 
-TEST(FitHead, RecoversServoMapsMountsAndIpdFromSweepWithNeck) {
-  std::mt19937_64 rng(20261122);
-  const models::RobotConfig robot = models::DefaultRobotConfig();
-  const models::HeadModel truth = PerturbedHead(robot, &rng);
+// A perturbed default robot and its synthetic sweep (4 x 4 corner grids).
+struct SyntheticSweep {
+  models::RobotConfig robot = models::DefaultRobotConfig();
+  models::HeadModel truth;
+  SyntheticHeadData data;
+};
+SyntheticSweep MakeSweep(uint64_t seed, int steps_per_sweep) {
+  std::mt19937_64 rng(seed);
+  SyntheticSweep w;
+  w.truth = PerturbedHead(w.robot, &rng);
   SyntheticHeadOptions so;
-  so.steps_per_sweep = 6;
+  so.steps_per_sweep = steps_per_sweep;
   so.grid_side = 4;
-  const SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
+  w.data = SynthesizeHeadViews(w.truth, w.robot, so, &rng);
+  return w;
+}
+
+TEST(FitHead, RecoversServoMapsMountsAndIpdFromSweepWithNeck) {
+  const SyntheticSweep sweep = MakeSweep(20261122, 6);
+  const models::RobotConfig& robot = sweep.robot;
+  const models::HeadModel& truth = sweep.truth;
+  const SyntheticHeadData& data = sweep.data;
   HeadFitOptions opt;
   const HeadFit fit = FitHead(data.views, robot, InitialFor(robot, truth), opt);
   ASSERT_TRUE(fit.ok) << fit.message << "\n" << AllWarnings(fit.result);
@@ -130,13 +144,10 @@ TEST(FitHead, RecoversServoMapsMountsAndIpdFromSweepWithNeck) {
 // robot file's centres) by the factor and nothing else: the values, the tilt, neck and head
 // sigmas are those of the fit without it.
 TEST(FitHead, PanZeroFactorWidensOnlyThePanZero) {
-  std::mt19937_64 rng(20261128);
-  const models::RobotConfig robot = models::DefaultRobotConfig();
-  const models::HeadModel truth = PerturbedHead(robot, &rng);
-  SyntheticHeadOptions so;
-  so.steps_per_sweep = 5;
-  so.grid_side = 4;
-  const SyntheticHeadData data = SynthesizeHeadViews(truth, robot, so, &rng);
+  const SyntheticSweep sweep = MakeSweep(20261128, 5);
+  const models::RobotConfig& robot = sweep.robot;
+  const models::HeadModel& truth = sweep.truth;
+  const SyntheticHeadData& data = sweep.data;
   HeadFitOptions opt;
   const HeadFit plain = FitHead(data.views, robot, InitialFor(robot, truth), opt);
   opt.pan_zero_sigma_factor = 2.0;

@@ -5,10 +5,9 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <cmath>
 #include <fstream>
 #include <functional>
-
-#include <cmath>
 
 #include <gtest/gtest.h>
 
