@@ -39,6 +39,8 @@ struct FitDatasetsOptions {
   double pan_zero_factor = 0;  // 0: calibrate's
   std::string fuse_tags;  // "" (calibrate's), on, off
   double fused_floor_scale = -1;  // < 0: calibrate's
+  std::string fused_pinhole_floor;   // "" (calibrate's), on, off
+  std::string fused_pan_zero_floor;  // "" (calibrate's), on, off
   bool no_figures = false;
   bool quiet = false;
   std::string lens_model = "auto";
@@ -117,6 +119,8 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
   if (o.pan_zero_factor > 0) po.head.pan_zero_sigma_factor = o.pan_zero_factor;
   if (!o.fuse_tags.empty()) po.fuse_tags = o.fuse_tags == "on";
   if (o.fused_floor_scale >= 0) po.fused_floor_scale = o.fused_floor_scale;
+  if (!o.fused_pinhole_floor.empty()) po.fused_pinhole_floor = o.fused_pinhole_floor == "on";
+  if (!o.fused_pan_zero_floor.empty()) po.fused_pan_zero_floor = o.fused_pan_zero_floor == "on";
   std::string why;
   if (!pipeline::SetLensModel(o.lens_model, &po, &why)) throw UsageError(why);
   if (!po.Check(&why)) throw UsageError(why);
@@ -139,6 +143,8 @@ int RunFitDatasets(const FitDatasetsOptions& o) {
                   {"pan_zero_factor", o.pan_zero_factor},
                   {"fuse_tags", o.fuse_tags},
                   {"fused_floor_scale", o.fused_floor_scale},
+                  {"fused_pinhole_floor", o.fused_pinhole_floor},
+                  {"fused_pan_zero_floor", o.fused_pan_zero_floor},
                   {"no_figures", o.no_figures},
                   {"lens_model", o.lens_model},
                   {"owlcal_version", OWLCAL_VERSION}};
@@ -209,6 +215,17 @@ const bool kRegistered = RegisterCommand(
                       "the fit fusing the tag sheets: its intrinsics covariance floor is the stereo fit's times this "
                       "squared (1: the chessboard fit's; 0: none; default: calibrate's)")
           ->check(CLI::Range(0.0, 10.0));
+      cmd->add_option(
+             "--fused-pinhole-floor",
+             o->fused_pinhole_floor,
+             "the fit fusing the tag sheets: on: its focal scale (mean log focal length) and principal points no "
+             "more certain than the stereo fit's (default: calibrate's)")
+          ->check(CLI::IsMember({"on", "off"}));
+      cmd->add_option("--fused-pan-zero-floor",
+                      o->fused_pan_zero_floor,
+                      "the fit fusing the tag sheets: on: its pan zero (both pans' common angle) no more certain "
+                      "than the chessboard fit's (default: calibrate's)")
+          ->check(CLI::IsMember({"on", "off"}));
       AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
       return [o] { return RunFitDatasets(*o); };
     });

@@ -372,8 +372,13 @@ internal::HeadCovariance AnalyseHead(ceres::Problem* problem,
 // the two pan maps' mean angle at the robot file's centres and w the tangent direction that shifts
 // both pan maps by one angle (fitting/head_gauge.h ShiftServoMapAngle), so g's sigma grows by the
 // factor and every other parameter keeps its own. Coordinates without a finite variance (held or
-// undetermined) take no part.
-void WidenPanZero(const HeadState& s, const models::RobotConfig& robot, double factor, internal::HeadCovariance* cov) {
+// undetermined) take no part. With floor_rad > 0 the factor is at least floor_rad / sigma(g)
+// (pan_zero_sigma_floor_deg). Returns g's sigma after [rad] (NaN when it has none).
+double WidenPanZero(const HeadState& s,
+                    const models::RobotConfig& robot,
+                    double factor,
+                    double floor_rad,
+                    internal::HeadCovariance* cov) {
   Eigen::MatrixXd& c = cov->analysis.covariance;
   std::vector<int> idx;  // tangent coordinates of the pan maps
   std::vector<double> w, a;
@@ -389,8 +394,8 @@ void WidenPanZero(const HeadState& s, const models::RobotConfig& robot, double f
     // scale and the nonlinear terms; hysteresis does not enter at approach 0).
     const double u0 = robot.servos[servo].centre_us, du = u0 - p[0], x = du / models::ServoMap::kNormUs;
     const double rad = dir * M_PI / 180.0;
-    const std::array<double, 5> grad = {-models::ServoMap::Slope(p.data(), dir, u0, 0), rad * du, rad * x * x,
-                                        rad * x * x * x, 0.0};
+    const std::array<double, 5> grad = {
+        -models::ServoMap::Slope(p.data(), dir, u0, 0), rad * du, rad * x * x, rad * x * x * x, 0.0};
     for (int k = 0; k < 5; ++k) {
       const auto it = cov->tangent_of.find({&b, k});
       if (it == cov->tangent_of.end() || !std::isfinite(c(it->second, it->second))) continue;
@@ -404,10 +409,90 @@ void WidenPanZero(const HeadState& s, const models::RobotConfig& robot, double f
     aw += a[i] * w[i];
     for (size_t j = 0; j < idx.size(); ++j) var += a[i] * c(idx[i], idx[j]) * a[j];
   }
-  if (!(var > 0) || !(std::abs(aw) > 0)) return;
+  if (!(var > 0) || !(std::abs(aw) > 0)) return NAN;
+  // The floor: g's sigma at least floor_rad (HeadFitOptions::pan_zero_sigma_floor_deg).
+  if (floor_rad > 0) factor = std::max(factor, floor_rad / std::sqrt(var));
   const double add = (factor * factor - 1) * var / (aw * aw);
   for (size_t i = 0; i < idx.size(); ++i)
     for (size_t j = 0; j < idx.size(); ++j) c(idx[i], idx[j]) += add * w[i] * w[j];
+  return factor * std::sqrt(var);
+}
+
+// The covariance of y = A x (A: m x n over the tangent coordinates) raised to at least F: the
+// shortfall D = F - A C A^T, its negative eigenvalues dropped, added along what the covariance
+// moves with y: C += B D B^T, B = C A^T (A C A^T)^-1 (so A C A^T becomes A C A^T + D and y's
+// conditional covariance keeps the rest). Coordinates without a finite variance take no part.
+// Returns A C A^T before (empty when it is not positive definite).
+Eigen::MatrixXd RaiseLinearCombination(const Eigen::MatrixXd& a, const Eigen::MatrixXd& floor, Eigen::MatrixXd* cov) {
+  Eigen::MatrixXd& c = *cov;
+  const int n = int(c.rows());
+  Eigen::MatrixXd cf = c;  // finite part
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      if (!std::isfinite(cf(i, j)) || !std::isfinite(c(i, i)) || !std::isfinite(c(j, j))) cf(i, j) = 0;
+  const Eigen::MatrixXd cat = cf * a.transpose();  // n x m
+  const Eigen::MatrixXd v = a * cat;
+  Eigen::LLT<Eigen::MatrixXd> llt(v);
+  if (llt.info() != Eigen::Success) return {};
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * ((floor - v) + (floor - v).transpose()));
+  if (eig.info() != Eigen::Success || eig.eigenvalues().maxCoeff() <= 0) return v;
+  const Eigen::MatrixXd d =
+      eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+  const Eigen::MatrixXd b = llt.solve(cat.transpose()).transpose();  // C A^T V^-1
+  const Eigen::MatrixXd add = b * d * b.transpose();
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      if (std::isfinite(c(i, j))) c(i, j) += add(i, j);
+  return v;
+}
+
+// HeadFitOptions::focal_scale_sigma_floor: g = mean of log fx, log fy over both eyes, raised to
+// the floor (RaiseLinearCombination). Returns g's sigma before (NaN when the fit has no focal
+// length with a finite variance).
+double FloorFocalScale(const HeadState& s, double floor, internal::HeadCovariance* cov) {
+  const Eigen::MatrixXd& c = cov->analysis.covariance;
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(1, c.rows());
+  int num = 0;
+  for (int e = 0; e < 2; ++e) {
+    const Block& b = s.camera[e];
+    for (int k = 0; k < 2 && k < b.size(); ++k) {  // fx, fy
+      const auto it = cov->tangent_of.find({&b, k});
+      const double f = b.values[k];
+      if (it == cov->tangent_of.end() || !std::isfinite(c(it->second, it->second)) || !(f > 0)) continue;
+      a(0, it->second) = 1.0 / f;  // d log f / d value (the block holds f itself, scaled)
+      ++num;
+    }
+  }
+  if (num == 0) return NAN;
+  a /= num;
+  const Eigen::MatrixXd v =
+      RaiseLinearCombination(a, Eigen::MatrixXd::Constant(1, 1, floor * floor), &cov->analysis.covariance);
+  return v.size() == 1 ? std::sqrt(v(0, 0)) : NAN;
+}
+
+// HeadFitOptions::principal_point_covariance_floor: each eye's (cx, cy) block raised to its floor
+// (the shortfall, its negative eigenvalues dropped, added to that block alone).
+void FloorPrincipalPoints(const HeadState& s, const HeadFitOptions& options, internal::HeadCovariance* cov) {
+  Eigen::MatrixXd& c = cov->analysis.covariance;
+  for (int e = 0; e < 2; ++e) {
+    const auto& floor = options.principal_point_covariance_floor[e];
+    const Block& b = s.camera[e];
+    if (!floor || floor->rows() != 2 || floor->cols() != 2 || b.size() < 4) continue;
+    int t[2];
+    bool all = true;
+    for (int k = 0; k < 2; ++k) {
+      const auto it = cov->tangent_of.find({&b, 2 + k});
+      all = all && it != cov->tangent_of.end() && std::isfinite(c(it->second, it->second));
+      if (all) t[k] = it->second;
+    }
+    if (!all) continue;
+    Eigen::MatrixXd block(2, 2);
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) block(i, j) = c(t[i], t[j]);
+    RaiseToFloor(*floor, &block);
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) c(t[i], t[j]) = block(i, j);
+  }
 }
 
 }  // namespace
@@ -434,6 +519,16 @@ bool HeadFitOptions::Check(std::string* why) const {
         CellOfClusters(covariance_clusters) >= 1))
     return fail("covariance_clusters = '" + covariance_clusters +
                 "' must be empty, view, placement or cell:B with B >= 1 us");
+  for (int e = 0; e < 2; ++e) {
+    const auto& f = principal_point_covariance_floor[e];
+    if (f && (f->rows() != 2 || f->cols() != 2 || !f->allFinite() || !((*f)(0, 0) >= 0) || !((*f)(1, 1) >= 0)))
+      return fail("principal_point_covariance_floor[" + std::to_string(e) +
+                  "] must be a finite 2 x 2 covariance (cx, cy) [px^2]");
+  }
+  if (!(pan_zero_sigma_floor_deg >= 0 && pan_zero_sigma_floor_deg < 10))
+    return fail("pan_zero_sigma_floor_deg = " + std::to_string(pan_zero_sigma_floor_deg) + " must be in [0, 10)");
+  if (!(focal_scale_sigma_floor >= 0 && focal_scale_sigma_floor < 0.1))
+    return fail("focal_scale_sigma_floor = " + std::to_string(focal_scale_sigma_floor) + " must be in [0, 0.1)");
   if (!(pan_zero_sigma_factor >= 1 && pan_zero_sigma_factor < 100))
     return fail("pan_zero_sigma_factor = " + std::to_string(pan_zero_sigma_factor) + " must be in [1, 100)");
   if (intrinsics_floor_carry != "none" && intrinsics_floor_carry != "centres" && intrinsics_floor_carry != "servo_maps")
@@ -578,7 +673,15 @@ HeadFit FitHead(const std::vector<calib::View>& views,
           if (std::isfinite(c(i, j))) c(i, j) += add(i, j);
     }
   }
-  if (options.pan_zero_sigma_factor > 1 && cov.analysis.ok) WidenPanZero(s, robot, options.pan_zero_sigma_factor, &cov);
+  // The pan zero's sigma after its widening (the fused fit's floor, pipeline/calibrate_pipeline.cc).
+  double pan_zero_sigma_rad = NAN;
+  if (cov.analysis.ok)
+    pan_zero_sigma_rad =
+        WidenPanZero(s, robot, options.pan_zero_sigma_factor, options.pan_zero_sigma_floor_deg * M_PI / 180.0, &cov);
+  double focal_scale_sigma = NAN;
+  if (options.fit_intrinsics && options.focal_scale_sigma_floor > 0 && cov.analysis.ok)
+    focal_scale_sigma = FloorFocalScale(s, options.focal_scale_sigma_floor, &cov);
+  if (options.fit_intrinsics && cov.analysis.ok) FloorPrincipalPoints(s, options, &cov);
   timer.Mark("covariance_s");
 
   // 4. Outputs.
@@ -607,6 +710,12 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   d["noise_factor"] = stats.noise_factor;
   if (!options.tag_size_of_board.empty())
     d["tag_edge_correction"] = {{"corners", fit.num_tag_edge_corrected}, {"rms_px", fit.tag_edge_offset_rms_px}};
+  if (std::isfinite(pan_zero_sigma_rad))
+    d["pan_zero"] = {{"sigma_deg", pan_zero_sigma_rad * 180.0 / M_PI},
+                     {"factor", options.pan_zero_sigma_factor},
+                     {"floor_deg", options.pan_zero_sigma_floor_deg}};
+  if (std::isfinite(focal_scale_sigma))
+    d["focal_scale_floor"] = {{"sigma_fitted", focal_scale_sigma}, {"floor", options.focal_scale_sigma_floor}};
   d["null_space_dimension"] = cov.analysis.null_dimension;
   d["reciprocal_condition"] = cov.analysis.reciprocal_condition;
   d["covariance_source"] = cov.analysis.ok ? "fitting/observability.h: Schur complement of J^T J, boards eliminated"

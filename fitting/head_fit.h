@@ -127,6 +127,29 @@ struct HeadFitOptions {
   // found from a 15 mm lever seen through the whole sweep), and a detector bias that every view
   // shares moves that difference in every view alike, so no clustering of the residuals sees it.
   double pan_zero_sigma_factor = 1.0;
+  // Floor of that sigma after the widening [deg] (0 = none), along the same direction; the fit
+  // reports the pan zero's sigma in diagnostics.head.pan_zero.sigma_deg. owlcal calibrate's fit
+  // fusing the tag sheets takes the chessboard fit's: the tags do not see the eye centres' depths
+  // any better, and its pan zero moved less than 0.8 of the chessboard's sigma from it while its
+  // own sigma was 0.5-0.9 of it (30 robots of the prior).
+  double pan_zero_sigma_floor_deg = 0.0;
+  // Floor of the sigma of the focal scale g = mean of log fx, log fy over both eyes (relative;
+  // 0 = none; used when fit_intrinsics). A rotating camera sees the product of a focal length and
+  // a servo scale; their split comes from what fixes the focal lengths apart from the rotation
+  // (the stereo fit's board views, here through the intrinsics prior). Views that pin g in the
+  // sweep itself (static tag sheets reaching the image corners) can move it by more than the
+  // residuals show. Where g's variance v = a^T C a falls short of the floor^2, the shortfall is
+  // added along the direction the fit's covariance moves with g:
+  // C += (floor^2 - v) / v^2 (C a)(C a)^T, so the servo scales, anti-correlated with g, widen as
+  // the fit says they follow it, and g's conditional covariance keeps the rest.
+  double focal_scale_sigma_floor = 0.0;
+  // Floor of each eye's principal point covariance (cx, cy) [px^2] (empty = none; used when
+  // fit_intrinsics): the shortfall is added to that 2 x 2 block alone. Over 30 robots of the
+  // prior, carried like the focal scale's to everything the covariance moves with it, it made the
+  // fused fit's head geometry and servo maps over-wide (81.7 and 79.4 % within 1 sigma); carried
+  // to the servos' centres only, the tilt centres (86.7-93.3 %) and the servo maps (75.3-76.0 %);
+  // carried nowhere, the fused fit's tilt centres are somewhat narrow (RMS(z) 1.15-1.42).
+  std::optional<Eigen::MatrixXd> principal_point_covariance_floor[2];
   bool fit_nonlinear = true;           // quad_deg and cubic_deg; false: held at 0
   bool fit_hysteresis = true;          // false: held at 0
   double huber_sigma = 3.0;            // robust loss scale in sigma units for the first solve; 0 = none

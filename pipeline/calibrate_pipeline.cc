@@ -281,6 +281,22 @@ void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
   }
 }
 
+// Sigma of the stereo fit's focal scale: g = mean of log fx, log fy over both eyes, through the
+// joint covariance of the two eyes' intrinsics (their errors are correlated: one board in both
+// views). 0 when the fit has none.
+double FocalScaleSigma(const fitting::StereoFit& f) {
+  const int n = int(f.cameras[0].params.size());
+  if (n < 2 || int(f.cameras[1].params.size()) != n || f.covariance.rows() < 2 * n) return 0.0;
+  std::vector<std::pair<int, double>> a;  // covariance row, d g / d value
+  for (int e = 0; e < 2; ++e)
+    for (int k = 0; k < 2; ++k)
+      if (f.cameras[e].params[k] > 0) a.emplace_back(e * n + k, 0.25 / f.cameras[e].params[k]);
+  double var = 0;
+  for (const auto& [i, ai] : a)
+    for (const auto& [j, aj] : a) var += ai * f.covariance(i, j) * aj;
+  return std::isfinite(var) && var > 0 ? std::sqrt(var) : 0.0;
+}
+
 // Covariance of one eye's intrinsics (fx fy cx cy dist..., the head's camera block) from the
 // stereo fit, times widen^2; nullopt when the fit has none. A parameter the stereo fit did not
 // determine (zero row) gets a variance of 1e8 (sigma 1e4 px or 1e4 in a coefficient): no prior.
@@ -435,8 +451,8 @@ fitting::HeadFitOptions CalibratePipelineOptions::CalibrateHeadFitOptions() {
   // modelled). It is where the eye baseline is perpendicular to the optical axes (the head-yaw
   // gauge), so it hangs on the difference of the eye centres' depths, and both pans' errors are
   // one offset (correlation 0.96 over 30 robots). Its residual-based sigma is the white noise's
-  // (sigma / white 1.0-1.2 on the three tail robots and prior-101): no clustering of the residuals sees the error (cell:200 and placement
-  // clusters left the same tail), yet the errors were 1.34-1.41 sigma RMS with a heavy tail (on
+  // (sigma / white 1.0-1.2 on the three tail robots and prior-101): no clustering of the residuals sees the error
+  // (cell:200 and placement clusters left the same tail), yet the errors were 1.34-1.41 sigma RMS with a heavy tail (on
   // three robots of 30, 3-4 sigma: 7 of the 8 servo coordinates beyond 3 sigma). The factor was
   // chosen on seeds 1-30 (pan zero 1.34 sigma RMS at 1, median-based 1.14; at 1.25 the servo maps
   // are 72.6 / 99.17 % within 1 / 3 sigma there) and checked on seeds 101-130: head geometry
@@ -542,6 +558,8 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
           {"fuse_tags", fuse_tags},
           {"tag_sigma_factor", tag_sigma_factor},
           {"fused_floor_scale", fused_floor_scale},
+          {"fused_pinhole_floor", fused_pinhole_floor},
+          {"fused_pan_zero_floor", fused_pan_zero_floor},
           {"stereo", s},
           {"head", h},
           {"theory_distances_m", {theory_min_m, theory_max_m, theory_step_m}}};
@@ -696,11 +714,36 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
       else
         floor.reset();
     }
-    cv::parallel_for_(cv::Range(0, int(fits.size())), [&](const cv::Range& r) {
-      for (int k = r.start; k < r.end; ++k)
-        fits[k] = k == 0 ? fitting::FitHead(WithoutTags(views, head_options.noise_class_of_board), config, initial, ho)
-                         : fitting::FitHead(views, config, initial, fused_options);
-    });
+    // ... and the focal scale and the principal points no better known than the stereo fit knows
+    // them (HeadFitOptions::focal_scale_sigma_floor, principal_point_covariance_floor): the static
+    // tag sheets move them by more than their residuals show (CalibratePipelineOptions::
+    // fused_pinhole_floor).
+    if (o.fused_pinhole_floor && prior_from_stereo && stereo) {
+      fused_options.focal_scale_sigma_floor = FocalScaleSigma(*stereo);
+      for (int e = 0; e < 2; ++e)
+        if (const auto f = IntrinsicsPriorFromStereo(*stereo, e, 1.0); f && f->rows() >= 4)
+          fused_options.principal_point_covariance_floor[e] = Eigen::MatrixXd(f->block(2, 2, 2, 2));
+    }
+    auto fit = [&](int k) {
+      fits[k] = k == 0 ? fitting::FitHead(WithoutTags(views, head_options.noise_class_of_board), config, initial, ho)
+                       : fitting::FitHead(views, config, initial, fused_options);
+    };
+    if (has_tags && o.fused_pan_zero_floor) {
+      // ... and its pan zero no better known than the chessboard's fit knows it (HeadFitOptions::
+      // pan_zero_sigma_floor_deg): the fits run one after the other.
+      fit(0);
+      const nlohmann::json pz = fits[0]
+                                    .result.diagnostics.value("head", nlohmann::json::object())
+                                    .value("pan_zero", nlohmann::json::object());
+      if (fits[0].ok && pz.contains("sigma_deg") && pz["sigma_deg"].is_number())
+        fused_options.pan_zero_sigma_floor_deg = pz["sigma_deg"].get<double>();
+      fit(1);
+    } else {
+      // Two independent single-threaded fits, run at once.
+      cv::parallel_for_(cv::Range(0, int(fits.size())), [&](const cv::Range& r) {
+        for (int k = r.start; k < r.end; ++k) fit(k);
+      });
+    }
     if (has_tags) {
       without_tags = fits[0];
       with_tags = fits[1];
@@ -743,6 +786,17 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     d.result.diagnostics["tags"] = TagStudy(sweep_views, head_options.noise_class_of_board, *with_tags, without_tags,
                                             config, d.truth ? &*d.truth : nullptr);
     d.result.diagnostics["tags"]["head_result"] = o.fuse_tags ? "fused (chessboard and tags)" : "chessboard only";
+    if (o.fused_pinhole_floor || o.fused_pan_zero_floor)
+      d.result.diagnostics["tags"]["floors"] =
+          std::string("With the tags ") +
+          (o.fused_pinhole_floor
+               ? "the focal scale and the principal points stay as certain as the stereo fit makes them"
+               : "") +
+          (o.fused_pinhole_floor && o.fused_pan_zero_floor ? " and " : "") +
+          (o.fused_pan_zero_floor ? "the pan zero as certain as the chessboard's fit makes it, so the pans' sigma at "
+                                    "their ends, which the pan zero sets, does not shrink"
+                                  : "") +
+          " (the static sheets move them more than their residuals show; docs/conventions.md)";
     if (d.truth) {
       // Both head fits' parameters against the truth (the calibration's head is one of them), so
       // the Monte-Carlo bench scores the fused fit's sigmas as its own groups

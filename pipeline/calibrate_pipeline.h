@@ -73,33 +73,49 @@ struct CalibratePipelineOptions {
   // The head result from the fit that fuses the servo sweep's tag sheets with the chessboard
   // (each kind whitened by its own measured noise), instead of the chessboard's alone. Both
   // fits run when the sweep saw tags, and diagnostics.tags compares them (pipeline/tag_study.h).
-  // Off: the tag corners lie 0.015 px farther from the principal point than their projections
-  // (the lens bends the tags' edges; the detector intersects straight lines through them). Fused
-  // as points, that pulled the focal lengths by +0.06 % and the servo scales by -0.04 % (errors at
-  // the servo ends 4-6 sigma). The fused fit now compares each tag corner with the detector's
-  // straight-edge corner (HeadFitOptions::tag_size_of_board, fitting/tag_edge_corner.h): errors at
-  // the ends 0.6-3.0 sigma on the default robot, the neck's still 3.0 (a common scale about
-  // 0.02 % off remains). With tag_sigma_factor 3 (below) its servo ends and maps are honest over
-  // 12 robots of the prior; not yet the default: checked on those 12 only.
-  bool fuse_tags = false;
+  // History: fused as points, the tag corners (0.015 px farther from the principal point than
+  // their projections: the lens bends the tags' edges) pulled the focal lengths +0.06 % and the
+  // servo scales -0.04 %; each tag corner is now compared with the detector's straight-edge
+  // corner (HeadFitOptions::tag_size_of_board, fitting/tag_edge_corner.h). Even so the sweep's
+  // static sheets move three things by more than their residuals show: the split of the common
+  // scale between the focal lengths and the servo scales, the principal points and the pan zero.
+  // The fused fit keeps those no more certain than the chessboard's knowledge of them
+  // (fused_pinhole_floor, fused_pan_zero_floor) and a share of the stereo fit's intrinsics floor
+  // (fused_floor_scale). So chosen on 30 robots of the prior (bench/robot_prior_mc_bench.cc 30
+  // 101, refits of the kept sets) and checked on 30 others (30 1): see docs/conventions.md.
+  bool fuse_tags = true;
   // The fused fit whitens the tag corners by this many times their measured sigma
   // (HeadFitOptions::sigma_factor_of_class, for the tag sheets' class). Over 12 robots of the prior
   // (bench/robot_prior_mc_bench.cc 12 1) at 1 the fused fit's errors at the servo ends were 38 % within 1 sigma and 85
   // % within 3, and all five servo scales 1-6 sigma low together with the focal lengths +0.3-2.2 sigma high: the tags
   // set the split of the common scale between them. At 3: 62.5 % / 100 %, the servo maps 72.9 / 99.3 % (the
-  // chessboard's alone 69.2 / 99.2 and 69.4 / 97.6), the sigmas at the ends still 1.1 (pans), 1.6-1.9 (tilts) and 3.6
-  // (neck) x smaller than the chessboard's (medians). The tag detector is not the cause:
+  // chessboard's alone 69.2 / 99.2 and 69.4 / 97.6). The tag detector is not the cause:
   // tests/sim/tag_corner_bias_test.cc.
   double tag_sigma_factor = 3.0;
   // The fused fit's floor of the intrinsics covariance (and its carry to the servo maps,
   // HeadFitOptions::intrinsics_covariance_floor): the stereo fit's covariance times this squared.
-  // 1: the chessboard fit's floor; 0: none (the tag sheets do not share the chessboard's corner
-  // bias). Over 30 robots of the prior (seeds 101-130, tag_sigma_factor 3) the fused lens errors
-  // were 82.8 % within 1 sigma at 1 and 53.5 % at 0. At 0.6 every fused group met 68 +- 5 % and
-  // >= 99 % on seeds 1-30 (servo maps 72.1 / 99.58, servo ends 70.3 / 99.67, lens 68.3 / 99.07),
-  // but not on 101-130 (servo maps 70.7 / 98.75, servo ends 65.0 / 98.67: the tags still pull the
-  // servo scales down and the focal lengths up together on some robots, e.g. prior-120 at 3 sigma).
-  double fused_floor_scale = 1.0;
+  // 1: the chessboard fit's floor; 0: none. Over robots 101-130 of the prior (tag_sigma_factor 3)
+  // without the two floors below the fused lens errors were 82.8 % within 1 sigma at 1 and 53.5 %
+  // at 0; at 0.6 the servo maps were 70.7 / 98.75 % within 1 / 3 sigma (prior-120's five servo
+  // scales 2.2-2.7 sigma low, its focal lengths 2.3 high). With both floors: at 0.6 the servo maps
+  // 75.8 % and servo ends 74.7 % within 1 sigma (too wide), at 0.4 every fused group within
+  // 68 +- 5 % and >= 99 % (head geometry 69.6 / 100, lens 68.7 / 99.81, servo maps 72.1 / 99.44,
+  // servo ends 72.0 / 100), at 0 the lens 58.0 / 97.22.
+  double fused_floor_scale = 0.4;
+  // The fused fit's focal scale (the mean of log fx, log fy over both eyes) no more certain than
+  // the stereo fit's, the shortfall carried to what moves with it (HeadFitOptions::
+  // focal_scale_sigma_floor: the servo scales above all), and each principal point's (cx, cy) no
+  // more certain than the stereo fit's (principal_point_covariance_floor, that block alone). Over
+  // robots 101-130 the fused fit moved the focal lengths and the servo scales up and down together
+  // by up to 2.7 of its sigmas (prior-120) and the principal points by 1.6-1.7 RMS(z) at
+  // fused_floor_scale 0.4; the chessboard fit's were 0.9-1.2.
+  bool fused_pinhole_floor = true;
+  // The fused fit's pan zero no more certain than the chessboard fit's (HeadFitOptions::
+  // pan_zero_sigma_floor_deg; the two fits then run one after the other). Over robots 101-130 the
+  // fused pan centres differed from the chessboard's by less than 0.8 of the chessboard's sigma
+  // while their own sigmas were 0.5-0.9 of it (median 0.78): both stand on the same eye-centre
+  // depths; both pans' centres were 3.1-3.3 sigma off together on prior-121 and prior-126.
+  bool fused_pan_zero_floor = true;
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
   // Progress lines (may be null).

@@ -278,15 +278,21 @@ std::vector<Table> MakeTables(const ReportData& d) {
     const nlohmann::json servo_ends = g.value("servo_ends", nlohmann::json::array());
     const bool truth = !servo_ends.empty() && servo_ends[0].contains("error_with_tags_deg") &&
                        servo_ends[0]["error_with_tags_deg"].is_number();
-    Table e{"tag_servo_ends",
-            "Servo maps at the ends of their configured range: σ of the angle with the tag sheets fused into the head "
-            "fit and from the chessboard views alone (fit without the tags: " +
-                g.value("without_tags_fit", std::string()) + "; the calibration's head result: " +
-                g.value("head_result", std::string()) + ")" + (truth ? "; fitted minus true angle with both fits" : "") +
-                (g.contains("note") && g["note"].is_string() ? ". NOTE: " + g["note"].get<std::string>() : std::string()),
-            {"servo", "end", "pulse [µs]", g.contains("note") ? "σ with tags [deg] (diagnostic)" : "σ with tags [deg]",
-             "σ without tags [deg]", "σ ratio"},
-            {}};
+    Table e{
+        "tag_servo_ends",
+        "Servo maps at the ends of their configured range: σ of the angle with the tag sheets fused into the head "
+        "fit and from the chessboard views alone (fit without the tags: " +
+            g.value("without_tags_fit", std::string()) + "; the calibration's head result: " +
+            g.value("head_result", std::string()) + ")" + (truth ? "; fitted minus true angle with both fits" : "") +
+            (g.contains("floors") && g["floors"].is_string() ? ". " + g["floors"].get<std::string>() : std::string()) +
+            (g.contains("note") && g["note"].is_string() ? ". NOTE: " + g["note"].get<std::string>() : std::string()),
+        {"servo",
+         "end",
+         "pulse [µs]",
+         g.contains("note") ? "σ with tags [deg] (diagnostic)" : "σ with tags [deg]",
+         "σ without tags [deg]",
+         "σ ratio"},
+        {}};
     if (truth) e.header.insert(e.header.end(), {"error with tags [deg]", "error without tags [deg]"});
     for (const auto& x : servo_ends) {
       const bool both = x.contains("sigma_with_tags_deg") && x.contains("sigma_without_tags_deg") &&

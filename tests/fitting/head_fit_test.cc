@@ -195,6 +195,93 @@ TEST(FitHead, PanZeroFactorWidensOnlyThePanZero) {
     }
   }
   EXPECT_GE(pans_wider, 2);  // at least both centres
+  // The fit reports the pan zero's sigma after widening, and a floor on it widens the same way.
+  const double reported = wide.result.diagnostics["head"]["pan_zero"]["sigma_deg"].get<double>();
+  EXPECT_NEAR(reported * M_PI / 180.0 / s2, 1.0, 1e-3);
+  opt.pan_zero_sigma_floor_deg = 1.5 * reported;  // above the 2x widening: the floor rules
+  const HeadFit floored = FitHead(data.views, robot, InitialFor(robot, truth), opt);
+  ASSERT_TRUE(floored.ok) << floored.message;
+  EXPECT_NEAR(sigma_of_pan_zero(floored) / s2, 1.5, 1e-3);
+  opt.pan_zero_sigma_floor_deg = 0.5 * reported;  // below: the factor rules
+  const HeadFit below = FitHead(data.views, robot, InitialFor(robot, truth), opt);
+  for (const Parameter& p : wide.result.parameters) {
+    if (!(p.sigma > 0)) continue;
+    EXPECT_NEAR(below.result.Find(p.name)->sigma, p.sigma, 1e-12 * p.sigma) << p.name;
+  }
+}
+
+// The focal-scale floor: g = mean of log fx, log fy over both eyes gets exactly the floor's sigma,
+// the servo scales (which a rotating camera sees only times the focal lengths) widen with it, the
+// values do not move, and a floor below the fitted sigma changes nothing.
+TEST(FitHead, FocalScaleFloorRaisesTheFocalScaleAndCarriesItToTheServoScales) {
+  const SyntheticSweep sweep = MakeSweep(20261129, 5);
+  HeadFitOptions opt;
+  opt.fit_intrinsics = true;
+  const HeadFit plain = FitHead(sweep.data.views, sweep.robot, InitialFor(sweep.robot, sweep.truth), opt);
+  ASSERT_TRUE(plain.ok) << plain.message;
+  auto sigma_of_g = [](const HeadFit& fit) {
+    Eigen::VectorXd a = Eigen::VectorXd::Zero(Eigen::Index(fit.param_names.size()));
+    int num = 0;
+    for (const char* name : {"head.left.fx", "head.left.fy", "head.right.fx", "head.right.fy"}) {
+      const auto it = std::find(fit.param_names.begin(), fit.param_names.end(), name);
+      if (it == fit.param_names.end()) continue;
+      a(it - fit.param_names.begin()) = 1.0 / fit.result.Find(name)->value;
+      ++num;
+    }
+    EXPECT_EQ(num, 4);
+    a /= num;
+    return std::sqrt(a.dot(fit.covariance * a));
+  };
+  const double s0 = sigma_of_g(plain);
+  ASSERT_GT(s0, 0);
+  opt.focal_scale_sigma_floor = 3 * s0;
+  const HeadFit floored = FitHead(sweep.data.views, sweep.robot, InitialFor(sweep.robot, sweep.truth), opt);
+  ASSERT_TRUE(floored.ok) << floored.message;
+  EXPECT_NEAR(sigma_of_g(floored) / s0, 3.0, 1e-6);
+  EXPECT_NEAR(floored.result.diagnostics["head"]["focal_scale_floor"]["sigma_fitted"].get<double>(), s0, 1e-9 * s0);
+  int scales_wider = 0;
+  for (const Parameter& p : plain.result.parameters) {
+    const Parameter* q = floored.result.Find(p.name);
+    ASSERT_NE(q, nullptr) << p.name;
+    EXPECT_EQ(p.value, q->value) << p.name;
+    if (!(p.sigma > 0)) continue;
+    EXPECT_GE(q->sigma, p.sigma * (1 - 1e-9)) << p.name;  // only ever widened
+    if (p.name.find(".deg_per_us") != std::string::npos) scales_wider += q->sigma > 1.2 * p.sigma;
+  }
+  EXPECT_GE(scales_wider, 4) << "the servo scales follow the focal lengths";
+  opt.focal_scale_sigma_floor = 0.5 * s0;
+  const HeadFit below = FitHead(sweep.data.views, sweep.robot, InitialFor(sweep.robot, sweep.truth), opt);
+  for (const Parameter& p : plain.result.parameters) {
+    if (!(p.sigma > 0)) continue;
+    EXPECT_EQ(below.result.Find(p.name)->sigma, p.sigma) << p.name;
+  }
+  // The left principal point raised to 9x its fitted covariance: its sigmas triple, nothing else
+  // moves.
+  opt.focal_scale_sigma_floor = 0;
+  auto index = [&](const std::string& name) {
+    return int(std::find(plain.param_names.begin(), plain.param_names.end(), name) - plain.param_names.begin());
+  };
+  const int cx = index("head.left.cx"), cy = index("head.left.cy");
+  ASSERT_LT(cy, int(plain.param_names.size()));
+  Eigen::Matrix2d pp;
+  pp << plain.covariance(cx, cx), plain.covariance(cx, cy), plain.covariance(cy, cx), plain.covariance(cy, cy);
+  opt.principal_point_covariance_floor[models::kLeftEye] = Eigen::MatrixXd(9 * pp);
+  const HeadFit pp_floored = FitHead(sweep.data.views, sweep.robot, InitialFor(sweep.robot, sweep.truth), opt);
+  ASSERT_TRUE(pp_floored.ok) << pp_floored.message;
+  for (const char* name : {"head.left.cx", "head.left.cy"})
+    EXPECT_NEAR(pp_floored.result.Find(name)->sigma / plain.result.Find(name)->sigma, 3.0, 1e-6) << name;
+  for (const Parameter& p : plain.result.parameters) {
+    if (!(p.sigma > 0) || p.name == "head.left.cx" || p.name == "head.left.cy") continue;
+    EXPECT_EQ(pp_floored.result.Find(p.name)->sigma, p.sigma) << p.name;
+  }
+  opt.focal_scale_sigma_floor = -1;
+  std::string why;
+  EXPECT_FALSE(opt.Check(&why));
+  EXPECT_NE(why.find("focal_scale_sigma_floor"), std::string::npos) << why;
+  opt.focal_scale_sigma_floor = 0;
+  opt.principal_point_covariance_floor[models::kRightEye] = Eigen::MatrixXd::Identity(3, 3);
+  EXPECT_FALSE(opt.Check(&why));
+  EXPECT_NE(why.find("principal_point_covariance_floor[1]"), std::string::npos) << why;
 }
 
 TEST(FitHead, NonCanonicalTruthMatchesItsCanonicalFormAndJointIntrinsics) {

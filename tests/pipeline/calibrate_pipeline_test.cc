@@ -4,8 +4,8 @@
 
 #include <unistd.h>
 
-#include <filesystem>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 
@@ -88,7 +88,12 @@ TEST(CalibratePipeline, OptionsAreCheckedAndRecorded) {
   EXPECT_EQ(j.at("head").at("hysteresis_sigma_floor_us"), 0.0);
   EXPECT_EQ(j.at("stereo").at("intrinsics").at("model"), "opencv5");
   EXPECT_EQ(j.at("truth"), false);
-  EXPECT_EQ(j.at("fused_floor_scale"), 1.0);  // the fused fit's floor is the chessboard fit's
+  // The head result fuses the tag sheets, with the chessboard's knowledge of the focal scale,
+  // principal points and pan zero and 0.4 x the stereo fit's intrinsics floor.
+  EXPECT_EQ(j.at("fuse_tags"), true);
+  EXPECT_EQ(j.at("fused_floor_scale"), 0.4);
+  EXPECT_EQ(j.at("fused_pinhole_floor"), true);
+  EXPECT_EQ(j.at("fused_pan_zero_floor"), true);
   for (double bad : {-0.5, 11.0, std::nan("")}) {
     CalibratePipelineOptions b;
     b.fused_floor_scale = bad;
