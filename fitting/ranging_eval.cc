@@ -1,5 +1,6 @@
 #include "fitting/ranging_eval.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -14,6 +15,8 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDeg = M_PI / 180.0;
+// Fixations without a known target radius are size-checked against each other from this many on.
+constexpr int kMinSizePeers = 3;
 
 std::array<double, models::kNumServos> ToDouble(const models::PwmVector& p) {
   std::array<double, models::kNumServos> d;
@@ -76,11 +79,14 @@ RangeFix RangeFromPulses(const models::HeadModel& head,
   return RangeFromAngles(head, a, px);
 }
 
-
 // The size check (ranging_eval.h): mean over the eyes that measured the target's apparent
-// radius of (f_x r / r_px) / (the fix's depth in that camera); nullopt when not measured.
-std::optional<double> SizeRatio(const models::HeadModel& head, const Fixation& f, const RangeFix& fix) {
-  if (!f.target_radius_m || !(*f.target_radius_m > 0)) return std::nullopt;
+// radius of (f_x r / r_px) / (the fix's depth in that camera), r = radius_m; nullopt when not
+// measured.
+std::optional<double> SizeRatio(const models::HeadModel& head,
+                                const Fixation& f,
+                                const RangeFix& fix,
+                                double radius_m) {
+  if (!(radius_m > 0)) return std::nullopt;
   const models::JointAngles a = head.Angles(ToDouble(f.Pulses()), Approach(f));
   double sum = 0;
   int n = 0;
@@ -88,11 +94,20 @@ std::optional<double> SizeRatio(const models::HeadModel& head, const Fixation& f
     if (!f.radius_px[e] || !(*f.radius_px[e] > 0)) continue;
     const double depth = head.PointInCam(models::Eye(e), a, fix.point_in_base).z();
     if (!(depth > 0)) continue;
-    sum += head.intrinsics[e].params[0] * *f.target_radius_m / *f.radius_px[e] / depth;
+    sum += head.intrinsics[e].params[0] * radius_m / *f.radius_px[e] / depth;
     ++n;
   }
   if (n == 0) return std::nullopt;
   return sum / n;
+}
+
+// The radius [m] a fixation's apparent size implies at its vergence fix: mean over the eyes that
+// measured it of r_px depth / f_x (SizeRatio = radius_m / this, to first order); nullopt when
+// not measured.
+std::optional<double> ImpliedRadius(const models::HeadModel& head, const Fixation& f, const RangeFix& fix) {
+  const auto inverse = SizeRatio(head, f, fix, 1.0);  // mean of f_x / (r_px depth)
+  if (!inverse || !(*inverse > 0)) return std::nullopt;
+  return 1.0 / *inverse;
 }
 
 struct ParamSlot {
@@ -357,7 +372,46 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
   if (cov.names.empty()) ev.notes.push_back("no parameter covariance: sigma holds only the pixel/PWM noise");
   double sum2 = 0, sum_abs = 0, nom2 = 0;
   int within = 0, num_nom = 0;
-  for (const Fixation& f : fixations) {
+  // The size check's radius for fixations without a known one: the median of the radii their
+  // apparent sizes imply at their own vergence fixes (all of one target), when at least
+  // kMinSizePeers measured a size; a fixation locked onto something else implies another radius.
+  std::vector<RangeFix> fixes(fixations.size());
+  std::vector<double> implied;
+  std::vector<int> unknown_size;  // ok fixations that measured a size but know no radius
+  for (size_t i = 0; i < fixations.size(); ++i) {
+    const Fixation& f = fixations[i];
+    if (f.status != calib::TrialStatus::kOk) continue;
+    fixes[i] = RangeFromFixation(head, f, options);
+    if (f.target_radius_m || !fixes[i].ok) continue;
+    if (const auto r = ImpliedRadius(head, f, fixes[i])) {
+      implied.push_back(*r);
+      unknown_size.push_back(f.index);
+    }
+  }
+  std::optional<double> shared_radius;
+  if (int(implied.size()) >= kMinSizePeers) {
+    std::vector<double> v = implied;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    double med = v[v.size() / 2];
+    if (v.size() % 2 == 0) med = 0.5 * (med + *std::max_element(v.begin(), v.begin() + v.size() / 2));
+    shared_radius = med;
+    char b[256];
+    std::snprintf(b,
+                  sizeof b,
+                  "size check: the target's radius is not given; the %zu fixations that measured its apparent "
+                  "size are checked against their median, %.1f mm",
+                  implied.size(),
+                  1000 * med);
+    ev.notes.push_back(b);
+  } else if (!unknown_size.empty()) {
+    std::string ids;
+    for (int id : unknown_size) ids += (ids.empty() ? "" : ", ") + std::to_string(id);
+    ev.notes.push_back("size check: not made on fixation" + std::string(unknown_size.size() > 1 ? "s " : " ") + ids +
+                       ": the target's radius is not given and fewer than " + std::to_string(kMinSizePeers) +
+                       " fixations measured its size to compare (a lock onto the background is not caught)");
+  }
+  for (size_t i = 0; i < fixations.size(); ++i) {
+    const Fixation& f = fixations[i];
     RangingRow row;
     row.index = f.index;
     row.true_m = f.true_distance_m;
@@ -377,7 +431,8 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
       nom2 += row.nominal_rel_error * row.nominal_rel_error;
       ++num_nom;
     }
-    const RangeFix fix = RangeFromFixation(head, f, options);
+    const RangeFix& fix = fixes[i];
+    const std::optional<double> radius = f.target_radius_m ? f.target_radius_m : shared_radius;
     if (!fix.ok) {
       row.status = calib::TrialStatus::kOffTarget;
       row.reason = "the gaze rays do not converge in front of the head";
@@ -388,16 +443,20 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
                    " mm apart (limit " +
                    std::to_string(1000 * (options.max_ray_gap_m + options.max_ray_gap_per_m * fix.range_m)).substr(0, 5) +
                    " mm): the eyes did not fixate one point";
-    } else if (const auto ratio = SizeRatio(head, f, fix)) {
+    } else if (const auto ratio = radius ? SizeRatio(head, f, fix, *radius) : std::nullopt) {
       row.size_ratio = *ratio;
       if (!(*ratio <= options.max_size_ratio && *ratio >= 1 / options.max_size_ratio)) {
         row.status = calib::TrialStatus::kOffTarget;
         row.gap_m = fix.gap_m;
-        char b[256];
-        std::snprintf(b, sizeof b,
-                      "the target's apparent size puts it %.2f x the vergence distance (%.3f m; limit %.2f x): "
+        char b[320];
+        std::snprintf(b,
+                      sizeof b,
+                      "the target's apparent size puts it %.2f x the vergence distance (%.3f m; limit %.2f x%s): "
                       "the eyes fixated something else",
-                      *ratio, fix.range_m, options.max_size_ratio);
+                      *ratio,
+                      fix.range_m,
+                      options.max_size_ratio,
+                      f.target_radius_m ? "" : "; the radius the other fixations' sizes give");
         row.reason = b;
       }
     }

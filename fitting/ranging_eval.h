@@ -35,6 +35,13 @@
 // 1.4 leaves a factor 1.2 above the worst; variant A's 2 m fixation, locked about 12 deg below the
 // disc, reads 0.41 and is off target, as does a background spot locked onto in place of a disc
 // 2 m away with the wall at 3 m (0.67).
+// When the target's radius is not given (a protocol without `targets`, an older dataset), the
+// fixations are checked against each other: each one's apparent size implies a radius at its
+// vergence fix (r_px depth / f_x), and with at least 3 of them the median is taken as the
+// target's radius for the check above (one target per evaluation, as in a vergence protocol).
+// A lock onto the background implies another radius (a 2 m fixation of a shrunken 24 mm disc
+// ranged at 3.05 m read 33 mm against the others' 12). With fewer than 3 a note names the
+// fixations left unchecked.
 //
 // Uncertainty: sigma_range^2 = J C J^T + J_px S_px J_px^T + J_u S_u J_u^T, where J = d range / d params by
 // central differences over the named result parameters (servo.<S>.centre_us, deg_per_us,

@@ -452,6 +452,10 @@ std::vector<Table> MakeTables(const ReportData& d) {
     s.rows.push_back({"median |relative error| [%]", Pct(median(cal)), Pct(median(nom))});
     s.rows.push_back({"max |relative error| [%]", Pct(maxv(cal)), Pct(maxv(nom))});
     s.rows.push_back({"within \u00b12\u03c3 of the truth", std::to_string(within) + " of " + std::to_string(cal.size()), ""});
+    // What was (not) checked: the size check's reference, sigma without a covariance (the notes
+    // per fixation are the table's reasons).
+    for (const auto& n : r.notes)
+      if (n.rfind("fixation ", 0) != 0) s.rows.push_back({"note", n, ""});
     out.push_back(s);
   }
   if (!d.steps.empty()) {

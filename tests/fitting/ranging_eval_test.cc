@@ -256,9 +256,49 @@ TEST(RangingEval, SizeThatDisagreesWithVergenceIsOffTarget) {
   EXPECT_NE(ev.rows[2].reason.find("apparent size"), std::string::npos) << ev.rows[2].reason;
   EXPECT_FALSE(std::isfinite(ev.rows[2].range_m));
   EXPECT_EQ(ev.num_ok, 2);
-  // Without a known size (older datasets) nothing is checked.
+  // Without a known size on one fixation alone there is nothing to compare it with: ranged, and
+  // a note says its size was not checked.
   f[2].target_radius_m.reset();
-  EXPECT_EQ(EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), f, {}, {}).num_ok, 3);
+  const RangingEvaluation alone = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), f, {}, {});
+  EXPECT_EQ(alone.num_ok, 3);
+  ASSERT_EQ(alone.notes.size(), 1u);
+  EXPECT_NE(alone.notes[0].find("not made on fixation 2"), std::string::npos) << alone.notes[0];
+}
+
+// A protocol that does not give the disc's radius (population-2 of the prior in
+// robot_prior_mc_test before its protocol did: the 2 m fixation locked onto a spot and ranged
+// 3.05 m, reported ok): the fixations' apparent sizes are compared with each other. Four discs
+// (their radii read within +-8 %) and one wall spot 3.1 m away as large as the disc at 2 m: the
+// spot is off target against the median, the discs are ranged.
+TEST(RangingEval, WithoutAKnownSizeTheFixationsAreCheckedAgainstEachOther) {
+  const models::HeadModel truth = TruthHead();
+  const double r = 0.012, fx = truth.intrinsics[0].params[0];
+  const double d[5] = {0.35, 0.65, 1.0, 1.5, 3.1};
+  const double read[4] = {1.08, 0.95, 1.0, 0.92};
+  std::vector<Fixation> f;
+  for (int i = 0; i < 5; ++i) {
+    f.push_back(*SyntheticFixation(truth, Eigen::Vector3d(0.01, 0.0, d[i]), 1530));
+    f[i].index = i;
+    const double px = i < 4 ? read[i] * fx * r / d[i] : fx * r / 2.0;
+    f[i].radius_px[0] = f[i].radius_px[1] = px;
+  }
+  const RangingEvaluation ev = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), f, {}, {});
+  ASSERT_EQ(ev.rows.size(), 5u);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_TRUE(ev.rows[i].ok) << i << ": " << ev.rows[i].reason;
+    EXPECT_NEAR(ev.rows[i].size_ratio, 1.0, 0.1) << i;
+  }
+  EXPECT_EQ(ev.rows[4].status, calib::TrialStatus::kOffTarget);
+  EXPECT_NE(ev.rows[4].reason.find("other fixations"), std::string::npos) << ev.rows[4].reason;
+  EXPECT_NEAR(ev.rows[4].size_ratio, 2.0 / 3.1, 0.06);
+  EXPECT_EQ(ev.num_ok, 4);
+  ASSERT_FALSE(ev.notes.empty());
+  EXPECT_NE(ev.notes[0].find("checked against their median"), std::string::npos) << ev.notes[0];
+  // With the radius given the same spot is caught by it, and no note about the median.
+  for (auto& x : f) x.target_radius_m = r;
+  const RangingEvaluation known = EvaluateRanging(truth, Cov(), models::DefaultRobotConfig(), f, {}, {});
+  EXPECT_EQ(known.num_ok, 4);
+  for (const auto& n : known.notes) EXPECT_EQ(n.find("median"), std::string::npos) << n;
 }
 
 }  // namespace

@@ -204,6 +204,17 @@ TEST(Report, TablesCarryValuesSigmasAndTruth) {
   for (const char* n : {"parameters", "solver", "undetermined", "truth_comparison", "ranging", "ranging_summary",
                         "step_metrics", "gain_study", "limits"})
     EXPECT_TRUE(by.count(n)) << n;
+  // The ranging notes that no row carries (what the size check compared with) are in the summary;
+  // a fixation's own note is its row's reason, not repeated.
+  {
+    ReportData e = d;
+    e.ranging->notes = {"fixation 7 not ranged: off target: demo", "size check: demo note"};
+    std::string summary;
+    for (const auto& t : MakeTables(e))
+      if (t.name == "ranging_summary") summary = ToMarkdown(t);
+    EXPECT_NE(summary.find("| note | size check: demo note |"), std::string::npos) << summary;
+    EXPECT_EQ(summary.find("fixation 7"), std::string::npos) << summary;
+  }
   // Whole-map comparison: Rx's centre is 0.3 us off at 0.110 deg/us, so every angle is about
   // 0.033 deg off; Lx's scale is off by 0.0004 deg/us, zero at its centre.
   ASSERT_TRUE(by.count("servo_map_truth"));
