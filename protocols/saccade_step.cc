@@ -122,6 +122,17 @@ class SaccadeController {
         continue;
       }
       lost = 0;
+      // Still arriving: the target moved by more than the dead zone since the frame before (the
+      // wait above is only as long as the fitted motion says; a slew fitted too fast ends it
+      // early). A correction taken now would overshoot: wait for a frame that agrees with the
+      // one before it.
+      if (r.trace.size() >= 2 && r.trace[r.trace.size() - 2].found) {
+        const Eigen::Vector2d d = smp.offset_px - r.trace[r.trace.size() - 2].offset_px;
+        if ((pan && std::abs(d.x()) > dead_zone_px_[0]) || (tilt && std::abs(d.y()) > dead_zone_px_[1])) {
+          still = 0;
+          continue;
+        }
+      }
       const bool within = (!pan || std::abs(smp.offset_px.x()) <= dead_zone_px_[0]) &&
                           (!tilt || std::abs(smp.offset_px.y()) <= dead_zone_px_[1]);
       if (within) {
