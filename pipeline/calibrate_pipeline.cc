@@ -60,6 +60,35 @@ std::string ViewName(int frame, int /*eye*/) {
   return "intrinsics frame " + std::to_string(frame);
 }
 
+// Where each of the dataset's targets is fixated, in the target's own frame: the centre of its
+// extent (protocols/fixation.cc BoardLocator aims at a board's centre; a disc's is its origin),
+// by target name from the protocols the manifest recorded. A board's placement pose is its
+// corner grid's origin, 0.15 m from its centre for a 0.22 m board: the true distance is to the
+// point the eyes fixated. Empty when the manifest holds no protocol text.
+std::map<std::string, Eigen::Vector3d> AimPointsOfDataset(const std::string& dataset) {
+  std::map<std::string, Eigen::Vector3d> out;
+  nlohmann::json m;
+  try {
+    m = protocols::ReadManifest(dataset);
+  } catch (const std::exception&) {
+    return out;
+  }
+  for (const auto& p : m.value("protocols", nlohmann::json::array())) {
+    if (!p.contains("text") || !p["text"].is_string()) continue;
+    try {
+      const protocols::Protocol parsed =
+          protocols::ParseProtocolYaml(p["text"].get<std::string>(), dataset + "/manifest.json");
+      for (const auto& [name, def] : parsed.targets) {
+        const Eigen::Vector4d e = def.Extent();
+        out[name] = Eigen::Vector3d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0);
+      }
+    } catch (const std::exception&) {
+      // A protocol text this version cannot read: its targets keep their origin.
+    }
+  }
+  return out;
+}
+
 std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
                                              const models::RobotConfig& config,
                                              const std::optional<models::HeadModel>& truth,
@@ -68,6 +97,7 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
   std::vector<fitting::Fixation> out;
   const std::vector<protocols::FixationRow> rows = protocols::ReadFixationsCsv(dataset);
   const auto placements = protocols::ReadPlacementsCsv(dataset);
+  const std::map<std::string, Eigen::Vector3d> aim = AimPointsOfDataset(dataset);
   const double cx = (config.image_width - 1) / 2.0, cy = (config.image_height - 1) / 2.0;
   for (size_t r = 0; r < rows.size(); ++r) {
     const protocols::FixationRow& row = rows[r];
@@ -93,15 +123,20 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
     f.target_radius_m = row.target_radius_m;
     for (int e = 0; e < 2; ++e)
       if (found[e]) f.target_px[e] = Eigen::Vector2d(cx, cy) + *row.offset_px[e];
-    // True distance: from the placement pose (base frame) to the midpoint of the eye centres
-    // (the truth's on the virtual Owl, else the fitted head's); else the logged distance.
+    // True distance: from the fixated point of the placed target (base frame; AimPointsOfDataset)
+    // to the midpoint of the eye centres (the truth's on the virtual Owl, else the fitted
+    // head's); else the logged distance.
     const models::HeadModel& ref = truth ? *truth : fitted;
     const double neck = ref.ServoAngle(models::kNeck, f.pwm_us[models::kNeck]);
     const Eigen::Vector3d mid = models::HeadFromBase(neck).Inverse() *
                                 (0.5 * (ref.geometry.centre_in_head[0] + ref.geometry.centre_in_head[1]));
     f.true_distance_m = row.distance_m.value_or(NAN);
     for (const auto& p : placements)
-      if (p.placement_index == row.placement_index) f.true_distance_m = (p.base_from_target.translation() - mid).norm();
+      if (p.placement_index == row.placement_index) {
+        const auto a = aim.find(p.target);
+        const Eigen::Vector3d point = a == aim.end() ? Eigen::Vector3d::Zero() : a->second;
+        f.true_distance_m = (p.base_from_target * point - mid).norm();
+      }
     if (!std::isfinite(f.true_distance_m) && f.status == calib::TrialStatus::kOk) {
       f.status = calib::TrialStatus::kSkipped;
       f.reason = "no true distance (no placement or distance_m)";
@@ -858,9 +893,17 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     std::vector<double> theory;
     for (double x = o.theory_min_m; x <= o.theory_max_m + 1e-4; x += o.theory_step_m) theory.push_back(x);
     d.ranging = fitting::EvaluateRanging(*d.result.head, cov, config, fixations, {}, theory);
-    progress("ranging: " + std::to_string(d.ranging->num_ok) + " fixations, RMS error " +
-             Fmt(100 * d.ranging->rms_rel_error, 3) + " %, " + Fmt(100 * d.ranging->fraction_within_2sigma, 3) +
-             " % within 2 sigma (course method " + Fmt(100 * d.ranging->nominal_rms_rel_error, 3) + " %)");
+    // No error figure without a ranged fixation (an RMS of nothing is not 0 %).
+    const int tried = int(d.ranging->rows.size());
+    if (tried == 0)
+      progress("ranging: no fixation recorded (the vergence dataset has none: see the warnings)");
+    else if (d.ranging->num_ok == 0)
+      progress("ranging: 0 of " + std::to_string(tried) + " fixations ranged (the reasons are in the ranging table)");
+    else
+      progress("ranging: " + std::to_string(d.ranging->num_ok) + " of " + std::to_string(tried) +
+               " fixations, RMS error " + Fmt(100 * d.ranging->rms_rel_error, 3) + " %, " +
+               Fmt(100 * d.ranging->fraction_within_2sigma, 3) + " % within 2 sigma (course method " +
+               Fmt(100 * d.ranging->nominal_rms_rel_error, 3) + " %)");
   }
   int delay = o.default_delay_frames;
   if (!dataset("latency").empty())

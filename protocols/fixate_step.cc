@@ -32,11 +32,18 @@ std::unique_ptr<TargetLocator> MakeStepLocator(RunContext& run, const Protocol& 
       return MakeLkLocator([o] { return MakeFixationLocator(o); });
     }
     case Locator::kAprilTag: {
-      // The board centre of the protocol's target (its geometry from `targets`).
-      auto it = p.targets.find(p.target);
+      // The board centre of the placed target, else of the protocol's target (the geometry from
+      // `targets`).
+      const auto& placements = run.writer().Placements();
+      const int pi = run.placement_index();
+      const std::string placed = pi >= 0 && pi < int(placements.size()) ? placements[pi].target : "";
+      auto it = p.targets.find(placed);
+      if (it == p.targets.end() || it->second.kind == calib::TargetKind::kFixation) it = p.targets.find(p.target);
       if (it == p.targets.end() || it->second.kind == calib::TargetKind::kFixation)
-        throw std::runtime_error(p.file + ": locator apriltag needs the protocol's target '" + p.target +
-                                 "' defined under 'targets' (aprilgrid or chessboard)");
+        throw std::runtime_error(p.file + ": locator apriltag needs the placed target" +
+                                 (placed.empty() ? std::string() : " '" + placed + "'") +
+                                 " or the protocol's target '" + p.target +
+                                 "' defined under 'targets' as an aprilgrid or chessboard");
       return MakeBoardLocator(it->second);
     }
   }
