@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "models/head_kinematics.h"
+#include "models/statistics.h"
 #include "models/vergence.h"
 
 namespace owlcal::fitting {
@@ -101,9 +102,8 @@ std::optional<double> SizeRatio(const models::HeadModel& head,
   return sum / n;
 }
 
-// The radius [m] a fixation's apparent size implies at its vergence fix: mean over the eyes that
-// measured it of r_px depth / f_x (SizeRatio = radius_m / this, to first order); nullopt when
-// not measured.
+// The radius [m] a fixation's apparent size implies at its vergence fix: the harmonic mean over
+// the eyes that measured it of r_px depth / f_x (SizeRatio = radius_m / this); nullopt when none did.
 std::optional<double> ImpliedRadius(const models::HeadModel& head, const Fixation& f, const RangeFix& fix) {
   const auto inverse = SizeRatio(head, f, fix, 1.0);  // mean of f_x / (r_px depth)
   if (!inverse || !(*inverse > 0)) return std::nullopt;
@@ -390,10 +390,7 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
   }
   std::optional<double> shared_radius;
   if (int(implied.size()) >= kMinSizePeers) {
-    std::vector<double> v = implied;
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    double med = v[v.size() / 2];
-    if (v.size() % 2 == 0) med = 0.5 * (med + *std::max_element(v.begin(), v.begin() + v.size() / 2));
+    const double med = models::Median(implied);
     shared_radius = med;
     char b[256];
     std::snprintf(b,

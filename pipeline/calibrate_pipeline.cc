@@ -62,29 +62,14 @@ std::string ViewName(int frame, int /*eye*/) {
 
 // Where each of the dataset's targets is fixated, in the target's own frame: the centre of its
 // extent (protocols/fixation.cc BoardLocator aims at a board's centre; a disc's is its origin),
-// by target name from the protocols the manifest recorded. A board's placement pose is its
-// corner grid's origin, 0.15 m from its centre for a 0.22 m board: the true distance is to the
-// point the eyes fixated. Empty when the manifest holds no protocol text.
+// by target name (protocols::TargetsOfDataset). A board's placement pose is its corner grid's
+// origin, 0.15 m from its centre for a 0.22 m board: the true distance is to the point the eyes
+// fixated.
 std::map<std::string, Eigen::Vector3d> AimPointsOfDataset(const std::string& dataset) {
   std::map<std::string, Eigen::Vector3d> out;
-  nlohmann::json m;
-  try {
-    m = protocols::ReadManifest(dataset);
-  } catch (const std::exception&) {
-    return out;
-  }
-  for (const auto& p : m.value("protocols", nlohmann::json::array())) {
-    if (!p.contains("text") || !p["text"].is_string()) continue;
-    try {
-      const protocols::Protocol parsed =
-          protocols::ParseProtocolYaml(p["text"].get<std::string>(), dataset + "/manifest.json");
-      for (const auto& [name, def] : parsed.targets) {
-        const Eigen::Vector4d e = def.Extent();
-        out[name] = Eigen::Vector3d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0);
-      }
-    } catch (const std::exception&) {
-      // A protocol text this version cannot read: its targets keep their origin.
-    }
+  for (const auto& [name, def] : protocols::TargetsOfDataset(dataset)) {
+    const Eigen::Vector4d e = def.Extent();
+    out[name] = Eigen::Vector3d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0);
   }
   return out;
 }

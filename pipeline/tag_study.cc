@@ -41,27 +41,17 @@ nlohmann::json NumberOrNull(double v) { return std::isfinite(v) ? nlohmann::json
 
 std::map<std::string, std::string> NoiseClassesOfDataset(const std::string& dataset) {
   std::map<std::string, std::string> out;
-  const nlohmann::json m = protocols::ReadManifest(dataset);
-  for (const auto& p : m.value("protocols", nlohmann::json::array())) {
-    if (!p.contains("text") || !p["text"].is_string()) continue;
-    const protocols::Protocol parsed = protocols::ParseProtocolYaml(p["text"].get<std::string>(), dataset + "/manifest.json");
-    for (const auto& [name, def] : parsed.targets) {
-      if (def.kind == calib::TargetKind::kAprilGrid) out[name] = kTagClass;
-      if (def.kind == calib::TargetKind::kChessboard) out[name] = "chessboard";
-    }
+  for (const auto& [name, def] : protocols::TargetsOfDataset(dataset)) {
+    if (def.kind == calib::TargetKind::kAprilGrid) out[name] = kTagClass;
+    if (def.kind == calib::TargetKind::kChessboard) out[name] = "chessboard";
   }
   return out;
 }
 
 std::map<std::string, double> TagSizesOfDataset(const std::string& dataset) {
   std::map<std::string, double> out;
-  const nlohmann::json m = protocols::ReadManifest(dataset);
-  for (const auto& p : m.value("protocols", nlohmann::json::array())) {
-    if (!p.contains("text") || !p["text"].is_string()) continue;
-    const protocols::Protocol parsed = protocols::ParseProtocolYaml(p["text"].get<std::string>(), dataset + "/manifest.json");
-    for (const auto& [name, def] : parsed.targets)
-      if (def.kind == calib::TargetKind::kAprilGrid) out[name] = def.tag_size_m;
-  }
+  for (const auto& [name, def] : protocols::TargetsOfDataset(dataset))
+    if (def.kind == calib::TargetKind::kAprilGrid) out[name] = def.tag_size_m;
   return out;
 }
 

@@ -12,6 +12,7 @@
 
 #include "io/strict_number.h"
 #include "models/head_model.h"
+#include "protocols/dataset.h"
 
 #include "owlcal_version.h"
 
@@ -877,6 +878,17 @@ std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
         first(where + "limit_margin_us': " + std::to_string(sa->limit_margin_us) + " us leaves no room in " +
               models::kServoNames[servo] + "'s range of " + std::to_string(range(servo)) + " us");
   return why;
+}
+
+std::map<std::string, calib::TargetDefinition> TargetsOfDataset(const std::string& dataset) {
+  std::map<std::string, calib::TargetDefinition> out;
+  const nlohmann::json m = ReadManifest(dataset);
+  for (const auto& p : m.value("protocols", nlohmann::json::array())) {
+    if (!p.contains("text") || !p["text"].is_string()) continue;
+    for (const auto& [name, def] : ParseProtocolYaml(p["text"].get<std::string>(), dataset + "/manifest.json").targets)
+      out[name] = def;
+  }
+  return out;
 }
 
 std::string ResolveProtocolPath(const std::string& name_or_path) {

@@ -443,6 +443,9 @@ Protocol LoadProtocolFile(const std::string& path);
 std::string CheckStepForRobot(const Step& step, const models::RobotConfig& robot);
 // Parses protocol YAML text; `source` names it in errors.
 Protocol ParseProtocolYaml(const std::string& yaml_text, const std::string& source);
+// The targets (`targets`) of every protocol a dataset's manifest recorded (its protocol texts),
+// by name; throws naming the manifest when it or a protocol text cannot be read.
+std::map<std::string, calib::TargetDefinition> TargetsOfDataset(const std::string& dataset);
 
 // Resolves a protocol argument: an existing path, or the name of a standard protocol
 // ("servo_sweep" -> <source dir>/protocols/standard/servo_sweep.yaml).
