@@ -23,21 +23,6 @@ void Progress::operator()(const std::string& msg) const {
   std::cout.unsetf(std::ios::fixed);
 }
 
-fitting::LatencyTruth LatencyTruthOf(const sim::RobotTruth& truth) {
-  fitting::LatencyTruth t;
-  t.fps = truth.stream.fps;
-  t.latency_ms = truth.stream.latency_ms;
-  t.eye_offset_ms = truth.stream.eye_offset_ms;
-  t.rolling_shutter_ms = truth.stream.rolling_shutter_ms;
-  t.drop_probability = truth.stream.drop_probability;
-  for (int s = 0; s < models::kNumServos; ++s) {
-    t.slew_deg_per_s[s] = truth.servos[s].slew_deg_per_s;
-    t.lag_s[s] = truth.servos[s].lag_s;
-  }
-  t.head = truth.HeadModel();
-  return t;
-}
-
 nlohmann::json SoftwareInputs() { return {{"name", "owlcal"}, {"version", OWLCAL_VERSION}, {"git", OWLCAL_GIT_DESCRIBE}}; }
 
 void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out, bool draw, const Progress& progress) {

@@ -35,9 +35,6 @@ class Progress {
 // configure time, "unknown" without a checkout).
 nlohmann::json SoftwareInputs();
 
-// The virtual Owl's stream and servo dynamics for the latency check's truth column.
-fitting::LatencyTruth LatencyTruthOf(const sim::RobotTruth& truth);
-
 // Stamps run->result with the software (software_version, inputs.software) and writes the
 // calibration folder `out`; draw = run gnuplot. On the virtual Owl, prints the comparison with
 // the truth.

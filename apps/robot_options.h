@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/robot_factory.h"
+#include "pipeline/calibrate.h"
 #include "protocols/runner.h"
 
 namespace owlcal::apps {
@@ -34,17 +35,28 @@ struct RobotOptions {
     return fo;
   }
 
-  // What a dataset's manifest records about the robot (protocols::RunOptions).
-  void FillRunOptions(protocols::RunOptions* ro) const {
-    ro->robot_spec = robot;
-    ro->robot_file = robot_file;
+  // What a dataset's manifest records about the robot.
+  pipeline::RobotRecord Record() const {
+    pipeline::RobotRecord r;
+    r.spec = robot;
+    r.robot_file = robot_file;
     if (!robot_file.empty()) {
       std::ifstream in(robot_file);
       std::ostringstream s;
       s << in.rdbuf();
-      ro->robot_file_text = s.str();
+      r.robot_file_text = s.str();
     }
-    if (IsSim()) ro->sim = {{"seed", seed}, {"truth_file", robot_truth}, {"scene_file", scene}};
+    if (IsSim()) r.sim = {{"seed", seed}, {"truth_file", robot_truth}, {"scene_file", scene}};
+    return r;
+  }
+
+  // The same, as a protocol run's options record it.
+  void FillRunOptions(protocols::RunOptions* ro) const {
+    const pipeline::RobotRecord r = Record();
+    ro->robot_spec = r.spec;
+    ro->robot_file = r.robot_file;
+    ro->robot_file_text = r.robot_file_text;
+    ro->sim = r.sim;
   }
 };
 

@@ -1,7 +1,7 @@
 // Vergence ranging over a population of robots built like real ones: robots drawn from the prior
 // of real Owls (sim/robot_prior.h) with every eye servo's dead band redrawn in 1-5 us and the PWM
-// step alternating 1 and 5 us between robots (odd seeds 5 us), each calibrated by `owlcal
-// calibrate` on the virtual Owl (limits with its resolution sweep, intrinsics, stereo,
+// step alternating 1 and 5 us between robots (odd seeds 5 us), each calibrated by pipeline::Calibrate
+// (what `owlcal calibrate` runs) on the virtual Owl (limits with its resolution sweep, intrinsics, stereo,
 // servo_sweep, vergence). Prints per robot the ranging RMS (acceptance: <= 1 %) and the pooled
 // fraction of ranged fixations within 2 predicted sigma (acceptance: >= 90 %), and every
 // fixation that was not ranged, with its reason.
@@ -16,9 +16,10 @@
 #include <random>
 #include <string>
 
-#include "owlcal_version.h"
-#include "reports/report_data.h"
+#include "calib/trial_status.h"
+#include "pipeline/calibrate.h"
 #include "sim/robot_prior.h"
+#include "sim/virtual_owl.h"
 
 namespace fs = std::filesystem;
 
@@ -52,18 +53,23 @@ int main(int argc, char** argv) {
     fs::create_directories(dir);
     sim::SaveRobotTruth(robot.truth, (dir / "truth.yaml").string());
     std::ofstream((dir / "scene.yaml").string()) << sim::SceneJson(robot.scene).dump(2);
-    const std::string cmd = std::string(OWLCAL_BINARY) + " calibrate --quiet --no-figures --robot-truth " +
-                            (dir / "truth.yaml").string() + " --scene " + (dir / "scene.yaml").string() + " --seed " +
-                            std::to_string(seed) + " --out " + (dir / "cal").string() +
-                            " --protocols limits intrinsics stereo servo_sweep vergence > " + (dir / "log.txt").string() +
-                            " 2>&1";
-    const int rc = std::system(cmd.c_str());
-    if (rc != 0 || !fs::exists(dir / "cal" / "evaluation.json")) {
+    sim::VirtualOwlOptions vo;
+    vo.truth = robot.truth;
+    vo.scene = robot.scene;
+    vo.seed = seed;
+    sim::VirtualOwl owl(vo);
+    pipeline::CalibrateOptions co;
+    co.out = (dir / "cal").string();
+    co.protocols = {"limits", "intrinsics", "stereo", "servo_sweep", "vergence"};
+    co.robot.sim = {{"seed", seed}, {"truth_file", (dir / "truth.yaml").string()}, {"scene_file", (dir / "scene.yaml").string()}};
+    fitting::CalibrationRun d;
+    try {
+      d = pipeline::Calibrate(owl, co);
+    } catch (const std::exception& e) {
       ++failed_runs;
-      std::printf("%s: FAILED (rc %d, log %s)\n", name.c_str(), rc, (dir / "log.txt").string().c_str());
+      std::printf("%s: FAILED (%s)\n", name.c_str(), e.what());
       continue;
     }
-    const reports::ReportData d = reports::ReadReportData((dir / "cal").string());
     if (!d.ranging) {
       ++failed_runs;
       std::printf("%s: no ranging evaluation\n", name.c_str());

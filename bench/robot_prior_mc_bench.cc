@@ -1,7 +1,8 @@
 // Monte-Carlo check of owlcal's sigmas over robots drawn from the prior of real Owls
-// (sim/robot_prior.h): each robot runs the whole calibration (`owlcal calibrate` on the virtual
-// Owl with that robot truth and board, the protocols that fit parameters: intrinsics, stereo,
-// servo_sweep), and every fitted parameter with a truth is scored as z = (value - truth) / sigma.
+// (sim/robot_prior.h): each robot runs the whole calibration (pipeline::Calibrate, what `owlcal
+// calibrate` runs, on the virtual Owl with that robot truth and board, the protocols that fit
+// parameters: intrinsics, stereo, servo_sweep), and every fitted parameter with a truth is scored
+// as z = (value - truth) / sigma.
 // Prints one line per robot and the pooled coverage per parameter group (lens, stereo, servo
 // maps, head geometry): target 68 +- 5 % within 1 sigma, >= 99 % within 3 sigma.
 // Run it under `nice`: one robot is about 20 s of CPU with the standard protocols (16 s wall alone
@@ -24,9 +25,7 @@
 // calibration's result (its head is one of the two fits: CalibratePipelineOptions::fuse_tags).
 // OWLCAL_MC_KEEP=1 keeps each robot's observations and manifests (not the frames) under the temp
 // folder, for refits (`owlcal fit-datasets DIR/cal --out ...`); OWLCAL_MC_PER_PARAMETER=1 adds
-// the per-parameter table; OWLCAL_MC_JOBS=N runs N robots at once (the output is the same);
-// OWLCAL_MC_BINARY=PATH runs that owlcal instead of the build's (e.g. a copy of a baseline
-// build, while the build tree is rebuilt).
+// the per-parameter table; OWLCAL_MC_JOBS=N runs N robots at once (the output is the same).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -44,8 +43,12 @@
 
 #include "fitting/monte_carlo.h"
 #include "fitting/result.h"
+#include "fitting/servo_map_eval.h"
+#include "fitting/truth_compare.h"
 #include "owlcal_version.h"
+#include "pipeline/calibrate.h"
 #include "sim/robot_prior.h"
+#include "sim/virtual_owl.h"
 
 namespace fs = std::filesystem;
 
@@ -75,8 +78,8 @@ int main(int argc, char** argv) {
   fs::remove_all(root);
   fs::create_directories(root);
 
-  // One robot: draw it, run `owlcal calibrate` on it, score it. Robots are independent processes,
-  // so OWLCAL_MC_JOBS (default 2) of them run at once; each robot's seed, files and result depend
+  // One robot: draw it, calibrate it, score it. Robots are independent (each its own virtual Owl
+  // and folder), so OWLCAL_MC_JOBS (default 2) of them run at once on threads; each robot's seed, files and result depend
   // only on its index, and the lines and the pooled table are made in robot order below, so the
   // output does not depend on the number of jobs.
   struct RobotRun {
@@ -104,19 +107,19 @@ int main(int argc, char** argv) {
     fs::create_directories(dir);
     sim::SaveRobotTruth(robot.truth, (dir / "truth.yaml").string());
     std::ofstream((dir / "scene.yaml").string()) << sim::SceneJson(robot.scene).dump(2);
-    const char* binary = std::getenv("OWLCAL_MC_BINARY");
-    std::string cmd = std::string(binary ? binary : OWLCAL_BINARY) + " calibrate --quiet --no-figures --robot-truth " +
-                      (dir / "truth.yaml").string() + " --scene " + (dir / "scene.yaml").string() + " --seed " +
-                      std::to_string(seed) + " --out " + (dir / "cal").string() + " --protocols";
-    for (const auto& p : protocols) cmd += " " + p;
-    cmd += " > " + (dir / "log.txt").string() + " 2>&1";
-    const int rc = std::system(cmd.c_str());
-    if (rc != 0 || !fs::exists(dir / "cal" / "results.json")) {
-      out.failure = name + ": owlcal calibrate exited " + std::to_string(rc) + " (log " + (dir / "log.txt").string() + ")";
-      out.line = name + ": FAILED (rc " + std::to_string(rc) + ")\n";
-      return out;
-    }
-    const fitting::CalibrationResult r = fitting::ReadResultJson((dir / "cal" / "results.json").string());
+    // The virtual Owl as `owlcal calibrate --robot-truth truth.yaml --scene scene.yaml --seed S`
+    // builds it, calibrated by the same library call, in this process.
+    sim::VirtualOwlOptions vo;
+    vo.truth = robot.truth;
+    vo.scene = robot.scene;
+    vo.seed = seed;
+    sim::VirtualOwl owl(vo);
+    pipeline::CalibrateOptions co;
+    co.out = (dir / "cal").string();
+    co.protocols = protocols;
+    co.robot.sim = {{"seed", seed}, {"truth_file", (dir / "truth.yaml").string()}, {"scene_file", (dir / "scene.yaml").string()}};
+    const fitting::CalibrationRun run = pipeline::Calibrate(owl, co);
+    const fitting::CalibrationResult& r = run.result;
     out.parameters = r.parameters;
     const nlohmann::json tags = r.diagnostics.value("tags", nlohmann::json::object());
     const nlohmann::json fits = tags.value("parameters", nlohmann::json::object());
@@ -149,24 +152,16 @@ int main(int argc, char** argv) {
       if (std::abs(z) > std::abs(worst)) worst = z, worst_name = p.name;
     }
     const auto& t = robot.truth;
-    // The worst servo map against the truth over the robot file's range (tables/servo_map_truth.csv:
-    // servo, range, RMS [deg], ...; acceptance: 0.05 deg) and the fitted bow against the board's.
+    // The worst servo map against the truth over the robot file's range (acceptance: 0.05 deg
+    // RMS) and the fitted bow against the board's.
     double worst_map = NAN;
     std::string worst_servo;
-    {
-      std::ifstream csv((dir / "cal" / "tables" / "servo_map_truth.csv").string());
-      std::string line;
-      std::getline(csv, line);
-      while (std::getline(csv, line)) {
-        std::vector<std::string> f;
-        for (size_t a = 0, b; a <= line.size(); a = b + 1) {
-          b = std::min(line.find(',', a), line.size());
-          f.push_back(line.substr(a, b - a));
-        }
-        if (f.size() < 3) continue;
-        const double rms = std::atof(f[2].c_str());
-        if (!(rms <= worst_map)) worst_map = rms, worst_servo = f[0];
-      }
+    for (int s = 0; s < models::kNumServos && run.truth && r.head; ++s) {
+      const fitting::Parameter* p = r.Find("servo." + std::string(models::kServoNames[s]) + ".deg_per_us");
+      if (!p || !p->determined) continue;
+      const models::ServoConfig& c = run.config.servos[s];
+      const double rms = fitting::ServoMapErrorOverRange(*r.head, *run.truth, s, c.min_us, c.max_us).rms_deg;
+      if (!(rms <= worst_map)) worst_map = rms, worst_servo = models::kServoNames[s];
     }
     const fitting::Parameter* bow = r.Find("head.board_warp_x_mm");
     char buf[1024];

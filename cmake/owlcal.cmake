@@ -15,6 +15,10 @@ function(owlcal_library name)
 endfunction()
 
 # owlcal_tests(FOLDER LIBS ...): one GoogleTest executable per tests/FOLDER/*_test.cc.
+# Every test carries its tier as a ctest label and a timeout per test (ctest -L unit runs the fast
+# tier alone): executables named in OWLCAL_MC_TESTS are "mc" (Monte-Carlo over robots, 1500 s),
+# in OWLCAL_E2E_TESTS "e2e" (whole protocols recorded and fitted, or the owlcal program run,
+# 900 s), all others "unit" (300 s).
 set(OWLCAL_TEST_TMPDIR ${CMAKE_BINARY_DIR}/test-tmp)
 file(MAKE_DIRECTORY ${OWLCAL_TEST_TMPDIR})
 function(owlcal_tests folder)
@@ -25,8 +29,19 @@ function(owlcal_tests folder)
     set(exe ${folder}_${stem})
     add_executable(${exe} ${t})
     target_link_libraries(${exe} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
+    if(exe IN_LIST OWLCAL_MC_TESTS)
+      set(tier mc)
+      set(timeout 1500)
+    elseif(exe IN_LIST OWLCAL_E2E_TESTS)
+      set(tier e2e)
+      set(timeout 900)
+    else()
+      set(tier unit)
+      set(timeout 300)
+    endif()
     # Each build folder gets its own TMPDIR: suites of several checkouts (or a CI and a developer)
     # running at once never share std::filesystem::temp_directory_path() folders.
-    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60 PROPERTIES ENVIRONMENT "TMPDIR=${OWLCAL_TEST_TMPDIR}")
+    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60
+                         PROPERTIES ENVIRONMENT "TMPDIR=${OWLCAL_TEST_TMPDIR}" LABELS ${tier} TIMEOUT ${timeout})
   endforeach()
 endfunction()

@@ -416,73 +416,24 @@ std::vector<fitting::StepTrace> ReadStepTraces(const std::string& dataset) {
 }
 
 
+// Why each value: docs/uncertainty.md (the noise model, with the figures each was chosen on).
 fitting::StereoFitOptions CalibratePipelineOptions::CalibrateStereoFitOptions() {
   fitting::StereoFitOptions so;
-  // A real course board bows by about 1 mm; fitted as flat, a bow of 0.25-0.55 mm put the
-  // focal lengths 0.6-1.2 % short (20-30 sigma) on robots of the prior (fitting/board_warp.h).
-  so.fit_board_warp = true;
+  so.fit_board_warp = true;  // a real course board bows by about 1 mm
   return so;
 }
 
 fitting::HeadFitOptions CalibratePipelineOptions::CalibrateHeadFitOptions() {
   fitting::HeadFitOptions ho;
-  // The intrinsics start from the stereo fit and are refined on the sweep (boards at four
-  // distances over the whole image). Held, their errors are not in any sigma and bias the
-  // pan zeros: the head-yaw gauge puts pan zero on the eye baseline, and a relative focal
-  // length error of 2e-4 between the eyes moves one eye centre's depth by ~0.15 mm at 0.6 m,
-  // 0.15 deg of both pan maps (virtual Owl: Rx/Lx 0.17/0.18 deg RMS held; refined, the
-  // report's servo_map_truth table shows them, 0.03-0.04 deg).
-  ho.fit_intrinsics = true;
-  // Whitening: the noise the data shows, per eye (HeadFitOptions::estimate_corner_sigma),
-  // not an assumed 0.15 px, which made the servo and head sigmas 3-7 x too large on the
-  // virtual Owl (measured 0.021 px per axis on the default robot, 0.034-0.064 on rougher
-  // ones). The measured sigma is then widened for the detector's corner bias, which is nearly
-  // the same on neighbouring views of a board and does not average away: sigma is widened
-  // for it, not modelled. Factor 1.4 from six robots of the prior (tests/pipeline/
-  // robot_prior_mc_test.cc) once the board's bow was fitted and the sweep waited for the servos
-  // to settle: with factor 2 the servo and head-geometry errors were 0.73 and 0.61 sigma RMS
-  // (85-88 % within 1 sigma), so the bias adds about 0.7 x 2 = 1.4 x the measured noise.
-  // (Factor 2 had been set on the default robot and variant A while a bow fitted as flat and
-  // frames exposed before the servos settled still biased the fit.)
-  // The factor now matters only where the sigma is not from the residuals: the white-noise
-  // floor under the clustered covariance and the intrinsics prior from the stereo fit.
-  // The board's bow is fitted (fitting/board_warp.h): the prior's robots bow their boards by up
-  // to 1.2 mm like the course's, and a bow fitted as flat moved the focal lengths, servo scales
-  // and IPD together by 20-50 sigma.
-  ho.fit_board_warp = true;
-  ho.estimate_corner_sigma = true;
-  ho.measured_sigma_factor = 1.4;
-  // Sigma from the residuals (HeadFitOptions::covariance_clusters "cell:100": a cluster-robust
-  // covariance whose clusters are the views of one board placement with commands in the same
-  // 100 us cell, so a corner bias shared by neighbouring views counts once per cell, not once
-  // per view), the stereo fit's intrinsics covariance as a floor carried to every servo map
-  // coordinate (a focal-length error scales every angle the maps give: the five servo scales'
-  // relative errors are minus the focal length's on every robot), no hysteresis floor (it made
-  // hysteresis 7-12x too wide; its natural sigma is 0.0005-0.0008 us) and no extra factor.
-  // 30 robots of the prior (seeds 101-130, standard protocols; robot_prior_mc_bench then
-  // refits), within 1 / 3 sigma: head geometry 68.3 / 100 %, lens 70.0 / 99.63, servo maps
-  // 70.8 / 98.89, stereo 67.6 / 100 (was 59.8 / 98.54, 69.2 / 99.63, 66.7 / 97.92, 67.6 / 100
-  // with the measured sigma x 1.4 and the 0.01 us floor). Clustering by view alone left the
-  // servo maps at 55.3 % (the bias of neighbouring views is shared); cells alone without the
-  // carried floor 61.0 % (the scales 1.35 sigma RMS). On 30 robots with the short protocols
-  // (tests/data/protocols/mc_*.yaml, 8 stereo views) it is over-wide: head geometry 78.3 %, servo
-  // maps 89.4 % within 1 sigma (the 8-view stereo floor is noise-limited, not a bias floor).
-  // The pan zero is widened by 1.25 (HeadFitOptions::pan_zero_sigma_factor: widened, not
-  // modelled). It is where the eye baseline is perpendicular to the optical axes (the head-yaw
-  // gauge), so it hangs on the difference of the eye centres' depths, and both pans' errors are
-  // one offset (correlation 0.96 over 30 robots). Its residual-based sigma is the white noise's
-  // (sigma / white 1.0-1.2 on the three tail robots and prior-101): no clustering of the residuals sees the error
-  // (cell:200 and placement clusters left the same tail), yet the errors were 1.34-1.41 sigma RMS with a heavy tail (on
-  // three robots of 30, 3-4 sigma: 7 of the 8 servo coordinates beyond 3 sigma). The factor was
-  // chosen on seeds 1-30 (pan zero 1.34 sigma RMS at 1, median-based 1.14; at 1.25 the servo maps
-  // are 72.6 / 99.17 % within 1 / 3 sigma there) and checked on seeds 101-130: head geometry
-  // 68.3 / 100 %, lens 70.0 / 99.63, servo maps 72.8 / 99.44 (was 70.8 / 98.89), stereo 67.6 /
-  // 100. At 1.35 the servo maps of 101-130 came out 73.6 % within 1 sigma (over-wide).
+  ho.fit_intrinsics = true;         // refined on the sweep: held, their errors bias the pan zeros
+  ho.fit_board_warp = true;         // a bow fitted as flat moves focal lengths, servo scales and IPD together
+  ho.estimate_corner_sigma = true;  // whiten by the noise the residuals show, per eye
+  ho.measured_sigma_factor = 1.4;   // the detector bias neighbouring views share
   ho.hysteresis_sigma_floor_us = 0;
-  ho.covariance_clusters = "cell:100";
+  ho.covariance_clusters = "cell:100";  // sandwich covariance over placement x 100 us cells
   ho.robust_sigma_factor = 1.0;
-  ho.intrinsics_floor_carry = "servo_maps";
-  ho.pan_zero_sigma_factor = 1.25;
+  ho.intrinsics_floor_carry = "servo_maps";  // a focal-length error scales every angle the maps give
+  ho.pan_zero_sigma_factor = 1.25;           // the head-yaw gauge's eye-depth difference
   return ho;
 }
 
@@ -598,8 +549,8 @@ bool SetLensModel(const std::string& value, CalibratePipelineOptions* o, std::st
   return true;
 }
 
-fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
-                                              const CalibratePipelineOptions& o) {
+fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
+                                       const CalibratePipelineOptions& o) {
   std::string why;
   if (!o.Check(&why)) throw std::invalid_argument("calibrate pipeline options: " + why);
   auto progress = [&](const std::string& m) {
@@ -692,7 +643,7 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
     for (const auto& [board, cls] : NoiseClassesOfDataset(dataset("servo_sweep")))
       head_options.noise_class_of_board.emplace(board, cls);
     // ... and each tag corner compared with where the detector puts it under the lens's
-    // distortion (fitting/tag_edge_corner.h: the fused fit was biased 4-6 sigma without).
+    // distortion (fitting/tag_edge_corner.h).
     for (const auto& [board, size] : TagSizesOfDataset(dataset("servo_sweep")))
       head_options.tag_size_of_board.emplace(board, size);
     // ... whitened wider for the errors a static sheet repeats in every view (CalibratePipelineOptions).
@@ -704,10 +655,8 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
              " of tag sheets)");
     for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
     // The stereo fit's intrinsics as a prior (CalibratePipelineOptions::head_prior_from_stereo):
-    // the sweep's boards pin the focal lengths, the servo scales and the IPD only together, and
-    // on the default robot the refit slid along that common scale (focal lengths 0.11 % short,
-    // all five servo scales 0.11 % high, IPD -0.13 mm, z -3 / +3 / -2.6); the stereo views pin
-    // the focal lengths on their own (tests/protocols/head_sim_consistency_test.cc).
+    // the sweep's boards pin the focal lengths, the servo scales and the IPD only together; the
+    // stereo views pin the focal lengths on their own (docs/uncertainty.md).
     fitting::HeadFitOptions& ho = head_options;
     bool prior_from_stereo = false;
     if (o.head_prior_from_stereo && ho.fit_intrinsics && stereo && stereo->ok &&
@@ -845,18 +794,12 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
         z_lo = std::min(z_lo, z);
         if (z > z_hi) z_hi = z, worst = e.value("servo", std::string()) + " " + e.value("end", std::string());
       }
-      const std::string measured =
-          z_hi > 0 ? "in this run (the virtual Owl's truth) the fused fit's errors at the servo ends are " +
-                         Fmt(z_lo, 2) + "-" + Fmt(z_hi, 2) + " of its own sigmas (worst: " + worst + ")"
-                   : "on the default virtual Owl the fused fit's errors at the servo ends were 0.6-3.0 of its own "
-                     "sigmas (the neck's ends 3.0)";
+      // Only what this run measured: a figure from a bench run elsewhere does not belong here.
       d.result.diagnostics["tags"]["note"] =
-          "the with-tags sigmas are a diagnostic until the fused fit holds on many robots: " + measured +
-          "; on 12 robots of the prior (bench/robot_prior_mc_bench.cc), with the tag corners whitened by 3 x "
-          "their measured sigma (a static sheet repeats its corners' errors in every view), its errors at the "
-          "servo ends were 62 % within 1 sigma and 100 % within 3 (the chessboard's alone 69 / 99 %; whitened "
-          "by their measured sigma alone 38 / 85 %, all five servo scales pulled down together by 1-6 sigma); "
-          "the calibration's head is the chessboard's";
+          "the calibration's head is the chessboard's (fuse_tags off); the with-tags sigmas are a diagnostic" +
+          (z_hi > 0 ? std::string("; in this run (the virtual Owl's truth) the fused fit's errors at the servo ends are ") +
+                          Fmt(z_lo, 2) + "-" + Fmt(z_hi, 2) + " of its own sigmas (worst: " + worst + ")"
+                    : std::string());
     }
   }
 
@@ -916,6 +859,21 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
                std::to_string(d.settling->rows.size()) + " (gain, step) groups");
     }
   }
+  return d;
+}
+
+void FinishCalibration(const std::map<std::string, std::string>& datasets,
+                       const CalibratePipelineOptions& o,
+                       fitting::CalibrationRun* run) {
+  auto progress = [&](const std::string& m) {
+    if (o.progress) o.progress(m);
+  };
+  auto dataset = [&](const char* name) -> std::string {
+    const auto it = datasets.find(name);
+    return it == datasets.end() ? std::string() : it->second;
+  };
+  fitting::CalibrationRun& d = *run;
+  const models::RobotConfig& config = o.config;
   if (!dataset("saccade").empty()) AddSaccadeEvaluation(dataset("saccade"), o, &d);
   if (!dataset("limits").empty()) {
     std::vector<std::string> failed;
@@ -935,12 +893,18 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
   AddReferenceChecks(dataset("latency"), dataset("alignment"), o, &d);
   d.result.inputs["datasets"] = datasets;
   d.result.inputs["pipeline"] = o.ToJson();
+}
+
+fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
+                                              const CalibratePipelineOptions& o) {
+  fitting::CalibrationRun d = FitCalibration(datasets, o);
+  FinishCalibration(datasets, o, &d);
   return d;
 }
 
 std::map<std::string, std::string> FindDatasets(const std::string& calibration_dir) {
   const fs::path root = fs::path(calibration_dir) / "datasets";
-  if (!fs::is_directory(root)) throw std::runtime_error(root.string() + ": missing (not a calibrate output folder)");
+  if (!fs::is_directory(root)) throw NoDatasetsError(root.string() + ": missing (not a calibrate output folder)");
   std::vector<fs::path> dirs;
   for (const auto& e : fs::directory_iterator(root))
     if (e.is_directory() && fs::exists(e.path() / "manifest.json")) dirs.push_back(e.path());
@@ -951,15 +915,15 @@ std::map<std::string, std::string> FindDatasets(const std::string& calibration_d
     const std::string where = (dir / "manifest.json").string();
     if (!m.contains("protocols") || !m["protocols"].is_array() || m["protocols"].size() != 1 ||
         !m["protocols"][0].contains("name") || !m["protocols"][0]["name"].is_string())
-      throw std::runtime_error(where + ": field 'protocols' does not hold exactly one protocol with a name");
+      throw NoDatasetsError(where + ": field 'protocols' does not hold exactly one protocol with a name");
     const std::string name = m["protocols"][0]["name"].get<std::string>();
     // calibrate names each dataset folder after its protocol file: keep that path, so a re-fit
     // records the same inputs.
     const std::string path = (fs::path(calibration_dir) / "datasets" / dir.filename()).string();
     if (!out.emplace(name, path).second)
-      throw std::runtime_error(where + ": a second dataset of protocol '" + name + "' (the first: " + out[name] + ")");
+      throw NoDatasetsError(where + ": a second dataset of protocol '" + name + "' (the first: " + out[name] + ")");
   }
-  if (out.empty()) throw std::runtime_error(root.string() + ": holds no dataset (no */manifest.json)");
+  if (out.empty()) throw NoDatasetsError(root.string() + ": holds no dataset (no */manifest.json)");
   return out;
 }
 

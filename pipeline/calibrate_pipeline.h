@@ -27,6 +27,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -58,63 +59,30 @@ struct CalibratePipelineOptions {
   double truth_latency_s = 0;
   int default_delay_frames = 3;       // loop delay when no latency dataset measured it
   fitting::StereoFitOptions stereo = CalibrateStereoFitOptions();
-  // The lens model of both eyes (and so of the head fit): chosen by cross-validation over the
-  // intrinsics and stereo views (fitting/lens_model_choice.h); enabled = false keeps
-  // stereo.intrinsics.model (the library default; calibrate and fit-datasets turn it on with
-  // --lens-model auto).
+  // The lens model of both eyes (and so of the head fit), chosen by cross-validation over the
+  // intrinsics and stereo views (fitting/lens_model_choice.h); Off() keeps stereo.intrinsics.model.
+  // Off here; pipeline::DefaultFitOptions(), what calibrate and fit-datasets run, turns it on.
   fitting::LensModelChoiceOptions lens_choice = fitting::LensModelChoiceOptions::Off();
   fitting::HeadFitOptions head = CalibrateHeadFitOptions();
-  // When the head refines the intrinsics (head.fit_intrinsics) and head sets no prior of its own:
-  // keep the stereo fit's knowledge of each eye's intrinsics as a Gaussian prior on them (its
-  // covariance block, widened head.measured_sigma_factor x like the head's own corners;
-  // undetermined parameters get no prior). Without it the sweep alone pins the common scale of
-  // the focal lengths, servo scales and IPD weakly, and the fit slid along it (calibrate_pipeline.cc).
+  // Every sigma factor, floor and prior below, and why it has its value: docs/uncertainty.md.
+  // The stereo fit's intrinsics covariance (x head.measured_sigma_factor^2) as a prior on the
+  // head's intrinsics when the head refines them and sets no prior of its own: the sweep alone
+  // pins the common scale of focal lengths, servo scales and IPD only weakly.
   bool head_prior_from_stereo = true;
-  // The head result from the fit that fuses the servo sweep's tag sheets with the chessboard
-  // (each kind whitened by its own measured noise), instead of the chessboard's alone. Both
-  // fits run when the sweep saw tags, and diagnostics.tags compares them (pipeline/tag_study.h).
-  // History: fused as points, the tag corners (0.015 px farther from the principal point than
-  // their projections: the lens bends the tags' edges) pulled the focal lengths +0.06 % and the
-  // servo scales -0.04 %; each tag corner is now compared with the detector's straight-edge
-  // corner (HeadFitOptions::tag_size_of_board, fitting/tag_edge_corner.h). Even so the sweep's
-  // static sheets move three things by more than their residuals show: the split of the common
-  // scale between the focal lengths and the servo scales, the principal points and the pan zero.
-  // The fused fit keeps those no more certain than the chessboard's knowledge of them
-  // (fused_pinhole_floor, fused_pan_zero_floor) and a share of the stereo fit's intrinsics floor
-  // (fused_floor_scale). So chosen on 30 robots of the prior (bench/robot_prior_mc_bench.cc 30
-  // 101, refits of the kept sets) and checked on 30 others (30 1): see docs/conventions.md.
+  // The head result is the fit fusing the servo sweep's tag sheets with the chessboard; false: the
+  // chessboard's alone. Both run when the sweep saw tags; diagnostics.tags compares them.
   bool fuse_tags = true;
-  // The fused fit whitens the tag corners by this many times their measured sigma
-  // (HeadFitOptions::sigma_factor_of_class, for the tag sheets' class). Over 12 robots of the prior
-  // (bench/robot_prior_mc_bench.cc 12 1) at 1 the fused fit's errors at the servo ends were 38 % within 1 sigma and 85
-  // % within 3, and all five servo scales 1-6 sigma low together with the focal lengths +0.3-2.2 sigma high: the tags
-  // set the split of the common scale between them. At 3: 62.5 % / 100 %, the servo maps 72.9 / 99.3 % (the
-  // chessboard's alone 69.2 / 99.2 and 69.4 / 97.6). The tag detector is not the cause:
-  // tests/sim/tag_corner_bias_test.cc.
+  // The fused fit whitens the tag corners by this many times their measured sigma: a static sheet
+  // repeats its corners' errors in every view.
   double tag_sigma_factor = 3.0;
-  // The fused fit's floor of the intrinsics covariance (and its carry to the servo maps,
-  // HeadFitOptions::intrinsics_covariance_floor): the stereo fit's covariance times this squared.
-  // 1: the chessboard fit's floor; 0: none. Over robots 101-130 of the prior (tag_sigma_factor 3)
-  // without the two floors below the fused lens errors were 82.8 % within 1 sigma at 1 and 53.5 %
-  // at 0; at 0.6 the servo maps were 70.7 / 98.75 % within 1 / 3 sigma (prior-120's five servo
-  // scales 2.2-2.7 sigma low, its focal lengths 2.3 high). With both floors: at 0.6 the servo maps
-  // 75.8 % and servo ends 74.7 % within 1 sigma (too wide), at 0.4 every fused group within
-  // 68 +- 5 % and >= 99 % (head geometry 69.6 / 100, lens 68.7 / 99.81, servo maps 72.1 / 99.44,
-  // servo ends 72.0 / 100), at 0 the lens 58.0 / 97.22.
+  // The fused fit's intrinsics covariance floor: the stereo fit's covariance times this squared
+  // (1: the chessboard fit's floor; 0: none).
   double fused_floor_scale = 0.4;
-  // The fused fit's focal scale (the mean of log fx, log fy over both eyes) no more certain than
-  // the stereo fit's, the shortfall carried to what moves with it (HeadFitOptions::
-  // focal_scale_sigma_floor: the servo scales above all), and each principal point's (cx, cy) no
-  // more certain than the stereo fit's (principal_point_covariance_floor, that block alone). Over
-  // robots 101-130 the fused fit moved the focal lengths and the servo scales up and down together
-  // by up to 2.7 of its sigmas (prior-120) and the principal points by 1.6-1.7 RMS(z) at
-  // fused_floor_scale 0.4; the chessboard fit's were 0.9-1.2.
+  // The fused fit's focal scale (mean log focal length) and principal points no more certain than
+  // the stereo fit's: the static sheets move them more than their residuals show.
   bool fused_pinhole_floor = true;
-  // The fused fit's pan zero no more certain than the chessboard fit's (HeadFitOptions::
-  // pan_zero_sigma_floor_deg; the two fits then run one after the other). Over robots 101-130 the
-  // fused pan centres differed from the chessboard's by less than 0.8 of the chessboard's sigma
-  // while their own sigmas were 0.5-0.9 of it (median 0.78): both stand on the same eye-centre
-  // depths; both pans' centres were 3.1-3.3 sigma off together on prior-121 and prior-126.
+  // The fused fit's pan zero no more certain than the chessboard fit's (the fits then run one
+  // after the other): the tags see the eye centres' depths no better.
   bool fused_pan_zero_floor = true;
   // Distances of the theoretical ranging-error curve [m].
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
@@ -140,13 +108,26 @@ bool SetLensModel(const std::string& value, CalibratePipelineOptions* options, s
 fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
                                               const CalibratePipelineOptions& options);
 
+// CalibrateFromDatasets in the two parts pipeline::Calibrate records between: FitCalibration runs
+// steps 1-4 up to the saccade (everything the calibrated controller needs; it reads no saccade
+// dataset), FinishCalibration the saccade and limits evaluations, the checks against references
+// and the inputs. CalibrateFromDatasets(d, o) is FitCalibration(d, o) then FinishCalibration(d, o).
+fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
+                                       const CalibratePipelineOptions& options);
+void FinishCalibration(const std::map<std::string, std::string>& datasets,
+                       const CalibratePipelineOptions& options,
+                       fitting::CalibrationRun* run);
+
 // The trials of a step-response (or saccade) dataset: one trace per trial with its status and
 // stepinfo (2 % band); trials without usable frames are rows with their status, no metrics.
 std::vector<fitting::StepTrace> ReadStepTraces(const std::string& dataset);
 
 // The datasets of a recorded calibrate folder: every DIR/datasets/*/ with a manifest, by the
-// name of the protocol its manifest records. Throws when there are none, or two datasets of
-// one protocol.
+// name of the protocol its manifest records. Throws NoDatasetsError when there are none, a
+// manifest names no single protocol, or two datasets are of one protocol.
+struct NoDatasetsError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 std::map<std::string, std::string> FindDatasets(const std::string& calibration_dir);
 
 // The robot configuration a dataset was recorded with (manifest.json robot.config), naming the

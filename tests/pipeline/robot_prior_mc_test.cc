@@ -1,8 +1,8 @@
 // A small version of bench/robot_prior_mc_bench.cc: robots drawn from the
 // prior of real Owls (sim/robot_prior.h: wide and narrow lenses, 1 or 5 us PWM steps, dead
 // bands, bowed boards, noisy streams), each recorded on the in-process virtual Owl with the
-// standard intrinsics, stereo and servo-sweep protocols and calibrated by calibrate's
-// pipeline (pipeline/calibrate_pipeline.h); every fitted parameter with a truth is scored as
+// standard intrinsics, stereo and servo-sweep protocols and calibrated by pipeline::Calibrate
+// with calibrate's defaults (pipeline/calibrate.h); every fitted parameter with a truth is scored as
 // z = (value - truth) / sigma and pooled per group (lens, stereo, servo maps, head geometry).
 // Honest sigmas put 68 % within 1 sigma and 99.7 % within 3; the bounds below are loose for
 // a few robots, yet the same fits with every sigma 3 x too large or 2 x too small fail them.
@@ -20,9 +20,7 @@
 #include "calib/trial_status.h"
 #include "fitting/monte_carlo.h"
 #include "owlcal_version.h"
-#include "pipeline/calibrate_pipeline.h"
-#include "protocols/protocol.h"
-#include "protocols/runner.h"
+#include "pipeline/calibrate.h"
 #include "sim/robot_prior.h"
 #include "sim/virtual_owl.h"
 
@@ -62,39 +60,38 @@ fitting::SigmaCoverage Pool(const std::vector<std::vector<fitting::Parameter>>& 
   return c;
 }
 
+// The robot on the in-process virtual Owl, calibrated by pipeline::Calibrate with calibrate's
+// defaults on `protocols`; every protocol must complete.
+fitting::CalibrationRun CalibrateRobot(const sim::DrawnRobot& robot,
+                                       uint64_t seed,
+                                       const fs::path& root,
+                                       const std::vector<std::string>& protocols) {
+  sim::VirtualOwlOptions vo;
+  vo.truth = robot.truth;
+  vo.scene = robot.scene;
+  vo.seed = seed;
+  sim::VirtualOwl owl(vo);
+  pipeline::CalibrateOptions co;
+  co.out = (root / robot.truth.name).string();
+  co.protocols = protocols;
+  co.robot.sim = {{"seed", seed}};
+  fitting::CalibrationRun run = pipeline::Calibrate(owl, co);
+  for (const auto& [name, r] : run.settings.at("runs").items())
+    EXPECT_EQ(r.at("status"), "complete") << robot.truth.name << " " << name << ": " << r.at("message");
+  return run;
+}
+
 TEST(RobotPriorMonteCarlo, SigmasCoverTheErrorsOnRobotsOfThePrior) {
   const fs::path root = fs::temp_directory_path() / ("owlcal_prior_mc_test_" + std::to_string(::getpid()));
   fs::remove_all(root);
-  // The standard protocols calibrate runs: the sigmas are tuned for them (the short ones, which
-  // the ranging test below uses, put the servo maps 89 % within 1 sigma over 30 robots: their 8
-  // stereo views make the stereo fit's intrinsics floor noise-limited).
-  std::vector<protocols::Protocol> standard;
-  for (const char* name : {"intrinsics", "stereo", "servo_sweep"})
-    standard.push_back(protocols::LoadProtocolFile(protocols::ResolveProtocolPath(name)));
   std::vector<std::vector<fitting::Parameter>> fits;
   for (int i = 1; i <= kNumRobots; ++i) {
     std::mt19937_64 rng(uint64_t(i) * 7919 + 17);  // as the bench's robot i
     const sim::DrawnRobot robot = sim::DrawRobot(&rng, "prior-" + std::to_string(i));
-    sim::VirtualOwlOptions vo;
-    vo.truth = robot.truth;
-    vo.scene = robot.scene;
-    vo.seed = uint64_t(i);
-    sim::VirtualOwl owl(vo);
-    std::map<std::string, std::string> datasets;
-    for (const protocols::Protocol& p : standard) {
-      protocols::RunOptions ro;
-      ro.out_dir = (root / robot.truth.name / p.name).string();
-      ro.robot_spec = "sim";
-      ro.sim = {{"seed", i}};
-      const protocols::RunSummary s = protocols::RunProtocols({p}, owl, ro);
-      ASSERT_EQ(s.status, "complete") << robot.truth.name << " " << p.name << ": " << s.message;
-      datasets[p.name] = ro.out_dir;
-    }
-    pipeline::CalibratePipelineOptions po;
-    po.config = owl.Config();
-    po.truth = owl.Truth().HeadModel();
-    po.fps = owl.Truth().stream.fps;
-    const fitting::CalibrationRun run = pipeline::CalibrateFromDatasets(datasets, po);
+    // The standard protocols that fit parameters, calibrated as `owlcal calibrate` does (the short
+    // ones, which the ranging test below uses, put the servo maps 89 % within 1 sigma: their 8
+    // stereo views make the stereo fit's intrinsics floor noise-limited).
+    const fitting::CalibrationRun run = CalibrateRobot(robot, uint64_t(i), root, {"intrinsics", "stereo", "servo_sweep"});
     int scored = 0;
     for (const auto& p : run.result.parameters) {
       if (!(p.determined && p.truth && p.sigma > 0)) continue;
@@ -146,10 +143,6 @@ TEST(RobotPriorMonteCarlo, SigmasCoverTheErrorsOnRobotsOfThePrior) {
 TEST(RobotPriorMonteCarlo, RangingWithinOnePercentWithDeadBandsAndPwmSteps) {
   const fs::path root = fs::temp_directory_path() / ("owlcal_prior_ranging_test_" + std::to_string(::getpid()));
   fs::remove_all(root);
-  const std::vector<protocols::Protocol> protocols = {protocols::LoadProtocolFile(kProtocols + "mc_stereo.yaml"),
-                                                      protocols::LoadProtocolFile(kProtocols + "mc_servo_sweep.yaml"),
-                                                      protocols::LoadProtocolFile(kProtocols + "resolution_probe.yaml"),
-                                                      protocols::LoadProtocolFile(kProtocols + "vergence_short.yaml")};
   int pooled = 0, within = 0;
   for (const uint64_t seed : {1, 2}) {
     std::mt19937_64 rng(seed * 7919 + 17);  // as the bench's robot `seed`
@@ -159,25 +152,12 @@ TEST(RobotPriorMonteCarlo, RangingWithinOnePercentWithDeadBandsAndPwmSteps) {
       robot.truth.servos[s].quantum_us = seed % 2 ? 5 : 1;
       if (s != models::kNeck) robot.truth.servos[s].dead_band_us = dead_band(rng);
     }
-    sim::VirtualOwlOptions vo;
-    vo.truth = robot.truth;
-    vo.scene = robot.scene;
-    vo.seed = seed;
-    sim::VirtualOwl owl(vo);
-    std::map<std::string, std::string> datasets;
-    for (const protocols::Protocol& p : protocols) {
-      protocols::RunOptions ro;
-      ro.out_dir = (root / robot.truth.name / p.name).string();
-      ro.robot_spec = "sim";
-      const protocols::RunSummary s = protocols::RunProtocols({p}, owl, ro);
-      ASSERT_EQ(s.status, "complete") << robot.truth.name << " " << p.name << ": " << s.message;
-      datasets[p.name] = ro.out_dir;
-    }
-    pipeline::CalibratePipelineOptions po;
-    po.config = owl.Config();
-    po.truth = owl.Truth().HeadModel();
-    po.fps = owl.Truth().stream.fps;
-    const fitting::CalibrationRun run = pipeline::CalibrateFromDatasets(datasets, po);
+    const fitting::CalibrationRun run = CalibrateRobot(
+        robot,
+        seed,
+        root,
+        {kProtocols + "mc_stereo.yaml", kProtocols + "mc_servo_sweep.yaml", kProtocols + "resolution_probe.yaml",
+         kProtocols + "vergence_short.yaml"});
     ASSERT_TRUE(run.ranging) << robot.truth.name;
     int n = 0, in = 0;
     for (const auto& row : run.ranging->rows) {
