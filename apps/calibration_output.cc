@@ -11,6 +11,8 @@
 #include "reports/report.h"
 #include "reports/report_data.h"
 #include "reports/table.h"
+#include "pipeline/bring_up.h"
+#include "robot/robot_file.h"
 
 namespace owlcal::apps {
 
@@ -29,6 +31,25 @@ void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out
   run->result.software_version = OWLCAL_VERSION;
   run->result.inputs["software"] = SoftwareInputs();
   reports::WriteReportData(*run, out);
+  // The robot file the run suggests (pipeline/bring_up.h CorrectedRobotFile): what the bring-up
+  // learned and the fitted centres, scales and IPD, for the user to compare with theirs.
+  if (run->result.head || run->result.diagnostics.contains("bring_up")) {
+    const nlohmann::json b = run->result.diagnostics.value("bring_up", nlohmann::json::object());
+    models::RobotConfig file = run->config;
+    if (b.contains("servos"))
+      for (int s = 0; s < models::kNumServos; ++s) {
+        const nlohmann::json& f = b["servos"][s]["file"];
+        file.servos[s].min_us = f.value("min_us", file.servos[s].min_us);
+        file.servos[s].max_us = f.value("max_us", file.servos[s].max_us);
+        file.servos[s].centre_us = f.value("centre_us", file.servos[s].centre_us);
+        file.servos[s].direction = f.value("direction", file.servos[s].direction);
+      }
+    std::vector<std::string> changes;
+    const models::RobotConfig corrected = pipeline::CorrectedRobotFile(file, run->config, run->result, &changes);
+    robot::SaveRobotFile(corrected, out + "/robot_corrected.yaml");
+    progress("robot file as measured: " + out + "/robot_corrected.yaml (" + std::to_string(changes.size()) +
+             " fields differ from yours)");
+  }
   const reports::ExportSet ex = reports::WriteCalibrationFiles(*run, out);
   for (const auto& s : ex.skipped) progress("export skipped: " + s);
   reports::ReportOptions ro;

@@ -1,5 +1,7 @@
 #include "fitting/truth_compare.h"
 
+#include "fitting/projection_diff.h"
+
 #include <cmath>
 #include <limits>
 
@@ -87,6 +89,50 @@ TruthComparison CompareWithTruth(const CalibrationResult& result) {
     c.rms_z = std::sqrt(sum_z2 / c.num_with_sigma);
   }
   return c;
+}
+
+int CompareLensByProjection(const models::HeadModel& truth,
+                            const std::array<const models::CameraIntrinsics*, 2>& fitted,
+                            const std::vector<std::string>& prefixes,
+                            CalibrationResult* result) {
+  static const char* kCoefficients[] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"};
+  auto model_name = [](models::DistortionModel m) { return m == models::DistortionModel::kOpenCv8 ? "opencv8" : "opencv5"; };
+  int compared = 0;
+  for (int e = 0; e < 2; ++e) {
+    const models::CameraIntrinsics& t = truth.intrinsics[e];
+    if (!fitted[e] || fitted[e]->model == t.model) continue;
+    ++compared;
+    const std::string eye = models::kEyeNames[e];
+    for (const std::string& prefix : prefixes)
+      for (const char* c : kCoefficients)
+        for (auto& p : result->parameters)
+          if (p.name == prefix + eye + "." + c) p.truth.reset();
+    const ProjectionDiff whole = CompareProjection(t, *fitted[e], 16, 12, 0.6);
+    nlohmann::json j = {{"fitted_model", model_name(fitted[e]->model)},
+                        {"truth_model", model_name(t.model)},
+                        {"ok", whole.ok},
+                        {"message", whole.message},
+                        {"note", "the fitted lens model is not the truth's: compared by projection (through the truth, "
+                                 "back through the fit, best rotation taken out), not coefficient by coefficient"}};
+    if (whole.ok) {
+      std::vector<double> inner;
+      const double cx = (t.width - 1) / 2.0, cy = (t.height - 1) / 2.0, half = std::hypot(cx, cy);
+      for (size_t i = 0; i < whole.pixels.size(); ++i)
+        if (std::hypot(whole.pixels[i].x() - cx, whole.pixels[i].y() - cy) <= 0.6 * half) inner.push_back(whole.diff_px[i]);
+      double ss = 0;
+      for (double d : whole.diff_px) ss += d * d;
+      double ss_inner = 0, max_inner = 0;
+      for (double d : inner) ss_inner += d * d, max_inner = std::max(max_inner, d);
+      j["rms_px"] = std::sqrt(ss / whole.diff_px.size());
+      j["max_px"] = whole.max_px;
+      j["median_px"] = whole.median_px;
+      j["inner_rms_px"] = inner.empty() ? NAN : std::sqrt(ss_inner / inner.size());
+      j["inner_max_px"] = max_inner;
+      j["rotation_deg"] = whole.rotation_deg;
+    }
+    result->diagnostics["lens_truth"][eye] = j;
+  }
+  return compared;
 }
 
 }  // namespace owlcal::fitting

@@ -51,4 +51,17 @@ struct TruthComparison {
 
 TruthComparison CompareWithTruth(const CalibrationResult& result);
 
+// A lens fitted with another distortion model than the truth's is compared by projection, not
+// coefficient by coefficient (coefficients of two models mean different things): for each eye
+// whose fitted model (`fitted[e]`, e.g. result.cameras[e] or the head's) differs from the truth's,
+// the truth is taken off every intrinsics parameter of that eye (the `prefix` names: "left.",
+// "head.left.", ...), and diagnostics.lens_truth.<eye> gets the projection difference
+// (fitting/projection_diff.h: through the truth and back through the fit, over a 16 x 12 grid of
+// the whole image and, separately, within 60 % of the half-diagonal) in px. Returns the eyes
+// compared so.
+int CompareLensByProjection(const models::HeadModel& truth,
+                            const std::array<const models::CameraIntrinsics*, 2>& fitted,
+                            const std::vector<std::string>& prefixes,
+                            CalibrationResult* result);
+
 }  // namespace owlcal::fitting

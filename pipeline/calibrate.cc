@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <memory>
 #include <stdexcept>
 
 #include <yaml-cpp/yaml.h>
@@ -10,6 +11,7 @@
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "robot/reconfigured_robot.h"
 #include "robot/robot_file.h"
 #include "sim/virtual_owl.h"
 
@@ -57,6 +59,18 @@ void Record(const protocols::Protocol& p,
                std::to_string(s.num_clamped) + " clamped commands");
   if (s.status == "aborted") throw std::runtime_error("stopped by the user; datasets so far are in " + o.out);
   if (s.status != "complete") warnings->push_back("protocol " + p.name + ": " + s.status + ": " + s.message);
+}
+
+// Equal in everything the manifests record of a configuration.
+bool SameConfig(const models::RobotConfig& a, const models::RobotConfig& b) {
+  for (int s = 0; s < models::kNumServos; ++s) {
+    const models::ServoConfig &x = a.servos[s], &y = b.servos[s];
+    if (x.min_us != y.min_us || x.max_us != y.max_us || x.centre_us != y.centre_us || x.direction != y.direction ||
+        x.nominal_deg_per_us != y.nominal_deg_per_us)
+      return false;
+  }
+  return a.ipd_m == b.ipd_m && a.image_width == b.image_width && a.image_height == b.image_height &&
+         a.swap_eyes == b.swap_eyes && a.mirror_stream == b.mirror_stream;
 }
 
 }  // namespace
@@ -116,7 +130,8 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
   nlohmann::json runs = nlohmann::json::object();
   std::vector<std::string> warnings;
   std::vector<std::pair<protocols::Protocol, std::string>> after_fit;
-  robot::RobotInterface* current = &robot;
+  robot::RobotInterface* current = &robot;  // after the bring-up: the robot on what it learned
+  std::unique_ptr<robot::ReconfiguredRobot> learned;
   // Every protocol is read before the robot moves: a typo in the last one costs no robot time.
   std::vector<protocols::Protocol> loaded;
   for (const std::string& name : names) loaded.push_back(protocols::LoadProtocolFile(protocols::ResolveProtocolPath(name)));
@@ -130,6 +145,16 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
     }
     Record(p, dir, std::nullopt, *current, o, &runs, &warnings);
     datasets[p.name] = dir;
+    // The bring-up: what the limits protocol measured bounds and directs every protocol after it.
+    if (p.name == "limits" && o.apply_bring_up && !fit.bring_up) {
+      fit.bring_up = LearnFromLimitsDataset(fit.config, dir);
+      fit.config = fit.bring_up->learned;
+      learned = std::make_unique<robot::ReconfiguredRobot>(robot, fit.config);
+      current = learned.get();
+      if (o.progress)
+        o.progress("  bring-up: " + std::to_string(fit.bring_up->findings.size()) +
+                   " differences from the robot file, applied to the protocols after it");
+    }
   }
 
   // 2) The fit, 3) the protocols that use it, 4) the evaluations of everything recorded.
@@ -174,17 +199,38 @@ fitting::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOpt
   // The robot and the truth, from the manifests (every dataset of one calibration was recorded
   // on one robot).
   CalibratePipelineOptions fit = o.fit;
-  const std::string first_manifest = datasets.begin()->second + "/manifest.json";
-  const nlohmann::json m0 = protocols::ReadManifest(datasets.begin()->second);
-  fit.config = RobotConfigFromManifest(m0, first_manifest);
-  const std::optional<sim::RobotTruth> truth = TruthFromManifest(m0, first_manifest);
+  // The robot file's configuration is the one the limits dataset (the bring-up) was recorded
+  // with; the datasets after it were recorded on what it learned, or (a recording without the
+  // bring-up) on the file's.
+  const auto limits = datasets.find("limits");
+  const std::string file_dataset = limits != datasets.end() ? limits->second : datasets.begin()->second;
+  const std::string file_manifest = file_dataset + "/manifest.json";
+  const nlohmann::json mf = protocols::ReadManifest(file_dataset);
+  fit.config = RobotConfigFromManifest(mf, file_manifest);
+  const std::optional<sim::RobotTruth> truth = TruthFromManifest(mf, file_manifest);
+  std::optional<BringUp> bring_up;
+  if (limits != datasets.end()) bring_up = LearnFromLimitsDataset(fit.config, limits->second);
+  bool on_learned = false, on_file = false;
   for (const auto& [name, dataset] : datasets) {
     const nlohmann::json m = protocols::ReadManifest(dataset);
-    if (m.value("robot", nlohmann::json::object()).value("config", nlohmann::json()) != m0["robot"]["config"])
-      throw std::runtime_error(dataset + "/manifest.json: field 'robot.config' differs from " + first_manifest +
-                               "'s: the datasets were not recorded on one robot");
     if (m.value("status", "") != "complete" && o.progress)
       o.progress("dataset " + dataset + ": status '" + m.value("status", "") + "' (" + m.value("message", "") + ")");
+    if (dataset == file_dataset) continue;
+    const models::RobotConfig c = RobotConfigFromManifest(m, dataset + "/manifest.json");
+    const bool file_config = SameConfig(c, fit.config), learned_config = bring_up && SameConfig(c, bring_up->learned);
+    if (!file_config && !learned_config)
+      throw std::runtime_error(dataset + "/manifest.json: field 'robot.config' is neither " + file_manifest +
+                               "'s nor what the bring-up learned from it: the datasets were not recorded on one robot");
+    on_learned |= learned_config && !file_config;
+    on_file |= file_config && !learned_config;
+  }
+  if (on_learned && on_file)
+    throw std::runtime_error(dir + ": some datasets were recorded on the robot file's configuration and some on what "
+                             "the bring-up learned (" + file_manifest + "): not one calibrate run");
+  // Applied as calibrate applied it: when the later datasets ran on it (or nothing differs).
+  if (bring_up && !on_file) {
+    fit.config = bring_up->learned;
+    fit.bring_up = bring_up;
   }
   if (truth) SetTruth(*truth, &fit);
   fit.progress = o.progress;

@@ -3,7 +3,8 @@
 // Monte-Carlo bench and the tests all call these, so they run one algorithm with one set of
 // defaults.
 //
-//   Calibrate(robot, options)   records one dataset per protocol under options.out/datasets/,
+//   Calibrate(robot, options)   records one dataset per protocol under options.out/datasets/
+//                               (after `limits`, on what it learned: pipeline/bring_up.h),
 //                               fits, records the protocols that need the fit (the calibrated
 //                               saccade) and evaluates everything;
 //   FitDatasets(dir, options)   the same fit and evaluations on a folder Calibrate recorded, with
@@ -61,6 +62,9 @@ struct CalibrateOptions {
   bool interactive = false;
   std::istream* input = nullptr;
   std::atomic<bool>* stop_flag = nullptr;  // set to stop: the head is parked, datasets closed
+  // The protocols after `limits` run on what it measured (pipeline/bring_up.h: the measured stops
+  // minus a margin, the directions the image shows); false: on the robot file's configuration.
+  bool apply_bring_up = true;
   // The command's own record (command line, seed, ...); Calibrate adds "runs" (per protocol:
   // status, frames, clamped commands, robot clock) and stores it as run.settings and
   // result.inputs["command"].

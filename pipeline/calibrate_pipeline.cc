@@ -196,29 +196,10 @@ void ApplyResolution(const std::vector<fitting::ServoResolutionResult>& resoluti
   f->applied_us = applied;
 }
 
-// The measured ends; *failed names every probe row that measured nothing (status not ok, or no
-// number), *num_rows counts them all ("n ok of N").
+// The measured ends of a limits dataset (pipeline/bring_up.h LimitMeasurements).
 std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset, std::vector<std::string>* failed,
                                                   int* num_rows) {
-  std::vector<fitting::LimitMeasurement> out;
-  const std::vector<protocols::LimitRow> rows = protocols::ReadLimitsCsv(dataset);
-  *num_rows = int(rows.size());
-  for (const protocols::LimitRow& row : rows) {
-    const std::string what = row.servo + " " + row.end + " (limits.csv line " + std::to_string(row.line) + ")";
-    const int s = protocols::ServoIndexFromName(row.servo);
-    fitting::LimitMeasurement m;
-    m.servo = s;
-    m.high_end = row.end == "max";
-    m.cause = fitting::LimitCauseFromName(row.cause);
-    if (s < 0 || (row.status && *row.status != calib::TrialStatus::kOk) || !row.measured_us) {
-      failed->push_back(what + ": " + (row.status ? calib::TrialStatusName(*row.status) : "no measurement") +
-                        (row.message.empty() ? "" : ": " + row.message));
-      continue;
-    }
-    m.measured_us = *row.measured_us;
-    out.push_back(m);
-  }
-  return out;
+  return LimitMeasurements(protocols::ReadLimitsCsv(dataset), failed, num_rows);
 }
 
 // Median latency in frames from latency.csv; nullopt without data.
@@ -520,6 +501,7 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
                                {"min_frames", lens_choice.min_frames},
                                {"min_relative_gain", lens_choice.min_relative_gain}};
   return {{"robot", fitting::RobotConfigToJson(config)},
+          {"bring_up", bring_up.has_value()},
           {"lens_choice", lens},
           {"truth", truth.has_value()},
           {"fps", fps},
@@ -568,6 +550,15 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
     static const std::set<std::string> kKnown = {"intrinsics", "stereo",        "servo_sweep", "vergence",
                                                  "latency",    "step_response", "limits",      "alignment", "saccade"};
     if (!kKnown.count(name)) progress("dataset " + dir + " (protocol " + name + "): no calibration step reads it");
+  }
+
+  // 0) What the bring-up learned and the protocols after it used.
+  if (o.bring_up) {
+    d.result.diagnostics["bring_up"] = o.bring_up->ToJson();
+    for (const auto& f : o.bring_up->findings) {
+      d.result.warnings.push_back("robot file: " + f);
+      progress("bring-up: " + f);
+    }
   }
 
   // 1) Intrinsics + stereo from the intrinsics and stereo datasets.
@@ -735,8 +726,16 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
 
   // 3) Truth (virtual Owl), in the fit's gauge.
   if (o.truth) {
-    const models::HeadModel canonical = fitting::CanonicalHead(*o.truth, config.servos[models::kNeck].centre_us,
-                                                               neck_moved, initial.geometry.centre_in_head[0]);
+    models::HeadModel canonical = fitting::CanonicalHead(*o.truth, config.servos[models::kNeck].centre_us, neck_moved,
+                                                         initial.geometry.centre_in_head[0]);
+    // In the fit's direction convention (models/servo_map.h: the same angles with the direction
+    // and the slope, quadratic and cubic terms negated), so a robot file whose direction is wrong
+    // compares the map, not the sign convention.
+    for (int s = 0; s < models::kNumServos; ++s)
+      if (canonical.directions[s] != initial.directions[s]) {
+        canonical.directions[s] = initial.directions[s];
+        for (int k = 1; k <= 3; ++k) canonical.servo_params[s][k] = -canonical.servo_params[s][k];
+      }
     d.truth = canonical;
     fitting::SetHeadTruth(canonical, &d.result);
     fitting::FillTruth(fitting::IntrinsicsTruthValues(*o.truth), &d.result);
@@ -749,6 +748,11 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
       for (int s = 0; s < models::kNumServos; ++s) stereo_approach[s] = obs.front().approach[s];
     }
     fitting::FillTruth(fitting::StereoTruthValues(*o.truth, stereo_pwm, stereo_approach), &d.result);
+    // A lens fitted with another model than the truth's: by projection, not by coefficient.
+    std::array<const models::CameraIntrinsics*, 2> fitted{};
+    for (int e = 0; e < 2; ++e)
+      fitted[e] = d.result.cameras[e] ? &*d.result.cameras[e] : (d.result.head ? &d.result.head->intrinsics[e] : nullptr);
+    fitting::CompareLensByProjection(*o.truth, fitted, {"", "head."}, &d.result);
   }
 
   if (with_tags && with_tags->ok) {
@@ -879,7 +883,7 @@ void FinishCalibration(const std::map<std::string, std::string>& datasets,
     std::vector<std::string> failed;
     int rows = 0;
     const auto measured = ReadLimits(dataset("limits"), &failed, &rows);
-    d.limits = fitting::EvaluateLimits(config, measured, &*d.result.head);
+    d.limits = fitting::EvaluateLimits(o.bring_up ? o.bring_up->file : config, measured, &*d.result.head);
     d.limits->notes.insert(d.limits->notes.begin(),
                            "limit probes: " + std::to_string(measured.size()) + " ok of " + std::to_string(rows));
     for (const auto& f : failed) {

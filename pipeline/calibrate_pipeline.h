@@ -40,11 +40,16 @@
 #include "fitting/stereo_fit.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"
+#include "pipeline/bring_up.h"
 
 namespace owlcal::pipeline {
 
 struct CalibratePipelineOptions {
   models::RobotConfig config = models::DefaultRobotConfig();
+  // What the bring-up learned from the limits dataset when the protocols after it ran on it
+  // (pipeline/bring_up.h; then config is bring_up->learned): its findings lead the warnings, it
+  // is diagnostics.bring_up, and the limits are compared with the robot file's (bring_up->file).
+  std::optional<BringUp> bring_up;
   // The virtual Owl's true head (as the robot truth gives it, not yet in the fit's gauge):
   // true fixation distances and the truth columns. nullopt on a real robot.
   std::optional<models::HeadModel> truth;

@@ -157,6 +157,9 @@ std::vector<LimitRow> ReadLimitsCsv(const std::string& dir) {
     l.cause = t.Text(r, "reason");
     l.last_shift_px = t.Newer(r, "last_shift_px", -kMaxPx, kMaxPx);
     l.rim_darkening = t.Newer(r, "rim_darkening", -1e3, 1e3);
+    l.image_px_per_us = t.Newer(r, "image_px_per_us", -kMaxPx, kMaxPx);
+    if (t.Has("beyond_rim_us")) l.beyond_rim_us = t.OptionalInt(r, "beyond_rim_us", 0, kMaxPwm);
+    l.beyond_rim_reason = t.TextOr(r, "beyond_rim_reason");
     l.status = t.Status(r);
     l.message = t.TextOr(r, "message");
   });

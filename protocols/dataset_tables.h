@@ -96,6 +96,14 @@ struct LimitRow {
   std::string cause;                     // column "reason": end-stop | rim | configured
   std::optional<double> last_shift_px;
   std::optional<double> rim_darkening;
+  // Signed image shift along the servo's axis per +1 us [px/us] (x right, y down; 0: nothing
+  // moved); nullopt in datasets older than the column.
+  std::optional<double> image_px_per_us;
+  // At a rim end: what the search found beyond the rim with the rim ignored (beyond_rim_reason
+  // end-stop or configured at beyond_rim_us; unknown: no motion measured past it; "": not
+  // searched or an older dataset).
+  std::optional<int> beyond_rim_us;
+  std::string beyond_rim_reason;
   std::optional<calib::TrialStatus> status;  // nullopt: a dataset older than the column
   std::string message;
 };

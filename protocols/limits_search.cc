@@ -43,6 +43,8 @@ bool LimitSearchOptions::Check(std::string* why) const {
   if (!(moved_fraction > 0 && moved_fraction < 1)) return fail("moved_fraction must be in (0, 1)");
   if (!(rim_fraction > 0)) return fail("rim_fraction must be > 0");
   if (!(min_contrast_grey >= 0)) return fail("min_contrast_grey must be >= 0");
+  if (first_step_tries < 1 || first_step_tries > 10) return fail("first_step_tries must be in [1, 10]");
+  if (approach_us < 0) return fail("approach_us must be >= 0");
   return true;
 }
 
@@ -67,7 +69,9 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
     return r;
   }
 
-  // 1) The centre image must show texture.
+  // 1) The centre image must show texture. The centre is approached from the other end's side,
+  // so the first outward step is not spent taking up backlash.
+  if (o.approach_us > 0) io.move(centre_us - d * o.approach_us);
   io.move(centre_us);
   const cv::Mat centre_img = io.image();
   const double rim0 = RimFraction(centre_img);
@@ -92,8 +96,11 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
   int v = centre_us;
   double shift_sum = 0;
   std::vector<double> step_scales;
+  std::vector<std::string> first_tries;  // the first step's probes that did not move enough
+  int retry_to = 0;                       // the next first-step probe, longer (0: none)
   while (v != limit_us) {
-    const int nv = d > 0 ? std::min(limit_us, v + o.coarse_us) : std::max(limit_us, v - o.coarse_us);
+    int nv = d > 0 ? std::min(limit_us, v + o.coarse_us) : std::max(limit_us, v - o.coarse_us);
+    if (retry_to) nv = retry_to, retry_to = 0;
     cv::Mat cur;
     take(nv, &cur);
     const double signed_shift = ThumbShift(prev, cur, kDownsample).px[axis];
@@ -101,10 +108,24 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
     const double expected = std::abs(nv - v) * nominal_px_per_us;
     if (rim_in()) break;  // the fine walk finds where
     if (r.last_shift_px < o.moved_fraction * expected) {
-      if (v == centre_us)
-        return fail("no image motion at the first step from the centre (" + std::to_string(centre_us) + " -> " +
-                    std::to_string(nv) + " us: " + Num(r.last_shift_px) + " px, expected " + Num(expected) +
-                    " px): frozen or covered camera, or a servo that does not move; no limit measured");
+      if (v == centre_us) {
+        // The first step: retried as one longer step from the centre (the servo carries on
+        // outward) before the camera or the servo is called frozen.
+        const int tries = std::max(1, o.first_step_tries);
+        const int span = std::abs(nv - centre_us);
+        if (span < tries * o.coarse_us && nv != limit_us) {
+          first_tries.push_back(std::to_string(nv) + " us: " + Num(r.last_shift_px) + " px of " + Num(expected));
+          const int longer = d > 0 ? std::min(limit_us, centre_us + span + o.coarse_us)
+                                   : std::max(limit_us, centre_us - span - o.coarse_us);
+          retry_to = longer;  // onwards from here, compared with the centre image: backlash stays taken up
+          continue;
+        }
+        first_tries.push_back(std::to_string(nv) + " us: " + Num(r.last_shift_px) + " px of " + Num(expected));
+        std::string tried;
+        for (const auto& t : first_tries) tried += (tried.empty() ? "" : ", ") + t;
+        return fail("no image motion at the first step from the centre " + std::to_string(centre_us) + " us (" + tried +
+                    " expected): frozen or covered camera, or a servo that does not move; no limit measured");
+      }
       break;
     }
     shift_sum += signed_shift;
@@ -116,6 +137,7 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
   const double scale = step_scales.empty() ? nominal_px_per_us : Median(step_scales);
   const double sign = shift_sum * d < 0 ? -1.0 : 1.0;
   r.px_per_us = scale;
+  r.image_px_per_us = step_scales.empty() ? 0.0 : sign * scale;
 
   // 3) Fine walk from an anchor one coarse step inside the last good pulse, approached from
   // the inside (backlash taken up).

@@ -9,9 +9,12 @@
 //   1. Image check: the eye image at the centre must show texture (grey standard deviation of
 //      the motion thumbnail >= min_contrast_grey). A black, covered (lens cap) or constant
 //      image fails the search: it shows no motion, so it can neither find nor rule out a stop.
-//   2. Coarse: steps of coarse_us outward. A step whose image shift is below moved_fraction of
-//      the nominal shift ends the coarse walk. When that is the very FIRST step from the
-//      centre, the search fails (the camera shows no motion: frozen or covered, or the servo
+//   2. Coarse: the centre is approached from the other end's side (approach_us: the backlash
+//      taken up towards this end), then steps of coarse_us outward. A step whose image shift is below
+//      moved_fraction of the nominal shift ends the coarse walk. When that is the FIRST step
+//      from the centre, it is retried as one longer step (up to first_step_tries coarse steps
+//      from the centre: a dead band, backlash or a slow servo can swallow one coarse step); if
+//      none moved, the search fails (the camera shows no motion: frozen or covered, or the servo
 //      does not move): a stop at the centre is never reported. The image scale (px per us) is
 //      the median over the coarse steps that moved.
 //   3. Fine, always (also when the coarse walk reached the configured limit): from an anchor
@@ -66,6 +69,10 @@ struct LimitSearchOptions {
   double rim_fraction = 0.02;
   bool check_rim = true;          // false for the neck (it carries the sockets with the head)
   double min_contrast_grey = 4;   // thumbnail grey std below this: black or constant image
+  int first_step_tries = 3;       // coarse steps from the centre tried before "no image motion"
+  // The centre is first approached from this far on the other end's side [us] (the caller keeps
+  // it inside the configured range); 0: not.
+  int approach_us = 0;
   bool Check(std::string* why) const;
 };
 
@@ -84,6 +91,9 @@ struct LimitSearchResult {
   double last_shift_px = 0; // image shift of the last probe
   double rim = 0;           // rim darkening of the last probe over the centre pose
   double px_per_us = 0;     // measured image scale
+  // The image's shift along the axis per +1 us of command [px/us], signed (x right, y down): its
+  // sign is the servo's direction as the camera sees it; 0 when no coarse step moved.
+  double image_px_per_us = 0;
   int probes = 0;
 };
 

@@ -114,11 +114,30 @@ void RunLimitsStep(RunContext& run, const LimitsStep& s) {
       const int limit = d > 0 ? sc.max_us : sc.min_us;
       const std::string end = d > 0 ? "max" : "min";
       ++ends;
+      const int other = d > 0 ? sc.min_us : sc.max_us;
+      lo.approach_us = std::min(s.coarse_us, std::abs(centre[servo] - other));
       const LimitSearchResult r = SearchLimit(centre[servo], limit, ServoAxis(servo), px_per_us, lo, io);
       const bool ok = r.status == calib::TrialStatus::kOk;
+      // Beyond the rim: the same search from the rim outward with the rim ignored finds an
+      // end-stop the rim hides (the phase correlation's window discounts the darkened border), so
+      // later protocols are not driven into it.
+      std::string beyond_us, beyond_reason;
+      if (ok && r.cause == "rim" && r.measured_us != limit) {
+        LimitSearchOptions past = lo;
+        past.check_rim = false;
+        past.approach_us = 0;
+        const LimitSearchResult b = SearchLimit(r.measured_us, limit, ServoAxis(servo), px_per_us, past, io);
+        if (b.status == calib::TrialStatus::kOk) {
+          beyond_us = std::to_string(b.measured_us);
+          beyond_reason = b.cause;
+        } else {
+          beyond_reason = "unknown";  // no motion measured past the rim: the stop may be anywhere there
+        }
+      }
       run.writer().AppendRow(
           "limits.csv",
-          "step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening,status,message",
+          "step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening,image_px_per_us,"
+          "beyond_rim_us,beyond_rim_reason,status,message",
           {std::to_string(run.step_index()),
            models::kServoNames[servo],
            end,
@@ -127,6 +146,9 @@ void RunLimitsStep(RunContext& run, const LimitsStep& s) {
            r.cause,
            calib::CsvFixed(r.last_shift_px, 3),
            calib::CsvFixed(r.rim, 4),
+           calib::CsvFixed(r.image_px_per_us, 4),
+           beyond_us,
+           beyond_reason,
            calib::TrialStatusName(r.status),
            r.message});
       const std::string what = std::string(models::kServoNames[servo]) + " " + end;

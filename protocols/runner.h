@@ -37,7 +37,10 @@
 //                      frames,final_offset_px,message,status,reason (a trial whose fixation failed is a
 //                      row with status skipped and the reason)
 //   limits.csv         step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening,
-//                      status,message (protocols/limits_search.h; reason: end-stop = the image stopped
+//                      image_px_per_us,beyond_rim_us,beyond_rim_reason,status,message
+//                      (protocols/limits_search.h; image_px_per_us: the signed image shift per +1 us
+//                      along the servo's image axis; beyond_rim_*: at a rim end, what the search
+//                      found past the rim with the rim ignored: end-stop, configured or unknown; reason: end-stop = the image stopped
 //                      following the command; rim = the fraction of the 8 px border band darker than
 //                      grey 20 grew by more than rim_fraction over the centre pose (protocols/
 //                      image_motion.h RimFraction); configured = the robot file's limit reached with

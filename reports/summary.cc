@@ -73,6 +73,19 @@ Summary MakeSummary(const ReportData& d) {
                            std::to_string(c.num_with_sigma) + " compared, worst " + c.worst + " (z = " + Fmt(c.worst_z, 3) + ")"});
   }
 
+  // The bring-up (pipeline/bring_up.h): what the robot file got wrong, which the run corrected.
+  if (diag.contains("bring_up") && diag["bring_up"].is_object()) {
+    const nlohmann::json& b = diag["bring_up"];
+    const size_t n = b.value("findings", nlohmann::json::array()).size();
+    s.headlines.push_back({"bring-up: differences from your robot file, applied to the run", std::to_string(n), "",
+                           Fmt(b.value("robot_time_s", 0.0), 3) + " s of robot time (the limits protocol); " +
+                               (n ? "robot_corrected.yaml is your robot file as measured" : "the robot file agrees with the robot")});
+    if (n)
+      s.next_steps.push_back("Compare robot_corrected.yaml (your robot file as measured: limits, directions, fitted "
+                             "centres, scales and IPD) with yours: the run used " + std::to_string(n) +
+                             " differences it measured (they lead the warnings).");
+  }
+
   // Verdict: one a fit wrote (diagnostics.verdict: a string, or {status, reasons}), else from
   // the solver summaries, undetermined parameters and warnings.
   int undetermined = 0;

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "models/head_model.h"
+
 namespace owlcal::fitting {
 namespace {
 
@@ -59,6 +61,40 @@ TEST(TruthCompare, StereoTruthOfTheNominalHeadIsTheIpd) {
   const auto in = IntrinsicsTruthValues(head);
   EXPECT_DOUBLE_EQ(in.at("right.fx"), 585.0);
   EXPECT_DOUBLE_EQ(in.at("left.k3"), 0.0);
+}
+
+// A rational truth lens fitted with the 5-coefficient model: no coefficient is compared with a
+// coefficient of the other model; the projection difference says how well it is modelled, and it
+// is larger for a worse fit.
+TEST(TruthCompare, ALensOfAnotherModelIsComparedByProjection) {
+  models::HeadModel truth = models::NominalHeadModel(models::DefaultRobotConfig());
+  truth.intrinsics[0].model = models::DistortionModel::kOpenCv8;
+  truth.intrinsics[0].params = {520, 520, 320, 240, 0.4, -0.1, 0, 0, 0, 0.7, -0.05, 0};
+  models::CameraIntrinsics near = truth.intrinsics[1];  // the right eye: same model as its truth
+  models::CameraIntrinsics fit5;
+  fit5.params = {520, 520, 320, 240, -0.28, 0.07, 0, 0, -0.01};  // the rational lens' barrel, roughly
+  CalibrationResult r;
+  for (const char* n : {"left.fx", "left.k1", "head.left.k1", "right.fx"}) r.Set(P(n, 1.0, 0.1));
+  FillTruth({{"left.fx", 520}, {"left.k1", 0.4}, {"head.left.k1", 0.4}, {"right.fx", 585}}, &r);
+  EXPECT_EQ(CompareLensByProjection(truth, {&fit5, &near}, {"", "head."}, &r), 1);
+  EXPECT_FALSE(r.Find("left.fx")->truth);
+  EXPECT_FALSE(r.Find("left.k1")->truth);
+  EXPECT_FALSE(r.Find("head.left.k1")->truth);
+  EXPECT_TRUE(r.Find("right.fx")->truth);  // same model: compared as before
+  const nlohmann::json& j = r.diagnostics.at("lens_truth").at("left");
+  EXPECT_EQ(j.at("fitted_model"), "opencv5");
+  EXPECT_EQ(j.at("truth_model"), "opencv8");
+  ASSERT_TRUE(j.at("ok").get<bool>()) << j.dump();
+  const double rough = j.at("rms_px").get<double>();
+  EXPECT_GT(rough, 0.0);
+  EXPECT_LE(j.at("inner_rms_px").get<double>(), rough + 1e-9);
+  EXPECT_FALSE(r.diagnostics.at("lens_truth").contains("right"));
+  // A worse fit shows as a larger projection difference.
+  models::CameraIntrinsics worse = fit5;
+  worse.params[4] = 0;
+  CalibrationResult r2;
+  CompareLensByProjection(truth, {&worse, nullptr}, {""}, &r2);
+  EXPECT_GT(r2.diagnostics.at("lens_truth").at("left").at("rms_px").get<double>(), rough);
 }
 
 }  // namespace
