@@ -192,6 +192,21 @@ TEST_F(SimServerTest, HttpTruthAndSceneRoutes) {
   EXPECT_FALSE(server_->Owl().SceneState().Find("aprilgrid")->visible);
 }
 
+// Regression: GET /scene/targets/NAME answered 405 for every target, because the route looped over
+// a member of a temporary JSON value (undefined behaviour) and fell through to the 405 reply.
+TEST_F(SimServerTest, GetOfOneSceneTargetAnswersItsPose) {
+  const std::string got = Http("GET", "/scene/targets/chessboard");
+  ASSERT_NE(got.find(" 200 "), std::string::npos) << got;
+  const nlohmann::json t = nlohmann::json::parse(Body(got));
+  EXPECT_EQ(t.at("name"), "chessboard");
+  ASSERT_TRUE(t.contains("pose")) << t.dump();
+  const auto pose = server_->Owl().TargetPose("chessboard");
+  ASSERT_TRUE(pose.has_value());
+  EXPECT_NEAR(t["pose"]["t_m"][2].get<double>(), pose->translation().z(), 1e-9);
+  const std::string missing = Http("GET", "/scene/targets/nothing");
+  EXPECT_NE(missing.find(" 404 "), std::string::npos) << missing;
+}
+
 // Regression: like mjpg-streamer, a client that reads slower than the stream gets the newest frame
 // each time and the rest are dropped, instead of a queue of seconds-old frames. A client reading
 // at 5 fps: after a 1 s warm-up every frame it receives was exposed at most latency + 2 x its own
