@@ -16,6 +16,7 @@
 #include "fitting/range_images_ranging.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/image_set_tables.h"
+#include "reports/table.h"
 
 namespace owlcal::apps {
 namespace {
@@ -157,8 +158,8 @@ int RunRangeImages(const RangeImagesOptions& a) {
         " mm. Range = depth from the optical centres along the rectified axis + datum " +
         fitting::FixedOrDash(a.datum_cm, 1) + " cm; truth sigma " + fitting::FixedOrDash(a.truth_sigma_cm, 1) +
         " cm (the uncertainty of the true distances themselves: datum and placement).\n";
-  std::ofstream(out / "ranges.md") << md;
-  std::ofstream(out / "ranges.csv") << reports::RangeTableCsv(ms);
+  reports::WriteTextFile((out / "ranges.md").string(), md);
+  reports::WriteTextFile((out / "ranges.csv").string(), reports::RangeTableCsv(ms));
   // Figure: error vs truth (ok and low-confidence apart, after the datum fit too), or the
   // ranges themselves when no distance is known.
   reports::Figure f;

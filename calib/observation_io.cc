@@ -1,10 +1,12 @@
 #include "calib/observation_io.h"
 
 #include "calib/csv.h"
+#include "io/atomic_file.h"
 
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 #include <stdexcept>
 
 namespace owlcal::calib {
@@ -72,11 +74,10 @@ CornerObservation ParseRow(const CsvTable& t, size_t r) {
 }  // namespace
 
 void WriteObservationsCsv(const std::string& path, const std::vector<CornerObservation>& obs) {
-  std::ofstream f(path, std::ios::trunc);
-  if (!f) throw std::runtime_error("cannot write observation file " + path);
+  std::ostringstream f;
   f << kHeader << '\n';
   WriteRows(f, obs);
-  if (!f) throw std::runtime_error("error writing observation file " + path);
+  io::WriteFileAtomic(path, f.str());
 }
 
 void AppendObservationsCsv(const std::string& path, const std::vector<CornerObservation>& obs) {
@@ -89,6 +90,7 @@ void AppendObservationsCsv(const std::string& path, const std::vector<CornerObse
   if (!f) throw std::runtime_error("cannot append to observation file " + path);
   if (need_header) f << kHeader << '\n';
   WriteRows(f, obs);
+  f.close();  // an append cannot be atomic, but its flush and close are checked
   if (!f) throw std::runtime_error("error appending to observation file " + path);
 }
 

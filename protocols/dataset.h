@@ -46,7 +46,7 @@
 //     coverage.csv       per eye X/Y/Size/Skew coverage of the detected boards (intrinsics).
 //   Their columns are listed by the step that writes them (protocols/runner.h).
 //
-// Crash safety: a JPEG is written to frames/NNNNNN.jpg.tmp, closed and renamed, and only
+// Crash safety: a JPEG is written to frames/NNNNNN.jpg.tmp-PID, closed and renamed, and only
 // then is its frames.csv line appended and flushed. Every CSV line is written with one
 // fwrite + fflush. A run killed at any moment therefore leaves complete lines for every
 // frame but possibly the last, whose line may be missing or cut short; CheckDataset accepts
