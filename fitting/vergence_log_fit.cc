@@ -63,15 +63,22 @@ struct SolveOutput {
   int dof = 0;
 };
 
+// Index of each run id in order of first appearance.
+std::map<int, int> RunIndex(const std::vector<VergenceLogRow>& rows) {
+  std::map<int, int> index;
+  for (const auto& r : rows) index.emplace(r.run, static_cast<int>(index.size()));
+  return index;
+}
+
 SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
                   const VergenceFitOptions& o,
                   bool ipd_free,
                   bool datum_free,
                   bool want_covariance) {
   SolveOutput out;
-  for (const auto& r : rows) {
-    if (std::find(out.runs.begin(), out.runs.end(), r.run) == out.runs.end()) out.runs.push_back(r.run);
-  }
+  const std::map<int, int> run_index = RunIndex(rows);
+  out.runs.resize(run_index.size());
+  for (const auto& [run, k] : run_index) out.runs[k] = run;
   double rx[2] = {o.initial.rx_centre_us, o.initial.rx_us_per_deg};
   double lx[2] = {o.initial.lx_centre_us, o.initial.lx_us_per_deg};
   double ipd = o.ipd_m;
@@ -80,7 +87,7 @@ SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
 
   ceres::Problem problem;
   for (const auto& row : rows) {
-    const int k = static_cast<int>(std::find(out.runs.begin(), out.runs.end(), row.run) - out.runs.begin());
+    const int k = run_index.at(row.run);
     auto* cost = new ceres::AutoDiffCostFunction<VergenceRowResidual, 2, 2, 2, 1, 1, 1>(
         new VergenceRowResidual{row.true_distance_m, row.rx_us, row.lx_us, o.pwm_sigma_us});
     problem.AddResidualBlock(cost, nullptr, rx, lx, &ipd, &datum, &bearing[k]);
@@ -238,6 +245,10 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument("VergenceFitOptions: " + why);
   if (rows.size() < 4) throw std::invalid_argument("vergence log has " + std::to_string(rows.size()) + " rows; need >= 4");
+  if (const size_t runs = RunIndex(rows).size(); runs > kMaxVergenceRuns)
+    throw std::invalid_argument("vergence log has " + std::to_string(runs) + " runs (distinct run ids); at most " +
+                                std::to_string(kMaxVergenceRuns) +
+                                " are fitted, each with its own bearing: check the run column");
   std::vector<double> distances;
   for (size_t i = 0; i < rows.size(); ++i) {
     const VergenceLogRow& r = rows[i];
@@ -386,21 +397,31 @@ LooSummary LeaveOneOutImpl(const std::vector<VergenceLogRow>& rows,
   LooSummary out;
   out.has_fixed = fixed != nullptr;
   if (fixed) out.fixed_source = fixed->source;
-  std::vector<double> fe, le;
-  for (size_t i = 0; i < rows.size(); ++i) {
+  // Row i is in fold i % folds: one row per fold up to kMaxVergenceFolds rows, so the cost is at
+  // most kMaxVergenceFolds refits of the other rows, linear in the rows.
+  const size_t folds = std::min(rows.size(), kMaxVergenceFolds);
+  out.folds = static_cast<int>(folds);
+  out.rows.resize(rows.size());
+  for (size_t f = 0; f < folds; ++f) {
     std::vector<VergenceLogRow> rest;
+    rest.reserve(rows.size());
     for (size_t j = 0; j < rows.size(); ++j)
-      if (j != i) rest.push_back(rows[j]);
+      if (j % folds != f) rest.push_back(rows[j]);
     VergenceFitOptions o = options;
     o.initial = full.maps;
     o.ipd_m = full.maps.ipd_m;
     o.datum_offset_m = full.maps.datum_offset_m;
-    SolveOutput s = Solve(rest, o, full.ipd_free, full.datum_free, false);
-    LooRow r;
-    r.row = static_cast<int>(i);
-    r.true_m = rows[i].true_distance_m;
-    if (fixed) r.fixed_m = fixed->Distance(rows[i].rx_us, rows[i].lx_us);
-    r.loo_m = s.maps.Distance(rows[i].rx_us, rows[i].lx_us);
+    const SolveOutput s = Solve(rest, o, full.ipd_free, full.datum_free, false);
+    for (size_t i = f; i < rows.size(); i += folds) {
+      LooRow& r = out.rows[i];
+      r.row = static_cast<int>(i);
+      r.true_m = rows[i].true_distance_m;
+      if (fixed) r.fixed_m = fixed->Distance(rows[i].rx_us, rows[i].lx_us);
+      r.loo_m = s.maps.Distance(rows[i].rx_us, rows[i].lx_us);
+    }
+  }
+  std::vector<double> fe, le;
+  for (const LooRow& r : out.rows) {
     auto rel = [&](const std::optional<double>& v, int* fails) {
       if (!v || *v <= 0) {
         ++*fails;
@@ -410,7 +431,6 @@ LooSummary LeaveOneOutImpl(const std::vector<VergenceLogRow>& rows,
     };
     if (fixed) fe.push_back(rel(r.fixed_m, &out.fixed_failures));
     le.push_back(rel(r.loo_m, &out.loo_failures));
-    out.rows.push_back(r);
   }
   auto mean = [](const std::vector<double>& v) {
     double s = 0;
