@@ -160,6 +160,32 @@ SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
   return out;
 }
 
+// The eyes whose us/deg scale the log cannot tell from 0, by key ("rx.scale", "lx.scale"), each with
+// why: an eye whose PWM is the same in every row (it fits scale 0 exactly, with a sigma from the
+// prior alone), or a scale within 3 sigma of 0. Such a scale is no map, whatever its sigma.
+std::map<std::string, std::string> ScalesWithoutSignal(const std::vector<VergenceLogRow>& rows,
+                                                       const VergenceMaps& maps,
+                                                       double rx_sigma,
+                                                       double lx_sigma) {
+  std::map<std::string, std::string> out;
+  auto check =
+      [&](const std::string& key, const std::string& eye, double VergenceLogRow::*pwm, double scale, double sigma) {
+        const auto [lo, hi] = std::minmax_element(
+            rows.begin(), rows.end(), [&](const auto& a, const auto& b) { return a.*pwm < b.*pwm; });
+        if ((*lo).*pwm == (*hi).*pwm) {
+          out[key] = eye + " PWM is " + FixedOrDash((*lo).*pwm, 1) +
+                     " us in every row: the log holds no vergence of that " +
+                     "eye, so its us/deg scale is not a map (log the eye converging on each target)";
+        } else if (std::isfinite(sigma) && !(std::abs(scale) > 3 * sigma)) {
+          out[key] = eye + " us/deg = " + FixedOrDash(scale, 3) + " +- " + FixedOrDash(sigma, 3) +
+                     " cannot be told from 0: its PWM does not follow the distance";
+        }
+      };
+  check("rx.scale", "Rx", &VergenceLogRow::rx_us, maps.rx_us_per_deg, rx_sigma);
+  check("lx.scale", "Lx", &VergenceLogRow::lx_us, maps.lx_us_per_deg, lx_sigma);
+  return out;
+}
+
 using models::Median;
 
 }  // namespace
@@ -338,9 +364,13 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
                               : num_distances < 2     ? "not determined: one distance only"
                               : !s.covariance_ok      ? "not determined: the covariance failed"
                                                       : "";
-  auto det = [&](const std::string& k) { return blocked.empty() && s.sigma.count(k) > 0; };
+  const std::map<std::string, std::string> no_signal =
+      ScalesWithoutSignal(rows, s.maps, sig("rx.scale", 1), sig("lx.scale", 1));
+  for (const auto& [k, why] : no_signal) fit.notes.push_back(why);
+  auto det = [&](const std::string& k) { return blocked.empty() && s.sigma.count(k) > 0 && !no_signal.count(k); };
   auto note_of = [&](const std::string& k, const std::string& note) {
     if (!blocked.empty()) return blocked;
+    if (const auto it = no_signal.find(k); it != no_signal.end()) return "not determined: " + it->second;
     const auto it = s.undetermined.find(k);
     return it != s.undetermined.end() ? "not determined: " + it->second : note;
   };

@@ -254,6 +254,34 @@ TEST(VergenceLogFit, IdenticalRowsDetermineNothingAndTheFitIsNotUsable) {
   EXPECT_TRUE(fit2.summary.usable) << fit2.summary.message;
 }
 
+// Regression: a log with the same PWM at every distance reported us_per_deg = 0.000 +- 0.051 as
+// determined. An eye whose PWM does not follow the distance has no map: not determined, with a
+// note, and the fit is not usable.
+TEST(VergenceLogFit, ConstantPwmAtEveryDistanceDeterminesNoScale) {
+  std::vector<VergenceLogRow> rows;
+  for (int cm = 10; cm <= 100; cm += 10) rows.push_back({1, cm / 100.0, 1400, 1480});
+  const VergenceLogFit fit = FitVergenceLog(rows, VergenceFitOptions{});
+  EXPECT_FALSE(fit.summary.usable);
+  for (const Parameter& p : fit.parameters) {
+    if (p.name != "servo.Rx.us_per_deg" && p.name != "servo.Lx.us_per_deg") continue;
+    EXPECT_FALSE(p.determined) << p.name << " = " << p.value << " +- " << p.sigma;
+    EXPECT_NE(p.note.find("in every row"), std::string::npos) << p.note;
+  }
+  bool said = false;
+  for (const std::string& n : fit.notes) said = said || n.find("Rx PWM is 1400.0 us in every row") != std::string::npos;
+  EXPECT_TRUE(said);
+  // One eye converging, the other fixed: that eye's scale alone is refused.
+  std::vector<VergenceLogRow> one = SyntheticLog(VergenceMaps{}, 1, 9);
+  for (auto& r : one) r.lx_us = 1480;
+  const VergenceLogFit fit1 = FitVergenceLog(one, VergenceFitOptions{});
+  EXPECT_FALSE(fit1.summary.usable);
+  for (const Parameter& p : fit1.parameters) {
+    if (p.name == "servo.Rx.us_per_deg") {
+      EXPECT_TRUE(p.determined) << p.note;
+    }
+  }
+}
+
 // Regression: fit-vergence's leave-one-out refitted once per row, so its cost grew with the square
 // of the rows (300 rows 3.6 s; 100,000 rows ran out of memory). A 3,000-row log is dealt into
 // kMaxVergenceFolds folds and every row still gets a prediction from a fit without it.
