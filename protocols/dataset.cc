@@ -437,6 +437,31 @@ std::vector<uint8_t> ReadFrameJpeg(const std::string& dir, int64_t frame_index) 
   return std::vector<uint8_t>(data.begin(), data.end());
 }
 
+namespace {
+
+// The manifest's num_frames (written when the run finished) against the `lines` complete lines
+// of frames.csv: within kMaxDatasetFrames, and equal to them, allowing for the one cut last line
+// a check drops; a run still marked running may have recorded more frames since.
+void CheckManifestFrameCount(
+    const nlohmann::json& manifest, const std::string& dir, int64_t lines, bool dropped_tail, DatasetCheck* c) {
+  if (!manifest.contains("num_frames")) return;
+  const std::string where = (fs::path(dir) / "manifest.json").string() + " field num_frames";
+  const nlohmann::json& n = manifest.at("num_frames");
+  if (!n.is_number_integer() || n.get<int64_t>() < 0 || n.get<int64_t>() > kMaxDatasetFrames) {
+    c->errors.push_back(where + " = " + n.dump() + " is not a frame count (an integer within 0.." +
+                        std::to_string(kMaxDatasetFrames) + ")");
+    return;
+  }
+  const int64_t claimed = n.get<int64_t>();
+  const bool running = c->status == "running";
+  if (claimed > lines + (dropped_tail ? 1 : 0) || (!running && lines > claimed)) {
+    c->errors.push_back(where + " = " + std::to_string(claimed) + " but frames.csv has " + std::to_string(lines) +
+                        " complete line(s)" + (running ? "" : " (status '" + c->status + "')"));
+  }
+}
+
+}  // namespace
+
 DatasetCheck CheckDataset(const std::string& dir, bool verify_crc) {
   DatasetCheck c;
   auto error = [&](const std::string& e) { c.errors.push_back(e); };
@@ -497,6 +522,7 @@ DatasetCheck CheckDataset(const std::string& dir, bool verify_crc) {
     ++expected;
   }
   c.num_frames = expected;
+  CheckManifestFrameCount(manifest, dir, expected, frames.DroppedPartialTail(), &c);
   // Orphans: frame files beyond the last line (the frame being recorded when the run stopped).
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(fs::path(dir) / "frames", ec)) {
