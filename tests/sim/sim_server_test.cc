@@ -185,6 +185,11 @@ TEST_F(SimServerTest, HttpTruthAndSceneRoutes) {
   const std::string bad = Http("PUT", "/scene/targets/chessboard", R"({"t_m": [0.1, "x", 0.8]})");
   EXPECT_NE(bad.find(" 400 "), std::string::npos) << bad;
   EXPECT_NEAR(server_->Owl().TargetPose("chessboard")->translation().z(), 0.8, 1e-12);
+  // Regression: a pose of 1e308 m was accepted and stored; it is refused and the old pose kept.
+  const std::string far = Http("PUT", "/scene/targets/chessboard", R"({"t_m": [1e308, 0, 0.8]})");
+  EXPECT_NE(far.find(" 400 "), std::string::npos) << far;
+  EXPECT_NE(far.find("from the head"), std::string::npos) << far;
+  EXPECT_NEAR(server_->Owl().TargetPose("chessboard")->translation().x(), 0.1, 1e-12);
   const std::string missing = Http("PUT", "/scene/targets/nothing", R"({"t_m": [0, 0, 1]})");
   EXPECT_NE(missing.find(" 404 "), std::string::npos) << missing;
   const std::string hide = Http("PUT", "/scene/targets/aprilgrid", R"({"visible": false})");
