@@ -18,6 +18,7 @@
 #include "reports/image_set_tables.h"
 #include "reports/report.h"
 #include "reports/report_data.h"
+#include "reports/table.h"
 
 namespace owlcal::apps {
 namespace {
@@ -145,11 +146,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   const fs::path out(a.out);
   calib::WriteObservationsCsv((out / "observations.csv").string(), set.observations);
   const std::string md = reports::ImageSetReportMarkdown(c, keys) + (reference_md.empty() ? "" : "\n" + reference_md);
-  {
-    std::ofstream f(out / "calibration.md");
-    if (!f) throw std::runtime_error((out / "calibration.md").string() + ": cannot write");
-    f << md;
-  }
+  reports::WriteTextFile((out / "calibration.md").string(), md);
   std::vector<std::string> written = {"observations.csv", "results.json", "evaluation.json", "calibration.md"};
   // The report's data: the corners' residuals, views and board poses; no robot was involved
   // (only the image size of the configuration is meaningful).

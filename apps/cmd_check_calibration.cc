@@ -14,6 +14,7 @@
 #include "fitting/calibration_check.h"
 #include "fitting/format.h"
 #include "reports/calibration_check_tables.h"
+#include "reports/table.h"
 
 namespace owlcal::apps {
 namespace {
@@ -69,10 +70,10 @@ int RunCheckCalibration(const CheckCalibrationOptions& a) {
   const fitting::CalibrationCheck c = fitting::CheckCalibration(rig, set.observations, a.check);
   fs::create_directories(a.out);
   const std::string md = reports::CalibrationCheckMarkdown(c, rig.source);
-  std::ofstream(fs::path(a.out) / "check.md") << md
-                                             << (not_found ? "\nThe board was not found in " + std::to_string(not_found) +
-                                                                 " eye image(s); they were not used.\n"
-                                                           : "");
+  reports::WriteTextFile((fs::path(a.out) / "check.md").string(),
+                         md + (not_found ? "\nThe board was not found in " + std::to_string(not_found) +
+                                               " eye image(s); they were not used.\n"
+                                         : ""));
   nlohmann::json j = {{"calibration", rig.source},
                       {"images", a.dir},
                       {"ok", c.ok},
@@ -100,7 +101,7 @@ int RunCheckCalibration(const CheckCalibrationOptions& a) {
                         {"extrinsics", ParamsJson(c.extrinsics)},
                         {"intrinsics_and_extrinsics", ParamsJson(c.all)}}},
                       {"range_at_1m_m", c.range_at_1m_m}};
-  std::ofstream(fs::path(a.out) / "check.json") << j.dump(2) << "\n";
+  reports::WriteTextFile((fs::path(a.out) / "check.json").string(), j.dump(2) + "\n");
   std::cout << md << "\nwrote " << a.out << ": check.md check.json\n";
   if (!c.ok) return kExitFailed;
   // Exit 0 when the calibration still holds, 3 when it should be redone (scripts can test it).

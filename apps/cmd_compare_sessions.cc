@@ -8,6 +8,7 @@
 #include "apps/command_registry.h"
 #include "fitting/session_compare.h"
 #include "reports/session_tables.h"
+#include "reports/table.h"
 
 namespace owlcal::apps {
 namespace {
@@ -36,8 +37,8 @@ int RunCompare(const CompareOptions& a) {
   const std::string md = "# Session comparison\n\n" + reports::SessionComparisonMarkdown(c);
   if (!a.out.empty()) {
     fs::create_directories(a.out);
-    std::ofstream(fs::path(a.out) / "sessions.md") << md;
-    std::ofstream(fs::path(a.out) / "sessions.csv") << reports::SessionComparisonCsv(c);
+    reports::WriteTextFile((fs::path(a.out) / "sessions.md").string(), md);
+    reports::WriteTextFile((fs::path(a.out) / "sessions.csv").string(), reports::SessionComparisonCsv(c));
   }
   std::cout << md;
   return kExitOk;

@@ -18,6 +18,7 @@
 #include "fitting/range_images_ranging.h"
 #include "fitting/stereo_depth.h"
 #include "reports/point_cloud_ply.h"
+#include "reports/table.h"
 
 namespace owlcal::apps {
 namespace {
@@ -256,8 +257,8 @@ int RunDepth(const DepthCmdOptions& a) {
        << FixedOrDash(k.max_abs_pct, 2) << " % (K fitted on the same pairs); leave-one-out "
        << FixedOrDash(k.loo_mean_abs_pct, 2) << " %.\n";
     if (failed) md << "\n" << failed << " pair(s) refused: see the message column of depth.csv.\n";
-    std::ofstream(out / "depth.csv") << csv.str();
-    std::ofstream(out / "depth.md") << md.str();
+    reports::WriteTextFile((out / "depth.csv").string(), csv.str());
+    reports::WriteTextFile((out / "depth.md").string(), md.str());
     report["disparity_constant"] = {{"k_disp16_cm", k.k_disp16_m * 100},
                                     {"k_cv_pct", k.k_cv_pct},
                                     {"k_calibration_disp16_cm", k.k_calibration * 100},
@@ -266,7 +267,7 @@ int RunDepth(const DepthCmdOptions& a) {
                                     {"loo_mean_abs_pct", k.loo_mean_abs_pct}};
     std::cout << "\n" << md.str();
   }
-  std::ofstream(out / "depth.json") << report.dump(2) << "\n";
+  reports::WriteTextFile((out / "depth.json").string(), report.dump(2) + "\n");
   std::cout << "wrote " << a.out << (many ? "/<pair>/" : "/")
             << ": left_rect.png right_rect.png disparity16.png disparity.png depth_mm.png depth.png"
             << (a.ply ? " cloud.ply" : "") << "; depth.json" << (a.truth.empty() ? "" : " depth.csv depth.md") << "\n";

@@ -12,6 +12,7 @@
 #include "apps/command_registry.h"
 #include "apps/image_inputs.h"
 #include "calib/apriltag_free.h"
+#include "reports/table.h"
 
 namespace owlcal::apps {
 namespace {
@@ -66,9 +67,7 @@ int RunDetectTags(const DetectTagsOptions& a) {
     std::cout << "\n";
     total += static_cast<int>(tags.size());
   }
-  std::ofstream f(a.out);
-  if (!f) throw std::runtime_error(a.out + ": cannot write");
-  f << csv.str();
+  reports::WriteTextFile(a.out, csv.str());
   std::cout << total << " tags in " << files.size() << " images (" << repeated << " with a repeated id, all kept; "
             << unreadable << " images unreadable); written to " << a.out << "\n";
   return unreadable == 0 ? kExitOk : kExitFailed;

@@ -15,6 +15,7 @@
 #include "fitting/range_images_calib.h"
 #include "fitting/toe_in_servo_fit.h"
 #include "owlcal_version.h"
+#include "reports/table.h"
 #include "reports/toe_in_tables.h"
 #include "robot/robot_file.h"
 
@@ -163,8 +164,8 @@ int RunFitToeIn(const FitToeInOptions& a) {
   }
   const fitting::ToeInServoFit fit = fitting::FitToeIn(sets, o);
   const std::string md = reports::ToeInMarkdown(sets, fit);
-  std::ofstream(out / "toe_in_fit.md") << md;
-  std::ofstream(out / "toe_in_sets.csv") << reports::ToeInSetsCsv(sets, fit);
+  reports::WriteTextFile((out / "toe_in_fit.md").string(), md);
+  reports::WriteTextFile((out / "toe_in_sets.csv").string(), reports::ToeInSetsCsv(sets, fit));
   fitting::CalibrationResult r;
   r.software_version = OWLCAL_VERSION;
   r.parameters = fit.parameters;

@@ -16,11 +16,14 @@
 #include "fitting/range_images_ranging.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/image_set_tables.h"
+#include "reports/table.h"
 
 namespace owlcal::apps {
 namespace {
 
 namespace fs = std::filesystem;
+
+constexpr size_t kProgressEveryPairs = 100;  // pairs between progress lines on a long list
 
 struct RangeImagesOptions {
   std::string dir, calib, truth, out;
@@ -57,6 +60,48 @@ calib::TemplateRoiOptions SelectOptions(const RangeImagesOptions& a) {
   std::string why;
   if (!t.Check(&why)) throw UsageError("--select: " + why);
   return t;
+}
+
+// Reads, rectifies and ranges the pair of one truth row (its ROI, --roi, the --select choice or
+// the central region).
+fitting::RangeMeasurement RangePair(const RangeImagesOptions& a,
+                                    const fitting::RangeTruthRow& t,
+                                    const fitting::RangeOptions& o,
+                                    const fitting::StereoRig& rig,
+                                    const fitting::Rectification& rect,
+                                    const calib::TemplateRoiOptions* sel) {
+  fitting::RangeOptions ro = o;
+  if (t.roi.area() > 0) ro.match.template_roi = t.roi;
+  const std::string lp = (fs::path(a.dir) / t.left).string(), rp = (fs::path(a.dir) / t.right).string();
+  cv::Mat l = cv::imread(lp), r = cv::imread(rp);
+  if (l.empty()) throw std::runtime_error(lp + ": cannot read image");
+  if (r.empty()) throw std::runtime_error(rp + ": cannot read image");
+  if (a.mirror) {
+    cv::flip(l, l, 1);
+    cv::flip(r, r, 1);
+  }
+  cv::Mat lr, rr;
+  fitting::RemapPair(rect, l, r, &lr, &rr);
+  std::string how = t.roi.area() > 0 ? "ROI from the truth file" : (a.roi.empty() ? "central region" : "--roi");
+  bool have_roi = true;
+  if (sel && t.roi.area() == 0 && a.roi.empty()) {
+    const calib::TemplateRoiChoice c = calib::ChooseTemplateRois(lr, *sel);
+    ro.candidate_rois = c.candidates;
+    how = c.how;
+    have_roi = !c.candidates.empty();
+  }
+  fitting::RangeMeasurement m;
+  if (have_roi) {
+    m = fitting::RangeRectifiedPair(lr, rr, rig, rect, ro);
+  } else {
+    m.status = "failed";
+    m.message = "no target: " + how;
+  }
+  m.roi_how = how + (m.roi_how.empty() ? "" : ", " + m.roi_how);
+  m.name = t.left;
+  m.true_m = t.distance_m;
+  m.truth_sigma_m = ro.truth_sigma_m;
+  return m;
 }
 
 int RunRangeImages(const RangeImagesOptions& a) {
@@ -99,38 +144,10 @@ int RunRangeImages(const RangeImagesOptions& a) {
   if (!o.Check(&why)) throw UsageError(why);
   std::vector<fitting::RangeMeasurement> ms;
   for (const auto& t : truth) {
-    fitting::RangeOptions ro = o;
-    if (t.roi.area() > 0) ro.match.template_roi = t.roi;
-    const std::string lp = (fs::path(a.dir) / t.left).string(), rp = (fs::path(a.dir) / t.right).string();
-    cv::Mat l = cv::imread(lp), r = cv::imread(rp);
-    if (l.empty()) throw std::runtime_error(lp + ": cannot read image");
-    if (r.empty()) throw std::runtime_error(rp + ": cannot read image");
-    if (a.mirror) {
-      cv::flip(l, l, 1);
-      cv::flip(r, r, 1);
-    }
-    cv::Mat lr, rr;
-    fitting::RemapPair(rect, l, r, &lr, &rr);
-    std::string how = t.roi.area() > 0 ? "ROI from the truth file" : (a.roi.empty() ? "central region" : "--roi");
-    bool have_roi = true;
-    if (auto_select && t.roi.area() == 0 && a.roi.empty()) {
-      const calib::TemplateRoiChoice c = calib::ChooseTemplateRois(lr, sel);
-      ro.candidate_rois = c.candidates;
-      how = c.how;
-      have_roi = !c.candidates.empty();
-    }
-    fitting::RangeMeasurement m;
-    if (have_roi) {
-      m = fitting::RangeRectifiedPair(lr, rr, rig, rect, ro);
-    } else {
-      m.status = "failed";
-      m.message = "no target: " + how;
-    }
-    m.roi_how = how + (m.roi_how.empty() ? "" : ", " + m.roi_how);
-    m.name = t.left;
-    m.true_m = t.distance_m;
-    m.truth_sigma_m = ro.truth_sigma_m;
-    ms.push_back(m);
+    ms.push_back(RangePair(a, t, o, rig, rect, auto_select ? &sel : nullptr));
+    // A long list prints a progress line every kProgressEveryPairs pairs (each is read, rectified, matched).
+    if (truth.size() > kProgressEveryPairs && ms.size() % kProgressEveryPairs == 0)
+      std::cerr << "range-images: " << ms.size() << " of " << truth.size() << " pairs ranged\n";
   }
   const fitting::RangeSummary s = fitting::SummariseRanges(ms);
   fs::create_directories(a.out);
@@ -157,8 +174,8 @@ int RunRangeImages(const RangeImagesOptions& a) {
         " mm. Range = depth from the optical centres along the rectified axis + datum " +
         fitting::FixedOrDash(a.datum_cm, 1) + " cm; truth sigma " + fitting::FixedOrDash(a.truth_sigma_cm, 1) +
         " cm (the uncertainty of the true distances themselves: datum and placement).\n";
-  std::ofstream(out / "ranges.md") << md;
-  std::ofstream(out / "ranges.csv") << reports::RangeTableCsv(ms);
+  reports::WriteTextFile((out / "ranges.md").string(), md);
+  reports::WriteTextFile((out / "ranges.csv").string(), reports::RangeTableCsv(ms));
   // Figure: error vs truth (ok and low-confidence apart, after the datum fit too), or the
   // ranges themselves when no distance is known.
   reports::Figure f;

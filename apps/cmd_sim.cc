@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "apps/command_registry.h"
+#include "reports/table.h"
 #include "robot/socket_util.h"
 #include "sim/sim_server.h"
 
@@ -103,9 +104,7 @@ int RunSim(const SimCommandOptions& o) {
     sim::VirtualOwl owl(so.owl);
     const bool json = o.write_truth.size() >= 5 && o.write_truth.substr(o.write_truth.size() - 5) == ".json";
     if (json) {
-      std::ofstream out(o.write_truth);
-      out << owl.TruthJson() << "\n";
-      if (!out) throw std::runtime_error(o.write_truth + ": cannot write the truth");
+      reports::WriteTextFile(o.write_truth, owl.TruthJson() + "\n");
     } else {
       sim::SaveRobotTruth(owl.Truth(), o.write_truth);
     }

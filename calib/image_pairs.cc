@@ -78,9 +78,13 @@ ImagePairList ListImagePairs(const std::string& dir, const ImagePairOptions& opt
 }
 
 void LoadImagePair(const ImagePair& pair, const ImagePairOptions& options, cv::Mat* left, cv::Mat* right) {
-  auto read = [](const std::string& p) {
+  auto read = [&](const std::string& p) {
     cv::Mat m = cv::imread(p, cv::IMREAD_COLOR);
     if (m.empty()) throw std::runtime_error(p + ": cannot decode image");
+    if (static_cast<int64_t>(m.total()) > options.max_pixels)
+      throw std::runtime_error(p + ": image " + std::to_string(m.cols) + "x" + std::to_string(m.rows) + " (" +
+                               std::to_string(m.total()) + " pixels) is larger than the limit of " +
+                               std::to_string(options.max_pixels) + " pixels; scale it down");
     return m;
   };
   if (options.side_by_side) {

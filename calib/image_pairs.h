@@ -16,6 +16,7 @@
 //     are the RIGHT eye).
 // swap: exchange the eyes after everything else.
 // Pairs are sorted by the number in their key (natural order), then by key.
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -27,10 +28,15 @@
 
 namespace owlcal::calib {
 
+// Largest image file read, in pixels: 50 megapixels is beyond any camera the suite serves (the
+// Owl's frames are 1280x480) and bounds what one file costs to detect in.
+inline constexpr int64_t kMaxImagePixels = 50'000'000;
+
 struct ImagePairOptions {
   bool side_by_side = false;
   bool mirror = false;
   bool swap = false;
+  int64_t max_pixels = kMaxImagePixels;  // a larger image is refused, naming the file
 };
 
 struct ImagePair {

@@ -1,11 +1,14 @@
 #include "calib/observation_io.h"
 
 #include "calib/csv.h"
+#include "io/atomic_file.h"
 
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace owlcal::calib {
 namespace {
@@ -72,11 +75,10 @@ CornerObservation ParseRow(const CsvTable& t, size_t r) {
 }  // namespace
 
 void WriteObservationsCsv(const std::string& path, const std::vector<CornerObservation>& obs) {
-  std::ofstream f(path, std::ios::trunc);
-  if (!f) throw std::runtime_error("cannot write observation file " + path);
+  std::ostringstream f;
   f << kHeader << '\n';
   WriteRows(f, obs);
-  if (!f) throw std::runtime_error("error writing observation file " + path);
+  io::WriteFileAtomic(path, f.str());
 }
 
 void AppendObservationsCsv(const std::string& path, const std::vector<CornerObservation>& obs) {
@@ -89,6 +91,7 @@ void AppendObservationsCsv(const std::string& path, const std::vector<CornerObse
   if (!f) throw std::runtime_error("cannot append to observation file " + path);
   if (need_header) f << kHeader << '\n';
   WriteRows(f, obs);
+  f.close();  // an append cannot be atomic, but its flush and close are checked
   if (!f) throw std::runtime_error("error appending to observation file " + path);
 }
 
@@ -106,7 +109,22 @@ std::vector<CornerObservation> ReadObservationsCsv(const std::string& path) {
     std::cerr << "warning: " << path << ": truncated last line (no line break, incomplete) dropped\n";
   std::vector<CornerObservation> out;
   out.reserve(t.NumRows());
-  for (size_t r = 0; r < t.NumRows(); ++r) out.push_back(ParseRow(t, r));
+  // A corner seen twice in one view (frame, eye, target) would count twice and shrink every
+  // sigma by about 1/sqrt(2): refused, naming both lines.
+  std::unordered_map<std::string, size_t> row_of_corner;
+  for (size_t r = 0; r < t.NumRows(); ++r) {
+    out.push_back(ParseRow(t, r));
+    const CornerObservation& o = out.back();
+    const std::string key = std::to_string(o.frame_index) + "," + std::to_string(o.eye) + "," +
+                            std::to_string(o.corner_id) + "," + o.target_id;
+    const auto [it, fresh] = row_of_corner.emplace(key, r);
+    if (!fresh) {
+      throw std::runtime_error(t.Where(r) + ": corner " + std::to_string(o.corner_id) + " of target '" +
+                               io::Printable(o.target_id) + "' in frame " + std::to_string(o.frame_index) + ", " +
+                               (o.eye == 0 ? "left" : "right") + " eye, is already on " + t.Where(it->second) +
+                               ": a duplicated row would count twice and shrink every sigma");
+    }
+  }
   return out;
 }
 

@@ -10,7 +10,8 @@
 // strict and bounded: |u_px|, |v_px| <= 1e5, |x_m|, |y_m|, |z_m| <= 1000, pulse widths 0..9999,
 // approach -1/0/1, ids >= 0. A truncated LAST line (a recording cut short) is dropped with a
 // warning on stderr; any other malformed line throws std::runtime_error naming file:line, the
-// column and the value.
+// column and the value. A corner repeated within a view (same frame, eye, target and corner_id)
+// throws naming both lines.
 #include <string>
 #include <vector>
 

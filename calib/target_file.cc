@@ -7,6 +7,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "io/atomic_file.h"
 #include "io/strict_number.h"
 #include "io/yaml_fields.h"
 
@@ -103,10 +104,7 @@ void SaveTargetFile(const TargetDefinition& t, const std::string& path, const st
   }
   e << YAML::Key << "unit" << YAML::Value << unit;
   e << YAML::EndMap;
-  std::ofstream f(path);
-  if (!f) throw std::runtime_error("cannot write target file " + path);
-  f << e.c_str() << "\n";
-  if (!f) throw std::runtime_error("error writing target file " + path);
+  io::WriteFileAtomic(path, std::string(e.c_str()) + "\n");
 }
 
 }  // namespace owlcal::calib

@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "io/atomic_file.h"
 #include "io/xml_check.h"
 
 namespace owlcal::fitting {
@@ -61,14 +62,17 @@ void WriteFields(cv::FileStorage& fs, const OpenCvStereoCalibration& c, bool int
 }
 
 void WriteFile(const std::string& path, const OpenCvStereoCalibration& c, bool intr, bool extr) {
+  // Written in memory (the format follows the name's extension), then to disk checked and atomically.
   cv::FileStorage fs;
+  std::string text;
   try {
-    if (!fs.open(path, cv::FileStorage::WRITE)) throw std::runtime_error("");
+    if (!fs.open(path, cv::FileStorage::WRITE | cv::FileStorage::MEMORY)) throw std::runtime_error("");
     WriteFields(fs, c, intr, extr);
-    fs.release();
+    text = fs.releaseAndGetString();
   } catch (const std::exception& e) {
     throw std::runtime_error("cannot write OpenCV calibration file " + path + " " + e.what());
   }
+  io::WriteFileAtomic(path, text);
 }
 
 double MetresPer(const std::string& unit) {

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "io/atomic_file.h"
 #include "io/json_strict.h"
 
 namespace owlcal::fitting {
@@ -231,14 +232,7 @@ CalibrationResult ResultFromJson(const json& j) {
 }
 
 void WriteResultJson(const CalibrationResult& r, const std::string& path) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp);
-    if (!f) throw std::runtime_error("cannot write result file " + path);
-    f << ToJson(r).dump(2) << "\n";
-    if (!f) throw std::runtime_error("error writing result file " + path);
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + tmp + " to " + path);
+  io::WriteFileAtomic(path, ToJson(r).dump(2) + "\n");
 }
 
 CalibrationResult ReadResultJson(const std::string& path) {

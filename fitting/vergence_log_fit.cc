@@ -63,15 +63,22 @@ struct SolveOutput {
   int dof = 0;
 };
 
+// Index of each run id in order of first appearance.
+std::map<int, int> RunIndex(const std::vector<VergenceLogRow>& rows) {
+  std::map<int, int> index;
+  for (const auto& r : rows) index.emplace(r.run, static_cast<int>(index.size()));
+  return index;
+}
+
 SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
                   const VergenceFitOptions& o,
                   bool ipd_free,
                   bool datum_free,
                   bool want_covariance) {
   SolveOutput out;
-  for (const auto& r : rows) {
-    if (std::find(out.runs.begin(), out.runs.end(), r.run) == out.runs.end()) out.runs.push_back(r.run);
-  }
+  const std::map<int, int> run_index = RunIndex(rows);
+  out.runs.resize(run_index.size());
+  for (const auto& [run, k] : run_index) out.runs[k] = run;
   double rx[2] = {o.initial.rx_centre_us, o.initial.rx_us_per_deg};
   double lx[2] = {o.initial.lx_centre_us, o.initial.lx_us_per_deg};
   double ipd = o.ipd_m;
@@ -80,7 +87,7 @@ SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
 
   ceres::Problem problem;
   for (const auto& row : rows) {
-    const int k = static_cast<int>(std::find(out.runs.begin(), out.runs.end(), row.run) - out.runs.begin());
+    const int k = run_index.at(row.run);
     auto* cost = new ceres::AutoDiffCostFunction<VergenceRowResidual, 2, 2, 2, 1, 1, 1>(
         new VergenceRowResidual{row.true_distance_m, row.rx_us, row.lx_us, o.pwm_sigma_us});
     problem.AddResidualBlock(cost, nullptr, rx, lx, &ipd, &datum, &bearing[k]);
@@ -150,6 +157,32 @@ SolveOutput Solve(const std::vector<VergenceLogRow>& rows,
       out.undetermined[names[i]] = obs.reasons[i];
     }
   }
+  return out;
+}
+
+// The eyes whose us/deg scale the log cannot tell from 0, by key ("rx.scale", "lx.scale"), each with
+// why: an eye whose PWM is the same in every row (it fits scale 0 exactly, with a sigma from the
+// prior alone), or a scale within 3 sigma of 0. Such a scale is no map, whatever its sigma.
+std::map<std::string, std::string> ScalesWithoutSignal(const std::vector<VergenceLogRow>& rows,
+                                                       const VergenceMaps& maps,
+                                                       double rx_sigma,
+                                                       double lx_sigma) {
+  std::map<std::string, std::string> out;
+  auto check =
+      [&](const std::string& key, const std::string& eye, double VergenceLogRow::*pwm, double scale, double sigma) {
+        const auto [lo, hi] = std::minmax_element(
+            rows.begin(), rows.end(), [&](const auto& a, const auto& b) { return a.*pwm < b.*pwm; });
+        if ((*lo).*pwm == (*hi).*pwm) {
+          out[key] = eye + " PWM is " + FixedOrDash((*lo).*pwm, 1) +
+                     " us in every row: the log holds no vergence of that " +
+                     "eye, so its us/deg scale is not a map (log the eye converging on each target)";
+        } else if (std::isfinite(sigma) && !(std::abs(scale) > 3 * sigma)) {
+          out[key] = eye + " us/deg = " + FixedOrDash(scale, 3) + " +- " + FixedOrDash(sigma, 3) +
+                     " cannot be told from 0: its PWM does not follow the distance";
+        }
+      };
+  check("rx.scale", "Rx", &VergenceLogRow::rx_us, maps.rx_us_per_deg, rx_sigma);
+  check("lx.scale", "Lx", &VergenceLogRow::lx_us, maps.lx_us_per_deg, lx_sigma);
   return out;
 }
 
@@ -238,6 +271,10 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument("VergenceFitOptions: " + why);
   if (rows.size() < 4) throw std::invalid_argument("vergence log has " + std::to_string(rows.size()) + " rows; need >= 4");
+  if (const size_t runs = RunIndex(rows).size(); runs > kMaxVergenceRuns)
+    throw std::invalid_argument("vergence log has " + std::to_string(runs) + " runs (distinct run ids); at most " +
+                                std::to_string(kMaxVergenceRuns) +
+                                " are fitted, each with its own bearing: check the run column");
   std::vector<double> distances;
   for (size_t i = 0; i < rows.size(); ++i) {
     const VergenceLogRow& r = rows[i];
@@ -327,9 +364,13 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
                               : num_distances < 2     ? "not determined: one distance only"
                               : !s.covariance_ok      ? "not determined: the covariance failed"
                                                       : "";
-  auto det = [&](const std::string& k) { return blocked.empty() && s.sigma.count(k) > 0; };
+  const std::map<std::string, std::string> no_signal =
+      ScalesWithoutSignal(rows, s.maps, sig("rx.scale", 1), sig("lx.scale", 1));
+  for (const auto& [k, why] : no_signal) fit.notes.push_back(why);
+  auto det = [&](const std::string& k) { return blocked.empty() && s.sigma.count(k) > 0 && !no_signal.count(k); };
   auto note_of = [&](const std::string& k, const std::string& note) {
     if (!blocked.empty()) return blocked;
+    if (const auto it = no_signal.find(k); it != no_signal.end()) return "not determined: " + it->second;
     const auto it = s.undetermined.find(k);
     return it != s.undetermined.end() ? "not determined: " + it->second : note;
   };
@@ -386,21 +427,31 @@ LooSummary LeaveOneOutImpl(const std::vector<VergenceLogRow>& rows,
   LooSummary out;
   out.has_fixed = fixed != nullptr;
   if (fixed) out.fixed_source = fixed->source;
-  std::vector<double> fe, le;
-  for (size_t i = 0; i < rows.size(); ++i) {
+  // Row i is in fold i % folds: one row per fold up to kMaxVergenceFolds rows, so the cost is at
+  // most kMaxVergenceFolds refits of the other rows, linear in the rows.
+  const size_t folds = std::min(rows.size(), kMaxVergenceFolds);
+  out.folds = static_cast<int>(folds);
+  out.rows.resize(rows.size());
+  for (size_t f = 0; f < folds; ++f) {
     std::vector<VergenceLogRow> rest;
+    rest.reserve(rows.size());
     for (size_t j = 0; j < rows.size(); ++j)
-      if (j != i) rest.push_back(rows[j]);
+      if (j % folds != f) rest.push_back(rows[j]);
     VergenceFitOptions o = options;
     o.initial = full.maps;
     o.ipd_m = full.maps.ipd_m;
     o.datum_offset_m = full.maps.datum_offset_m;
-    SolveOutput s = Solve(rest, o, full.ipd_free, full.datum_free, false);
-    LooRow r;
-    r.row = static_cast<int>(i);
-    r.true_m = rows[i].true_distance_m;
-    if (fixed) r.fixed_m = fixed->Distance(rows[i].rx_us, rows[i].lx_us);
-    r.loo_m = s.maps.Distance(rows[i].rx_us, rows[i].lx_us);
+    const SolveOutput s = Solve(rest, o, full.ipd_free, full.datum_free, false);
+    for (size_t i = f; i < rows.size(); i += folds) {
+      LooRow& r = out.rows[i];
+      r.row = static_cast<int>(i);
+      r.true_m = rows[i].true_distance_m;
+      if (fixed) r.fixed_m = fixed->Distance(rows[i].rx_us, rows[i].lx_us);
+      r.loo_m = s.maps.Distance(rows[i].rx_us, rows[i].lx_us);
+    }
+  }
+  std::vector<double> fe, le;
+  for (const LooRow& r : out.rows) {
     auto rel = [&](const std::optional<double>& v, int* fails) {
       if (!v || *v <= 0) {
         ++*fails;
@@ -410,7 +461,6 @@ LooSummary LeaveOneOutImpl(const std::vector<VergenceLogRow>& rows,
     };
     if (fixed) fe.push_back(rel(r.fixed_m, &out.fixed_failures));
     le.push_back(rel(r.loo_m, &out.loo_failures));
-    out.rows.push_back(r);
   }
   auto mean = [](const std::vector<double>& v) {
     double s = 0;

@@ -124,8 +124,13 @@ struct VergenceLogFit {
   bool datum_free = false;
 };
 
-// Fits the maps; throws std::invalid_argument when options fail Check, rows are too few, or a
-// row has a non-positive or non-finite distance or a non-finite PWM.
+// Most runs a log may have: each adds a bearing parameter, and the dense solve and covariance grow
+// with their square (a run column with a new id on every row would make the fit quadratic).
+inline constexpr size_t kMaxVergenceRuns = 50;
+
+// Fits the maps; throws std::invalid_argument when options fail Check, rows are too few, the log
+// has more than kMaxVergenceRuns runs, or a row has a non-positive or non-finite distance or a
+// non-finite PWM.
 VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const VergenceFitOptions& options);
 
 // Leave-one-out comparison on the same rows.
@@ -135,8 +140,13 @@ struct LooRow {
   std::optional<double> fixed_m;  // course fixed-constant estimate
   std::optional<double> loo_m;    // fitted on the other rows
 };
+// Most refits a leave-one-out comparison makes: a longer log is dealt round-robin into this many
+// folds (row i in fold i % folds), each row predicted by a fit without its fold, so the cost
+// stays linear in the rows (one refit per row would be quadratic).
+inline constexpr size_t kMaxVergenceFolds = 100;
 struct LooSummary {
   std::vector<LooRow> rows;
+  int folds = 0;                   // refits made: the rows, or kMaxVergenceFolds for a longer log
   bool has_fixed = false;          // a fixed-constant comparison was made
   std::string fixed_source;        // whose constants
   // Mean / median absolute relative error; rows without a fix count as 100 %.
@@ -144,8 +154,9 @@ struct LooSummary {
   double loo_mean_abs_rel = 0, loo_median_abs_rel = 0;
   int fixed_failures = 0, loo_failures = 0;
 };
-// Each row is predicted by a fit on all other rows, using the IPD / datum modes the full fit
-// chose (`full`), so each fold solves the same problem.
+// Each row is predicted by a fit on all other rows (on the other folds for a log longer than
+// kMaxVergenceFolds rows), using the IPD / datum modes the full fit chose (`full`), so each fold
+// solves the same problem.
 LooSummary LeaveOneOut(const std::vector<VergenceLogRow>& rows,
                        const VergenceFitOptions& options,
                        const VergenceLogFit& full,

@@ -1,6 +1,7 @@
 #include "protocols/dataset.h"
 
 #include "calib/csv.h"
+#include "io/atomic_file.h"
 #include "io/json_strict.h"
 #include "io/strict_number.h"
 
@@ -51,16 +52,6 @@ std::string ReadWholeFile(const std::string& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-void WriteFileAtomic(const std::string& path, const std::string& data) {
-  const std::string tmp = path + ".tmp";
-  FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw std::runtime_error(tmp + ": cannot create: " + std::strerror(errno));
-  const bool ok = std::fwrite(data.data(), 1, data.size(), f) == data.size();
-  if (std::fclose(f) != 0 || !ok) throw std::runtime_error(tmp + ": write failed");
-  if (std::rename(tmp.c_str(), path.c_str()) != 0)
-    throw std::runtime_error(path + ": rename failed: " + std::strerror(errno));
 }
 
 // An integer within [min, max] (default: any int64).
@@ -295,7 +286,7 @@ int64_t DatasetWriter::SupersedeFrom(int first_step, int64_t stamp_ns) {
     }
     out += FrameLine(r);
   }
-  if (!superseded.empty()) WriteFileAtomic(frames_path, out);
+  if (!superseded.empty()) io::WriteFileAtomic(frames_path, out);
   // Tables: move rows of the superseded steps (or frames) out.
   int64_t moved = 0;
   std::vector<fs::path> tables;
@@ -325,8 +316,8 @@ int64_t DatasetWriter::SupersedeFrom(int first_step, int64_t stamp_ns) {
     const fs::path side = dir / "superseded" / name;
     const bool fresh = !fs::exists(side) || fs::file_size(side) == 0;
     const std::string previous = fresh ? header_line : ReadWholeFile(side.string());
-    WriteFileAtomic(side.string(), previous + gone);  // first, so a crash here loses nothing
-    WriteFileAtomic(path.string(), keep);
+    io::WriteFileAtomic(side.string(), previous + gone);  // first, so a crash here loses nothing
+    io::WriteFileAtomic(path.string(), keep);
     moved += num_gone;
   }
   if (superseded.empty() && moved == 0) return 0;  // stopped between steps: nothing to set apart
@@ -341,7 +332,7 @@ DatasetWriter::~DatasetWriter() {
 }
 
 void DatasetWriter::WriteManifest() {
-  WriteFileAtomic((fs::path(dir_) / "manifest.json").string(), manifest_.dump(2) + "\n");
+  io::WriteFileAtomic((fs::path(dir_) / "manifest.json").string(), manifest_.dump(2) + "\n");
 }
 
 void DatasetWriter::Finish(const std::string& status, const std::string& message) {
@@ -374,12 +365,7 @@ int64_t DatasetWriter::AppendFrame(const std::vector<uint8_t>& jpeg, FrameRecord
   record.jpeg_bytes = static_cast<int64_t>(jpeg.size());
   record.jpeg_crc32 = Crc32(jpeg.data(), jpeg.size());
   const std::string path = FramePath(dir_, record.frame_index);
-  const std::string tmp = path + ".tmp";
-  FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw std::runtime_error(tmp + ": cannot create: " + std::strerror(errno));
-  const bool ok = std::fwrite(jpeg.data(), 1, jpeg.size(), f) == jpeg.size();
-  if (std::fclose(f) != 0 || !ok) throw std::runtime_error(tmp + ": write failed");
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error(path + ": rename failed");
+  io::WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(jpeg.data()), jpeg.size()));
   AppendLine(Open("frames.csv", kFramesCsvHeader), "frames.csv", FrameLine(record));
   return next_frame_index_++;
 }
@@ -451,6 +437,31 @@ std::vector<uint8_t> ReadFrameJpeg(const std::string& dir, int64_t frame_index) 
   return std::vector<uint8_t>(data.begin(), data.end());
 }
 
+namespace {
+
+// The manifest's num_frames (written when the run finished) against the `lines` complete lines
+// of frames.csv: within kMaxDatasetFrames, and equal to them, allowing for the one cut last line
+// a check drops; a run still marked running may have recorded more frames since.
+void CheckManifestFrameCount(
+    const nlohmann::json& manifest, const std::string& dir, int64_t lines, bool dropped_tail, DatasetCheck* c) {
+  if (!manifest.contains("num_frames")) return;
+  const std::string where = (fs::path(dir) / "manifest.json").string() + " field num_frames";
+  const nlohmann::json& n = manifest.at("num_frames");
+  if (!n.is_number_integer() || n.get<int64_t>() < 0 || n.get<int64_t>() > kMaxDatasetFrames) {
+    c->errors.push_back(where + " = " + n.dump() + " is not a frame count (an integer within 0.." +
+                        std::to_string(kMaxDatasetFrames) + ")");
+    return;
+  }
+  const int64_t claimed = n.get<int64_t>();
+  const bool running = c->status == "running";
+  if (claimed > lines + (dropped_tail ? 1 : 0) || (!running && lines > claimed)) {
+    c->errors.push_back(where + " = " + std::to_string(claimed) + " but frames.csv has " + std::to_string(lines) +
+                        " complete line(s)" + (running ? "" : " (status '" + c->status + "')"));
+  }
+}
+
+}  // namespace
+
 DatasetCheck CheckDataset(const std::string& dir, bool verify_crc) {
   DatasetCheck c;
   auto error = [&](const std::string& e) { c.errors.push_back(e); };
@@ -511,11 +522,12 @@ DatasetCheck CheckDataset(const std::string& dir, bool verify_crc) {
     ++expected;
   }
   c.num_frames = expected;
+  CheckManifestFrameCount(manifest, dir, expected, frames.DroppedPartialTail(), &c);
   // Orphans: frame files beyond the last line (the frame being recorded when the run stopped).
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(fs::path(dir) / "frames", ec)) {
     const std::string name = e.path().filename().string();
-    if (name.size() > 4 && name.substr(name.size() - 4) == ".tmp") {
+    if (io::IsAtomicTemporary(name)) {
       c.warnings.push_back(e.path().string() + ": unfinished frame file dropped");
       continue;
     }
@@ -569,7 +581,7 @@ DatasetCheck RepairDataset(const std::string& dir) {
   }
   for (const auto& e : fs::directory_iterator(fs::path(dir) / "frames")) {
     const std::string name = e.path().filename().string();
-    bool remove = name.size() > 4 && name.substr(name.size() - 4) == ".tmp";
+    bool remove = io::IsAtomicTemporary(name);
     if (!remove) {
       try {
         remove = std::stoll(name) >= c.num_frames;
@@ -578,8 +590,10 @@ DatasetCheck RepairDataset(const std::string& dir) {
     }
     if (remove) fs::remove(e.path());
   }
-  const std::string tmp_manifest = (fs::path(dir) / "manifest.json.tmp").string();
-  if (fs::exists(tmp_manifest)) fs::remove(tmp_manifest);
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("manifest.json.tmp", 0) == 0 && io::IsAtomicTemporary(name)) fs::remove(e.path());
+  }
   return c;
 }
 

@@ -10,7 +10,8 @@
 //                     "robot_file", "robot_file_text", "config": {...limits...}},
 //                     "protocols": [{"file", "name", "target", "text"}],
 //                     "sim": {"seed", "truth_file", "truth_json"} (virtual Owl only),
-//                     "num_steps"}. Rewritten atomically (tmp + rename).
+//                     "num_steps", "num_frames" (when finished)}. Rewritten atomically
+//                     (tmp + rename).
 //   frames/NNNNNN.jpg  the raw side-by-side JPEG exactly as received (1280x480), NNNNNN =
 //                     frame_index zero-padded to 6 digits.
 //   frames.csv       one line per frame, appended and flushed after its JPEG is in place:
@@ -46,7 +47,7 @@
 //     coverage.csv       per eye X/Y/Size/Skew coverage of the detected boards (intrinsics).
 //   Their columns are listed by the step that writes them (protocols/runner.h).
 //
-// Crash safety: a JPEG is written to frames/NNNNNN.jpg.tmp, closed and renamed, and only
+// Crash safety: a JPEG is written to frames/NNNNNN.jpg.tmp-PID, closed and renamed, and only
 // then is its frames.csv line appended and flushed. Every CSV line is written with one
 // fwrite + fflush. A run killed at any moment therefore leaves complete lines for every
 // frame but possibly the last, whose line may be missing or cut short; CheckDataset accepts
@@ -167,6 +168,9 @@ extern const char* const kFramesCsvHeader;
 extern const char* const kPlacementsCsvHeader;
 extern const char* const kStepsCsvHeader;
 
+// Most frames a manifest may claim: a day at 30 fps is 2.6 million, so more is damage.
+inline constexpr int64_t kMaxDatasetFrames = 100'000'000;
+
 struct DatasetCheck {
   bool ok = false;                   // the dataset is usable (maybe after dropping a partial tail)
   int64_t num_frames = 0;            // complete, verified frames
@@ -177,7 +181,8 @@ struct DatasetCheck {
 
 // Checks a dataset: manifest readable; frames.csv lines complete and consecutive from 0;
 // each frame file present with the recorded size and CRC; a partial LAST line of any CSV and
-// frame files with no line are tolerated (warnings: the last partial frame is dropped).
+// frame files with no line are tolerated (warnings: the last partial frame is dropped); the
+// manifest's num_frames, when present, is at most kMaxDatasetFrames and matches frames.csv.
 // verify_crc = false skips reading the JPEGs (size is still checked).
 DatasetCheck CheckDataset(const std::string& dir, bool verify_crc = true);
 

@@ -12,6 +12,7 @@
 #include "fitting/pixel_pwm_map.h"
 #include "fitting/projection_uncertainty.h"
 #include "fitting/radtan_refit.h"
+#include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "reports/owl_pwm_header.h"
 #include "reports/table.h"
@@ -208,9 +209,48 @@ void WriteOwlPwmHeader(const fitting::CalibrationResult& r,
   WriteTextFile(path, OwlPwmHeaderText(r, config, limits));
 }
 
+std::string ImplausibleExportValue(const fitting::CalibrationResult& r) {
+  auto text = [](double v) { return io::SignificantText(v, 6); };
+  for (int e = 0; e < 2; ++e) {
+    const models::CameraIntrinsics* c = r.cameras[e] ? &*r.cameras[e] : r.head ? &r.head->intrinsics[e] : nullptr;
+    if (!c) continue;
+    const std::string eye = models::kEyeNames[e];
+    if (c->width <= 0 || c->height <= 0 || c->params.size() < 4)
+      return eye + " camera: image size " + std::to_string(c->width) + "x" + std::to_string(c->height) + " or " +
+             std::to_string(c->params.size()) + " parameters is not a camera";
+    static const char* const kNames[] = {"fx", "fy", "cx", "cy"};
+    for (size_t i = 0; i < c->params.size(); ++i)
+      if (!std::isfinite(c->params[i]))
+        return eye + " camera parameter " + (i < 4 ? kNames[i] : "k" + std::to_string(i - 3)) + " is not finite";
+    // Focal lengths from a tenth to a hundred times the image width; the principal point within
+    // an image width or height of the image; distortion coefficients within 1e4.
+    const double w = c->width, h = c->height;
+    for (int i = 0; i < 2; ++i)
+      if (!(c->params[i] >= 0.1 * w && c->params[i] <= 100 * w))
+        return eye + " camera " + kNames[i] + " = " + text(c->params[i]) + " px is not plausible for a " +
+               std::to_string(c->width) + " px wide image (0.1 to 100 widths)";
+    if (!(std::abs(c->params[2] - w / 2) <= 1.5 * w && std::abs(c->params[3] - h / 2) <= 1.5 * h))
+      return eye + " camera principal point (" + text(c->params[2]) + ", " + text(c->params[3]) +
+             ") px is more than an image size outside the image";
+    for (size_t i = 4; i < c->params.size(); ++i)
+      if (std::abs(c->params[i]) > 1e4)
+        return eye + " camera distortion k" + std::to_string(i - 3) + " = " + text(c->params[i]) + " is not plausible";
+  }
+  if (r.stereo) {
+    const models::Rigid3d& p = r.stereo->right_from_left;
+    if (!p.translation.allFinite() || !p.rotation.coeffs().allFinite() || p.translation.norm() > 1e6 ||
+        std::abs(p.rotation.norm() - 1) > 1e-6)
+      return "stereo right_from_left (t = " + text(p.translation.norm()) +
+             " length units) is not a finite, plausible pose";
+  }
+  return "";
+}
+
 ExportSet WriteCalibrationFiles(const ReportData& d, const std::string& dir) {
   ExportSet out;
   const fitting::CalibrationResult& r = d.result;
+  if (const std::string why = ImplausibleExportValue(r); !why.empty())
+    throw std::runtime_error(dir + "/results.json: " + why + "; no calibration.yaml or exports written from it");
   const std::string ex = dir + "/exports";
   std::filesystem::create_directories(ex);
   auto attempt = [&](const std::string& rel, const std::string& tool, auto&& fn) {

@@ -51,8 +51,14 @@ struct ExportSet {
   std::vector<ExportNote> notes;
 };
 
+// Why the result's cameras or stereo pose are not finite and plausible (focal lengths 0.1 to 100
+// image widths, principal point within an image size of the image, distortion within 1e4, a
+// finite pose), or "" when they are.
+std::string ImplausibleExportValue(const fitting::CalibrationResult& result);
+
 // Every file above into DIR (exports/ below it). Nothing it can write is left out; what it
-// cannot write is listed in `skipped` with the reason.
+// cannot write is listed in `skipped` with the reason. Throws, writing nothing, when
+// ImplausibleExportValue finds a value no export may carry.
 ExportSet WriteCalibrationFiles(const ReportData& data, const std::string& dir);
 
 // The single writers (the note is what the file states about itself).

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "io/atomic_file.h"
+
 namespace owlcal::reports {
 
 int WritePointCloudPly(const std::string& path,
@@ -28,8 +30,7 @@ int WritePointCloudPly(const std::string& path,
       v.push_back({float((c - maps.cx) * d / maps.focal_px), float((r - maps.cy) * d / maps.focal_px), d,
                    maps.left_rect.empty() ? uint8_t(200) : maps.left_rect.at<uint8_t>(r, c)});
     }
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw std::runtime_error(path + ": cannot write point cloud");
+  std::ostringstream out(std::ios::binary);
   std::string src = source;
   for (char& ch : src)
     if (ch == '\n' || ch == '\r') ch = ' ';
@@ -53,7 +54,7 @@ int WritePointCloudPly(const std::string& path,
   } else {
     for (const Vertex& p : v) out << p.x << " " << p.y << " " << p.z << " " << int(p.grey) << " " << int(p.grey) << " " << int(p.grey) << "\n";
   }
-  if (!out) throw std::runtime_error(path + ": error writing point cloud");
+  io::WriteFileAtomic(path, out.str());
   return int(v.size());
 }
 

@@ -1,4 +1,5 @@
 #include "reports/table.h"
+#include "io/atomic_file.h"
 #include "io/number_text.h"
 
 #include <cmath>
@@ -222,10 +223,7 @@ void WriteTextFile(const std::string& path, const std::string& text) {
   const std::filesystem::path p(path);
   std::error_code ec;
   if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path(), ec);
-  std::ofstream f(path, std::ios::binary);
-  if (!f) throw std::runtime_error("cannot write " + path);
-  f << text;
-  if (!f) throw std::runtime_error("error writing " + path);
+  io::WriteFileAtomic(path, text);
 }
 
 void WriteTable(const Table& t, const std::string& dir) {

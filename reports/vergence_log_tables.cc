@@ -61,6 +61,10 @@ std::string VergenceReportMarkdown(const std::vector<fitting::VergenceLogRow>& r
   md << "| fitted maps (leave-one-out) | " << FixedOrDash(100 * loo.loo_mean_abs_rel, 1) << " % | "
      << FixedOrDash(100 * loo.loo_median_abs_rel, 1) << " % | " << loo.loo_failures << " |\n\n"
      << "(a row without a fix, or off by more than 100 %, counts as 100 %)\n";
+  if (loo.folds > 0 && static_cast<size_t>(loo.folds) < rows.size())
+    md << "\nThe log has " << rows.size() << " rows, so they were dealt into " << loo.folds
+       << " folds (row i in fold i mod " << loo.folds
+       << ") and each row was predicted by a fit without its fold, not without it alone.\n";
   return md.str();
 }
 

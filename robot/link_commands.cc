@@ -7,6 +7,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "io/atomic_file.h"
 #include "robot/mjpeg_client.h"
 #include "robot/owl_link.h"
 #include "robot/robot_file.h"
@@ -100,9 +101,8 @@ GrabReport GrabOneFrame(const std::string& robot_host,
   r.height = f->stereo.left.rows;
   if (!cv::imwrite(r.left_png, f->stereo.left)) throw std::runtime_error(r.left_png + ": cannot write");
   if (!cv::imwrite(r.right_png, f->stereo.right)) throw std::runtime_error(r.right_png + ": cannot write");
-  std::ofstream jpg(r.frame_jpg, std::ios::binary);
-  jpg.write(reinterpret_cast<const char*>(f->stereo.jpeg.data()), static_cast<std::streamsize>(f->stereo.jpeg.size()));
-  if (!jpg) throw std::runtime_error(r.frame_jpg + ": cannot write");
+  io::WriteFileAtomic(r.frame_jpg,
+                      std::string_view(reinterpret_cast<const char*>(f->stereo.jpeg.data()), f->stereo.jpeg.size()));
   return r;
 }
 

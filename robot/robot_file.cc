@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "io/atomic_file.h"
 #include "io/yaml_fields.h"
 
 namespace owlcal::robot {
@@ -132,9 +133,7 @@ std::string RobotConfigToYaml(const models::RobotConfig& config) {
 void SaveRobotFile(const models::RobotConfig& config, const std::string& path) {
   const std::string why = ValidateRobotConfig(config);
   if (!why.empty()) throw std::runtime_error(path + ": not saved: " + why);
-  std::ofstream out(path);
-  out << RobotConfigToYaml(config);
-  if (!out) throw std::runtime_error(path + ": cannot write robot file");
+  io::WriteFileAtomic(path, RobotConfigToYaml(config));
 }
 
 }  // namespace owlcal::robot

@@ -7,6 +7,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "io/atomic_file.h"
 #include "io/strict_number.h"
 #include "io/yaml_fields.h"
 #include "robot/robot_file.h"
@@ -434,11 +435,8 @@ nlohmann::json RobotTruthJson(const RobotTruth& t) {
 }
 
 void SaveRobotTruth(const RobotTruth& truth, const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error(path + ": cannot open for writing the robot truth");
   const bool json = path.size() >= 5 && path.substr(path.size() - 5) == ".json";
-  out << (json ? RobotTruthJson(truth).dump(2) + "\n" : RobotTruthYaml(truth));
-  if (!out) throw std::runtime_error(path + ": write failed");
+  io::WriteFileAtomic(path, json ? RobotTruthJson(truth).dump(2) + "\n" : RobotTruthYaml(truth));
 }
 
 }  // namespace owlcal::sim

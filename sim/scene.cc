@@ -317,12 +317,12 @@ SceneDescription LoadScene(const std::string& path) {
       // Positions within 1 km of the head, angles within one turn.
       if (p->Has("centre_m")) {
         // The board's centre and its turn (FacingPose).
-        const auto c = p->Numbers("centre_m", 3, -1e3, 1e3);
+        const auto c = p->Numbers("centre_m", 3, -kMaxTargetOffset_m, kMaxTargetOffset_m);
         const auto r = p->Has("rpy_deg") ? p->Numbers("rpy_deg", 3, -360, 360) : std::vector<double>{0, 0, 0};
         t.base_from_target = FacingPose(d, Eigen::Vector3d(c[0], c[1], c[2]), r[2], r[1], r[0]);
       } else {
         nlohmann::json j;
-        j["t_m"] = p->Numbers("t_m", 3, -1e3, 1e3);
+        j["t_m"] = p->Numbers("t_m", 3, -kMaxTargetOffset_m, kMaxTargetOffset_m);
         if (p->Has("q_xyzw")) j["q_xyzw"] = p->Numbers("q_xyzw", 4, -1, 1);
         if (p->Has("rpy_deg")) j["rpy_deg"] = p->Numbers("rpy_deg", 3, -360, 360);
         try {

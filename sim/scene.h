@@ -97,6 +97,9 @@ SceneDescription DefaultScene();
 calib::TargetDefinition TagSheetDefinition(const std::string& name, int first_id);
 SceneDescription LoadScene(const std::string& path);
 nlohmann::json SceneJson(const SceneDescription& scene);
+// Largest |x|, |y| or |z| of a target's position in the base frame [m]: the scene holds a target
+// within 1 km of the head (a hidden target sits 50 m away), so a larger offset is a typo.
+inline constexpr double kMaxTargetOffset_m = 1e3;
 // A pose as JSON: {"t_m": [..3], "q_xyzw": [..4]}; PoseFromJson also accepts "rpy_deg".
 nlohmann::json PoseJson(const Eigen::Isometry3d& pose);
 // Throws std::invalid_argument naming the field when the JSON is not a pose.

@@ -115,9 +115,10 @@ std::optional<robot::HttpResponse> SimServer::Route(const robot::HttpRequest& re
     const std::string name = request.path.substr(prefix.size());
     if (!owl_->TargetPose(name)) return json_response(404, {{"error", "no scene target named '" + name + "'"}});
     if (request.method == "GET") {
-      const SceneDescription scene = owl_->SceneState();
-      for (const auto& t : SceneJson(scene)["targets"])
-        if (t["name"] == name) return json_response(200, t);
+      // The scene JSON is held by name: a range-for over a member of a temporary would read freed memory.
+      const nlohmann::json scene = SceneJson(owl_->SceneState());
+      for (const auto& t : scene.at("targets"))
+        if (t.at("name") == name) return json_response(200, t);
     }
     if (request.method == "PUT" || request.method == "POST") {
       try {

@@ -10,6 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "io/number_text.h"
+
 namespace owlcal::sim {
 namespace {
 
@@ -305,6 +307,13 @@ void VirtualOwl::SetTargetPose(const std::string& name, const Eigen::Isometry3d&
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c)
       if (!std::isfinite(base_from_target.matrix()(r, c))) throw std::invalid_argument("virtual Owl: pose of '" + name + "' is not finite");
+  const Eigen::Vector3d at = base_from_target.translation();
+  if (at.cwiseAbs().maxCoeff() > kMaxTargetOffset_m) {
+    throw std::invalid_argument("virtual Owl: pose of '" + name + "' at t_m = [" + io::SignificantText(at.x(), 6) +
+                                ", " + io::SignificantText(at.y(), 6) + ", " + io::SignificantText(at.z(), 6) +
+                                "] is more than " + io::SignificantText(kMaxTargetOffset_m, 6) +
+                                " m from the head along an axis");
+  }
   t->base_from_target = base_from_target;
   cached_frame_.reset();
 }

@@ -57,7 +57,34 @@ TEST(ObservationCsv, AppendWritesHeaderOnce) {
   const std::string p = TempPath("app.csv");
   std::filesystem::remove(p);
   AppendObservationsCsv(p, Sample());
+  auto later = Sample();  // later frames: the same corners again would be duplicates
+  for (auto& o : later) o.frame_index += 10;
+  AppendObservationsCsv(p, later);
+  EXPECT_EQ(ReadObservationsCsv(p).size(), 6u);
+  std::filesystem::remove(p);
+}
+
+// Regression: every row duplicated was accepted and the sigmas shrank by about 1/sqrt(2). A corner
+// repeated in one view is refused, naming both lines; the same corner in another frame or eye is not
+// a duplicate.
+TEST(ObservationCsv, ACornerRepeatedInAViewIsRefusedNamingBothLines) {
+  const std::string p = TempPath("dup.csv");
+  std::filesystem::remove(p);
   AppendObservationsCsv(p, Sample());
+  AppendObservationsCsv(p, Sample());
+  try {
+    ReadObservationsCsv(p);
+    FAIL() << "duplicated rows accepted";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(p + ":5: corner 0 of target 'owl-kit' in frame 10, left eye, is already on " + p + ":2"),
+              std::string::npos)
+        << m;
+  }
+  auto other_eye = Sample();
+  for (auto& o : other_eye) o.eye = 1 - o.eye;
+  WriteObservationsCsv(p, Sample());
+  AppendObservationsCsv(p, other_eye);
   EXPECT_EQ(ReadObservationsCsv(p).size(), 6u);
   std::filesystem::remove(p);
 }

@@ -254,6 +254,84 @@ TEST(VergenceLogFit, IdenticalRowsDetermineNothingAndTheFitIsNotUsable) {
   EXPECT_TRUE(fit2.summary.usable) << fit2.summary.message;
 }
 
+// Regression: a log with the same PWM at every distance reported us_per_deg = 0.000 +- 0.051 as
+// determined. An eye whose PWM does not follow the distance has no map: not determined, with a
+// note, and the fit is not usable.
+TEST(VergenceLogFit, ConstantPwmAtEveryDistanceDeterminesNoScale) {
+  std::vector<VergenceLogRow> rows;
+  for (int cm = 10; cm <= 100; cm += 10) rows.push_back({1, cm / 100.0, 1400, 1480});
+  const VergenceLogFit fit = FitVergenceLog(rows, VergenceFitOptions{});
+  EXPECT_FALSE(fit.summary.usable);
+  for (const Parameter& p : fit.parameters) {
+    if (p.name != "servo.Rx.us_per_deg" && p.name != "servo.Lx.us_per_deg") continue;
+    EXPECT_FALSE(p.determined) << p.name << " = " << p.value << " +- " << p.sigma;
+    EXPECT_NE(p.note.find("in every row"), std::string::npos) << p.note;
+  }
+  bool said = false;
+  for (const std::string& n : fit.notes) said = said || n.find("Rx PWM is 1400.0 us in every row") != std::string::npos;
+  EXPECT_TRUE(said);
+  // One eye converging, the other fixed: that eye's scale alone is refused.
+  std::vector<VergenceLogRow> one = SyntheticLog(VergenceMaps{}, 1, 9);
+  for (auto& r : one) r.lx_us = 1480;
+  const VergenceLogFit fit1 = FitVergenceLog(one, VergenceFitOptions{});
+  EXPECT_FALSE(fit1.summary.usable);
+  for (const Parameter& p : fit1.parameters) {
+    if (p.name == "servo.Rx.us_per_deg") {
+      EXPECT_TRUE(p.determined) << p.note;
+    }
+  }
+}
+
+// Regression: fit-vergence's leave-one-out refitted once per row, so its cost grew with the square
+// of the rows (300 rows 3.6 s; 100,000 rows ran out of memory). A 3,000-row log is dealt into
+// kMaxVergenceFolds folds and every row still gets a prediction from a fit without it.
+TEST(VergenceLogFit, LongLogIsCrossValidatedInABoundedNumberOfFolds) {
+  VergenceMaps truth;
+  truth.rx_centre_us = 1452;
+  truth.rx_us_per_deg = 10.1;
+  truth.lx_centre_us = 1421;
+  truth.lx_us_per_deg = 11.2;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0, 0.7);
+  std::vector<VergenceLogRow> rows;
+  for (int i = 0; i < 3000; ++i) {
+    const double d = 0.10 + 0.01 * (i % 91);
+    double rx, lx;
+    truth.PredictPwm(d, 0, &rx, &lx);
+    rows.push_back({1, d, std::round(rx + noise(rng)), std::round(lx + noise(rng))});
+  }
+  VergenceFitOptions o;
+  const VergenceLogFit fit = FitVergenceLog(rows, o);
+  ASSERT_TRUE(fit.summary.usable) << fit.summary.message;
+  EXPECT_NEAR(fit.maps.rx_us_per_deg, truth.rx_us_per_deg, 0.2);
+  EXPECT_NEAR(fit.maps.lx_us_per_deg, truth.lx_us_per_deg, 0.2);
+  const LooSummary loo = LeaveOneOut(rows, o, fit);
+  EXPECT_EQ(loo.folds, static_cast<int>(kMaxVergenceFolds));
+  ASSERT_EQ(loo.rows.size(), rows.size());
+  for (size_t i = 0; i < loo.rows.size(); ++i) {
+    EXPECT_EQ(loo.rows[i].row, static_cast<int>(i));
+    ASSERT_TRUE(loo.rows[i].loo_m.has_value()) << i;
+  }
+  EXPECT_EQ(loo.loo_failures, 0);
+  EXPECT_LT(loo.loo_median_abs_rel, 0.05);
+  // A short log keeps one refit per row.
+  const std::vector<VergenceLogRow> short_log(rows.begin(), rows.begin() + 40);
+  const VergenceLogFit fit40 = FitVergenceLog(short_log, o);
+  ASSERT_TRUE(fit40.summary.usable) << fit40.summary.message;
+  EXPECT_EQ(LeaveOneOut(short_log, o, fit40).folds, 40);
+  const std::string md = reports::VergenceReportMarkdown(rows, fit, loo);
+  EXPECT_NE(md.find("dealt into 100 folds"), std::string::npos) << md;
+  // A run id on every row would add a bearing per row: more than kMaxVergenceRuns runs are refused.
+  std::vector<VergenceLogRow> many_runs = rows;
+  for (size_t i = 0; i < many_runs.size(); ++i) many_runs[i].run = static_cast<int>(i % (kMaxVergenceRuns + 1));
+  try {
+    FitVergenceLog(many_runs, o);
+    ADD_FAILURE() << "a log with " << kMaxVergenceRuns + 1 << " runs was fitted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("51 runs"), std::string::npos) << e.what();
+  }
+}
+
 // Issue table "Silent wrong results (5)": NO_CONVERGENCE exited 0. It is not usable now, has no
 // sigma, and the report prints no parameter value.
 TEST(VergenceLogFit, NoConvergenceIsNotUsableAndReportsNoValues) {

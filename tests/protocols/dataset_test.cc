@@ -10,6 +10,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
@@ -166,6 +167,53 @@ TEST(Dataset, ErrorsNameFileLineAndField) {
   EXPECT_FALSE(c.ok);
   ASSERT_EQ(c.errors.size(), 1u);
   EXPECT_NE(c.errors[0].find("frames.csv:3 field Rx_us"), std::string::npos) << c.errors[0];
+}
+
+// Rewrites manifest.json's num_frames as `value` (raw JSON text).
+void SetManifestFrames(const std::string& dir, const std::string& value) {
+  const fs::path manifest = fs::path(dir) / "manifest.json";
+  std::ifstream in(manifest);
+  nlohmann::json j = nlohmann::json::parse(in);
+  in.close();
+  j["num_frames"] = nlohmann::json::parse(value);
+  std::ofstream(manifest) << j.dump(2) << "\n";
+}
+
+// Regression: a frames.csv with only its header passed as "ok: 0 frames, complete" although the
+// manifest said 53 frames and the JPEGs were on disk, and a manifest claiming 99,999,999,999
+// frames was not flagged.
+TEST(Dataset, FramesCsvMustHoldTheFramesTheManifestCounts) {
+  const std::string dir = TempDir("count");
+  {
+    auto w = DatasetWriter::Create(dir, {});
+    for (int i = 0; i < 5; ++i) w->AppendFrame(std::vector<uint8_t>(40, uint8_t(i)), {});
+    w->Finish("complete", "");
+  }
+  ASSERT_TRUE(CheckDataset(dir).ok);
+  const fs::path csv = fs::path(dir) / "frames.csv";
+  std::string header;
+  {
+    std::ifstream in(csv);
+    std::getline(in, header);
+  }
+  std::ofstream(csv, std::ios::trunc) << header << "\n";
+  DatasetCheck c = CheckDataset(dir);
+  EXPECT_FALSE(c.ok);
+  ASSERT_EQ(c.errors.size(), 1u);
+  EXPECT_NE(c.errors[0].find("manifest.json field num_frames = 5 but frames.csv has 0 complete line(s)"),
+            std::string::npos)
+      << c.errors[0];
+  SetManifestFrames(dir, "99999999999");
+  c = CheckDataset(dir);
+  EXPECT_FALSE(c.ok);
+  ASSERT_EQ(c.errors.size(), 1u);
+  EXPECT_NE(c.errors[0].find("num_frames = 99999999999 is not a frame count"), std::string::npos) << c.errors[0];
+  SetManifestFrames(dir, "\"5\"");
+  EXPECT_FALSE(CheckDataset(dir).ok);
+  SetManifestFrames(dir, "0");  // consistent again: the orphan JPEGs are warnings
+  c = CheckDataset(dir);
+  EXPECT_TRUE(c.ok) << (c.errors.empty() ? "" : c.errors[0]);
+  EXPECT_EQ(c.warnings.size(), 5u);
 }
 
 // Regression: nlohmann-json kept the last of two equal keys without a word.

@@ -5,6 +5,7 @@
 // compilers found at test time for owl-pwm.h (two translation units each).
 #include "reports/exports.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -442,6 +443,40 @@ TEST(Exports, WhatCannotBeWrittenIsSkippedWithAReason) {
     EXPECT_NE(all.find(f), std::string::npos) << f << " not skipped:\n" << all;
   EXPECT_NE(all.find("no right camera"), std::string::npos) << all;
   EXPECT_NE(all.find("no servo map was fitted"), std::string::npos) << all;
+}
+
+// Regression: `report` on a results.json whose fx was 1e308 rewrote calibration.yaml and the ROS
+// and Kalibr exports with it. Nothing is written from a value that is not finite and plausible,
+// and an earlier good calibration.yaml is left as it was.
+TEST(Exports, NothingIsExportedFromAnImplausibleOrNonFiniteValue) {
+  const std::string dir = TempDir("implausible");
+  ASSERT_FALSE(WriteCalibrationFiles(StereoData(), dir).written.empty());
+  const std::string good = Slurp(dir + "/calibration.yaml");
+  ASSERT_FALSE(good.empty());
+  struct Case {
+    int param;
+    double value;
+    const char* says;
+  };
+  for (const Case& c : {Case{0, 1e308, "left camera fx = 1e+308 px is not plausible"},
+                        Case{1, std::nan(""), "left camera parameter fy is not finite"},
+                        Case{2, -5000, "left camera principal point"},
+                        Case{4, 1e9, "left camera distortion k1"}}) {
+    ReportData d = StereoData();
+    d.result.cameras[0]->params[c.param] = c.value;
+    EXPECT_NE(ImplausibleExportValue(d.result).find(c.says), std::string::npos) << ImplausibleExportValue(d.result);
+    try {
+      WriteCalibrationFiles(d, dir);
+      ADD_FAILURE() << "exported with parameter " << c.param << " = " << c.value;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(dir + "/results.json: " + c.says), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(Slurp(dir + "/calibration.yaml"), good);
+  }
+  ReportData far = StereoData();
+  far.result.stereo->right_from_left.translation.x() = 1e300;
+  EXPECT_THROW(WriteCalibrationFiles(far, dir), std::runtime_error);
+  EXPECT_EQ(Slurp(dir + "/calibration.yaml"), good);
 }
 
 }  // namespace

@@ -185,11 +185,31 @@ TEST_F(SimServerTest, HttpTruthAndSceneRoutes) {
   const std::string bad = Http("PUT", "/scene/targets/chessboard", R"({"t_m": [0.1, "x", 0.8]})");
   EXPECT_NE(bad.find(" 400 "), std::string::npos) << bad;
   EXPECT_NEAR(server_->Owl().TargetPose("chessboard")->translation().z(), 0.8, 1e-12);
+  // Regression: a pose of 1e308 m was accepted and stored; it is refused and the old pose kept.
+  const std::string far = Http("PUT", "/scene/targets/chessboard", R"({"t_m": [1e308, 0, 0.8]})");
+  EXPECT_NE(far.find(" 400 "), std::string::npos) << far;
+  EXPECT_NE(far.find("from the head"), std::string::npos) << far;
+  EXPECT_NEAR(server_->Owl().TargetPose("chessboard")->translation().x(), 0.1, 1e-12);
   const std::string missing = Http("PUT", "/scene/targets/nothing", R"({"t_m": [0, 0, 1]})");
   EXPECT_NE(missing.find(" 404 "), std::string::npos) << missing;
   const std::string hide = Http("PUT", "/scene/targets/aprilgrid", R"({"visible": false})");
   EXPECT_NE(hide.find(" 200 "), std::string::npos) << hide;
   EXPECT_FALSE(server_->Owl().SceneState().Find("aprilgrid")->visible);
+}
+
+// Regression: GET /scene/targets/NAME answered 405 for every target, because the route looped over
+// a member of a temporary JSON value (undefined behaviour) and fell through to the 405 reply.
+TEST_F(SimServerTest, GetOfOneSceneTargetAnswersItsPose) {
+  const std::string got = Http("GET", "/scene/targets/chessboard");
+  ASSERT_NE(got.find(" 200 "), std::string::npos) << got;
+  const nlohmann::json t = nlohmann::json::parse(Body(got));
+  EXPECT_EQ(t.at("name"), "chessboard");
+  ASSERT_TRUE(t.contains("pose")) << t.dump();
+  const auto pose = server_->Owl().TargetPose("chessboard");
+  ASSERT_TRUE(pose.has_value());
+  EXPECT_NEAR(t["pose"]["t_m"][2].get<double>(), pose->translation().z(), 1e-9);
+  const std::string missing = Http("GET", "/scene/targets/nothing");
+  EXPECT_NE(missing.find(" 404 "), std::string::npos) << missing;
 }
 
 // Regression: like mjpg-streamer, a client that reads slower than the stream gets the newest frame
