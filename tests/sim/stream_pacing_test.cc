@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "robot/mjpeg_client.h"
+#include "sim/robot_truth.h"
 #include "sim/sim_server.h"
 
 namespace owlcal::sim {
@@ -26,6 +27,11 @@ class StreamPacingTest : public ::testing::Test {
     o.servo_port = 0;
     o.http_port = 0;
     o.owl.seed = 7;
+    // The default robot without the lens's defocus, the costliest part of rendering: the tests
+    // are about the server's pacing, not the simulator's speed on a loaded machine.
+    RobotTruth truth = DefaultRobotTruth();
+    truth.stream.aperture_mm = 0;
+    o.owl.truth = truth;
     server_ = std::make_unique<SimServer>(o);
     server_->Start();
   }
