@@ -24,6 +24,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "robot/mjpeg_client.h"
+#include "sim/robot_truth.h"
 #include "sim/sim_server.h"
 #include "sim/virtual_owl.h"
 
@@ -172,10 +173,13 @@ double ThreadCpuMs() {
 }
 
 // Render time per stereo frame of the default scene: both eyes, then the full stream frame
-// (noise, composition, JPEG encoding), wall and CPU.
-void RunRender(int load) {
+// (noise, composition, JPEG encoding), wall and CPU; with and without the lens's defocus.
+void RunRender(int load, bool defocus) {
   sim::VirtualOwlOptions o;
   o.decode_frames = false;
+  sim::RobotTruth truth = sim::DefaultRobotTruth();
+  if (!defocus) truth.stream.aperture_mm = 0;
+  o.truth = truth;
   sim::VirtualOwl owl(o);
   const models::JointAngles a = owl.JointAnglesAt(owl.NowNs());
   const int n = 30;
@@ -191,9 +195,10 @@ void RunRender(int load) {
   for (int i = 1; i <= n; ++i) owl.RenderFrame(i);
   const double full_wall = (NowMs() - w0) / n, full_cpu = (ThreadCpuMs() - c0) / n;
   std::printf(
-      "load %d  render per stereo frame: both eyes %.1f ms wall (%.1f CPU); full stream frame with JPEG %.1f "
-      "ms wall (%.1f CPU)\n",
+      "load %d  render per stereo frame%s: both eyes %.1f ms wall (%.1f CPU, one thread); full stream frame "
+      "with JPEG %.1f ms wall (%.1f CPU of the calling thread; the eyes render in parallel)\n",
       load,
+      defocus ? "" : " (no defocus)",
       eyes_wall,
       eyes_cpu,
       full_wall,
@@ -228,7 +233,8 @@ int main(int argc, char** argv) {
                 fps,
                 server.MaxPublishLagMs());
     server.Stop();
-    RunRender(load);
+    RunRender(load, true);
+    RunRender(load, false);
   }
   return 0;
 }
