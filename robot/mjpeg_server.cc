@@ -1,7 +1,9 @@
 #include "robot/mjpeg_server.h"
 
-#include <linux/tcp.h>  // struct tcp_info with tcpi_snd_wnd (glibc's is older)
+#include <linux/sockios.h>  // SIOCOUTQ
+#include <linux/tcp.h>      // struct tcp_info with tcpi_snd_wnd (glibc's is older)
 #include <netinet/in.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 
 #include <algorithm>
@@ -161,39 +163,86 @@ int64_t PeerWindowBytes(int fd) {
   return info.tcpi_snd_wnd;
 }
 
-// mjpg-streamer's "send the newest frame" only bounds the age of what a slow client sees if
-// frames do not pile up in its receive buffer, which Linux autotunes to megabytes (measured: a
-// 5 fps client fell 25 frames behind per second). So a frame is sent only once the client's
-// advertised window is back within kSlackBytes of the largest it has advertised, i.e. it has
-// read nearly everything sent before. A window that stays put for 1 s becomes the new largest
-// (a client whose buffer shrank is not stalled for ever). Without TCP_INFO's window: no pacing.
+// Bytes written to fd that the peer has not acknowledged yet (SIOCOUTQ), or -1.
+int64_t UnackedBytes(int fd) {
+  int bytes = 0;
+  if (::ioctl(fd, SIOCOUTQ, &bytes) != 0) return -1;
+  return bytes;
+}
+
+// Decides when a stream client is ready for the next frame (mjpg-streamer's model: the newest
+// frame whenever the client can take one) and so bounds the old frames the kernel holds for it.
+// A frame is written only once
+//   1. everything written before is acknowledged (SIOCOUTQ = 0): the small send buffer
+//      (MjpegServerOptions::send_buffer_bytes) never holds a frame waiting for a slow client;
+//   2. the client's advertised window is back within the slack of the largest it has
+//      advertised, i.e. it has read what it was sent; Linux autotunes a slow client's receive
+//      buffer to megabytes, which would otherwise hold dozens of old frames.
+// A Linux receiver announces a window that its reading reopened only if the window had fallen
+// below half its buffer, so with a large buffer the server would never hear of the read (it
+// used to wait for a fallback timeout, and a client working 30-60 ms per frame stalled). So while it waits
+// the server sends the next part's constant first bytes ("--BOUNDARY\r\nContent-Type:
+// image/jpeg\r\n"), one at a time, each once the previous is acknowledged and at most every
+// max(kMinProbeGap, a quarter of the wait so far, up to kMaxProbeGap): every byte's ACK carries
+// the current window. When those bytes run out (a client paused for about 6 s) the newest frame
+// is sent anyway and the window of that moment becomes the reference (a client whose buffer
+// shrank is not stalled for ever).
+// Old frames therefore sit only in the client's receive buffer: the one frame sent after its
+// last read, plus one more per 6 s or more that it stays paused (and, in the first seconds of a
+// connection, while the client's kernel grows the window as data arrives, possibly one more).
 class ClientPacer {
  public:
-  bool WaitDrained(int fd, const std::atomic<bool>& stop) {
-    constexpr int64_t kSlackBytes = 32 * 1024;
-    int64_t last = -2;
-    auto since = std::chrono::steady_clock::now();
+  explicit ClientPacer(std::string prefix) : prefix_(std::move(prefix)) {}
+
+  // Waits until the client may be sent a frame; false when it left or the server stops.
+  bool WaitReady(int fd, const std::atomic<bool>& stop) {
+    const auto start = std::chrono::steady_clock::now();
+    auto last_probe = start;
     while (!stop) {
+      const int64_t unacked = UnackedBytes(fd);
       const int64_t window = PeerWindowBytes(fd);
-      if (window < 0) return true;
-      max_window_ = std::max(max_window_, window);
-      if (max_window_ - window <= kSlackBytes) return true;
-      const auto now = std::chrono::steady_clock::now();
-      if (window != last) {
-        last = window;
-        since = now;
-      } else if (now - since > std::chrono::seconds(1)) {
-        max_window_ = window;
-        return true;
+      if (unacked < 0 || window < 0) return true;  // no TCP information: no pacing
+      if (unacked == 0) {
+        max_window_ = std::max(max_window_, window);
+        if (max_window_ - window <= Slack()) return true;
+        const auto now = std::chrono::steady_clock::now();
+        const auto gap = std::clamp<std::chrono::steady_clock::duration>((now - start) / 4, kMinProbeGap, kMaxProbeGap);
+        if (now - last_probe >= gap) {
+          if (probe_bytes_sent_ == prefix_.size()) {
+            max_window_ = window;
+            return true;
+          }
+          if (::send(fd, prefix_.data() + probe_bytes_sent_, 1, MSG_NOSIGNAL | MSG_DONTWAIT) != 1) return false;
+          ++probe_bytes_sent_;
+          last_probe = now;
+        }
       }
       if (PeerClosed(fd)) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      std::this_thread::sleep_for(kPollGap);
     }
     return false;
   }
 
+  // The part's bytes that WaitReady has not sent yet; resets for the next part.
+  std::string TakeRestOfPrefix(size_t part_bytes) {
+    std::string rest = prefix_.substr(probe_bytes_sent_);
+    probe_bytes_sent_ = 0;
+    last_part_bytes_ = static_cast<int64_t>(part_bytes);
+    return rest;
+  }
+
  private:
+  static constexpr std::chrono::milliseconds kPollGap{1};
+  static constexpr std::chrono::milliseconds kMinProbeGap{2};
+  static constexpr std::chrono::milliseconds kMaxProbeGap{250};
+  // Unread bytes still counted as "read everything" [bytes]: half a frame, at most 32 KiB, at
+  // least 4 KiB (the window's scale granularity and the probe bytes).
+  int64_t Slack() const { return std::clamp<int64_t>(last_part_bytes_ / 2, 4096, 32 * 1024); }
+
+  std::string prefix_;
+  size_t probe_bytes_sent_ = 0;
   int64_t max_window_ = 0;
+  int64_t last_part_bytes_ = 0;
 };
 
 int64_t SteadyUs() {
@@ -359,6 +408,10 @@ void MjpegServer::Stream(int fd) {
     const int bytes = options_.send_buffer_bytes;
     ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof(bytes));
   }
+  // A frame's last segment and the pacer's one-byte probes leave at once (Nagle would hold them
+  // for the ACK of what went before).
+  const int one = 1;
+  ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
   if (!SendAll(fd, header)) return;
   num_stream_clients_.fetch_add(1);
   if (options_.log) options_.log("mjpeg server: stream client connected");
@@ -367,8 +420,11 @@ void MjpegServer::Stream(int fd) {
     std::lock_guard<std::mutex> lock(frame_mutex_);
     last_seq = frame_seq_;  // start with the next frame
   }
-  ClientPacer pacer;
+  ClientPacer pacer("--" + options_.boundary + "\r\nContent-Type: image/jpeg\r\n");
   while (!stop_) {
+    // Wait until the client has read what it was sent (ClientPacer) and for a frame it has not
+    // had, then send the newest (those published meanwhile are dropped for this client).
+    if (!pacer.WaitReady(fd, stop_)) break;
     std::shared_ptr<const std::vector<uint8_t>> frame;
     int64_t stamp_us;
     {
@@ -381,17 +437,11 @@ void MjpegServer::Stream(int fd) {
         if (PeerClosed(fd)) break;
         continue;
       }
-    }
-    // A new frame exists: wait until the client has read what it was sent before, then send
-    // the newest frame of that moment (those published meanwhile are dropped for this client).
-    if (!pacer.WaitDrained(fd, stop_)) break;
-    {
-      std::lock_guard<std::mutex> lock(frame_mutex_);
       frame = frame_;
       last_seq = frame_seq_;
       stamp_us = frame_stamp_us_;
     }
-    std::string part = "--" + options_.boundary + "\r\nContent-Type: image/jpeg\r\n";
+    std::string part;
     if (options_.send_content_length) part += "Content-Length: " + std::to_string(frame->size()) + "\r\n";
     char ts[64];
     std::snprintf(ts, sizeof(ts), "X-Timestamp: %lld.%06lld\r\n\r\n", static_cast<long long>(stamp_us / 1000000),
@@ -399,6 +449,7 @@ void MjpegServer::Stream(int fd) {
     part += ts;
     part.append(reinterpret_cast<const char*>(frame->data()), frame->size());
     part += "\r\n";
+    part.insert(0, pacer.TakeRestOfPrefix(part.size()));
     if (!SendAll(fd, part)) break;
     num_frames_sent_.fetch_add(1);
   }

@@ -17,11 +17,16 @@
 // clients.
 //
 // Slow clients (as mjpg-streamer, the Owl's streamer): each client is sent the NEWEST frame
-// whenever it can take one; the frames published while it was busy are dropped for it, never
-// queued. The only queue is the socket buffers: the stream socket's send buffer is set to
-// options.send_buffer_bytes (the kernel doubles it; 0 leaves Linux's autotuning, which lets a
-// slow client fall ~4 MB = ~50 frames = seconds behind) plus the client's receive buffer. So a
-// client that reads one frame per period P receives frames at most about P + latency old.
+// whenever it is ready for one; the frames published while it was busy are dropped for it, never
+// queued. "Ready" means the client has read what it was sent: a frame is written only once the
+// previous one is fully acknowledged and the client's advertised TCP window shows it has been
+// read (the server sends the next part's constant first bytes one at a time, each ACK carrying
+// the window, because Linux does not announce a window a read reopened). The stream socket's send
+// buffer is options.send_buffer_bytes (the kernel doubles it; 0 leaves Linux's autotuning).
+// Where old frames can still sit: only in the client's receive buffer, the one frame sent after
+// its last read, plus one more per 6 s or more that it stays paused (robot/mjpeg_server.cc,
+// ClientPacer). So a client that reads one frame per period P gets frames about P + latency old,
+// and after a pause its second frame is fresh.
 //
 // Other routes: any request that is not a GET of the stream path goes to the RouteHandler
 // (e.g. GET /truth, PUT /scene/targets/NAME with a JSON body); nullopt from it, or no

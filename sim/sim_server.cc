@@ -1,7 +1,10 @@
 #include "sim/sim_server.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -58,11 +61,14 @@ void SimServer::Start() {
   http_server_->Start();
   stop_ = false;
   stream_thread_ = std::thread([this] { StreamLoop(); });
+  publish_thread_ = std::thread([this] { PublishLoop(); });
 }
 
 void SimServer::Stop() {
   stop_ = true;
   if (stream_thread_.joinable()) stream_thread_.join();
+  if (publish_thread_.joinable()) publish_thread_.join();
+  rendered_.clear();
   if (http_server_) http_server_->Stop();
   if (servo_server_) servo_server_->Stop();
 }
@@ -72,24 +78,72 @@ int SimServer::HttpPort() const { return http_server_ ? http_server_->Port() : 0
 robot::ServoServerStats SimServer::ServoStats() const { return servo_server_ ? servo_server_->Stats() : robot::ServoServerStats{}; }
 int64_t SimServer::NumFramesPublished() const { return http_server_ ? http_server_->NumFramesPublished() : 0; }
 
+bool SimServer::SleepUntil(int64_t t_ns) {
+  // Short steps so Stop() is prompt.
+  for (int64_t now = owl_->NowNs(); !stop_ && now < t_ns; now = owl_->NowNs()) {
+    std::this_thread::sleep_for(std::chrono::nanoseconds(std::min<int64_t>(t_ns - now, 20'000'000)));
+  }
+  return !stop_;
+}
+
 void SimServer::StreamLoop() {
-  int64_t after = -1;
+  // A frame is rendered as soon as its exposure is over (both eyes, every row: the servo angles
+  // and target poses it shows are known by then) and published at its stamp (exposure +
+  // latency) by PublishLoop, so the rendering hides inside the stream's latency instead of adding
+  // to it. The frames whose exposure ended while one was rendering are skipped: the next is the
+  // newest exposed (a loaded machine streams fewer frames, never older ones).
+  const StreamTruth& stream = owl_->Truth().stream;
+  const double period_ns = 1e9 / stream.fps;
+  const int64_t exposing_ns =
+      int64_t(std::llround((std::max(0.0, stream.eye_offset_ms) + std::max(0.0, stream.rolling_shutter_ms)) * 1e6));
+  auto exposed_ns = [&](int64_t seq) { return owl_->ExposureNs(seq, models::kLeftEye) + exposing_ns; };
+  auto newest_exposed = [&](int64_t t_ns) {
+    int64_t k = int64_t(std::floor(double(t_ns - exposing_ns) / period_ns));
+    while (exposed_ns(k + 1) <= t_ns) ++k;
+    while (k >= 0 && exposed_ns(k) > t_ns) --k;
+    return k;
+  };
+  int64_t seq = std::max<int64_t>(0, newest_exposed(owl_->NowNs()) + 1);
   while (!stop_) {
-    // Short timeouts so Stop() is prompt; frames come at the truth's fps.
-    auto frame = owl_->GrabFrame(after, 100'000'000);
-    if (!frame) continue;
-    after = frame->stamp_ns;
+    while (owl_->IsDropped(seq)) ++seq;
+    if (!SleepUntil(exposed_ns(seq))) break;
+    robot::StereoFrame frame = owl_->RenderFrame(seq);
+    {
+      std::lock_guard<std::mutex> lock(rendered_mutex_);
+      rendered_.emplace_back(seq, std::move(frame));
+    }
+    rendered_cv_.notify_all();
+    seq = std::max(seq + 1, newest_exposed(owl_->NowNs()));
+  }
+  rendered_cv_.notify_all();
+}
+
+void SimServer::PublishLoop() {
+  while (!stop_) {
+    int64_t seq;
+    robot::StereoFrame frame;
+    {
+      std::unique_lock<std::mutex> lock(rendered_mutex_);
+      if (!rendered_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return stop_ || !rendered_.empty(); }) ||
+          stop_) {
+        continue;
+      }
+      seq = rendered_.front().first;
+      frame = std::move(rendered_.front().second);
+      rendered_.pop_front();
+    }
+    if (!SleepUntil(owl_->StampNs(seq))) break;
     // X-Timestamp = the left eye's exposure on the steady clock (mjpg-streamer sends the capture
     // time), so a client can tell a frame's age: now - X-Timestamp = latency + time in transit.
-    const int64_t exposure_ns = owl_->ExposureNs(frame->seq, models::kLeftEye);
+    const int64_t exposure_ns = owl_->ExposureNs(seq, models::kLeftEye);
     const int64_t steady_us =
         std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
             .count();
     const int64_t age_us = (owl_->NowNs() - exposure_ns) / 1000;
-    // Beyond the configured latency: rendering and encoding (a loaded machine falls behind).
+    // Beyond the configured latency: rendering that did not finish by the stamp (a loaded machine).
     const int64_t lag_us = age_us - static_cast<int64_t>(owl_->Truth().stream.latency_ms * 1000);
     if (lag_us > max_publish_lag_us_.load()) max_publish_lag_us_ = lag_us;
-    http_server_->Publish(std::move(frame->jpeg), steady_us - age_us);
+    http_server_->Publish(std::move(frame.jpeg), steady_us - age_us);
   }
 }
 

@@ -24,9 +24,13 @@
 //   ... server.Stop();
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "robot/mjpeg_server.h"
 #include "robot/servo_server.h"
@@ -63,19 +67,26 @@ class SimServer {
   bool ServoServerExited() const { return servo_server_ && servo_server_->Exited(); }
   std::string ServoServerExitReason() const { return servo_server_ ? servo_server_->ExitReason() : ""; }
   int64_t NumFramesPublished() const;
-  // The largest delay of a frame's publication beyond the configured latency (rendering and
-  // JPEG encoding; ~tens of ms, more on a loaded machine) [ms].
+  // The largest delay of a frame's publication beyond the configured latency: rendering and JPEG
+  // encoding start when the frame's exposure is over and lag only if they outlast the rest of the
+  // latency (a loaded machine) [ms].
   double MaxPublishLagMs() const { return double(max_publish_lag_us_.load()) / 1000.0; }
 
  private:
   std::optional<robot::HttpResponse> Route(const robot::HttpRequest& request);
-  void StreamLoop();
+  void StreamLoop();   // renders each frame once its exposure is over
+  void PublishLoop();  // publishes the rendered frames at their stamps
+  // Sleeps until the owl's clock reaches t_ns; false if Stop() came first.
+  bool SleepUntil(int64_t t_ns);
 
   SimServerOptions options_;
   std::unique_ptr<VirtualOwl> owl_;
   std::unique_ptr<robot::ServoServer> servo_server_;
   std::unique_ptr<robot::MjpegServer> http_server_;
-  std::thread stream_thread_;
+  std::thread stream_thread_, publish_thread_;
+  std::mutex rendered_mutex_;
+  std::condition_variable rendered_cv_;
+  std::deque<std::pair<int64_t, robot::StereoFrame>> rendered_;  // (seq, frame) awaiting their stamps
   std::atomic<bool> stop_{false};
   std::atomic<int64_t> max_publish_lag_us_{0};
 };
