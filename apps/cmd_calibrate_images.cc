@@ -66,6 +66,22 @@ fitting::RigExpectation RigFor(const std::string& rig, const std::string& unit, 
   return e;
 }
 
+// One line per eye whose board was missed somewhere: how many images, and what was tried.
+void WarnAboutMissedBoards(const calib::DetectedImageSet& set) {
+  const char* eye[2] = {"left", "right"};
+  for (int e = 0; e < 2; ++e) {
+    int found = 0;
+    const calib::PairDetection* missed = nullptr;
+    for (const auto& p : set.pairs) {
+      found += p.found[e];
+      if (!p.found[e] && !missed) missed = &p;
+    }
+    if (missed)
+      std::cerr << "warning: " << eye[e] << " eye: board found in " << found << " of " << set.pairs.size()
+                << " images; pair " << missed->key << ": " << missed->message[e] << "\n";
+  }
+}
+
 int RunCalibrateImages(const CalibrateImagesOptions& a) {
   const calib::TargetFile target = calib::LoadTargetFileWithUnit(a.target);
   if (!a.reference.empty() && (a.mirror || a.swap))
@@ -80,9 +96,9 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   po.swap = a.swap;
   const calib::ImagePairList list = calib::ListImagePairs(a.dir, po);
   for (const auto& u : list.unpaired) std::cerr << "warning: " << u << " has no partner; ignored\n";
-  calib::DetectorOptions det;
-  det.fast_check = true;
-  const calib::DetectedImageSet set = calib::DetectImagePairs(list, po, target.target, det);
+  // The detection of every command (calib/detector.h: classic then sb, both orientations).
+  const calib::DetectedImageSet set = calib::DetectImagePairs(list, po, target.target, calib::DetectorOptions());
+  WarnAboutMissedBoards(set);
   fitting::StereoFitOptions fo;
   fo.width = set.width;
   fo.height = set.height;
