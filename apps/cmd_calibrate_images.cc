@@ -49,11 +49,13 @@ fitting::OpenCvStereoCalibration ReadReference(const std::string& path) {
   return fitting::ReadOpenCvCalibration(path);
 }
 
-// The rig the sanity checks expect: the Owl (lens family, IPD) for a metric target, a generic
-// side-by-side pair otherwise (OpenCV's sample in squares), or as asked.
-fitting::RigExpectation RigFor(const std::string& rig, const std::string& unit, double ipd_mm) {
+// The rig the sanity checks expect (into vo): the Owl (lens family, IPD) for a metric target,
+// unless the fit is plainly not an Owl (then a generic pair, said once: fitting/set_verdict.h
+// recognise_rig); a generic side-by-side pair otherwise (OpenCV's sample in squares); or as asked.
+void RigFor(const std::string& rig, const std::string& unit, double ipd_mm, fitting::SetVerdictOptions* vo) {
   fitting::RigExpectation e;
-  if (rig == "owl" || (rig == "auto" && (unit == "m" || unit == "mm"))) {
+  const bool metric = unit == "m" || unit == "mm";
+  if (rig == "owl" || (rig == "auto" && metric)) {
     e = fitting::RigExpectation::Owl();
     e.ipd_m = ipd_mm / 1000;
   } else if (rig == "generic" || rig == "auto") {
@@ -63,7 +65,8 @@ fitting::RigExpectation RigFor(const std::string& rig, const std::string& unit, 
   }
   std::string why;
   if (!e.Check(&why)) throw UsageError(why);
-  return e;
+  vo->rig = e;
+  vo->recognise_rig = rig == "auto" && metric;
 }
 
 // One line per eye whose board was missed somewhere: how many images, and what was tried.
@@ -117,7 +120,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   std::string why;
   if (!fo.Check(&why)) throw UsageError(why);
   fitting::SetVerdictOptions vo;
-  vo.rig = RigFor(a.rig, target.unit, a.ipd_mm);
+  RigFor(a.rig, target.unit, a.ipd_mm, &vo);
   fitting::ImageSetCalibration c = fitting::CalibrateImageSet(set.observations, fo, vo, lens, warp);
   c.result.software_version = OWLCAL_VERSION;
   c.result.inputs["images"] = a.dir;
@@ -125,7 +128,8 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   c.result.inputs["mirror"] = a.mirror;
   c.result.inputs["side_by_side"] = a.side_by_side;
   c.result.inputs["swap"] = a.swap;
-  c.result.inputs["rig"] = vo.rig.name;
+  c.result.inputs["rig"] = a.rig;
+  if (!c.set_verdict.rig_note.empty()) std::cerr << c.set_verdict.rig_note << "\n";
   nlohmann::json det_j = nlohmann::json::array();
   std::vector<std::string> keys;
   for (const auto& p : set.pairs) {
@@ -252,7 +256,8 @@ const bool kRegistered = RegisterCommand(
       cmd->add_flag("--no-report", o->no_report, "skip the HTML report");
       cmd->add_option("--rig", o->rig,
                       "what the sanity checks expect: owl (3.6 mm lens on the OV5647, IPD), generic (any side-by-side "
-                      "pair), auto (owl for a metric target)")
+                      "pair), auto (owl for a metric target, unless the fit is plainly not an Owl: baseline outside the IPD "
+                      "tolerance and f outside the lens family; then generic, said once)")
           ->capture_default_str();
       cmd->add_option("--ipd-mm", o->ipd_mm, "the robot's IPD for the baseline check [mm]")->capture_default_str();
       cmd->add_option("--reference",

@@ -18,6 +18,10 @@ std::string SetVerdictMarkdown(const fitting::SetVerdict& v) {
   if (v.status == "good")
     md << " (the set pins down every parameter to the accuracy below, and two halves of it agree)";
   md << "\n\n";
+  if (v.rig_note.empty())
+    md << "Rig: " << v.rig.name << " (the checks that depend on the rig name it).\n\n";
+  else
+    md << "R" << v.rig_note.substr(1) << ".\n\n";
   if (!v.reasons.empty()) {
     md << "Why:\n";
     for (const auto& r : v.reasons) md << "- " << r << "\n";
