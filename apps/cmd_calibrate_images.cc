@@ -11,6 +11,7 @@
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
 #include "fitting/fit_points.h"
+#include "fitting/fix_list.h"
 #include "fitting/range_images_calib.h"
 #include "fitting/reference_comparison.h"
 #include "owlcal_version.h"
@@ -33,6 +34,7 @@ struct CalibrateImagesOptions {
   std::string rig = "auto";
   double ipd_mm = 65;
   std::string reference;  // the course's intrinsics.xml/extrinsics.xml folder, or one calibration file
+  std::string fix;        // parameters held (fitting/fix_list.h), comma-separated
 };
 
 // The reference calibration: a folder holding intrinsics.xml and extrinsics.xml (the course's
@@ -118,6 +120,11 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
     throw UsageError("--board-warp = '" + a.board_warp + "': use auto, flat or bowed");
   if (a.board_warp != "auto") warp.enabled = false;
   std::string why;
+  if (!fitting::ApplyFixList(a.fix, &fo.intrinsics, &why)) throw UsageError(why);
+  for (int k : fo.intrinsics.fix_radial)
+    if (k > 3 && a.model == "opencv5")
+      throw UsageError("--fix k" + std::to_string(k) + ": the opencv5 model has no k" + std::to_string(k) +
+                       " (it is one of opencv8's; use --model opencv8 or auto)");
   if (!fo.Check(&why)) throw UsageError(why);
   fitting::SetVerdictOptions vo;
   RigFor(a.rig, target.unit, a.ipd_mm, &vo);
@@ -129,6 +136,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   c.result.inputs["side_by_side"] = a.side_by_side;
   c.result.inputs["swap"] = a.swap;
   c.result.inputs["rig"] = a.rig;
+  c.result.inputs["fix"] = fitting::FixListOf(fo.intrinsics);
   if (!c.set_verdict.rig_note.empty()) std::cerr << c.set_verdict.rig_note << "\n";
   nlohmann::json det_j = nlohmann::json::array();
   std::vector<std::string> keys;
@@ -186,6 +194,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
                  {"swap", a.swap},
                  {"model", a.model},
                  {"board_warp", a.board_warp},
+                 {"fix", a.fix},
                  {"owlcal_version", OWLCAL_VERSION},
                  {"robot", "none"}};
   auto name_of = [&](int frame, int eye) {
@@ -253,6 +262,12 @@ const bool kRegistered = RegisterCommand(
                       "the board's bow (mrcal's two-parameter deflection): auto (flat or bowed, chosen by 5-fold "
                       "cross-validation over the pairs), flat or bowed")
           ->capture_default_str();
+      cmd->add_option("--fix",
+                      o->fix,
+                      "parameters held in both eyes' fits, comma-separated, as OpenCV's CALIB_FIX_* flags: k1 ... k6 "
+                      "(held at 0), principal_point (at the image centre), aspect_ratio (fy = fx) and tangential "
+                      "(p1 = p2 = 0); held parameters are marked held (sigma 0) in results.json, calibration.md and "
+                      "the exports");
       cmd->add_flag("--no-report", o->no_report, "skip the HTML report");
       cmd->add_option("--rig", o->rig,
                       "what the sanity checks expect: owl (3.6 mm lens on the OV5647, IPD), generic (any side-by-side "

@@ -165,7 +165,7 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
     for (const auto& view : views[e])
       for (const auto& px : view.pixels) ++m.corners_per_zone[ZoneOf(px, W, H)];
     for (const auto& u : f.undetermined)
-      if (u.find("fixed by option") == std::string::npos) add_reason(false, eye + " eye: not determined: " + u);
+      if (!internal::IsHeldReason(u)) add_reason(false, eye + " eye: not determined: " + u);
     m.at_infinity = ComputeUncertaintyMap(f, views[e], fixed, uo);
     m.board_distance = MedianBoardDistance(f);
     UncertaintyMapOptions ub = uo;

@@ -56,7 +56,8 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
   }
   md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
   for (const auto& p : c.result.parameters)
-    md << "| " << p.name << " | " << FixedOrDash(p.value, 4) << " | " << (p.determined ? FixedOrDash(p.sigma, 4) : "not determined")
+    md << "| " << p.name << " | " << FixedOrDash(p.value, 4) << " | "
+       << (p.held ? "held" : (p.determined ? FixedOrDash(p.sigma, 4) : "not determined"))
        << " | " << p.unit << " | " << p.note << " |\n";
   const char* eye_name[2] = {"left", "right"};
   for (int e = 0; e < 2; ++e) {
