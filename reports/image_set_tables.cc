@@ -1,6 +1,7 @@
 #include "reports/image_set_tables.h"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include "fitting/format.h"
@@ -11,6 +12,36 @@ namespace owlcal::reports {
 
 using fitting::FixedOrDash;
 using fitting::RangeMeasurement;
+
+namespace {
+
+// What choosing the bow does to the lens: the held-out gain with its standard error, and the
+// bowed fit's fx, k1, k2, k3 per eye against the flat fit's, in the flat fit's sigma.
+std::string BowEffectMarkdown(const fitting::BoardWarpChoice& w) {
+  if (w.scores.size() != 2 || !w.scores[0].ok || !w.scores[1].ok) return "";
+  const fitting::StereoFit& flat = w.scores[0].full;
+  const fitting::StereoFit& bowed = w.scores[1].full;
+  if (!flat.ok || !bowed.ok || flat.param_names != bowed.param_names) return "";
+  std::ostringstream md;
+  md << "\nHeld-out gain of the bow: " << FixedOrDash(w.gain_px, 4) << " +- " << FixedOrDash(w.gain_se_px, 4)
+     << " px (flat - bowed held-out RMS). Its effect on the lens:\n\n";
+  Table t{"board_warp_effect", "", {"parameter", "flat", "bowed", "bowed - flat", "in flat sigma"}, {}};
+  for (size_t i = 0; i < flat.param_names.size(); ++i) {
+    const std::string& n = flat.param_names[i];
+    const std::string stem = n.substr(n.find('.') + 1);
+    if (stem != "fx" && stem != "k1" && stem != "k2" && stem != "k3") continue;
+    const int e = n.rfind("left.", 0) == 0 ? 0 : 1;
+    const int k = static_cast<int>(i) - (e == 0 ? 0 : static_cast<int>(flat.cameras[0].params.size()));
+    if (k < 0 || k >= static_cast<int>(flat.cameras[e].params.size())) continue;
+    const double a = flat.cameras[e].params[k], b = bowed.cameras[e].params[k], sigma = flat.sigmas[i];
+    t.rows.push_back({n, FixedOrDash(a, 5), FixedOrDash(b, 5), FixedOrDash(b - a, 5),
+                      std::isfinite(sigma) && sigma > 0 ? FixedOrDash((b - a) / sigma, 2) : "-"});
+  }
+  md << ToMarkdown(t);
+  return md.str();
+}
+
+}  // namespace
 
 std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const std::vector<std::string>& keys) {
   std::ostringstream md;
@@ -57,6 +88,7 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
                           s.ok ? FixedOrDash(s.heldout_rms_px, 4) : "failed: " + s.message,
                           FixedOrDash(s.heldout_rms_eye_px[0], 4) + " / " + FixedOrDash(s.heldout_rms_eye_px[1], 4)});
       md << ToMarkdown(t);
+      md << BowEffectMarkdown(w);
       md << "\nBowed: mrcal's two-parameter deflection of the board (stereo.board_warp_x/y below when chosen); each "
             "held-out pair is placed on the bow its training folds fitted.\n\n";
     }

@@ -103,5 +103,30 @@ TEST(CalibrateImagesTablesCli, EveryMarkdownTableIsWellFormed) {
   fs::remove_all(dir, ec);
 }
 
+// Board bow "auto" shows what it gains and what it does to the lens: on kit2020-chessboard the
+// bow is chosen, and calibration.md gives the held-out gain with its standard error and a
+// well-formed table of fx, k1, k2, k3 per eye, flat against bowed, in the flat fit's sigma.
+TEST(CalibrateImagesTablesCli, TheBowsGainAndItsEffectOnTheLensAreShown) {
+  if (test_cli::OwlcalBinary().empty()) GTEST_SKIP() << "the owlcal binary is not built";
+  const fs::path dir = fs::temp_directory_path() / ("owlcal_calibrate_images_bow_cli_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string data = test_data::SharedData();
+  const auto r = RunOwlcal("calibrate-images '" + data + "/owl-real/kit2020-chessboard' --target '" + data +
+                           "/targets/owl-kit-chessboard.yaml' --no-report --out '" + dir.string() + "'");
+  ASSERT_TRUE(fs::exists(dir / "calibration.md")) << r.output;
+  std::ifstream in(dir / "calibration.md");
+  std::stringstream md;
+  md << in.rdbuf();
+  const std::string text = md.str();
+  EXPECT_NE(text.find("Held-out gain of the bow: "), std::string::npos) << text;
+  EXPECT_NE(text.find("| parameter | flat | bowed | bowed - flat | in flat sigma |"), std::string::npos) << text;
+  for (const char* p : {"| left.fx |", "| left.k2 |", "| right.k3 |"}) EXPECT_NE(text.find(p), std::string::npos) << p;
+  TableCheck check;
+  CheckMarkdownTables(dir / "calibration.md", &check);
+  for (const auto& p : check.problems) ADD_FAILURE() << p;
+  std::error_code ec;
+  fs::remove_all(dir, ec);
+}
+
 }  // namespace
 }  // namespace owlcal
