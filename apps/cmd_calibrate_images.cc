@@ -11,6 +11,7 @@
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
 #include "fitting/fit_points.h"
+#include "fitting/fix_list.h"
 #include "fitting/range_images_calib.h"
 #include "fitting/reference_comparison.h"
 #include "owlcal_version.h"
@@ -34,6 +35,7 @@ struct CalibrateImagesOptions {
   std::string rig = "auto";
   double ipd_mm = 65;
   std::string reference;  // the course's intrinsics.xml/extrinsics.xml folder, or one calibration file
+  std::string fix;        // parameters held (fitting/fix_list.h), comma-separated
 };
 
 // The reference calibration: a folder holding intrinsics.xml and extrinsics.xml (the course's
@@ -50,11 +52,13 @@ fitting::OpenCvStereoCalibration ReadReference(const std::string& path) {
   return fitting::ReadOpenCvCalibration(path);
 }
 
-// The rig the sanity checks expect: the Owl (lens family, IPD) for a metric target, a generic
-// side-by-side pair otherwise (OpenCV's sample in squares), or as asked.
-fitting::RigExpectation RigFor(const std::string& rig, const std::string& unit, double ipd_mm) {
+// The rig the sanity checks expect (into vo): the Owl (lens family, IPD) for a metric target,
+// unless the fit is plainly not an Owl (then a generic pair, said once: fitting/set_verdict.h
+// recognise_rig); a generic side-by-side pair otherwise (OpenCV's sample in squares); or as asked.
+void RigFor(const std::string& rig, const std::string& unit, double ipd_mm, fitting::SetVerdictOptions* vo) {
   fitting::RigExpectation e;
-  if (rig == "owl" || (rig == "auto" && (unit == "m" || unit == "mm"))) {
+  const bool metric = unit == "m" || unit == "mm";
+  if (rig == "owl" || (rig == "auto" && metric)) {
     e = fitting::RigExpectation::Owl();
     e.ipd_m = ipd_mm / 1000;
   } else if (rig == "generic" || rig == "auto") {
@@ -64,7 +68,24 @@ fitting::RigExpectation RigFor(const std::string& rig, const std::string& unit, 
   }
   std::string why;
   if (!e.Check(&why)) throw UsageError(why);
-  return e;
+  vo->rig = e;
+  vo->recognise_rig = rig == "auto" && metric;
+}
+
+// One line per eye whose board was missed somewhere: how many images, and what was tried.
+void WarnAboutMissedBoards(const calib::DetectedImageSet& set) {
+  const char* eye[2] = {"left", "right"};
+  for (int e = 0; e < 2; ++e) {
+    int found = 0;
+    const calib::PairDetection* missed = nullptr;
+    for (const auto& p : set.pairs) {
+      found += p.found[e];
+      if (!p.found[e] && !missed) missed = &p;
+    }
+    if (missed)
+      std::cerr << "warning: " << eye[e] << " eye: board found in " << found << " of " << set.pairs.size()
+                << " images; pair " << missed->key << ": " << missed->message[e] << "\n";
+  }
 }
 
 int RunCalibrateImages(const CalibrateImagesOptions& a) {
@@ -81,9 +102,9 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   po.swap = a.swap;
   const calib::ImagePairList list = calib::ListImagePairs(a.dir, po);
   for (const auto& u : list.unpaired) std::cerr << "warning: " << u << " has no partner; ignored\n";
-  calib::DetectorOptions det;
-  det.fast_check = true;
-  const calib::DetectedImageSet set = calib::DetectImagePairs(list, po, target.target, det);
+  // The detection of every command (calib/detector.h: classic then sb, both orientations).
+  const calib::DetectedImageSet set = calib::DetectImagePairs(list, po, target.target, calib::DetectorOptions());
+  WarnAboutMissedBoards(set);
   fitting::StereoFitOptions fo;
   fo.width = set.width;
   fo.height = set.height;
@@ -100,9 +121,14 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
     throw UsageError("--board-warp = '" + a.board_warp + "': use auto, flat or bowed");
   if (a.board_warp != "auto") warp.enabled = false;
   std::string why;
+  if (!fitting::ApplyFixList(a.fix, &fo.intrinsics, &why)) throw UsageError(why);
+  for (int k : fo.intrinsics.fix_radial)
+    if (k > 3 && a.model == "opencv5")
+      throw UsageError("--fix k" + std::to_string(k) + ": the opencv5 model has no k" + std::to_string(k) +
+                       " (it is one of opencv8's; use --model opencv8 or auto)");
   if (!fo.Check(&why)) throw UsageError(why);
   fitting::SetVerdictOptions vo;
-  vo.rig = RigFor(a.rig, target.unit, a.ipd_mm);
+  RigFor(a.rig, target.unit, a.ipd_mm, &vo);
   fitting::ImageSetCalibration c = fitting::CalibrateImageSet(set.observations, fo, vo, lens, warp);
   c.result.software_version = OWLCAL_VERSION;
   c.result.inputs["images"] = a.dir;
@@ -110,7 +136,9 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   c.result.inputs["mirror"] = a.mirror;
   c.result.inputs["side_by_side"] = a.side_by_side;
   c.result.inputs["swap"] = a.swap;
-  c.result.inputs["rig"] = vo.rig.name;
+  c.result.inputs["rig"] = a.rig;
+  c.result.inputs["fix"] = fitting::FixListOf(fo.intrinsics);
+  if (!c.set_verdict.rig_note.empty()) std::cerr << c.set_verdict.rig_note << "\n";
   nlohmann::json det_j = nlohmann::json::array();
   std::vector<std::string> keys;
   for (const auto& p : set.pairs) {
@@ -163,6 +191,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
                  {"swap", a.swap},
                  {"model", a.model},
                  {"board_warp", a.board_warp},
+                 {"fix", a.fix},
                  {"owlcal_version", OWLCAL_VERSION},
                  {"robot", "none"}};
   auto name_of = [&](int frame, int eye) {
@@ -230,10 +259,17 @@ const bool kRegistered = RegisterCommand(
                       "the board's bow (mrcal's two-parameter deflection): auto (flat or bowed, chosen by 5-fold "
                       "cross-validation over the pairs), flat or bowed")
           ->capture_default_str();
+      cmd->add_option("--fix",
+                      o->fix,
+                      "parameters held in both eyes' fits, comma-separated, as OpenCV's CALIB_FIX_* flags: k1 ... k6 "
+                      "(held at 0), principal_point (at the image centre), aspect_ratio (fy = fx) and tangential "
+                      "(p1 = p2 = 0); held parameters are marked held (sigma 0) in results.json, calibration.md and "
+                      "the exports");
       cmd->add_flag("--no-report", o->no_report, "skip the HTML report");
       cmd->add_option("--rig", o->rig,
                       "what the sanity checks expect: owl (3.6 mm lens on the OV5647, IPD), generic (any side-by-side "
-                      "pair), auto (owl for a metric target)")
+                      "pair), auto (owl for a metric target, unless the fit is plainly not an Owl: baseline outside the IPD "
+                      "tolerance and f outside the lens family; then generic, said once)")
           ->capture_default_str();
       cmd->add_option("--ipd-mm", o->ipd_mm, "the robot's IPD for the baseline check [mm]")->capture_default_str();
       cmd->add_option("--reference",

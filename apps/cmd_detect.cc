@@ -29,7 +29,7 @@ struct DetectOptions {
   std::vector<std::string> inputs;
   std::string target_path;
   std::string out;
-  std::string method = "classic";
+  std::string method = "auto";
   int half_window = 5;
   bool pairs = false;
   bool mirror = false;
@@ -90,8 +90,10 @@ int RunDetect(const DetectOptions& o) {
   calib::DetectorOptions dopt;
   if (o.method == "sb") {
     dopt.chessboard_method = calib::ChessboardMethod::kSectorBased;
-  } else if (o.method != "classic") {
-    throw UsageError("--method must be classic or sb, got '" + o.method + "'");
+  } else if (o.method == "classic") {
+    dopt.chessboard_method = calib::ChessboardMethod::kClassic;
+  } else if (o.method != "auto") {
+    throw UsageError("--method must be auto, classic or sb, got '" + o.method + "'");
   }
   dopt.subpix_half_window = o.half_window;
   std::string why;
@@ -186,7 +188,11 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("inputs", o->inputs, "image files and/or folders, or one dataset folder")->required();
       cmd->add_option("--target", o->target_path, "target file (data/targets/*.yaml)")->required();
       cmd->add_option("--out", o->out, "observation CSV to write")->required();
-      cmd->add_option("--method", o->method, "chessboard detector: classic (findChessboardCorners + cornerSubPix) or sb");
+      cmd->add_option("--method",
+                      o->method,
+                      "chessboard detector: auto (classic, then sb: what every other command uses), classic "
+                      "(findChessboardCorners + cornerSubPix) or sb; each also with rows and cols exchanged")
+          ->capture_default_str();
       cmd->add_option("--subpix-half-window", o->half_window, "cornerSubPix half-window (default 5)");
       cmd->add_flag("--pairs", o->pairs, "images are left*/right* pairs; frame index from the number in the name");
       cmd->add_flag("--mirror", o->mirror, "flip each image (or side-by-side frame) horizontally first");

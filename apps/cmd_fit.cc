@@ -121,8 +121,16 @@ int RunFit(const FitCmdOptions& o) {
       if (o.rig == "owl" || (o.rig == "auto" && metric)) rig = fitting::RigExpectation::Owl();
       else if (o.rig == "generic" || o.rig == "auto") rig = fitting::RigExpectation::Generic();
       else throw UsageError("--rig = '" + o.rig + "': use auto, owl or generic");
-      const fitting::StereoSanity sanity = fitting::CheckStereoSanity(
-          fit.cameras, fit.right_from_left, sopt.length_unit == "m" ? 1.0 : (sopt.length_unit == "mm" ? 0.001 : 0.0), rig);
+      const double unit_m = sopt.length_unit == "m" ? 1.0 : (sopt.length_unit == "mm" ? 0.001 : 0.0);
+      if (o.rig == "auto") {  // plainly not an Owl: judged as a generic pair, said once
+        const std::string why_not = fitting::WhyNotThisRig(fit.cameras, fit.right_from_left, unit_m, rig);
+        if (!why_not.empty()) {
+          rig = fitting::RigExpectation::Generic();
+          std::cout << "rig: not an owl (" << why_not << "), so judged as a generic stereo pair; --rig owl judges it "
+                    << "against the owl rig\n";
+        }
+      }
+      const fitting::StereoSanity sanity = fitting::CheckStereoSanity(fit.cameras, fit.right_from_left, unit_m, rig);
       fitting::AppendSanityToResult(sanity, rig, &result);
       for (const auto& f : sanity.findings)
         std::cout << "sanity (" << (f.unusable ? "unusable" : "poor") << "): " << f.message << "\n";

@@ -106,9 +106,7 @@ fitting::CalibrationResult ResultOf(const SetRow& row, const FitToeInOptions& a,
     po.mirror = a.mirror;
     po.swap = a.swap;
     po.side_by_side = a.side_by_side;
-    calib::DetectorOptions det;
-    det.fast_check = true;
-    const auto set = calib::DetectImagePairs(calib::ListImagePairs(p.string(), po), po, target.target, det);
+    const auto set = calib::DetectImagePairs(calib::ListImagePairs(p.string(), po), po, target.target, {});
     obs = set.observations;
     fo.width = set.width;
     fo.height = set.height;

@@ -1,5 +1,6 @@
 #include "calib/detector.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -32,19 +33,21 @@ cv::Mat ToGray(const cv::Mat& image) {
   return gray;
 }
 
-TargetDetection DetectChessboard(const cv::Mat& gray, const TargetDefinition& target, const DetectorOptions& o) {
-  TargetDetection d;
-  const cv::Size pattern(target.cols, target.rows);
-  std::vector<cv::Point2f> corners;
+// One detector at one pattern size (cols x rows as OpenCV counts them); true with every corner.
+bool FindChessboard(const cv::Mat& gray,
+                    const cv::Size& pattern,
+                    ChessboardMethod method,
+                    const DetectorOptions& o,
+                    std::vector<cv::Point2f>* corners) {
   bool found = false;
-  if (o.chessboard_method == ChessboardMethod::kClassic) {
+  if (method == ChessboardMethod::kClassic) {
     int flags = 0;
     if (o.adaptive_threshold) flags |= cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE;
     if (o.fast_check) flags |= cv::CALIB_CB_FAST_CHECK;
-    found = cv::findChessboardCorners(gray, pattern, corners, flags);
+    found = cv::findChessboardCorners(gray, pattern, *corners, flags);
     if (found) {
       cv::cornerSubPix(gray,
-                       corners,
+                       *corners,
                        cv::Size(o.subpix_half_window, o.subpix_half_window),
                        cv::Size(-1, -1),
                        cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS,
@@ -55,17 +58,43 @@ TargetDetection DetectChessboard(const cv::Mat& gray, const TargetDefinition& ta
     int flags = cv::CALIB_CB_NORMALIZE_IMAGE;
     if (o.sb_accuracy) flags |= cv::CALIB_CB_ACCURACY;
     if (o.sb_exhaustive) flags |= cv::CALIB_CB_EXHAUSTIVE;
-    found = cv::findChessboardCornersSB(gray, pattern, corners, flags);
+    found = cv::findChessboardCornersSB(gray, pattern, *corners, flags);
   }
-  if (!found || int(corners.size()) != target.cols * target.rows) {
-    d.message = "chessboard " + std::to_string(target.cols) + "x" + std::to_string(target.rows) + " not found";
+  return found && int(corners->size()) == pattern.width * pattern.height;
+}
+
+// The detectors tried, in order (calib/detector.h: auto = classic then sb; fast_check = classic).
+std::vector<ChessboardMethod> MethodsTried(const DetectorOptions& o) {
+  if (o.fast_check) return {ChessboardMethod::kClassic};
+  if (o.chessboard_method == ChessboardMethod::kAuto) return {ChessboardMethod::kClassic, ChessboardMethod::kSectorBased};
+  return {o.chessboard_method};
+}
+
+TargetDetection DetectChessboard(const cv::Mat& gray, const TargetDefinition& target, const DetectorOptions& o) {
+  TargetDetection d;
+  const cv::Size pattern(target.cols, target.rows);
+  const std::string size = std::to_string(target.cols) + "x" + std::to_string(target.rows);
+  std::vector<std::string> tried;
+  for (const ChessboardMethod m : MethodsTried(o)) {
+    tried.push_back(ChessboardMethodName(m) + " " + size);
+    std::vector<cv::Point2f> corners;
+    if (!FindChessboard(gray, pattern, m, o, &corners)) continue;
+    d.found = true;
+    d.detector = tried.back();
+    // sb numbers the corners from the other end of the board than classic (calib/detector.h):
+    // reversed, so that a pair whose eyes were found by different detectors shares the ids.
+    if (m == ChessboardMethod::kSectorBased) std::reverse(corners.begin(), corners.end());
+    for (int i = 0; i < int(corners.size()); ++i) {
+      d.corner_ids.push_back(i);
+      d.pixels.emplace_back(corners[i].x, corners[i].y);
+    }
     return d;
   }
-  d.found = true;
-  for (int i = 0; i < int(corners.size()); ++i) {
-    d.corner_ids.push_back(i);
-    d.pixels.emplace_back(corners[i].x, corners[i].y);
-  }
+  d.message = "chessboard " + size + " not found; tried";
+  for (size_t i = 0; i < tried.size(); ++i) d.message += (i ? ", " : " ") + tried[i];
+  d.message += " (each also accepts the board turned by 90 deg, " + std::to_string(target.rows) + "x" +
+               std::to_string(target.cols) + ")";
+  if (o.fast_check) d.message += "; with the fast check, which gives up on blurred or low-contrast boards";
   return d;
 }
 
@@ -130,6 +159,18 @@ TargetDetection DetectAprilGrid(const cv::Mat& gray, const TargetDefinition& tar
 }
 
 }  // namespace
+
+std::string ChessboardMethodName(ChessboardMethod method) {
+  switch (method) {
+    case ChessboardMethod::kAuto:
+      return "auto";
+    case ChessboardMethod::kClassic:
+      return "classic";
+    case ChessboardMethod::kSectorBased:
+      return "sb";
+  }
+  return "?";
+}
 
 bool DetectorOptions::Check(std::string* why) const {
   auto fail = [&](const std::string& m) {

@@ -10,8 +10,16 @@
 //
 // Chessboard: classic = cv::findChessboardCorners + cv::cornerSubPix with a SMALL half-window
 // (default 5, i.e. an 11x11 px window: OpenCV's stereo sample's 11 misplaces corners by up to
-// 7 px on tilted boards); sb = cv::findChessboardCornersSB (no cornerSubPix). Corner ids are
-// row * cols + col in OpenCV's order; the whole board must be visible.
+// 7 px on tilted boards); sb = cv::findChessboardCornersSB (no cornerSubPix); auto (the
+// default, used by every command that reads image files) = classic, then sb. Both accept the
+// board turned by 90 deg (rows x cols in the image) and order its corners on the target's own
+// grid. sb returns classic's corners in reverse order (on every image of the repository's real
+// sets where both find the board), so its list is reversed: whichever detector found a board,
+// corner id k is the same physical corner. A failure's message lists every detector and size
+// tried. fast_check (live video only:
+// a frame without a board is rejected in a few ms) tries classic with CALIB_CB_FAST_CHECK
+// alone, which gives up on low-contrast or blurred boards that the full search finds. Corner
+// ids are row * cols + col in OpenCV's order; the whole board must be visible.
 //
 // Usage:
 //   calib::DetectorOptions opt;  // classic, half-window 5
@@ -28,15 +36,18 @@
 
 namespace owlcal::calib {
 
-enum class ChessboardMethod { kClassic, kSectorBased };
+enum class ChessboardMethod { kAuto, kClassic, kSectorBased };
+
+// "auto", "classic" or "sb".
+std::string ChessboardMethodName(ChessboardMethod method);
 
 struct DetectorOptions {
   // chessboard
-  ChessboardMethod chessboard_method = ChessboardMethod::kClassic;
+  ChessboardMethod chessboard_method = ChessboardMethod::kAuto;  // classic, then sb
   int subpix_half_window = 5;       // cornerSubPix winSize = (h, h): window (2h+1)^2 px
   int subpix_max_iterations = 100;
   double subpix_epsilon_px = 0.001;
-  bool fast_check = false;          // CALIB_CB_FAST_CHECK: quick reject when no board is visible
+  bool fast_check = false;          // live video: classic with CALIB_CB_FAST_CHECK only (see above)
   bool adaptive_threshold = true;   // CALIB_CB_ADAPTIVE_THRESH | NORMALIZE_IMAGE (classic)
   bool sb_accuracy = false;         // CALIB_CB_ACCURACY (sb)
   bool sb_exhaustive = false;       // CALIB_CB_EXHAUSTIVE (sb)
@@ -56,7 +67,8 @@ struct TargetDetection {
   bool found = false;
   std::vector<int> corner_ids;          // ids of calib::TargetDefinition::Corners()
   std::vector<Eigen::Vector2d> pixels;  // OpenCV convention [px]
-  std::string message;                  // why not found / what was dropped
+  std::string message;                  // why not found (what was tried) / what was dropped
+  std::string detector;                 // chessboard found by: "classic 9x6", "sb 6x9", ...
 };
 
 // Detects `target` in an 8-bit grey or BGR image. Never throws for "not found"; throws

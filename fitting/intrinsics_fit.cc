@@ -55,7 +55,13 @@ std::vector<int> FixedIntrinsicIndices(const IntrinsicsFitOptions& o) {
     fixed.push_back(6);
     fixed.push_back(7);
   }
-  if (o.fix_k3) fixed.push_back(8);
+  const int np = int(IntrinsicParamNames(o.model).size());
+  const int radial_index[7] = {-1, 4, 5, 8, 9, 10, 11};  // k1..k6 in camera.params
+  for (int k = 1; k <= 6; ++k) {
+    const bool held = (k == 3 && o.fix_k3) || std::find(o.fix_radial.begin(), o.fix_radial.end(), k) != o.fix_radial.end();
+    if (held && radial_index[k] < np) fixed.push_back(radial_index[k]);
+  }
+  std::sort(fixed.begin(), fixed.end());
   return fixed;
 }
 
@@ -72,8 +78,13 @@ std::string FixedReason(const std::string& name, const IntrinsicsFitOptions& o) 
   if ((name == "cx" || name == "cy") && o.fix_principal_point) return "fixed at the image centre by option fix_principal_point";
   if ((name == "p1" || name == "p2") && o.fix_tangential) return "fixed at 0 by option fix_tangential";
   if (name == "k3" && o.fix_k3) return "fixed at 0 by option fix_k3";
+  if (name.size() == 2 && name[0] == 'k' && name[1] >= '1' && name[1] <= '6' &&
+      std::find(o.fix_radial.begin(), o.fix_radial.end(), name[1] - '0') != o.fix_radial.end())
+    return "fixed at 0 by option fix_radial (" + name + ")";
   return "";
 }
+
+bool IsHeldReason(const std::string& why) { return why.find(" by option ") != std::string::npos; }
 
 SolveSummary ToSolveSummary(const std::string& problem, const void* ceres_summary) {
   const auto& s = *static_cast<const ceres::Solver::Summary*>(ceres_summary);
@@ -109,6 +120,8 @@ bool IntrinsicsFitOptions::Check(std::string* why) const {
   if (!(rank_tolerance > 0 && rank_tolerance < 1)) return fail("rank_tolerance must be in (0, 1), got " + Fmt(rank_tolerance));
   if (!(solver_tolerance > 0 && solver_tolerance < 1e-3))
     return fail("solver_tolerance must be in (0, 1e-3), got " + Fmt(solver_tolerance));
+  for (int k : fix_radial)
+    if (k < 1 || k > 6) return fail("fix_radial: radial coefficient numbers are 1..6, got " + std::to_string(k));
   return true;
 }
 

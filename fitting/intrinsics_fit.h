@@ -39,6 +39,9 @@ struct IntrinsicsFitOptions {
   bool fix_aspect_ratio = false;      // fy = fx (CALIB_FIX_ASPECT_RATIO with ratio 1)
   bool fix_principal_point = false;   // cx, cy stay at the image centre
   bool fix_k3 = false;                // k3 = 0 (CALIB_FIX_K3)
+  // Radial coefficients held at 0 by number, 1..6 (CALIB_FIX_K1 ... CALIB_FIX_K6); a number the
+  // model does not have (k4..k6 of opencv5) holds nothing.
+  std::vector<int> fix_radial;
   bool fix_tangential = false;        // p1 = p2 = 0 (CALIB_ZERO_TANGENT_DIST)
   double corner_sigma_px = 0;         // corner noise; 0 = estimate from the residuals
   RobustLoss loss = RobustLoss::kNone;
@@ -110,8 +113,11 @@ namespace internal {
 std::vector<int> FixedIntrinsicIndices(const IntrinsicsFitOptions& options);
 // Why a parameter with this sigma means nothing (empty when it is fine).
 std::string SigmaTooLarge(const std::string& name, double sigma, const IntrinsicsFitOptions& options);
-// Why a fixed parameter is fixed ("fixed by option fix_k3 (value 0)").
+// Why a fixed parameter is fixed ("fixed at 0 by option fix_k3"); every such reason says
+// "by option" (IsHeldReason).
 std::string FixedReason(const std::string& name, const IntrinsicsFitOptions& options);
+// True for a FixedReason text: the parameter was held by an option, not left undetermined by the data.
+bool IsHeldReason(const std::string& why);
 // Ceres summary -> SolveSummary (termination, message, costs, iterations, time).
 SolveSummary ToSolveSummary(const std::string& problem, const void* ceres_summary);
 }  // namespace internal

@@ -36,6 +36,8 @@ void AppendIntrinsicsToResult(const IntrinsicsFit& fit, const std::string& eye_n
     p.determined = fit.determined[i];
     for (const auto& u : fit.undetermined)
       if (u.rfind(fit.param_names[i] + ":", 0) == 0) p.note = u.substr(fit.param_names[i].size() + 2);
+    p.held = !p.determined && internal::IsHeldReason(p.note);
+    if (p.held) p.sigma = 0;
     result->Set(p);
   }
   for (const auto& u : fit.undetermined) result->warnings.push_back(eye_name + "." + u);

@@ -104,7 +104,7 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
   c.set_verdict = JudgeStereoSet(c.fit, views, options, unit_m, vo);
   c.poor = c.set_verdict.status != "good";
   c.verdict = c.set_verdict.reasons;
-  AppendVerdictToResult(c.set_verdict, vo.rig, &c.result);
+  AppendVerdictToResult(c.set_verdict, &c.result);
   // An unusable set's numbers are refused, not printed as if they were good.
   if (c.set_verdict.status == "unusable" && !c.set_verdict.reasons.empty())
     for (auto& p : c.result.parameters) MarkUndetermined(&c.result, p.name, "set unusable: " + c.set_verdict.reasons[0]);

@@ -127,6 +127,7 @@ json ToJson(const CalibrationResult& r) {
                {"determined", p.determined}};
     if (p.truth) jp["truth"] = Num(*p.truth);
     if (!p.note.empty()) jp["note"] = p.note;
+    if (p.held) jp["held"] = true;
     j["parameters"].push_back(jp);
   }
   j["solver"] = json::array();
@@ -172,6 +173,7 @@ CalibrationResult ResultFromJson(const json& j) {
     p.unit = jp.value("unit", "");
     p.determined = jp.value("determined", true);
     p.note = jp.value("note", "");
+    p.held = jp.value("held", false);
     if (jp.contains("truth") && !jp.at("truth").is_null()) p.truth = jp.at("truth").get<double>();
     r.parameters.push_back(p);
   }

@@ -30,6 +30,8 @@ struct Parameter {
   std::optional<double> truth;  // virtual Owl only
   bool determined = true;
   std::string note;  // why not determined, or how it was fixed
+  // Held at its value by an option (--fix k3, OpenCV's CALIB_FIX_*): sigma 0, determined false.
+  bool held = false;
 };
 
 struct SolveSummary {

@@ -106,6 +106,7 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
                           double length_unit_m,
                           const SetVerdictOptions& vo) {
   SetVerdict v;
+  v.rig = vo.rig;
   std::string why;
   if (!vo.Check(&why)) throw std::invalid_argument("SetVerdictOptions: " + why);
   v.num_pairs = static_cast<int>(fit.paired_frames.size());
@@ -134,7 +135,15 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
                          std::to_string(vo.min_pairs) + ")");
 
   // Physical sanity.
-  v.sanity = CheckStereoSanity(fit.cameras, fit.right_from_left, length_unit_m, vo.rig);
+  if (vo.recognise_rig) {
+    const std::string why_not = WhyNotThisRig(fit.cameras, fit.right_from_left, length_unit_m, vo.rig);
+    if (!why_not.empty()) {
+      v.rig = RigExpectation::Generic();
+      v.rig_note = "rig: not an " + vo.rig.name + " (" + why_not + "), so the set is judged as a " + v.rig.name +
+                   " stereo pair; --rig " + vo.rig.name + " judges it against the " + vo.rig.name + " rig";
+    }
+  }
+  v.sanity = CheckStereoSanity(fit.cameras, fit.right_from_left, length_unit_m, v.rig);
   for (const auto& f : v.sanity.findings) add_reason(f.unusable, f.message);
 
   // Uncertainty per eye.
@@ -156,7 +165,7 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
     for (const auto& view : views[e])
       for (const auto& px : view.pixels) ++m.corners_per_zone[ZoneOf(px, W, H)];
     for (const auto& u : f.undetermined)
-      if (u.find("fixed by option") == std::string::npos) add_reason(false, eye + " eye: not determined: " + u);
+      if (!internal::IsHeldReason(u)) add_reason(false, eye + " eye: not determined: " + u);
     m.at_infinity = ComputeUncertaintyMap(f, views[e], fixed, uo);
     m.board_distance = MedianBoardDistance(f);
     UncertaintyMapOptions ub = uo;
@@ -383,8 +392,11 @@ nlohmann::json SetVerdict::ToJson() const {
             {"eyes", eyes}}}};
 }
 
-void AppendVerdictToResult(const SetVerdict& v, const RigExpectation& rig, CalibrationResult* r) {
+void AppendVerdictToResult(const SetVerdict& v, CalibrationResult* r) {
   r->verdict = v.ToJson();
+  r->verdict["rig"] = v.rig.name;
+  r->verdict["rig_note"] = v.rig_note;
+  if (!v.rig_note.empty()) r->warnings.push_back(v.rig_note);
   for (const auto& [name, why] : v.refused) {
     for (auto& p : r->parameters) {
       if (p.name != name || !p.determined) continue;
@@ -393,7 +405,7 @@ void AppendVerdictToResult(const SetVerdict& v, const RigExpectation& rig, Calib
       p.note = "refused by the set verdict: " + why;
     }
   }
-  AppendSanityToResult(v.sanity, rig, r);
+  AppendSanityToResult(v.sanity, v.rig, r);
   if (v.half_rig.size() == 2)
     r->diagnostics["cross_validation"] = {
         {"layout", "left params, right params, rotation vector of R [rad], T [m] (stereo.full_covariance's order)"},

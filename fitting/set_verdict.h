@@ -59,6 +59,9 @@ namespace owlcal::fitting {
 
 struct SetVerdictOptions {
   RigExpectation rig = RigExpectation::Owl();
+  // --rig auto: when the fit is plainly not `rig` (fitting/stereo_sanity.h WhyNotThisRig), it is
+  // judged as RigExpectation::Generic() instead, and SetVerdict::rig_note says so once.
+  bool recognise_rig = false;
   int min_pairs = 3;                        // fewer paired views: unusable
   double working_radius_fraction = 0.5;     // of the half-diagonal
   // The trusted region (mrcal's valid-intrinsics region, uncertainty part): grid pixels whose
@@ -106,6 +109,8 @@ struct SetVerdict {
   std::vector<std::string> reasons;      // why not good (empty when good)
   std::vector<std::string> advice;       // which views to add
   StereoSanity sanity;
+  RigExpectation rig;                    // the rig the set was judged as
+  std::string rig_note;                  // why not the rig asked for (recognise_rig), else empty
   EyeVerdictMetrics eye[2];
   int num_pairs = 0;
   // The trusted region's definition (from the options; judged_range_m = 0 when judged at
@@ -132,9 +137,10 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
                           double length_unit_m,
                           const SetVerdictOptions& verdict_options = {});
 
-// results.json: result->verdict = v.ToJson(); sanity in diagnostics; each reason a warning;
-// the refused parameters marked determined = false (sigma NaN) with the reason as note.
-void AppendVerdictToResult(const SetVerdict& v, const RigExpectation& rig, CalibrationResult* result);
+// results.json: result->verdict = v.ToJson() (with rig and rig_note); sanity in diagnostics
+// against v.rig; each reason a warning, the rig note one too; the refused parameters marked
+// determined = false (sigma NaN) with the reason as note.
+void AppendVerdictToResult(const SetVerdict& v, CalibrationResult* result);
 
 
 }  // namespace owlcal::fitting

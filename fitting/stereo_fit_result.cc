@@ -47,8 +47,12 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
     result->cameras[e] = fit.cameras[e];
     for (int i = 0; i < np; ++i) {
       const int k = e * np + i;
-      result->Set({fit.param_names[k], fit.cameras[e].params[i], fit.sigmas[k], IntrinsicParamUnit(names[i]),
-                   std::nullopt, bool(fit.determined[k]), note_of(fit.param_names[k])});
+      Parameter p{fit.param_names[k], fit.cameras[e].params[i], fit.sigmas[k], IntrinsicParamUnit(names[i]),
+                  std::nullopt, bool(fit.determined[k]), note_of(fit.param_names[k])};
+      // Held by a --fix option (not fix_intrinsics, whose values are the per-eye estimates).
+      p.held = !p.determined && internal::IsHeldReason(p.note) && p.note.find("fix_intrinsics") == std::string::npos;
+      if (p.held) p.sigma = 0;
+      result->Set(p);
     }
   }
   const bool metres = fit.length_unit == "m";

@@ -46,6 +46,10 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
   const bool metric = length_unit_m > 0;
   const std::string unit = metric ? "mm" : "target units";
   const double to_shown = metric ? length_unit_m * 1000 : 1.0;
+  // Every limit below is the rig's: the messages name it.
+  const std::string rig_limit = ", the " + e.name + " rig's limit";
+  const std::string not_owl =
+      e.name == "owl" ? " If this is not an Owl, --rig generic judges it as a generic stereo pair." : "";
   if (!(n > 0)) {
     add("t_direction", true, "T = 0: the two cameras are at the same place; the stereo fit is meaningless");
     return s;
@@ -67,7 +71,7 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
         "T = (" + FixedOrDash(t.x() * to_shown, 1) + ", " + FixedOrDash(t.y() * to_shown, 1) + ", " +
             FixedOrDash(t.z() * to_shown, 1) + ") " + unit + ": " + FixedOrDash(100 * off_axis, 0) +
             " % of the baseline is off the x axis (> " + FixedOrDash(100 * e.max_off_axis_fraction, 0) +
-            " %); side-by-side eyes have T along x. Check the image pairing (same number = same instant)");
+            " %" + rig_limit + "); side-by-side eyes have T along x. Check the image pairing (same number = same instant)");
   if (metric && e.ipd_m > 0) {
     const double b = n * length_unit_m;
     if (std::abs(b - e.ipd_m) > e.ipd_tolerance_m) {
@@ -80,7 +84,7 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
       add("baseline", false,
           "baseline " + FixedOrDash(b * 1000, 1) + " mm, but the " + e.name + " rig's IPD is " +
               FixedOrDash(e.ipd_m * 1000, 1) + " +- " + FixedOrDash(e.ipd_tolerance_m * 1000, 1) +
-              " mm: check the square size in the target file and the robot's IPD." + hint);
+              " mm: check the square size in the target file and the robot's IPD." + hint + not_owl);
     }
   }
   const double angle_deg = Eigen::AngleAxisd(right_from_left.rotation).angle() * 180 / M_PI;
@@ -90,7 +94,7 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
     add("rotation", false,
         "the cameras are rotated by " + FixedOrDash(angle_deg, 1) + " deg relative to each other (rotation vector " +
             FixedOrDash(rv.x(), 1) + ", " + FixedOrDash(rv.y(), 1) + ", " + FixedOrDash(rv.z(), 1) + " deg; > " +
-            FixedOrDash(e.max_rotation_deg, 0) +
+            FixedOrDash(e.max_rotation_deg, 0) + rig_limit +
             "): eyes toed in, a loose camera or mismatched pairs. For a stereo calibration park both eyes "
             "parallel (the centre pose) and keep them still");
   }
@@ -109,23 +113,24 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
                   std::to_string(cameras[i].width) +
                   " px wide; a 3.6 mm lens on the OV5647 gives 635 px by its spec, 578-591 px measured): another "
                   "lens or camera, an image size that is not the sensor's, or a set that let f trade against the "
-                  "board distance (tilt the board)");
+                  "board distance (tilt the board)." +
+                  not_owl);
           break;
         }
       }
     }
     if (std::abs(fx / fy - 1) > e.max_aspect_error)
       add("focal", false,
-          std::string(eye[i]) + " eye: fx / fy = " + FixedOrDash(fx / fy, 3) +
-              ": the sensor's pixels are square, so the set does not pin the focal length (tilt the board about "
+          std::string(eye[i]) + " eye: fx / fy = " + FixedOrDash(fx / fy, 3) + " (the " + e.name +
+              " rig allows 1 +- " + FixedOrDash(e.max_aspect_error, 3) + "): the sensor's pixels are square, so the set does not pin the focal length (tilt the board about "
               "both axes) or the images were resized unevenly");
     const double dx = p[2] - (cameras[i].width - 1) / 2.0, dy = p[3] - (cameras[i].height - 1) / 2.0;
     if (std::hypot(dx, dy) > e.max_principal_offset_fraction * cameras[i].width)
       add("principal_point", false,
           std::string(eye[i]) + " eye: principal point (" + FixedOrDash(p[2], 1) + ", " + FixedOrDash(p[3], 1) + ") is " +
               FixedOrDash(std::hypot(dx, dy), 0) + " px from the image centre (> " +
-              FixedOrDash(e.max_principal_offset_fraction * cameras[i].width, 0) +
-              " px): cropped images, or boards that never reached the image's edges");
+              FixedOrDash(e.max_principal_offset_fraction * cameras[i].width, 0) + " px" + rig_limit +
+              "): cropped images, or boards that never reached the image's edges");
   }
   const double f_ratio = cameras[0].params[0] / cameras[1].params[0];
   if (std::abs(f_ratio - 1) > e.max_focal_mismatch)
@@ -133,8 +138,29 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
         "the two eyes' focal lengths differ by " + FixedOrDash(100 * std::abs(f_ratio - 1), 1) + " % (left " +
             FixedOrDash(cameras[0].params[0], 1) + ", right " + FixedOrDash(cameras[1].params[0], 1) +
             " px): the same lens on both eyes should agree within " + FixedOrDash(100 * e.max_focal_mismatch, 0) +
-            " %; one eye's f is not determined by the set, or the eyes have different lenses or image sizes");
+            " % (the " + e.name + " rig's limit); one eye's f is not determined by the set, or the eyes have different lenses or image sizes");
   return s;
+}
+
+std::string WhyNotThisRig(const models::CameraIntrinsics cameras[2],
+                          const models::Rigid3d& right_from_left,
+                          double length_unit_m,
+                          const RigExpectation& e) {
+  if (!(length_unit_m > 0) || !(e.ipd_m > 0) || !(e.focal_max_px > 0)) return "";
+  const double b = right_from_left.translation.norm() * length_unit_m;
+  if (!(std::abs(b - e.ipd_m) > e.ipd_tolerance_m)) return "";
+  std::string lens;
+  const char* eye[2] = {"left", "right"};
+  for (int i = 0; i < 2 && lens.empty(); ++i) {
+    const double scale = cameras[i].width / e.reference_width_px, f = cameras[i].params[0];
+    if (f < e.focal_min_px * scale || f > e.focal_max_px * scale)
+      lens = std::string(eye[i]) + " eye f = " + FixedOrDash(f, 1) + " px, outside the " + e.name + " lens family (" +
+             FixedOrDash(e.focal_min_px * scale, 0) + "-" + FixedOrDash(e.focal_max_px * scale, 0) + " px at " +
+             std::to_string(cameras[i].width) + " px wide)";
+  }
+  if (lens.empty()) return "";
+  return "baseline " + FixedOrDash(b * 1000, 1) + " mm, not the " + e.name + " rig's " + FixedOrDash(e.ipd_m * 1000, 1) +
+         " +- " + FixedOrDash(e.ipd_tolerance_m * 1000, 1) + " mm; " + lens;
 }
 
 void AppendSanityToResult(const StereoSanity& s, const RigExpectation& e, CalibrationResult* r) {

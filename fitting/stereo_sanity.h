@@ -71,6 +71,17 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
                                double length_unit_m,
                                const RigExpectation& expect);
 
+// Why a fit is plainly not `expect` (one clause per sign, e.g. "baseline 99.8 mm, not the owl
+// rig's 65.0 +- 8.0 mm; left eye f = 533.6 px, outside the owl lens family (540-680 px)"), or
+// empty when it could be. Plainly not = BOTH signs a target file cannot fake: the baseline outside
+// the IPD tolerance (metric units, a rig with an IPD) and either eye's fx outside the lens family;
+// one sign alone is more likely a wrong square size or a set that does not pin f down, which the
+// checks above report against the rig. Empty when the rig has no IPD or no lens family.
+std::string WhyNotThisRig(const models::CameraIntrinsics cameras[2],
+                          const models::Rigid3d& right_from_left,
+                          double length_unit_m,
+                          const RigExpectation& expect);
+
 // Adds the findings to result->diagnostics["sanity"] ({rig, ok, findings: [{check, severity,
 // message}]}) and each message to result->warnings.
 void AppendSanityToResult(const StereoSanity& sanity, const RigExpectation& expect, CalibrationResult* result);

@@ -212,14 +212,8 @@ SharpnessStudy MeasureSharpnessDataset(const std::string& dir, const SharpnessOp
         Measure(&row, eyes[e], cv::Rect(sz.width / 4, sz.height / 4, sz.width / 2, sz.height / 2), o, square_px);
       } else {
         // Not detected while recording (its quick check gives up on small, low-contrast
-        // boards): the full classic search, then OpenCV's sector-based detector.
-        calib::TargetDetection det;
-        for (const calib::ChessboardMethod m : {calib::ChessboardMethod::kClassic, calib::ChessboardMethod::kSectorBased}) {
-          calib::DetectorOptions dopt;
-          dopt.chessboard_method = m;
-          det = calib::DetectTarget(eyes[e], board, dopt);
-          if (det.found) break;
-        }
+        // boards): the full search of every command (classic, then sb).
+        const calib::TargetDetection det = calib::DetectTarget(eyes[e], board, calib::DetectorOptions());
         if (det.found) {
           row.roi_source = "detected board";
           Measure(&row, eyes[e], BoardBox(det.pixels, eyes[e].size()), o, square_px);

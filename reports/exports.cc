@@ -64,6 +64,20 @@ double ObservedSigma(const ReportData& d, int eye) {
   return n ? std::sqrt(s / n) : NAN;
 }
 
+// The parameters held by an option (calibrate-images --fix) for a comment and the export
+// notes: "held by --fix (not fitted): left.k3 = 0, right.k3 = 0", or "".
+std::string HeldNote(const fitting::CalibrationResult& r) {
+  std::string s;
+  for (const auto& p : r.parameters)
+    if (p.held) s += (s.empty() ? "" : ", ") + p.name + " = " + Fmt(p.value, 6);
+  return s.empty() ? s : "held by --fix (not fitted): " + s;
+}
+
+std::string HeldComment(const fitting::CalibrationResult& r) {
+  const std::string n = HeldNote(r);
+  return n.empty() ? n : "# owlcal: " + n + "\n";
+}
+
 }  // namespace
 
 std::string WriteRosCameraInfo(const fitting::CalibrationResult& r, int eye, const std::string& path) {
@@ -90,7 +104,7 @@ std::string WriteRosCameraInfo(const fitting::CalibrationResult& r, int eye, con
   std::ostringstream o;
   o << "# ROS camera_info (camera_calibration_parsers YAML), written by owlcal " << r.software_version << "\n"
     << "# " << how << "\n"
-    << "image_width: " << c.width << "\nimage_height: " << c.height << "\n"
+    << HeldComment(r) << "image_width: " << c.width << "\nimage_height: " << c.height << "\n"
     << "camera_name: owl_" << models::kEyeNames[eye] << "\n"
     << "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [" << List(K) << "]\n"
     << "distortion_model: " << (c.NumDistortion() == 5 ? "plumb_bob" : "rational_polynomial") << "\n"
@@ -106,7 +120,8 @@ std::string WriteKalibrCamchain(const fitting::CalibrationResult& r, const std::
   RequireMetres(r, path);
   std::ostringstream o, note;
   o << "# Kalibr camchain, written by owlcal " << r.software_version
-    << ". cam0 = left eye, cam1 = right eye; pinhole-radtan (k1 k2 p1 p2).\n";
+    << ". cam0 = left eye, cam1 = right eye; pinhole-radtan (k1 k2 p1 p2).\n"
+    << HeldComment(r);
   for (int e = 0; e < 2; ++e) {
     const auto& c = Camera(r, e);
     const fitting::RadtanRefit fit = fitting::FitRadtan4(c);
@@ -180,7 +195,7 @@ std::string WriteMrcalCameraModel(const ReportData& d, int eye, const std::strin
     o << "# no valid_intrinsics_region: the calibration corners' residuals are not in this result\n";
     note << "no valid_intrinsics_region (no corner residuals)";
   }
-  o << "{\n    'lensmodel':  '" << (c.NumDistortion() == 5 ? "LENSMODEL_OPENCV5" : "LENSMODEL_OPENCV8") << "',\n"
+  o << HeldComment(r) << "{\n    'lensmodel':  '" << (c.NumDistortion() == 5 ? "LENSMODEL_OPENCV5" : "LENSMODEL_OPENCV8") << "',\n"
     << "    # intrinsics are fx,fy,cx,cy,distortion0,distortion1,.... (OpenCV order)\n    'intrinsics': [ ";
   for (size_t i = 0; i < c.params.size(); ++i) o << (i ? ", " : "") << Num(c.params[i]);
   o << " ],\n";
@@ -256,7 +271,8 @@ ExportSet WriteCalibrationFiles(const ReportData& d, const std::string& dir) {
   auto attempt = [&](const std::string& rel, const std::string& tool, auto&& fn) {
     const std::string path = dir + "/" + rel;
     try {
-      const std::string note = fn(path);
+      const std::string held = HeldNote(r);
+      const std::string note = fn(path) + (held.empty() ? "" : "; " + held);
       out.written.push_back(path);
       out.notes.push_back({rel, tool, note});
     } catch (const std::exception& e) {

@@ -1,15 +1,47 @@
 #include "reports/image_set_tables.h"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include "fitting/format.h"
+#include "reports/table.h"
 #include "reports/verdict_tables.h"
 
 namespace owlcal::reports {
 
 using fitting::FixedOrDash;
 using fitting::RangeMeasurement;
+
+namespace {
+
+// What choosing the bow does to the lens: the held-out gain with its standard error, and the
+// bowed fit's fx, k1, k2, k3 per eye against the flat fit's, in the flat fit's sigma.
+std::string BowEffectMarkdown(const fitting::BoardWarpChoice& w) {
+  if (w.scores.size() != 2 || !w.scores[0].ok || !w.scores[1].ok) return "";
+  const fitting::StereoFit& flat = w.scores[0].full;
+  const fitting::StereoFit& bowed = w.scores[1].full;
+  if (!flat.ok || !bowed.ok || flat.param_names != bowed.param_names) return "";
+  std::ostringstream md;
+  md << "\nHeld-out gain of the bow: " << FixedOrDash(w.gain_px, 4) << " +- " << FixedOrDash(w.gain_se_px, 4)
+     << " px (flat - bowed held-out RMS). Its effect on the lens:\n\n";
+  Table t{"board_warp_effect", "", {"parameter", "flat", "bowed", "bowed - flat", "in flat sigma"}, {}};
+  for (size_t i = 0; i < flat.param_names.size(); ++i) {
+    const std::string& n = flat.param_names[i];
+    const std::string stem = n.substr(n.find('.') + 1);
+    if (stem != "fx" && stem != "k1" && stem != "k2" && stem != "k3") continue;
+    const int e = n.rfind("left.", 0) == 0 ? 0 : 1;
+    const int k = static_cast<int>(i) - (e == 0 ? 0 : static_cast<int>(flat.cameras[0].params.size()));
+    if (k < 0 || k >= static_cast<int>(flat.cameras[e].params.size())) continue;
+    const double a = flat.cameras[e].params[k], b = bowed.cameras[e].params[k], sigma = flat.sigmas[i];
+    t.rows.push_back({n, FixedOrDash(a, 5), FixedOrDash(b, 5), FixedOrDash(b - a, 5),
+                      std::isfinite(sigma) && sigma > 0 ? FixedOrDash((b - a) / sigma, 2) : "-"});
+  }
+  md << ToMarkdown(t);
+  return md.str();
+}
+
+}  // namespace
 
 std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const std::vector<std::string>& keys) {
   std::ostringstream md;
@@ -22,20 +54,25 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
     const fitting::LensModelChoice& l = *c.lens_choice;
     md << "## Lens model: " << l.chosen_name << "\n\n" << l.reason << ".\n\n";
     if (!l.scores.empty()) {
-      md << "| model | fit RMS (px) | held-out RMS (px) | held-out left / right (px) | held-out corners | per fold "
-            "(px) "
-            "|\n|---|---|---|---|---|---|\n";
+      Table t{"lens_model_choice",
+              "",
+              {"model", "fit RMS (px)", "held-out RMS (px)", "held-out left / right (px)", "held-out corners",
+               "per fold (px)"},
+              {}};
       for (const auto& s : l.scores) {
         std::string folds;
         for (double f : s.fold_rms_px) {
           if (!folds.empty()) folds += ' ';
           folds += FixedOrDash(f, 3);
         }
-        md << "| " << s.name << (s.model == l.chosen ? " (chosen)" : "") << " | " << FixedOrDash(s.fit_rms_px, 4)
-           << " | " << (s.ok ? FixedOrDash(s.heldout_rms_px, 4) : "failed: " + s.message) << " | "
-           << FixedOrDash(s.heldout_rms_eye_px[0], 4) << " / " << FixedOrDash(s.heldout_rms_eye_px[1], 4) << " | "
-           << s.num_heldout_corners << " | " << folds << " |\n";
+        t.rows.push_back({s.name + (s.model == l.chosen ? " (chosen)" : ""),
+                          FixedOrDash(s.fit_rms_px, 4),
+                          s.ok ? FixedOrDash(s.heldout_rms_px, 4) : "failed: " + s.message,
+                          FixedOrDash(s.heldout_rms_eye_px[0], 4) + " / " + FixedOrDash(s.heldout_rms_eye_px[1], 4),
+                          std::to_string(s.num_heldout_corners),
+                          folds});
       }
+      md << ToMarkdown(t);
       md << "\nHeld-out RMS: each fold's pairs are left out of the fit, then placed by their board pose alone with "
             "the fitted cameras and extrinsics; a richer model that only fits the noise predicts them worse.\n\n";
     }
@@ -44,34 +81,42 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
     const fitting::BoardWarpChoice& w = *c.warp_choice;
     md << "## Board: " << (w.bowed ? "bowed" : "flat") << "\n\n" << w.reason << ".\n\n";
     if (!w.scores.empty()) {
-      md << "| board | fit RMS (px) | held-out RMS (px) | held-out left / right (px) |\n|---|---|---|---|\n";
+      Table t{"board_warp_choice", "", {"board", "fit RMS (px)", "held-out RMS (px)", "held-out left / right (px)"}, {}};
       for (const auto& s : w.scores)
-        md << "| " << s.name << ((s.name == "bowed") == w.bowed ? " (chosen)" : "") << " | "
-           << FixedOrDash(s.fit_rms_px, 4) << " | "
-           << (s.ok ? FixedOrDash(s.heldout_rms_px, 4) : "failed: " + s.message) << " | "
-           << FixedOrDash(s.heldout_rms_eye_px[0], 4) << " / " << FixedOrDash(s.heldout_rms_eye_px[1], 4) << " |\n";
+        t.rows.push_back({s.name + ((s.name == "bowed") == w.bowed ? " (chosen)" : ""),
+                          FixedOrDash(s.fit_rms_px, 4),
+                          s.ok ? FixedOrDash(s.heldout_rms_px, 4) : "failed: " + s.message,
+                          FixedOrDash(s.heldout_rms_eye_px[0], 4) + " / " + FixedOrDash(s.heldout_rms_eye_px[1], 4)});
+      md << ToMarkdown(t);
+      md << BowEffectMarkdown(w);
       md << "\nBowed: mrcal's two-parameter deflection of the board (stereo.board_warp_x/y below when chosen); each "
             "held-out pair is placed on the bow its training folds fitted.\n\n";
     }
   }
-  md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
+  Table params{"parameters", "", {"parameter", "value", "sigma", "unit", "note"}, {}};
   for (const auto& p : c.result.parameters)
-    md << "| " << p.name << " | " << FixedOrDash(p.value, 4) << " | " << (p.determined ? FixedOrDash(p.sigma, 4) : "not determined")
-       << " | " << p.unit << " | " << p.note << " |\n";
+    params.rows.push_back({p.name,
+                           FixedOrDash(p.value, 4),
+                           p.held ? "held" : (p.determined ? FixedOrDash(p.sigma, 4) : "not determined"),
+                           p.unit,
+                           p.note});
+  md << ToMarkdown(params);
   const char* eye_name[2] = {"left", "right"};
   for (int e = 0; e < 2; ++e) {
     const fitting::EyeCoverage& cov = c.coverage[e];
     md << "\n## " << eye_name[e] << " eye: coverage " << FixedOrDash(100 * cov.grid_fraction, 0) << " % of cells, radius "
        << FixedOrDash(100 * cov.max_radius_fraction, 0) << " %, tilt up to " << FixedOrDash(cov.max_tilt_deg, 1)
-       << " deg, orientation spread " << FixedOrDash(cov.spread_deg, 1) << " deg\n\n| frame | pair | RMS (px) | tilt (deg) |\n"
-       << "|---|---|---|---|\n";
+       << " deg, orientation spread " << FixedOrDash(cov.spread_deg, 1) << " deg\n\n";
+    Table views{std::string(eye_name[e]) + "_views", "", {"frame", "pair", "RMS (px)", "tilt (deg)"}, {}};
     const fitting::IntrinsicsFit& f = c.fit.per_eye[e];
     for (size_t i = 0; i < f.frame_indices.size(); ++i) {
       const int fr = f.frame_indices[i];
-      md << "| " << fr << " | " << (fr >= 0 && fr < static_cast<int>(keys.size()) ? keys[fr] : "") << " | "
-         << (i < f.view_rms_px.size() ? FixedOrDash(f.view_rms_px[i], 3) : "-") << " | "
-         << (i < cov.tilt_deg.size() ? FixedOrDash(cov.tilt_deg[i], 1) : "-") << " |\n";
+      views.rows.push_back({std::to_string(fr),
+                            fr >= 0 && fr < static_cast<int>(keys.size()) ? keys[fr] : "",
+                            i < f.view_rms_px.size() ? FixedOrDash(f.view_rms_px[i], 3) : "-",
+                            i < cov.tilt_deg.size() ? FixedOrDash(cov.tilt_deg[i], 1) : "-"});
     }
+    md << ToMarkdown(views);
   }
   return md.str();
 }
@@ -103,19 +148,28 @@ std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
 
 std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const fitting::RangeSummary& s, const std::string& title) {
   std::ostringstream md;
-  md << "# " << title << "\n\n"
-     << "| pair | status | true (cm) | range (cm) | error (%) | sigma (cm) | sigma calib / match (cm) | truth sigma (cm) | "
-        "error/sigma | disparity (px) | NCC | why not ok |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  md << "# " << title << "\n\n";
+  Table t{"ranges",
+          "",
+          {"pair", "status", "true (cm)", "range (cm)", "error (%)", "sigma (cm)", "sigma calib / match (cm)",
+           "truth sigma (cm)", "error/sigma", "disparity (px)", "NCC", "why not ok"},
+          {}};
   for (const auto& r : m) {
     const bool e = r.ok && r.has_truth();
-    md << "| " << r.name << " | " << r.status << " | " << (r.has_truth() ? FixedOrDash(r.true_m * 100, 1) : "unknown")
-       << " | " << (r.ok ? FixedOrDash(r.range_m * 100, 2) : "-") << " | "
-       << (e ? FixedOrDash(100 * r.error_m() / r.true_m, 2) : "-") << " | " << (r.ok ? FixedOrDash(r.sigma_m * 100, 2) : "-")
-       << " | " << (r.ok ? FixedOrDash(r.sigma_calib_m * 100, 2) + " / " + FixedOrDash(r.sigma_match_m * 100, 2) : "-")
-       << " | " << FixedOrDash(r.truth_sigma_m * 100, 2) << " | "
-       << (e ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "-") << " | " << FixedOrDash(r.match.disparity_px, 2)
-       << " | " << FixedOrDash(r.match.ncc, 3) << " | " << (r.status == "ok" ? "" : r.message) << " |\n";
+    t.rows.push_back({r.name,
+                      r.status,
+                      r.has_truth() ? FixedOrDash(r.true_m * 100, 1) : "unknown",
+                      r.ok ? FixedOrDash(r.range_m * 100, 2) : "-",
+                      e ? FixedOrDash(100 * r.error_m() / r.true_m, 2) : "-",
+                      r.ok ? FixedOrDash(r.sigma_m * 100, 2) : "-",
+                      r.ok ? FixedOrDash(r.sigma_calib_m * 100, 2) + " / " + FixedOrDash(r.sigma_match_m * 100, 2) : "-",
+                      FixedOrDash(r.truth_sigma_m * 100, 2),
+                      e ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "-",
+                      FixedOrDash(r.match.disparity_px, 2),
+                      FixedOrDash(r.match.ncc, 3),
+                      r.status == "ok" ? "" : r.message});
   }
+  md << ToMarkdown(t);
   md << "\n" << s.num_ranged << " of " << s.num_rows << " rows with a truth ranged with confidence; "
      << s.num_low_confidence << " low confidence, " << s.num_failed << " failed (both left out of the errors), "
      << s.num_unknown << " of unknown distance. ";
@@ -139,12 +193,17 @@ std::string DatumFitMarkdown(const fitting::DatumFit& f) {
      << " (correlation " << FixedOrDash(f.correlation, 2) << "), chi2/dof " << FixedOrDash(f.chi2_per_dof, 2) << " (dof "
      << f.dof << "). A negative a means the ranges read short by a constant: the true distances were measured from "
      << "about " << FixedOrDash(100 * std::abs(f.a_m), 1) << " cm " << (f.a_m < 0 ? "behind" : "in front of")
-     << " the cameras' optical centres; b - 1 is a scale error (focal length x baseline).\n\n"
-     << "| | mean abs error | max abs error |\n|---|---|---|\n"
-     << "| before the fit | " << FixedOrDash(100 * f.mean_abs_rel_before, 2) << " % | " << FixedOrDash(100 * f.max_abs_rel_before, 2)
-     << " % |\n| after the fit (in-sample) | " << FixedOrDash(100 * f.mean_abs_rel_after, 2) << " % | "
-     << FixedOrDash(100 * f.max_abs_rel_after, 2) << " % |\n| after, leave-one-out | " << FixedOrDash(100 * f.mean_abs_rel_loo, 2)
-     << " % | " << FixedOrDash(100 * f.max_abs_rel_loo, 2) << " % |\n";
+     << " the cameras' optical centres; b - 1 is a scale error (focal length x baseline).\n\n";
+  const Table t{"datum_fit",
+                "",
+                {"", "mean abs error", "max abs error"},
+                {{"before the fit", FixedOrDash(100 * f.mean_abs_rel_before, 2) + " %",
+                  FixedOrDash(100 * f.max_abs_rel_before, 2) + " %"},
+                 {"after the fit (in-sample)", FixedOrDash(100 * f.mean_abs_rel_after, 2) + " %",
+                  FixedOrDash(100 * f.max_abs_rel_after, 2) + " %"},
+                 {"after, leave-one-out", FixedOrDash(100 * f.mean_abs_rel_loo, 2) + " %",
+                  FixedOrDash(100 * f.max_abs_rel_loo, 2) + " %"}}};
+  md << ToMarkdown(t);
   return md.str();
 }
 

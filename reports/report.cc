@@ -42,7 +42,8 @@ std::vector<Table> MakeTables(const ReportData& d) {
     }
     for (const auto& p : d.result.parameters) {
       std::vector<std::string> r = {p.name, FmtWithSigma(p.value, p.sigma), p.determined ? Fmt(p.sigma, 2) : "",
-                                    DisplayUnit(p.unit), p.determined ? "yes" : "no: " + p.note};
+                                    DisplayUnit(p.unit),
+                                    p.held ? "held: " + p.note : (p.determined ? "yes" : "no: " + p.note)};
       if (any_truth) {
         if (p.truth) {
           r.push_back(Fmt(*p.truth, 6));
@@ -379,7 +380,7 @@ std::vector<Table> MakeTables(const ReportData& d) {
   {
     Table t{"undetermined", "Parameters the data could not determine, and warnings", {"parameter or warning", "reason"}, {}};
     for (const auto& p : d.result.parameters)
-      if (!p.determined) t.rows.push_back({p.name, p.note});
+      if (!p.determined && !p.held) t.rows.push_back({p.name, p.note});
     for (const auto& w : d.result.warnings) t.rows.push_back({"warning", w});
     out.push_back(t);
   }

@@ -15,6 +15,7 @@ namespace owlcal::reports {
 namespace {
 
 std::string PlusMinus(const fitting::Parameter& p) {
+  if (p.held) return FmtWithSigma(p.value, NAN) + " (held)";
   if (!p.determined || !std::isfinite(p.sigma)) return FmtWithSigma(p.value, NAN) + " (not determined)";
   return FmtWithSigma(p.value, p.sigma) + " \u00b1 " + Fmt(p.sigma, 2);
 }
@@ -90,7 +91,8 @@ Summary MakeSummary(const ReportData& d) {
   // the solver summaries, undetermined parameters and warnings.
   int undetermined = 0;
   // A parameter fixed by a gauge (the note says so) is a convention, not a gap in the data.
-  for (const auto& p : r.parameters) undetermined += !p.determined && p.note.find("gauge") == std::string::npos;
+  for (const auto& p : r.parameters)
+    undetermined += !p.determined && !p.held && p.note.find("gauge") == std::string::npos;
   bool failed = r.summaries.empty() && !r.cameras[0] && !r.cameras[1];
   for (const auto& sum : r.summaries)
     if (!sum.usable && sum.problem.find("initialisation") == std::string::npos) {

@@ -132,6 +132,20 @@ bool IsNumber(const std::string& s) {
 }
 }  // namespace
 
+namespace {
+// Every writer checks the shape first: std::invalid_argument naming the table when the header
+// is empty or a row has more cells than the header (a shorter row is padded), so that no
+// written table has rows and header that disagree.
+void CheckTableShape(const Table& t) {
+  if (t.header.empty()) throw std::invalid_argument("table '" + t.name + "': no header");
+  for (size_t i = 0; i < t.rows.size(); ++i)
+    if (t.rows[i].size() > t.header.size())
+      throw std::invalid_argument("table '" + t.name + "': row " + std::to_string(i + 1) + " has " +
+                                  std::to_string(t.rows[i].size()) + " cells, the header " +
+                                  std::to_string(t.header.size()));
+}
+}  // namespace
+
 bool IsNumericColumn(const Table& t, size_t col) {
   bool any = false;
   for (const auto& r : t.rows) {
@@ -143,9 +157,10 @@ bool IsNumericColumn(const Table& t, size_t col) {
 }
 
 std::string ToCsv(const Table& t) {
+  CheckTableShape(t);
   std::ostringstream o;
-  auto line = [&](const std::vector<std::string>& r) {
-    for (size_t i = 0; i < r.size(); ++i) o << (i ? "," : "") << CsvCell(r[i]);
+  auto line = [&](const std::vector<std::string>& r) {  // short rows padded with empty cells
+    for (size_t i = 0; i < t.header.size(); ++i) o << (i ? "," : "") << (i < r.size() ? CsvCell(r[i]) : "");
     o << "\n";
   };
   line(t.header);
@@ -154,6 +169,7 @@ std::string ToCsv(const Table& t) {
 }
 
 std::string ToMarkdown(const Table& t) {
+  CheckTableShape(t);
   std::ostringstream o;
   if (!t.caption.empty()) o << "**" << MdCell(t.caption) << "**\n\n";
   o << "|";
@@ -170,6 +186,7 @@ std::string ToMarkdown(const Table& t) {
 }
 
 std::string ToLatex(const Table& t) {
+  CheckTableShape(t);
   std::ostringstream o;
   const size_t n = t.header.size();
   std::vector<bool> num(n);
@@ -201,6 +218,7 @@ std::string ToLatex(const Table& t) {
 }
 
 std::string ToHtml(const Table& t) {
+  CheckTableShape(t);
   std::ostringstream o;
   std::vector<bool> num(t.header.size());
   for (size_t i = 0; i < num.size(); ++i) num[i] = IsNumericColumn(t, i);

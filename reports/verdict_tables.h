@@ -5,9 +5,12 @@
 #include <string>
 
 #include "fitting/set_verdict.h"
+#include "reports/table.h"
 
 namespace owlcal::reports {
 
 std::string SetVerdictMarkdown(const fitting::SetVerdict& v);
+// The per-eye table of that block (reports/table.h: one model for Markdown, LaTeX and CSV).
+Table SetVerdictEyeTable(const fitting::SetVerdict& v);
 
 }  // namespace owlcal::reports
