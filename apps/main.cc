@@ -29,7 +29,7 @@ struct CommandGroup {
 
 const std::vector<CommandGroup>& CommandGroups() {
   static const std::vector<CommandGroup> groups = {
-      {"Robot (the virtual Owl unless --robot HOST)",
+      {"Robot",
        {{"centre", "send the robot file's centre pose"},
         {"move", "send one servo command (Rx Ry Lx Ly Neck, us), clamped to the limits"},
         {"grab", "save one stereo frame of the stream as left.png, right.png, frame.jpg"},
@@ -48,7 +48,7 @@ const std::vector<CommandGroup>& CommandGroups() {
         {"main-sequence", "the saccade main sequence: peak velocity and duration against amplitude"},
         {"track", "salience targets and Lucas-Kanade tracking"},
         {"sharpness", "lens sharpness against distance: focus and depth of field"}}},
-      {"Offline (files in, files out)",
+      {"Offline (files in, files out; no robot)",
        {{"detect", "detect a chessboard or AprilGrid in images or a dataset; write observations"},
         {"detect-tags", "detect free-standing AprilTags in images; one CSV row per tag"},
         {"fit", "fit intrinsics (and stereo R, T) from an observation CSV"},
@@ -72,6 +72,8 @@ const char* const kOtherGroup = "Other";
 // Lists a subcommand on one line: its summary from CommandGroups(), or its description's first line.
 class OneLineFormatter : public CLI::Formatter {
  public:
+  static constexpr size_t kNameWidth = 21;  // the longest name (check-calibration) and its indent, in columns
+
   explicit OneLineFormatter(std::map<std::string, std::string> summaries) : summaries_(std::move(summaries)) {}
 
   std::string make_subcommand(const CLI::App* sub) const override {
@@ -79,7 +81,7 @@ class OneLineFormatter : public CLI::Formatter {
     std::string line = it != summaries_.end() ? it->second : sub->get_description();
     line = line.substr(0, line.find('\n'));
     std::stringstream out;
-    CLI::detail::format_help(out, sub->get_display_name(true), line, column_width_);
+    CLI::detail::format_help(out, sub->get_display_name(true), line, kNameWidth);
     return out.str();
   }
 
@@ -92,13 +94,12 @@ class OneLineFormatter : public CLI::Formatter {
 
 int main(int argc, char** argv) {
   using namespace owlcal::apps;
-  CLI::App app{
-      "owlcal " OWLCAL_VERSION
-      " - calibration and measurement suite for the Plymouth Owl stereo robot head.\n"
-      "With no --robot, commands that need a robot use the in-process virtual Owl;\n"
-      "a real robot's address (e.g. 10.0.0.10) must always be given explicitly.\n"
-      "`owlcal COMMAND --help` describes a command in full.",
-      "owlcal"};
+  CLI::App app{"owlcal " OWLCAL_VERSION
+               " - calibration and measurement suite for the Plymouth Owl stereo robot head.\n"
+               "With no --robot, commands that need a robot use the in-process virtual Owl;\n"
+               "a real robot's address (e.g. 10.0.0.10) must always be given explicitly.\n"
+               "`owlcal COMMAND --help` describes a command in full.",
+               "owlcal"};
   app.set_version_flag("--version", "owlcal " OWLCAL_VERSION);
   app.require_subcommand(1);
   // Subcommands are added group by group (CLI11 lists groups in the order first seen).
@@ -122,9 +123,9 @@ int main(int argc, char** argv) {
   std::map<CLI::App*, RunFunction> runs;
   for (const CommandEntry& c : commands) {
     CLI::App* sub = app.add_subcommand(c.name, c.help);
-    const auto it = rank.find(c.name);
-    sub->group(it != rank.end() ? it->second.second : kOtherGroup);
     runs[sub] = c.setup(sub);
+    const auto it = rank.find(c.name);  // after setup: a command's own subcommands keep CLI11's group
+    sub->group(it != rank.end() ? it->second.second : kOtherGroup);
   }
   try {
     app.parse(argc, argv);
