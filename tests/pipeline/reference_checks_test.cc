@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include "pipeline/calibrate.h"
 #include "pipeline/calibrate_pipeline.h"
 #include "protocols/dataset_tables.h"
 #include "protocols/protocol.h"
@@ -42,20 +43,8 @@ std::string RunStandard(sim::VirtualOwl& owl, const std::string& protocol, const
   return o.out_dir;
 }
 
-fitting::LatencyTruth TruthOf(const sim::RobotTruth& t) {
-  fitting::LatencyTruth l;
-  l.fps = t.stream.fps;
-  l.latency_ms = t.stream.latency_ms;
-  l.eye_offset_ms = t.stream.eye_offset_ms;
-  l.rolling_shutter_ms = t.stream.rolling_shutter_ms;
-  l.drop_probability = t.stream.drop_probability;
-  for (int s = 0; s < models::kNumServos; ++s) {
-    l.slew_deg_per_s[s] = t.servos[s].slew_deg_per_s;
-    l.lag_s[s] = t.servos[s].lag_s;
-  }
-  l.head = t.HeadModel();
-  return l;
-}
+// The latency check's truth as calibrate takes it from a virtual Owl.
+fitting::LatencyTruth TruthOf(const sim::RobotTruth& t) { return LatencyTruthOf(t); }
 
 nlohmann::json Checks(const std::map<std::string, std::string>& datasets,
                       const models::RobotConfig& config,
