@@ -312,6 +312,9 @@ std::optional<Figure> MakeLimitsFigure(const ReportData& d) {
   Series cfg{"configured", "vectors nohead lw 12 lc rgb '#bbbbbb'", "1:2:3:4", {"from_us", "y", "dx_us", "dy"}, {}};
   Series mea{"measured", "vectors nohead lw 6 " + Lc(0), "1:2:3:4", {"from_us", "y", "dx_us", "dy"}, {}};
   Series ctr{"configured centre", "points pt 13 ps 2 lc rgb 'black'", "1:2", {"centre_us", "y"}, {}};
+  // The range the protocols after the bring-up were confined to (pipeline/bring_up.h).
+  Series used{"used after the bring-up", "vectors nohead lw 2 lc rgb 'black'", "1:2:3:4", {"from_us", "y", "dx_us", "dy"}, {}};
+  const nlohmann::json bring_up = d.result.diagnostics.value("bring_up", nlohmann::json::object());
   std::string ytics = "set ytics (";
   const int n = int(d.limits->servos.size());
   for (int i = 0; i < n; ++i) {
@@ -328,12 +331,22 @@ std::optional<Figure> MakeLimitsFigure(const ReportData& d) {
     };
     if (s.measured_min_us) label(lo, s.min_cause, false);
     if (s.measured_max_us) label(hi, s.max_cause, true);
+    if (bring_up.contains("servos") && bring_up["servos"].is_array() && i < int(bring_up["servos"].size())) {
+      const nlohmann::json u = bring_up["servos"][i].value("used", nlohmann::json::object());
+      if (u.contains("min_us") && u.contains("max_us"))
+        used.rows.push_back({u["min_us"].get<double>(), y, u["max_us"].get<double>() - u["min_us"].get<double>(), 0});
+    }
   }
   f.settings.push_back(ytics + ")");
   f.settings.push_back("set yrange [0.3:" + Fmt(n + 0.7, 3) + "]");
   f.settings.push_back("set xrange [850:2250]");
   f.settings.push_back("set bmargin 6");
   f.series = {cfg, mea, ctr};
+  if (!used.rows.empty()) {
+    f.series.push_back(used);
+    f.caption += " Black: the range every protocol after the bring-up kept to (the measured end-stops, also "
+                 "those behind the rim, minus 15 \u00b5s).";
+  }
   return f;
 }
 
