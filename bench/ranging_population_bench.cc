@@ -53,11 +53,7 @@ int main(int argc, char** argv) {
     fs::create_directories(dir);
     sim::SaveRobotTruth(robot.truth, (dir / "truth.yaml").string());
     std::ofstream((dir / "scene.yaml").string()) << sim::SceneJson(robot.scene).dump(2);
-    sim::VirtualOwlOptions vo;
-    vo.truth = robot.truth;
-    vo.scene = robot.scene;
-    vo.seed = seed;
-    sim::VirtualOwl owl(vo);
+    sim::VirtualOwl owl(robot.OwlOptions(seed));
     pipeline::CalibrateOptions co;
     co.out = (dir / "cal").string();
     co.protocols = {"limits", "intrinsics", "stereo", "servo_sweep", "vergence"};

@@ -109,11 +109,7 @@ int main(int argc, char** argv) {
     std::ofstream((dir / "scene.yaml").string()) << sim::SceneJson(robot.scene).dump(2);
     // The virtual Owl as `owlcal calibrate --robot-truth truth.yaml --scene scene.yaml --seed S`
     // builds it, calibrated by the same library call, in this process.
-    sim::VirtualOwlOptions vo;
-    vo.truth = robot.truth;
-    vo.scene = robot.scene;
-    vo.seed = seed;
-    sim::VirtualOwl owl(vo);
+    sim::VirtualOwl owl(robot.OwlOptions(seed));
     pipeline::CalibrateOptions co;
     co.out = (dir / "cal").string();
     co.protocols = protocols;

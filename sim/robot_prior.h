@@ -33,17 +33,27 @@
 //   std::mt19937_64 rng(seed);
 //   DrawnRobot r = DrawRobot(&rng, "prior-7");
 //   VirtualOwlOptions o;  o.truth = r.truth;  o.scene = r.scene;
+#include <cstdint>
 #include <random>
 #include <string>
 
 #include "sim/robot_truth.h"
 #include "sim/scene.h"
+#include "sim/virtual_owl.h"
 
 namespace owlcal::sim {
 
 struct DrawnRobot {
   RobotTruth truth;
   SceneDescription scene;  // the default scene with this robot's board warp
+  // The in-process virtual Owl of this robot and scene with noise seed `seed`.
+  VirtualOwlOptions OwlOptions(uint64_t seed) const {
+    VirtualOwlOptions o;
+    o.truth = truth;
+    o.scene = scene;
+    o.seed = seed;
+    return o;
+  }
 };
 
 DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name);

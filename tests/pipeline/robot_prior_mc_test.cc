@@ -66,11 +66,7 @@ fitting::CalibrationRun CalibrateRobot(const sim::DrawnRobot& robot,
                                        uint64_t seed,
                                        const fs::path& root,
                                        const std::vector<std::string>& protocols) {
-  sim::VirtualOwlOptions vo;
-  vo.truth = robot.truth;
-  vo.scene = robot.scene;
-  vo.seed = seed;
-  sim::VirtualOwl owl(vo);
+  sim::VirtualOwl owl(robot.OwlOptions(seed));
   pipeline::CalibrateOptions co;
   co.out = (root / robot.truth.name).string();
   co.protocols = protocols;
