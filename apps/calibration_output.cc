@@ -7,11 +7,11 @@
 #include "fitting/truth_compare.h"
 #include "owlcal_git.h"
 #include "owlcal_version.h"
+#include "pipeline/bring_up.h"
 #include "reports/exports.h"
 #include "reports/report.h"
 #include "reports/report_data.h"
 #include "reports/table.h"
-#include "pipeline/bring_up.h"
 #include "robot/robot_file.h"
 
 namespace owlcal::apps {
@@ -25,7 +25,9 @@ void Progress::operator()(const std::string& msg) const {
   std::cout.unsetf(std::ios::fixed);
 }
 
-nlohmann::json SoftwareInputs() { return {{"name", "owlcal"}, {"version", OWLCAL_VERSION}, {"git", OWLCAL_GIT_DESCRIBE}}; }
+nlohmann::json SoftwareInputs() {
+  return {{"name", "owlcal"}, {"version", OWLCAL_VERSION}, {"git", OWLCAL_GIT_DESCRIBE}};
+}
 
 void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out, bool draw, const Progress& progress) {
   run->result.software_version = OWLCAL_VERSION;
@@ -59,8 +61,8 @@ void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out
   if (run->truth) {
     const fitting::TruthComparison c = fitting::CompareWithTruth(run->result);
     progress("truth: " + std::to_string(c.num_with_sigma) + " parameters with sigma, " +
-             reports::Fmt(100 * c.fraction_within_2sigma, 3) + " % within 2 sigma, worst " + c.worst + " (z = " +
-             reports::Fmt(c.worst_z, 3) + ")");
+             reports::Fmt(100 * c.fraction_within_2sigma, 3) + " % within 2 sigma, worst " + c.worst +
+             " (z = " + reports::Fmt(c.worst_z, 3) + ")");
   }
   progress("done: " + rep.index_html);
 }
@@ -68,7 +70,8 @@ void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out
 void AddCalibrationOutputOptions(CLI::App* cmd, bool* no_figures, bool* quiet, std::string* lens_model) {
   cmd->add_flag("--no-figures", *no_figures, "write figure data and scripts without running gnuplot");
   cmd->add_flag("--quiet", *quiet, "no progress output");
-  cmd->add_option("--lens-model", *lens_model,
+  cmd->add_option("--lens-model",
+                  *lens_model,
                   "lens model of both eyes: auto (opencv5 or the rational opencv8, chosen by 5-fold cross-validation "
                   "over the chessboard views: the smaller held-out RMS), opencv5 or opencv8")
       ->capture_default_str();

@@ -31,7 +31,8 @@ struct CalibrateOptions {
 
 int RunCalibrate(const CalibrateOptions& o) {
   if (o.out.empty()) throw UsageError("--out DIR is required");
-  if (fs::exists(o.out + "/results.json")) throw UsageError(o.out + " already holds a calibration (results.json); choose a new --out");
+  if (fs::exists(o.out + "/results.json"))
+    throw UsageError(o.out + " already holds a calibration (results.json); choose a new --out");
   const Progress progress("calibrate", o.quiet);
   pipeline::CalibrateOptions co;
   co.out = o.out;
@@ -69,24 +70,25 @@ int RunCalibrate(const CalibrateOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
-    "calibrate",
-    "The main job: run the standard suite, fit, evaluate and write the report folder.\n"
-    "With no --robot it uses the in-process virtual Owl. Produces DIR/results.json (every\n"
-    "parameter with value, sigma, unit and truth), DIR/calibration.yaml (OpenCV, metres),\n"
-    "DIR/intrinsics.xml + extrinsics.xml (the course's files, mm), DIR/exports/ (ROS, Kalibr,\n"
-    "mrcal, owl-pwm.h), DIR/figures/, DIR/tables/, DIR/report/index.html and the recorded\n"
-    "datasets in DIR/datasets/.",
-    [](CLI::App* cmd) {
-      auto o = std::make_shared<CalibrateOptions>();
-      AddRobotOptions(cmd, &o->robot);
-      cmd->add_flag("--non-interactive", o->non_interactive,
-                    "real robot: do not prompt; assume targets are placed as the protocols say");
-      cmd->add_option("--protocols", o->protocols, "protocols to run instead of the standard suite");
-      cmd->add_option("--out", o->out, "report folder to create")->required();
-      AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
-      return [o] { return RunCalibrate(*o); };
-    });
+const bool kRegistered =
+    RegisterCommand("calibrate",
+                    "The main job: run the standard suite, fit, evaluate and write the report folder.\n"
+                    "With no --robot it uses the in-process virtual Owl. Produces DIR/results.json (every\n"
+                    "parameter with value, sigma, unit and truth), DIR/calibration.yaml (OpenCV, metres),\n"
+                    "DIR/intrinsics.xml + extrinsics.xml (the course's files, mm), DIR/exports/ (ROS, Kalibr,\n"
+                    "mrcal, owl-pwm.h), DIR/figures/, DIR/tables/, DIR/report/index.html and the recorded\n"
+                    "datasets in DIR/datasets/.",
+                    [](CLI::App* cmd) {
+                      auto o = std::make_shared<CalibrateOptions>();
+                      AddRobotOptions(cmd, &o->robot);
+                      cmd->add_flag("--non-interactive",
+                                    o->non_interactive,
+                                    "real robot: do not prompt; assume targets are placed as the protocols say");
+                      cmd->add_option("--protocols", o->protocols, "protocols to run instead of the standard suite");
+                      cmd->add_option("--out", o->out, "report folder to create")->required();
+                      AddCalibrationOutputOptions(cmd, &o->no_figures, &o->quiet, &o->lens_model);
+                      return [o] { return RunCalibrate(*o); };
+                    });
 
 }  // namespace
 }  // namespace owlcal::apps

@@ -110,7 +110,8 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   fo.height = set.height;
   fo.length_unit = target.unit;
   fitting::LensModelChoiceOptions lens;  // auto: chosen by cross-validation over the pairs
-  if (a.model == "opencv8") fo.intrinsics.model = models::DistortionModel::kOpenCv8;
+  if (a.model == "opencv8")
+    fo.intrinsics.model = models::DistortionModel::kOpenCv8;
   else if (a.model != "opencv5" && a.model != "auto")
     throw UsageError("--model = '" + a.model + "': use auto, opencv5 or opencv8");
   if (a.model != "auto") lens.enabled = false;
@@ -143,8 +144,11 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   std::vector<std::string> keys;
   for (const auto& p : set.pairs) {
     keys.push_back(p.key);
-    det_j.push_back({{"pair", p.key}, {"left_found", p.found[0]}, {"right_found", p.found[1]},
-                     {"left_message", p.message[0]}, {"right_message", p.message[1]}});
+    det_j.push_back({{"pair", p.key},
+                     {"left_found", p.found[0]},
+                     {"right_found", p.found[1]},
+                     {"left_message", p.message[0]},
+                     {"right_message", p.message[1]}});
   }
   c.result.diagnostics["detections"] = det_j;
   const std::vector<calib::View> views = calib::GroupIntoViews(set.observations);
@@ -195,7 +199,8 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
                  {"owlcal_version", OWLCAL_VERSION},
                  {"robot", "none"}};
   auto name_of = [&](int frame, int eye) {
-    const std::string key = frame >= 0 && frame < int(list.pairs.size()) ? list.pairs[frame].key : std::to_string(frame);
+    const std::string key =
+        frame >= 0 && frame < int(list.pairs.size()) ? list.pairs[frame].key : std::to_string(frame);
     const std::string& path = frame >= 0 && frame < int(list.pairs.size())
                                   ? (eye == 0 ? list.pairs[frame].left_path : list.pairs[frame].right_path)
                                   : key;
@@ -242,9 +247,11 @@ const bool kRegistered = RegisterCommand(
       auto o = std::make_shared<CalibrateImagesOptions>();
       cmd->add_option("dir", o->dir, "folder of image pairs")->required()->check(CLI::ExistingDirectory);
       cmd->add_option("--target", o->target, "target file (e.g. data/targets/owl-kit-chessboard.yaml)")
-          ->required()->check(CLI::ExistingFile);
+          ->required()
+          ->check(CLI::ExistingFile);
       cmd->add_option("--out", o->out, "output folder")->required();
-      cmd->add_flag("--mirror", o->mirror,
+      cmd->add_flag("--mirror",
+                    o->mirror,
                     "images are mirrored: flip each file (separate files), or flip the whole frame before "
                     "splitting (side-by-side, the owl.h convention for raw stream frames)");
       cmd->add_flag("--side-by-side", o->side_by_side, "each file is one side-by-side stereo frame");
@@ -266,10 +273,12 @@ const bool kRegistered = RegisterCommand(
                       "(p1 = p2 = 0); held parameters are marked held (sigma 0) in results.json, calibration.md and "
                       "the exports");
       cmd->add_flag("--no-report", o->no_report, "skip the HTML report");
-      cmd->add_option("--rig", o->rig,
-                      "what the sanity checks expect: owl (3.6 mm lens on the OV5647, IPD), generic (any side-by-side "
-                      "pair), auto (owl for a metric target, unless the fit is plainly not an Owl: baseline outside the IPD "
-                      "tolerance and f outside the lens family; then generic, said once)")
+      cmd->add_option(
+             "--rig",
+             o->rig,
+             "what the sanity checks expect: owl (3.6 mm lens on the OV5647, IPD), generic (any side-by-side "
+             "pair), auto (owl for a metric target, unless the fit is plainly not an Owl: baseline outside the IPD "
+             "tolerance and f outside the lens family; then generic, said once)")
           ->capture_default_str();
       cmd->add_option("--ipd-mm", o->ipd_mm, "the robot's IPD for the baseline check [mm]")->capture_default_str();
       cmd->add_option("--reference",

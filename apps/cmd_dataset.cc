@@ -42,7 +42,8 @@ int RunInfo(const DatasetCmdOptions& o) {
             << m.value("created_utc", "?") << ", status " << m.value("status", "?") << "\n";
   if (m.contains("robot")) std::cout << "  robot: " << m["robot"].value("description", "?") << "\n";
   if (m.contains("protocols"))
-    for (const auto& p : m["protocols"]) std::cout << "  protocol: " << p.value("name", "?") << " (" << p.value("file", "") << ")\n";
+    for (const auto& p : m["protocols"])
+      std::cout << "  protocol: " << p.value("name", "?") << " (" << p.value("file", "") << ")\n";
   std::map<std::string, int> per_step;
   for (const auto& f : frames) per_step[std::to_string(f.step_index) + " " + f.step_name]++;
   std::cout << "  " << frames.size() << " frames, " << protocols::ReadPlacementsCsv(o.dir).size() << " placements\n";
@@ -63,8 +64,10 @@ const bool kRegistered = RegisterCommand(
         if (std::string(name) == "check") sub->add_flag("--no-crc", o->no_crc, "skip the JPEG CRC check (sizes only)");
         return sub;
       };
-      CLI::App* check = add("check", "check a dataset (a run killed at any moment passes, minus its last partial frame)");
-      CLI::App* repair = add("repair", "make an interrupted dataset clean (truncate partial lines, drop orphan frames)");
+      CLI::App* check =
+          add("check", "check a dataset (a run killed at any moment passes, minus its last partial frame)");
+      CLI::App* repair =
+          add("repair", "make an interrupted dataset clean (truncate partial lines, drop orphan frames)");
       CLI::App* info = add("info", "summarise a dataset");
       return [o, check, repair, info] {
         if (check->parsed()) return RunCheck(*o);

@@ -46,8 +46,9 @@ void Load(const PairJob& j, const DepthCmdOptions& a, cv::Mat* l, cv::Mat* r) {
   if (j.left_path == j.right_path) {  // one side-by-side stream frame
     const cv::Mat f = cv::imread(j.left_path);
     if (f.empty()) throw std::runtime_error(j.left_path + ": cannot read image");
-    if (f.cols % 2) throw std::runtime_error(j.left_path + ": a side-by-side frame needs an even width, got " +
-                                             std::to_string(f.cols));
+    if (f.cols % 2)
+      throw std::runtime_error(j.left_path + ": a side-by-side frame needs an even width, got " +
+                               std::to_string(f.cols));
     calib::SplitStereoFrame(f, a.mirror, a.swap, l, r);
     return;
   }
@@ -87,7 +88,8 @@ int RunDepth(const DepthCmdOptions& a) {
   if (!a.depth.Check(&why)) throw UsageError(why);
   cv::Rect roi_opt;
   if (!a.roi.empty()) {
-    if (a.roi.size() != 4 || a.roi[2] <= 0 || a.roi[3] <= 0) throw UsageError("--roi needs 4 numbers x y w h (w, h > 0)");
+    if (a.roi.size() != 4 || a.roi[2] <= 0 || a.roi[3] <= 0)
+      throw UsageError("--roi needs 4 numbers x y w h (w, h > 0)");
     roi_opt = cv::Rect(a.roi[0], a.roi[1], a.roi[2], a.roi[3]);
   }
   std::vector<PairJob> jobs;
@@ -154,7 +156,8 @@ int RunDepth(const DepthCmdOptions& a) {
     WriteImage(dir / "depth_mm.png", fitting::DepthMillimetres16(maps.depth_m));
     WriteImage(dir / "depth.png", fitting::ColourDepth(maps.depth_m, a.near_m, a.far_m));
     int num_points = 0;
-    if (a.ply) num_points = reports::WritePointCloudPly((dir / "cloud.ply").string(), maps, a.depth.max_depth_m, rig.source);
+    if (a.ply)
+      num_points = reports::WritePointCloudPly((dir / "cloud.ply").string(), maps, a.depth.max_depth_m, rig.source);
     // Default ROI: a 64 x 48 px region at the image centre (as range-images).
     cv::Rect roi = j.roi;
     if (roi.area() <= 0) roi = cv::Rect(maps.depth_m.cols / 2 - 32, maps.depth_m.rows / 2 - 24, 64, 48);
@@ -181,8 +184,9 @@ int RunDepth(const DepthCmdOptions& a) {
       pj["template_message"] = m.message;
     }
     report["pairs"].push_back(pj);
-    std::cout << j.name << ": " << int(100.0 * maps.num_valid / maps.depth_m.total()) << " % of pixels with depth; ROI ("
-              << d.roi.x << "," << d.roi.y << " " << d.roi.width << "x" << d.roi.height << ") "
+    std::cout << j.name << ": " << int(100.0 * maps.num_valid / maps.depth_m.total())
+              << " % of pixels with depth; ROI (" << d.roi.x << "," << d.roi.y << " " << d.roi.width << "x"
+              << d.roi.height << ") "
               << (d.ok ? "depth " + FixedOrDash(d.depth_m * 100, 2) + " +- " + FixedOrDash(d.sigma_m * 100, 2) +
                              " cm (disparity " + FixedOrDash(d.disparity_px, 2) + " px, 16-bit " +
                              FixedOrDash(d.disparity16, 0) + ")"
@@ -202,8 +206,8 @@ int RunDepth(const DepthCmdOptions& a) {
            "z,disp16,disp16_x_cm,constant_estimate_cm,constant_error_pct,constant_loo_error_pct,template_cm,"
            "template_error_pct,ok,message\n";
     md << "# Depth at the target: SGBM vs the true distance\n\n"
-       << "Calibration: " << rig.source << "; rectified f " << FixedOrDash(rect.focal_px, 2)
-       << " px, baseline " << FixedOrDash(rect.baseline_m * 1000, 2) << " mm. Depth is from the optical centres along "
+       << "Calibration: " << rig.source << "; rectified f " << FixedOrDash(rect.focal_px, 2) << " px, baseline "
+       << FixedOrDash(rect.baseline_m * 1000, 2) << " mm. Depth is from the optical centres along "
        << "the rectified axis (no datum offset). SGBM " << a.depth.sgbm.num_disparities << " disparities, block "
        << a.depth.sgbm.block_size << ", mode " << a.depth.sgbm.mode << ".\n\n"
        << "| pair | true cm | SGBM cm | error % | sigma cm | z | valid | disp16 | disp16 x cm | K/disp16 cm | "
@@ -226,36 +230,37 @@ int RunDepth(const DepthCmdOptions& a) {
       if (t.ok) templ_abs += std::abs(terr), templ_max = std::max(templ_max, std::abs(terr)), ++n_templ;
       csv << jobs[i].name << "," << FixedOrDash(tc, 2) << "," << (d.ok ? FixedOrDash(d.depth_m * 100, 3) : "") << ","
           << (d.ok ? FixedOrDash(err, 3) : "") << "," << (d.ok ? FixedOrDash(d.sigma_m * 100, 3) : "") << ","
-          << (d.ok ? FixedOrDash(d.sigma_calib_m * 100, 3) : "") << "," << (d.ok ? FixedOrDash(d.sigma_match_m * 100, 3) : "")
-          << "," << FixedOrDash(d.valid_fraction(), 3) << "," << (d.ok ? FixedOrDash(d.disparity_px, 3) : "") << ","
-          << FixedOrDash(z, 2) << ","
-          << (d.ok ? FixedOrDash(d.disparity16, 0) : "") << "," << (d.ok ? FixedOrDash(d.disparity16 * tc, 0) : "") << ","
-          << FixedOrDash(k.estimate_m[i] * 100, 3) << "," << FixedOrDash(kerr, 3) << "," << FixedOrDash(kloo, 3) << ","
-          << (t.ok ? FixedOrDash(t.range_m * 100, 3) : "") << "," << (t.ok ? FixedOrDash(terr, 3) : "") << ","
+          << (d.ok ? FixedOrDash(d.sigma_calib_m * 100, 3) : "") << ","
+          << (d.ok ? FixedOrDash(d.sigma_match_m * 100, 3) : "") << "," << FixedOrDash(d.valid_fraction(), 3) << ","
+          << (d.ok ? FixedOrDash(d.disparity_px, 3) : "") << "," << FixedOrDash(z, 2) << ","
+          << (d.ok ? FixedOrDash(d.disparity16, 0) : "") << "," << (d.ok ? FixedOrDash(d.disparity16 * tc, 0) : "")
+          << "," << FixedOrDash(k.estimate_m[i] * 100, 3) << "," << FixedOrDash(kerr, 3) << "," << FixedOrDash(kloo, 3)
+          << "," << (t.ok ? FixedOrDash(t.range_m * 100, 3) : "") << "," << (t.ok ? FixedOrDash(terr, 3) : "") << ","
           << (d.ok ? 1 : 0) << ",\"" << d.message << "\"\n";
       md << "| " << jobs[i].name << " | " << FixedOrDash(tc, 1) << " | "
          << (d.ok ? FixedOrDash(d.depth_m * 100, 2) : "refused") << " | " << FixedOrDash(err, 2) << " | "
          << (d.ok ? FixedOrDash(d.sigma_m * 100, 2) : "-") << " | " << FixedOrDash(z, 1) << " | "
-         << FixedOrDash(d.valid_fraction(), 2) << " | "
-         << (d.ok ? FixedOrDash(d.disparity16, 0) : "-") << " | " << (d.ok ? FixedOrDash(d.disparity16 * tc, 0) : "-")
-         << " | " << FixedOrDash(k.estimate_m[i] * 100, 2) << " | " << FixedOrDash(kerr, 2) << " | "
-         << (t.ok ? FixedOrDash(t.range_m * 100, 2) : "-") << " | " << FixedOrDash(terr, 2) << " |\n";
+         << FixedOrDash(d.valid_fraction(), 2) << " | " << (d.ok ? FixedOrDash(d.disparity16, 0) : "-") << " | "
+         << (d.ok ? FixedOrDash(d.disparity16 * tc, 0) : "-") << " | " << FixedOrDash(k.estimate_m[i] * 100, 2) << " | "
+         << FixedOrDash(kerr, 2) << " | " << (t.ok ? FixedOrDash(t.range_m * 100, 2) : "-") << " | "
+         << FixedOrDash(terr, 2) << " |\n";
     }
     md << "\nSGBM: " << n_sgbm << " of " << jobs.size() << " pairs measured, mean |error| "
-       << FixedOrDash(n_sgbm ? sgbm_abs / n_sgbm : NAN, 2) << " %, max " << FixedOrDash(sgbm_max, 2) << " %; "
-       << n_out3 << " outside +-3 sigma (z = error / sqrt(sigma^2 + truth sigma^2), truth sigma "
-       << FixedOrDash(a.truth_sigma_cm, 1) << " cm)" << (n_out3 ? ": the predicted sigma does not cover these errors"
-                                                                  " (the truth's datum and placement? give --truth-sigma-cm)"
-                                                                : "")
+       << FixedOrDash(n_sgbm ? sgbm_abs / n_sgbm : NAN, 2) << " %, max " << FixedOrDash(sgbm_max, 2) << " %; " << n_out3
+       << " outside +-3 sigma (z = error / sqrt(sigma^2 + truth sigma^2), truth sigma "
+       << FixedOrDash(a.truth_sigma_cm, 1) << " cm)"
+       << (n_out3 ? ": the predicted sigma does not cover these errors"
+                    " (the truth's datum and placement? give --truth-sigma-cm)"
+                  : "")
        << ".\n"
        << "Template ranging (range-images, same ROI): " << n_templ << " of " << jobs.size() << ", mean |error| "
        << FixedOrDash(n_templ ? templ_abs / n_templ : NAN, 2) << " %, max " << FixedOrDash(templ_max, 2) << " %.\n"
        << "Students' measure: disp16 x distance = K = " << FixedOrDash(k.k_disp16_m * 100, 0) << " (disp16 cm), spread "
-       << FixedOrDash(k.k_cv_pct, 2) << " % over " << k.num_rows << " pairs; the calibration's 16 f B = "
-       << FixedOrDash(k.k_calibration * 100, 0) << " (" << FixedOrDash(100 * (k.k_disp16_m / k.k_calibration - 1), 2)
-       << " %). Distance = K / disp16: mean |error| " << FixedOrDash(k.mean_abs_pct, 2) << " %, max "
-       << FixedOrDash(k.max_abs_pct, 2) << " % (K fitted on the same pairs); leave-one-out "
-       << FixedOrDash(k.loo_mean_abs_pct, 2) << " %.\n";
+       << FixedOrDash(k.k_cv_pct, 2) << " % over " << k.num_rows
+       << " pairs; the calibration's 16 f B = " << FixedOrDash(k.k_calibration * 100, 0) << " ("
+       << FixedOrDash(100 * (k.k_disp16_m / k.k_calibration - 1), 2) << " %). Distance = K / disp16: mean |error| "
+       << FixedOrDash(k.mean_abs_pct, 2) << " %, max " << FixedOrDash(k.max_abs_pct, 2)
+       << " % (K fitted on the same pairs); leave-one-out " << FixedOrDash(k.loo_mean_abs_pct, 2) << " %.\n";
     if (failed) md << "\n" << failed << " pair(s) refused: see the message column of depth.csv.\n";
     reports::WriteTextFile((out / "depth.csv").string(), csv.str());
     reports::WriteTextFile((out / "depth.md").string(), md.str());
@@ -289,25 +294,31 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("inputs", o->inputs, "LEFT RIGHT, FRAME (side by side), or FOLDER with --truth")->required();
       cmd->add_option("--calib", o->calib, "calibration file or folder")->required();
       cmd->add_option("--out", o->out, "output folder")->required();
-      cmd->add_option("--truth", o->truth, "truth CSV (a folder of pairs at known distances)")->check(CLI::ExistingFile);
+      cmd->add_option("--truth", o->truth, "truth CSV (a folder of pairs at known distances)")
+          ->check(CLI::ExistingFile);
       cmd->add_option("--truth-sigma-cm", o->truth_sigma_cm, "uncertainty of the true distances [cm]")
           ->capture_default_str();
-      cmd->add_option("--roi", o->roi, "x y w h in the left rectified image (default: 64x48 at the centre)")->expected(4);
+      cmd->add_option("--roi", o->roi, "x y w h in the left rectified image (default: 64x48 at the centre)")
+          ->expected(4);
       cmd->add_option("--min-disparity", s.min_disparity, "SGBM minDisparity [px]")->capture_default_str();
-      cmd->add_option("--num-disparities", s.num_disparities, "SGBM numDisparities (multiple of 16)")->capture_default_str();
+      cmd->add_option("--num-disparities", s.num_disparities, "SGBM numDisparities (multiple of 16)")
+          ->capture_default_str();
       cmd->add_option("--block-size", s.block_size, "SGBM blockSize (odd)")->capture_default_str();
       cmd->add_option("--p1", s.p1, "SGBM P1 (0 = 8 blockSize^2)")->capture_default_str();
       cmd->add_option("--p2", s.p2, "SGBM P2 (0 = 32 blockSize^2)")->capture_default_str();
-      cmd->add_option("--disp12-max-diff", s.disp12_max_diff, "SGBM left-right check [px], < 0 off")->capture_default_str();
+      cmd->add_option("--disp12-max-diff", s.disp12_max_diff, "SGBM left-right check [px], < 0 off")
+          ->capture_default_str();
       cmd->add_option("--pre-filter-cap", s.pre_filter_cap, "SGBM preFilterCap")->capture_default_str();
       cmd->add_option("--uniqueness", s.uniqueness_ratio, "SGBM uniquenessRatio [%]")->capture_default_str();
       cmd->add_option("--speckle-window", s.speckle_window_size, "SGBM speckleWindowSize")->capture_default_str();
       cmd->add_option("--speckle-range", s.speckle_range, "SGBM speckleRange")->capture_default_str();
       cmd->add_option("--mode", s.mode, "SGBM mode: sgbm, hh, 3way, hh4")->capture_default_str();
-      cmd->add_option("--alpha", o->depth.rectify_alpha, "stereoRectify alpha (-1 default, 0..1)")->capture_default_str();
+      cmd->add_option("--alpha", o->depth.rectify_alpha, "stereoRectify alpha (-1 default, 0..1)")
+          ->capture_default_str();
       cmd->add_option("--near-m", o->near_m, "colour scale of depth.png: nearest [m]")->capture_default_str();
       cmd->add_option("--far-m", o->far_m, "colour scale of depth.png: farthest [m]")->capture_default_str();
-      cmd->add_option("--max-depth-m", o->depth.max_depth_m, "farthest point written to cloud.ply [m]")->capture_default_str();
+      cmd->add_option("--max-depth-m", o->depth.max_depth_m, "farthest point written to cloud.ply [m]")
+          ->capture_default_str();
       cmd->add_flag("!--no-ply", o->ply, "do not write cloud.ply");
       cmd->add_flag("--mirror", o->mirror, "flip each image (or frame) horizontally first");
       cmd->add_flag("--swap", o->swap, "exchange the eyes");

@@ -9,8 +9,8 @@
 #include <memory>
 #include <regex>
 
-#include <opencv2/imgcodecs.hpp>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "apps/command_registry.h"
 #include "apps/image_inputs.h"
@@ -48,7 +48,9 @@ int NumberIn(const std::string& stem) {
 
 // Re-detects every recorded frame of the dataset `dir` (superseded frames of a resumed run are
 // skipped, as everything downstream skips them).
-int DetectDataset(const std::string& dir, const calib::TargetFile& tf, const calib::DetectorOptions& dopt,
+int DetectDataset(const std::string& dir,
+                  const calib::TargetFile& tf,
+                  const calib::DetectorOptions& dopt,
                   const std::string& out) {
   const nlohmann::json manifest = protocols::ReadManifest(dir);
   models::RobotConfig config = models::DefaultRobotConfig();
@@ -63,8 +65,7 @@ int DetectDataset(const std::string& dir, const calib::TargetFile& tf, const cal
     }
     const std::vector<uint8_t> jpeg = protocols::ReadFrameJpeg(dir, f.frame_index);
     const cv::Mat frame = cv::imdecode(jpeg, cv::IMREAD_COLOR);
-    if (frame.empty())
-      throw std::runtime_error(protocols::FramePath(dir, f.frame_index) + ": not a decodable JPEG");
+    if (frame.empty()) throw std::runtime_error(protocols::FramePath(dir, f.frame_index) + ": not a decodable JPEG");
     cv::Mat eyes[2];
     calib::SplitStereoFrame(frame, config.mirror_stream, config.swap_eyes, &eyes[0], &eyes[1]);
     for (int eye = 0; eye < 2; ++eye) {
@@ -80,8 +81,9 @@ int DetectDataset(const std::string& dir, const calib::TargetFile& tf, const cal
   }
   calib::WriteObservationsCsv(out, obs);
   std::cout << "dataset " << dir << ": detected the target in " << found << " of " << tried << " eye images ("
-            << skipped << " superseded frames skipped); " << obs.size() << " corners with their servo commands written to "
-            << out << " (target '" << tf.target.id << "', unit " << tf.unit << ")\n";
+            << skipped << " superseded frames skipped); " << obs.size()
+            << " corners with their servo commands written to " << out << " (target '" << tf.target.id << "', unit "
+            << tf.unit << ")\n";
   return found > 0 ? kExitOk : kExitFailed;
 }
 

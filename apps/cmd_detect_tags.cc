@@ -84,14 +84,16 @@ const bool kRegistered = RegisterCommand(
       auto o = std::make_shared<DetectTagsOptions>();
       cmd->add_option("inputs", o->inputs, "image files and/or folders")->required();
       cmd->add_option("--out", o->out, "CSV to write")->required();
-      cmd->add_option("--family", o->families,
+      cmd->add_option("--family",
+                      o->families,
                       "tag family, repeatable: tag36h11 tag36h10 tag25h9 tag16h5 tagCircle21h7 tagCircle49h12 "
                       "tagCustom48h12 tagStandard41h12 tagStandard52h13, or all")
           ->capture_default_str();
       cmd->add_option("--quad-decimate", o->decimate, "libapriltag quad_decimate (1 = full resolution)")
           ->capture_default_str();
       cmd->add_option("--quad-sigma", o->blur, "Gaussian blur before quad detection [px]")->capture_default_str();
-      cmd->add_flag("--no-refine-edges", o->no_refine_edges, "turn libapriltag's refine_edges off (corners ~0.85 px worse)");
+      cmd->add_flag(
+          "--no-refine-edges", o->no_refine_edges, "turn libapriltag's refine_edges off (corners ~0.85 px worse)");
       cmd->add_option("--max-hamming", o->max_hamming, "bits corrected (0..2)")->capture_default_str();
       cmd->add_option("--min-margin", o->min_margin, "drop tags with a lower decision margin")->capture_default_str();
       return [o] { return RunDetectTags(*o); };

@@ -53,7 +53,8 @@ void PrintParameters(const fitting::CalibrationResult& r) {
   for (const fitting::Parameter& p : r.parameters) {
     char line[256];
     if (p.determined) {
-      std::snprintf(line, sizeof(line), "  %-22s %14.6g +- %-10.3g %s", p.name.c_str(), p.value, p.sigma, p.unit.c_str());
+      std::snprintf(
+          line, sizeof(line), "  %-22s %14.6g +- %-10.3g %s", p.name.c_str(), p.value, p.sigma, p.unit.c_str());
     } else {
       std::snprintf(line, sizeof(line), "  %-22s %14s    NOT DETERMINED: %s", p.name.c_str(), "-", p.note.c_str());
     }
@@ -102,10 +103,17 @@ int RunFit(const FitCmdOptions& o) {
                    {"observations_fnv1a64", Fnv1a64(o.obs_path)},
                    {"num_observations", obs.size()},
                    {"options",
-                    {{"model", o.model}, {"loss", o.loss}, {"corner_sigma_px", o.sigma_px},
-                     {"outlier_threshold_sigma", o.outlier_sigma}, {"fix_k3", o.fix_k3}, {"fix_aspect_ratio", o.fix_aspect},
-                     {"fix_tangential", o.fix_tangential}, {"fix_principal_point", o.fix_pp}, {"width", o.width},
-                     {"height", o.height}, {"length_unit", sopt.length_unit}}}};
+                    {{"model", o.model},
+                     {"loss", o.loss},
+                     {"corner_sigma_px", o.sigma_px},
+                     {"outlier_threshold_sigma", o.outlier_sigma},
+                     {"fix_k3", o.fix_k3},
+                     {"fix_aspect_ratio", o.fix_aspect},
+                     {"fix_tangential", o.fix_tangential},
+                     {"fix_principal_point", o.fix_pp},
+                     {"width", o.width},
+                     {"height", o.height},
+                     {"length_unit", sopt.length_unit}}}};
   bool usable = false;
   fitting::OpenCvStereoCalibration cv_file;
   cv_file.image_width = o.width;
@@ -118,9 +126,12 @@ int RunFit(const FitCmdOptions& o) {
       // Physical sanity of the stereo result (fitting/stereo_sanity.h): owl for a metric target.
       const bool metric = sopt.length_unit == "m" || sopt.length_unit == "mm";
       fitting::RigExpectation rig;
-      if (o.rig == "owl" || (o.rig == "auto" && metric)) rig = fitting::RigExpectation::Owl();
-      else if (o.rig == "generic" || o.rig == "auto") rig = fitting::RigExpectation::Generic();
-      else throw UsageError("--rig = '" + o.rig + "': use auto, owl or generic");
+      if (o.rig == "owl" || (o.rig == "auto" && metric))
+        rig = fitting::RigExpectation::Owl();
+      else if (o.rig == "generic" || o.rig == "auto")
+        rig = fitting::RigExpectation::Generic();
+      else
+        throw UsageError("--rig = '" + o.rig + "': use auto, owl or generic");
       const double unit_m = sopt.length_unit == "m" ? 1.0 : (sopt.length_unit == "mm" ? 0.001 : 0.0);
       if (o.rig == "auto") {  // plainly not an Owl: judged as a generic pair, said once
         const std::string why_not = fitting::WhyNotThisRig(fit.cameras, fit.right_from_left, unit_m, rig);
@@ -176,13 +187,15 @@ int RunFit(const FitCmdOptions& o) {
 const bool kRegistered = RegisterCommand(
     "fit",
     "Fit intrinsics per eye (and stereo R, T when both eyes are observed) from an observation CSV. "
-    "Produces DIR/results.json (every value with sigma) and DIR/calibration.yaml (OpenCV M1 D1 M2 D2 R T E F R1 R2 P1 P2 Q).",
+    "Produces DIR/results.json (every value with sigma) and DIR/calibration.yaml (OpenCV M1 D1 M2 D2 R T E F R1 R2 P1 "
+    "P2 Q).",
     [](CLI::App* cmd) {
       auto o = std::make_shared<FitCmdOptions>();
       cmd->add_option("observations", o->obs_path, "observation CSV from `owlcal detect`")->required();
       cmd->add_option("--out", o->out_dir, "output folder")->required();
       cmd->add_option("--model", o->model, "distortion model: opencv5 (k1 k2 p1 p2 k3) or opencv8 (+k4 k5 k6)");
-      cmd->add_option("--rig", o->rig, "sanity checks of a stereo result: owl, generic or auto (owl for a metric target)")
+      cmd->add_option(
+             "--rig", o->rig, "sanity checks of a stereo result: owl, generic or auto (owl for a metric target)")
           ->capture_default_str();
       cmd->add_option("--loss", o->loss, "robust loss: none, huber or cauchy");
       cmd->add_option("--corner-sigma-px", o->sigma_px, "corner noise [px]; 0 = estimate from the residuals");

@@ -31,7 +31,8 @@ struct FitDatasetsCommand {
 };
 
 int RunFitDatasets(FitDatasetsCommand o) {
-  if (fs::exists(o.out + "/results.json")) throw UsageError(o.out + " already holds a calibration (results.json); choose a new --out");
+  if (fs::exists(o.out + "/results.json"))
+    throw UsageError(o.out + " already holds a calibration (results.json); choose a new --out");
   const Progress progress("fit-datasets", o.quiet);
   pipeline::CalibratePipelineOptions& po = o.fit.fit;
   fitting::HeadFitOptions& head = po.head;
@@ -84,27 +85,30 @@ const bool kRegistered = RegisterCommand(
     [](CLI::App* cmd) {
       auto o = std::make_shared<FitDatasetsCommand>();
       pipeline::CalibratePipelineOptions& po = o->fit.fit;
-      cmd->add_option("DIR", o->dir, "a folder owlcal calibrate wrote (holds datasets/)")->required()->check(CLI::ExistingDirectory);
+      cmd->add_option("DIR", o->dir, "a folder owlcal calibrate wrote (holds datasets/)")
+          ->required()
+          ->check(CLI::ExistingDirectory);
       cmd->add_option("--out", o->out, "report folder to create")->required();
-      cmd->add_option("--sigma-factor",
-                      po.head.measured_sigma_factor,
-                      "head fit: factor on the measured corner sigma")
+      cmd->add_option("--sigma-factor", po.head.measured_sigma_factor, "head fit: factor on the measured corner sigma")
           ->capture_default_str()
           ->check(CLI::Range(0.1, 100.0));
       cmd->add_flag("--hold-intrinsics", o->hold_intrinsics, "head fit: hold the intrinsics at the stereo fit's");
       cmd->add_flag("--no-nonlinear", o->no_nonlinear, "head fit: servo maps linear (quad and cubic held at 0)");
       cmd->add_flag("--no-hysteresis", o->no_hysteresis, "head fit: no backlash (hysteresis held at 0)");
-      cmd->add_option("--hysteresis-floor", po.head.hysteresis_sigma_floor_us, "head fit: floor of the hysteresis sigma [us]")
+      cmd->add_option(
+             "--hysteresis-floor", po.head.hysteresis_sigma_floor_us, "head fit: floor of the hysteresis sigma [us]")
           ->capture_default_str()
           ->check(CLI::Range(0.0, 100.0));
-      cmd->add_option("--view-outlier-factor", po.head.view_outlier_factor,
+      cmd->add_option("--view-outlier-factor",
+                      po.head.view_outlier_factor,
                       "head fit: drop views whose RMS exceeds this times the median view's (0 = off)")
           ->check(CLI::Range(0.0, 1e6));
-      cmd->add_option("--covariance-clusters",
-                      po.head.covariance_clusters,
-                      "head fit: sigma from the residuals, clustered by view, placement or cell:B (the views of a placement "
-                      "whose commands share a B us cell; fitting/observability.h ClusterRobustCovariance), or model "
-                      "(the model covariance alone)")
+      cmd->add_option(
+             "--covariance-clusters",
+             po.head.covariance_clusters,
+             "head fit: sigma from the residuals, clustered by view, placement or cell:B (the views of a placement "
+             "whose commands share a B us cell; fitting/observability.h ClusterRobustCovariance), or model "
+             "(the model covariance alone)")
           ->capture_default_str()
           ->check([](const std::string& v) {
             if (v == "model" || v == "view" || v == "placement") return std::string();

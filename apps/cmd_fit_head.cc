@@ -25,7 +25,7 @@ struct FitHeadArgs {
   std::string out;
   std::string robot_file;
   std::string intrinsics_json;
-  double sigma_px = 0;          // 0: measured from the residuals (HeadFitOptions::estimate_corner_sigma)
+  double sigma_px = 0;  // 0: measured from the residuals (HeadFitOptions::estimate_corner_sigma)
   double min_sigma_px = 0.0;
   double bias_factor = 1.4;  // measured sigma x this for the detector bias (as owlcal calibrate)
   bool fit_intrinsics = false;
@@ -46,7 +46,8 @@ int RunFitHead(const FitHeadArgs& a) {
   o.fit_nonlinear = !a.linear;
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
-  const models::RobotConfig robot = a.robot_file.empty() ? models::DefaultRobotConfig() : robot::LoadRobotFile(a.robot_file);
+  const models::RobotConfig robot =
+      a.robot_file.empty() ? models::DefaultRobotConfig() : robot::LoadRobotFile(a.robot_file);
   models::HeadModel init = models::NominalHeadModel(robot);
   if (!a.intrinsics_json.empty()) {
     const fitting::CalibrationResult prior = fitting::ReadResultJson(a.intrinsics_json);
@@ -88,16 +89,19 @@ const bool kRegistered = RegisterCommand(
     [](CLI::App* cmd) {
       auto o = std::make_shared<FitHeadArgs>();
       cmd->add_option("observations", o->observations, "observations CSV (owlcal detect)")
-          ->required()->check(CLI::ExistingFile);
+          ->required()
+          ->check(CLI::ExistingFile);
       cmd->add_option("--out", o->out, "output folder (head_result.json)")->required();
       cmd->add_option("--robot", o->robot_file, "robot file (default: the guide's robot)")->check(CLI::ExistingFile);
       cmd->add_option("--intrinsics", o->intrinsics_json, "result JSON with both cameras (held fixed)")
           ->check(CLI::ExistingFile);
-      cmd->add_option("--sigma-px", o->sigma_px, "corner noise used to whiten [px]; 0 = measured per eye from the residuals")
+      cmd->add_option(
+             "--sigma-px", o->sigma_px, "corner noise used to whiten [px]; 0 = measured per eye from the residuals")
           ->capture_default_str();
       cmd->add_option("--min-sigma-px", o->min_sigma_px, "floor of the measured corner noise (detector bias) [px]")
           ->capture_default_str();
-      cmd->add_option("--bias-factor", o->bias_factor,
+      cmd->add_option("--bias-factor",
+                      o->bias_factor,
                       "with --sigma-px 0: the measured noise is multiplied by this for the detector's bias")
           ->capture_default_str();
       cmd->add_flag("--fit-intrinsics", o->fit_intrinsics, "fit the intrinsics jointly");

@@ -58,8 +58,9 @@ std::vector<SetRow> ReadSetsCsv(const std::string& path) {
     }
   }
   if (c_path.empty() || c[0].empty() || c[1].empty() || c[2].empty() || c[3].empty())
-    throw std::runtime_error(path + ":1: header needs calibration (a calibration folder, results.json, an image folder "
-                                    "or an observations CSV), Rx, Ry, Lx and Ly");
+    throw std::runtime_error(path +
+                             ":1: header needs calibration (a calibration folder, results.json, an image folder "
+                             "or an observations CSV), Rx, Ry, Lx and Ly");
   std::vector<SetRow> rows;
   const fs::path base = fs::path(path).parent_path();
   for (size_t i = 0; i < t.NumRows(); ++i) {
@@ -80,7 +81,9 @@ std::vector<SetRow> ReadSetsCsv(const std::string& path) {
 
 // The stereo result of one set: read (results.json, or a folder holding one) or calibrated
 // here (an observations CSV, or a folder of image pairs with --target), written to set_dir.
-fitting::CalibrationResult ResultOf(const SetRow& row, const FitToeInOptions& a, const fs::path& set_dir,
+fitting::CalibrationResult ResultOf(const SetRow& row,
+                                    const FitToeInOptions& a,
+                                    const fs::path& set_dir,
                                     std::string* how) {
   const fs::path p(row.path);
   if (p.extension() == ".json") {
@@ -113,8 +116,9 @@ fitting::CalibrationResult ResultOf(const SetRow& row, const FitToeInOptions& a,
     fo.length_unit = target.unit;
     *how = "calibrated from images";
   } else {
-    throw std::runtime_error(row.path + ": neither results.json, a calibration folder, an observations CSV nor an "
-                                        "image folder");
+    throw std::runtime_error(row.path +
+                             ": neither results.json, a calibration folder, an observations CSV nor an "
+                             "image folder");
   }
   fitting::ImageSetCalibration c = fitting::CalibrateImageSet(obs, fo);
   c.result.software_version = OWLCAL_VERSION;
@@ -127,10 +131,14 @@ fitting::CalibrationResult ResultOf(const SetRow& row, const FitToeInOptions& a,
 
 int RunFitToeIn(const FitToeInOptions& a) {
   fitting::ToeInFitOptions o;
-  if (a.scale == "auto") o.scale_mode = fitting::ScaleMode::kAuto;
-  else if (a.scale == "per-eye") o.scale_mode = fitting::ScaleMode::kPerEye;
-  else if (a.scale == "common") o.scale_mode = fitting::ScaleMode::kCommon;
-  else throw UsageError("--scale = '" + a.scale + "': use auto, per-eye or common");
+  if (a.scale == "auto")
+    o.scale_mode = fitting::ScaleMode::kAuto;
+  else if (a.scale == "per-eye")
+    o.scale_mode = fitting::ScaleMode::kPerEye;
+  else if (a.scale == "common")
+    o.scale_mode = fitting::ScaleMode::kCommon;
+  else
+    throw UsageError("--scale = '" + a.scale + "': use auto, per-eye or common");
   if (!a.robot_file.empty()) {
     const auto robot = robot::LoadRobotFile(a.robot_file);
     o.rx_direction = robot.servos[models::kRx].direction;
@@ -169,8 +177,12 @@ int RunFitToeIn(const FitToeInOptions& a) {
   r.parameters = fit.parameters;
   r.warnings = fit.notes;
   r.inputs = {{"sets_csv", a.csv}, {"scale_mode", a.scale}, {"robot_file", a.robot_file}};
-  r.diagnostics = {{"chi2", fit.chi2},         {"dof", fit.dof},          {"chi2_per_dof", fit.chi2_per_dof},
-                   {"rms_residual_deg", fit.rms_residual_deg}, {"per_eye", fit.per_eye}, {"num_sets", fit.num_sets},
+  r.diagnostics = {{"chi2", fit.chi2},
+                   {"dof", fit.dof},
+                   {"chi2_per_dof", fit.chi2_per_dof},
+                   {"rms_residual_deg", fit.rms_residual_deg},
+                   {"per_eye", fit.per_eye},
+                   {"num_sets", fit.num_sets},
                    {"message", fit.message}};
   fitting::WriteResultJson(r, (out / "results.json").string());
   std::cout << md << "\nwrote " << a.out << ": toe_in_fit.md toe_in_sets.csv results.json\n";

@@ -28,10 +28,14 @@ struct FitVergenceOptions {
 
 int RunFitVergence(const FitVergenceOptions& a) {
   fitting::VergenceFitOptions o;
-  if (a.ipd == "auto") o.ipd_mode = fitting::IpdMode::kAuto;
-  else if (a.ipd == "fixed") o.ipd_mode = fitting::IpdMode::kFixed;
-  else if (a.ipd == "free") o.ipd_mode = fitting::IpdMode::kFree;
-  else throw UsageError("--ipd = '" + a.ipd + "': use auto, fixed or free");
+  if (a.ipd == "auto")
+    o.ipd_mode = fitting::IpdMode::kAuto;
+  else if (a.ipd == "fixed")
+    o.ipd_mode = fitting::IpdMode::kFixed;
+  else if (a.ipd == "free")
+    o.ipd_mode = fitting::IpdMode::kFree;
+  else
+    throw UsageError("--ipd = '" + a.ipd + "': use auto, fixed or free");
   o.ipd_m = a.ipd_mm / 1000;
   o.datum_offset_m = a.datum_mm / 1000;
   o.fit_datum = !a.fix_datum;
@@ -44,9 +48,12 @@ int RunFitVergence(const FitVergenceOptions& a) {
   fitting::LooSummary loo;  // leave-one-out refits only make sense around a usable fit
   if (fit.summary.usable && !a.constants.empty()) {
     const auto robot = robot::LoadRobotFile(a.constants);
-    loo = fitting::LeaveOneOut(rows, o, fit,
+    loo = fitting::LeaveOneOut(rows,
+                               o,
+                               fit,
                                fitting::FixedConstantVergence::FromRobot(
-                                   robot, a.datum_mm / 1000,
+                                   robot,
+                                   a.datum_mm / 1000,
                                    a.constants + " (robot " + robot.name + ": Rx centre " +
                                        std::to_string(robot.servos[models::kRx].centre_us) + " us, Lx centre " +
                                        std::to_string(robot.servos[models::kLx].centre_us) + " us, " +
@@ -102,7 +109,8 @@ const bool kRegistered = RegisterCommand(
     [](CLI::App* cmd) {
       auto o = std::make_shared<FitVergenceOptions>();
       cmd->add_option("csv", o->csv, "vergence log: header with distance_cm|distance_mm, Rx, Lx, optional run")
-          ->required()->check(CLI::ExistingFile);
+          ->required()
+          ->check(CLI::ExistingFile);
       cmd->add_option("--out", o->out, "output folder (vergence_fit.md, vergence_rows.csv, results.json)")->required();
       cmd->add_option("--ipd", o->ipd, "IPD: auto (free only if the data determine it), fixed, free")
           ->capture_default_str();
@@ -111,13 +119,15 @@ const bool kRegistered = RegisterCommand(
           ->capture_default_str();
       cmd->add_flag("--fix-datum", o->fix_datum, "do not fit the datum");
       cmd->add_option("--pwm-sigma-us", o->pwm_sigma_us, "prior sigma of one logged PWM [us]")->capture_default_str();
-      cmd->add_option("--distance-column", o->columns.distance,
+      cmd->add_option("--distance-column",
+                      o->columns.distance,
                       "header name of the TRUE distance (needed when several columns look like distances)");
       cmd->add_option("--distance-unit", o->columns.distance_unit, "m, cm or mm (default: the column name's suffix)");
       cmd->add_option("--rx-column", o->columns.rx, "header name of the right-eye pan PWM (default Rx, Rx_us, Rx_pwm)");
       cmd->add_option("--lx-column", o->columns.lx, "header name of the left-eye pan PWM (default Lx, Lx_us, Lx_pwm)");
       cmd->add_option("--run-column", o->columns.run, "header name of the run id (default run; absent = one run)");
-      cmd->add_option("--constants", o->constants,
+      cmd->add_option("--constants",
+                      o->constants,
                       "robot file (data/robots/guide-owl.yaml form) of THIS robot: its Rx/Lx centres, deg_per_us, "
                       "directions and IPD are the fixed-constant method compared with the fit")
           ->check(CLI::ExistingFile);

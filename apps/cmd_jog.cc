@@ -89,11 +89,16 @@ class KeyInput {
       }
       if (seq[0] == '[' || seq[0] == 'O') {
         switch (seq[1]) {
-          case 'A': return "up";
-          case 'B': return "down";
-          case 'C': return "right";
-          case 'D': return "left";
-          default: break;
+          case 'A':
+            return "up";
+          case 'B':
+            return "down";
+          case 'C':
+            return "right";
+          case 'D':
+            return "left";
+          default:
+            break;
         }
       }
       return "escape";
@@ -173,8 +178,8 @@ int Save(const JogCmdOptions& o, const protocols::JogSession& s) {
               << r.measured_us[1] << " (" << r.cause[1] << "): " << r.message << "\n";
   }
   reports::WriteTextFile(o.out + "/revalidation.csv", csv.str());
-  std::cout << (failed ? std::to_string(failed) + " servo(s) failed the re-validation" : "every servo passed")
-            << " (" << o.out << "/revalidation.csv)\n";
+  std::cout << (failed ? std::to_string(failed) + " servo(s) failed the re-validation" : "every servo passed") << " ("
+            << o.out << "/revalidation.csv)\n";
   return failed ? 3 : kExitOk;
 }
 
@@ -215,8 +220,8 @@ int RunJog(const JogCmdOptions& o) {
     std::cout << "owlcal jog on " << robot->Describe() << " (limits of " << file.name << "; the Pi server clamps to\n"
               << "its own table: to look beyond it, raise it for the session)" << std::endl;
     session->Start();
-    std::cout << kKeys << (keys.Tty() ? "raw keys ready" : "prompt mode: type keys, then Enter")
-              << nl << session->StatusLine() << std::endl;
+    std::cout << kKeys << (keys.Tty() ? "raw keys ready" : "prompt mode: type keys, then Enter") << nl
+              << session->StatusLine() << std::endl;
     auto side = [&] {
       const int p = session->Pose()[session->Selected()];
       const int c = file.servos[session->Selected()].centre_us;

@@ -24,7 +24,8 @@ int RunMove(const MoveOptions& o) {
   for (int i = 0; i < models::kNumServos; ++i) {
     // Decimal digits only; the packet carries four digits, the limits guard then clamps.
     const std::string why = io::CheckInt(o.pwm_us[i], 0, 9999, &pwm[i]);
-    if (!why.empty()) throw UsageError(std::string("pulse width ") + kNames[i] + " " + why + " (decimal us, e.g. 1500)");
+    if (!why.empty())
+      throw UsageError(std::string("pulse width ") + kNames[i] + " " + why + " (decimal us, e.g. 1500)");
   }
   const robot::MoveReport r = robot::SendOneCommand(o.robot, robot, pwm, std::chrono::milliseconds(o.timeout_ms));
   std::cout << r.Text();

@@ -132,9 +132,10 @@ int RunRangeImages(const RangeImagesOptions& a) {
     if (a.roi.size() != 4) throw UsageError("--roi needs 4 numbers: x y w h");
     o.match.template_roi = cv::Rect(a.roi[0], a.roi[1], a.roi[2], a.roi[3]);
     if (!fitting::RoiInsideImage(o.match.template_roi, rect.size))
-      throw UsageError("--roi " + std::to_string(a.roi[0]) + " " + std::to_string(a.roi[1]) + " " + std::to_string(a.roi[2]) +
-                       " " + std::to_string(a.roi[3]) + " is not a template (w, h >= 5) inside the " +
-                       std::to_string(rect.size.width) + "x" + std::to_string(rect.size.height) + " rectified image");
+      throw UsageError("--roi " + std::to_string(a.roi[0]) + " " + std::to_string(a.roi[1]) + " " +
+                       std::to_string(a.roi[2]) + " " + std::to_string(a.roi[3]) +
+                       " is not a template (w, h >= 5) inside the " + std::to_string(rect.size.width) + "x" +
+                       std::to_string(rect.size.height) + " rectified image");
   }
   fitting::CheckRangeTruthRois(truth, rect.size);
   const bool auto_select = a.select != "centre";
@@ -169,8 +170,9 @@ int RunRangeImages(const RangeImagesOptions& a) {
   md += "\nTemplates: " + std::string(auto_select ? "chosen per pair (" + a.select + "): " : "") +
         (ms.empty() ? std::string("-") : ms.front().roi_how) + (ms.size() > 1 ? " (first pair)" : "") + ".\n";
   md += "\nCalibration: " + rig.source + (rig.covariance.size() ? "" : " (no covariance)") +
-        (rig.halves.empty() ? "; no halves (sigma_cv unknown)" : "; with its two halves (sigma_cv)") + "; rectified f " +
-        fitting::FixedOrDash(rect.focal_px, 2) + " px, baseline " + fitting::FixedOrDash(rect.baseline_m * 1000, 3) +
+        (rig.halves.empty() ? "; no halves (sigma_cv unknown)" : "; with its two halves (sigma_cv)") +
+        "; rectified f " + fitting::FixedOrDash(rect.focal_px, 2) + " px, baseline " +
+        fitting::FixedOrDash(rect.baseline_m * 1000, 3) +
         " mm. Range = depth from the optical centres along the rectified axis + datum " +
         fitting::FixedOrDash(a.datum_cm, 1) + " cm; truth sigma " + fitting::FixedOrDash(a.truth_sigma_cm, 1) +
         " cm (the uncertainty of the true distances themselves: datum and placement).\n";
@@ -192,7 +194,9 @@ int RunRangeImages(const RangeImagesOptions& a) {
   ok.title = "ok, +-3 sigma predicted";
   ok.style = "yerrorbars pt 7 lc rgb '#1f77b4'";
   ok.using_spec = "1:2:3";
-  ok.columns = {any_truth ? "true_cm" : "pair", any_truth ? "err_pct" : "range_cm", any_truth ? "three_sigma_pct" : "three_sigma_cm"};
+  ok.columns = {any_truth ? "true_cm" : "pair",
+                any_truth ? "err_pct" : "range_cm",
+                any_truth ? "three_sigma_pct" : "three_sigma_cm"};
   low = ok;
   low.title = "LOW CONFIDENCE (not counted), +-3 sigma";
   low.style = "yerrorbars pt 6 ps 1.5 lc rgb '#d62728'";
@@ -252,7 +256,8 @@ const bool kRegistered = RegisterCommand(
           ->check(CLI::ExistingFile);
       cmd->add_option("--out", o->out, "output folder")->required();
       cmd->add_option("--roi", o->roi, "template x y w h in the left rectified image")->expected(4);
-      cmd->add_option("--select", o->select,
+      cmd->add_option("--select",
+                      o->select,
                       "how to choose the template when no ROI is given: centre (the central region), texture (the most "
                       "textured windows near the centre, first confident one), colour:red|green|blue|yellow (the blob "
                       "nearest the centre), tag or tag:ID (an AprilTag)")
@@ -262,7 +267,8 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--max-disparity", o->max_disparity, "largest disparity searched [px]")->capture_default_str();
       cmd->add_option("--truth-sigma-cm", o->truth_sigma_cm, "uncertainty of the logged distances [cm]")
           ->capture_default_str();
-      cmd->add_option("--datum-cm", o->datum_cm, "added to the depth from the optical centres [cm]")->capture_default_str();
+      cmd->add_option("--datum-cm", o->datum_cm, "added to the depth from the optical centres [cm]")
+          ->capture_default_str();
       cmd->add_flag("--no-datum-fit", o->no_datum_fit, "do not fit the truth's datum and scale");
       cmd->add_flag("--mirror", o->mirror, "flip each image horizontally first (mirrored captures)");
       return [o] { return RunRangeImages(*o); };

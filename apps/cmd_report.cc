@@ -41,7 +41,9 @@ const bool kRegistered = RegisterCommand(
       auto o = std::make_shared<ReportCmdOptions>();
       cmd->add_option("dir", o->dir, "calibration folder (from owlcal calibrate)")->required();
       cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
-      cmd->add_flag("--no-exports", o->no_exports, "do not rewrite calibration.yaml, intrinsics.xml, extrinsics.xml and exports/");
+      cmd->add_flag("--no-exports",
+                    o->no_exports,
+                    "do not rewrite calibration.yaml, intrinsics.xml, extrinsics.xml and exports/");
       return [o] { return RunReport(*o); };
     });
 

@@ -28,12 +28,12 @@ struct RunCmdOptions {
 };
 
 int RunRun(const RunCmdOptions& o) {
-  if (o.protocols.empty()) throw UsageError("give at least one protocol (a file or a standard name: " +
-                                            [] {
-                                              std::string s;
-                                              for (const auto& n : protocols::StandardProtocolNames()) s += (s.empty() ? "" : ", ") + n;
-                                              return s;
-                                            }() + ")");
+  if (o.protocols.empty())
+    throw UsageError("give at least one protocol (a file or a standard name: " + [] {
+      std::string s;
+      for (const auto& n : protocols::StandardProtocolNames()) s += (s.empty() ? "" : ", ") + n;
+      return s;
+    }() + ")");
   if (!o.dry_run && o.out.empty()) throw UsageError("--out DATASET is required (except with --dry-run)");
   std::vector<protocols::Protocol> loaded;
   for (const std::string& p : o.protocols) {
@@ -85,7 +85,8 @@ const bool kRegistered = RegisterCommand(
     "Consumes protocol files (YAML; or standard names: limits, alignment, intrinsics, stereo,\n"
     "servo_sweep, vergence, step_response, latency); produces DATASET/ (manifest.json, frames/,\n"
     "frames.csv, placements.csv, steps.csv, events.log and measurement tables). Every command\n"
-    "is clamped to the robot file's limits; Ctrl-C, SIGTERM or SIGHUP parks the head and closes the dataset as aborted.",
+    "is clamped to the robot file's limits; Ctrl-C, SIGTERM or SIGHUP parks the head and closes the dataset as "
+    "aborted.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<RunCmdOptions>();
       cmd->add_option("protocols", o->protocols, "protocol files or standard protocol names")->required();
@@ -93,10 +94,12 @@ const bool kRegistered = RegisterCommand(
       cmd->add_option("--out", o->out, "dataset folder to create (or continue with --resume)");
       cmd->add_flag("--dry-run", o->dry_run, "print the planned commands checked against the limits; move nothing");
       cmd->add_flag("--resume", o->resume, "continue an interrupted run in --out");
-      cmd->add_flag("--non-interactive", o->non_interactive,
+      cmd->add_flag("--non-interactive",
+                    o->non_interactive,
                     "real robot: do not prompt; assume targets are placed as the protocol says");
       cmd->add_flag("--quiet", o->quiet, "no progress output");
-      cmd->add_option("--live-port", o->live_port,
+      cmd->add_option("--live-port",
+                      o->live_port,
                       "serve live capture feedback (detection overlay, coverage bars X/Y/Size/Skew, missing views)\n"
                       "as MJPEG on 127.0.0.1:PORT (0: any free port, printed)")
           ->check(CLI::Range(0, 65535));

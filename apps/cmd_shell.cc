@@ -52,8 +52,8 @@ int RunShell(const ShellOptions& o) {
   if (from_stdin && ::isatty(STDIN_FILENO)) {
     // Interactive: one line at a time; a bad line is reported and skipped.
     std::unique_ptr<robot::OwlLink> link = Connect(o);
-    std::cout << "owlcal shell on " << link->Describe()
-              << ": move Rx Ry Lx Ly Neck | centre | wait SECONDS | quit\n> " << std::flush;
+    std::cout << "owlcal shell on " << link->Describe() << ": move Rx Ry Lx Ly Neck | centre | wait SECONDS | quit\n> "
+              << std::flush;
     robot::ShellResult total;
     int n = 0;
     for (std::string line; std::getline(std::cin, line);) {
@@ -111,7 +111,8 @@ const bool kRegistered = RegisterCommand(
       auto o = std::make_shared<ShellOptions>();
       cmd->add_option("--robot", o->robot, "robot servo server HOST[:PORT] (port 12345 if omitted; no default host)")
           ->required();
-      cmd->add_option("--robot-file", o->robot_file, "robot file (YAML) with the limits and centres; default: the guide's")
+      cmd->add_option(
+             "--robot-file", o->robot_file, "robot file (YAML) with the limits and centres; default: the guide's")
           ->check(CLI::ExistingFile);
       cmd->add_option("--timeout-ms", o->timeout_ms, "connect and reply timeout [ms]")->check(CLI::Range(1, 60000));
       cmd->add_option("script", o->script, "script file, or - for standard input (the default)");

@@ -60,7 +60,8 @@ std::string ServerText(robot::ServoServerOptions::Mode mode, std::chrono::millis
     case robot::ServoServerOptions::Mode::kC:
       return "c (MRSsocket.c: per-field parse and clamp, replies with the Rx value; exits when its one client "
              "leaves)";
-    case robot::ServoServerOptions::Mode::kOwlcal: break;
+    case robot::ServoServerOptions::Mode::kOwlcal:
+      break;
   }
   char seconds[32];
   std::snprintf(seconds, sizeof seconds, "%g", double(idle_timeout.count()) / 1000.0);
@@ -134,7 +135,8 @@ int RunSim(const SimCommandOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    if (o.duration_s > 0 && std::chrono::steady_clock::now() - start > std::chrono::duration<double>(o.duration_s)) break;
+    if (o.duration_s > 0 && std::chrono::steady_clock::now() - start > std::chrono::duration<double>(o.duration_s))
+      break;
   }
   const auto stats = server.ServoStats();
   server.Stop();
@@ -152,33 +154,42 @@ const bool kRegistered = RegisterCommand(
     "Run the virtual Owl in real time (servo TCP + MJPEG stream on loopback), or --write-truth FILE",
     [](CLI::App* cmd) {
       auto o = std::make_shared<SimCommandOptions>();
-      cmd->add_option("--robot-truth", o->truth_file, "robot-truth YAML (default: built-in = data/sim/owl_default_truth.yaml)")
+      cmd->add_option(
+             "--robot-truth", o->truth_file, "robot-truth YAML (default: built-in = data/sim/owl_default_truth.yaml)")
           ->check(CLI::ExistingFile);
       cmd->add_option("--scene", o->scene_file, "scene YAML (default: built-in)")->check(CLI::ExistingFile);
       cmd->add_option("--bind", o->bind, "address to listen on (IPv4, or an IPv6 literal such as ::1)")
           ->capture_default_str();
-      cmd->add_option("--server", o->server,
+      cmd->add_option("--server",
+                      o->server,
                       "servo server: owlcal (robust, default), python (the guide's Annex 2 server) or c (the course's "
                       "MRSsocket.c: one client per launch)")
           ->capture_default_str();
-      cmd->add_option("--idle-timeout", o->idle_timeout_s,
+      cmd->add_option("--idle-timeout",
+                      o->idle_timeout_s,
                       "owlcal server: close a session silent this many seconds when another client is waiting")
           ->capture_default_str();
       cmd->add_option("--servo-port", o->servo_port, "servo TCP port (0 = any free)")->capture_default_str();
       cmd->add_option("--http-port", o->http_port, "MJPEG/HTTP port (0 = any free)")->capture_default_str();
       cmd->add_option("--seed", o->seed, "noise/drop seed")->capture_default_str();
-      cmd->add_option("--write-truth", o->write_truth, "write the ground truth to FILE (.yaml, or .json with scene) and exit");
+      cmd->add_option(
+          "--write-truth", o->write_truth, "write the ground truth to FILE (.yaml, or .json with scene) and exit");
       cmd->add_option("--duration", o->duration_s, "stop after this many seconds (0 = until Ctrl-C)");
       cmd->add_option("--latency-ms", o->latency_ms, "override the stream latency");
       cmd->add_option("--noise-sigma", o->noise_sigma, "override the sensor noise [grey levels]");
       cmd->add_option("--drop-probability", o->drop_probability, "override the frame drop probability");
       cmd->add_option("--jpeg-quality", o->jpeg_quality, "override the JPEG quality (1-100)");
       cmd->add_option("--quantum-us", o->quantum_us, "override the PWM quantum of all servos (1, or 5 as pigpio)");
-      cmd->add_flag_callback("--mirror", [o] { o->mirror = 1; },
-                             "stream mirrored like a real Owl's (the default): the course code flips the frame");
-      cmd->add_flag_callback("--no-mirror", [o] { o->mirror = 0; }, "stream not mirrored (eyes the right way round)");
-      cmd->add_flag_callback("--swap", [o] { o->swap = 1; }, "left eye in columns 640-1279 (after any flip)");
-      cmd->add_flag_callback("--no-swap", [o] { o->swap = 0; }, "left eye in columns 0-639 (after any flip; the default)");
+      cmd->add_flag_callback(
+          "--mirror",
+          [o] { o->mirror = 1; },
+          "stream mirrored like a real Owl's (the default): the course code flips the frame");
+      cmd->add_flag_callback(
+          "--no-mirror", [o] { o->mirror = 0; }, "stream not mirrored (eyes the right way round)");
+      cmd->add_flag_callback(
+          "--swap", [o] { o->swap = 1; }, "left eye in columns 640-1279 (after any flip)");
+      cmd->add_flag_callback(
+          "--no-swap", [o] { o->swap = 0; }, "left eye in columns 0-639 (after any flip; the default)");
       cmd->add_flag("--quiet", o->quiet, "no per-session log lines");
       return [o] { return RunSim(*o); };
     });

@@ -30,18 +30,20 @@ int RunTarget(const TargetOptions& a) {
   if (a.cols > 0) (chess ? t.cols : t.tag_cols) = a.cols;
   if (a.rows > 0) (chess ? t.rows : t.tag_rows) = a.rows;
   if (a.square_mm > 0) {
-    if (!chess) throw UsageError("--square-mm is for chessboards; " + a.target_path + " is an AprilGrid (use --tag-size-mm)");
+    if (!chess)
+      throw UsageError("--square-mm is for chessboards; " + a.target_path + " is an AprilGrid (use --tag-size-mm)");
     t.square_m = a.square_mm / 1000;
   }
   if (a.tag_size_mm > 0) {
-    if (chess) throw UsageError("--tag-size-mm is for AprilGrids; " + a.target_path + " is a chessboard (use --square-mm)");
+    if (chess)
+      throw UsageError("--tag-size-mm is for AprilGrids; " + a.target_path + " is a chessboard (use --square-mm)");
     t.tag_size_m = a.tag_size_mm / 1000;
   }
   if (a.tag_spacing >= 0) t.tag_spacing = a.tag_spacing;
   const bool size_given = a.square_mm > 0 || a.tag_size_mm > 0;
   if (tf.unit != "m" && !size_given)
-    throw UsageError(a.target_path + ": sizes are in '" + tf.unit + "', not metres; give --square-mm or --tag-size-mm " +
-                     "to print it at a true scale");
+    throw UsageError(a.target_path + ": sizes are in '" + tf.unit +
+                     "', not metres; give --square-mm or --tag-size-mm " + "to print it at a true scale");
 
   const fs::path out(a.out);
   std::string ext = out.extension().string();
@@ -82,8 +84,8 @@ int RunTarget(const TargetOptions& a) {
       std::abs(back.tag_size_m - t.tag_size_m) > 1e-9)
     throw std::runtime_error(yaml.string() + ": written target does not read back identically");
 
-  std::cout << "wrote " << out.string() << " (" << sheet.paper_name << ", " << sheet.width_mm << " x " << sheet.height_mm
-            << " mm): " << calib::DescribeTargetDimensions(t) << "\nwrote " << yaml.string()
+  std::cout << "wrote " << out.string() << " (" << sheet.paper_name << ", " << sheet.width_mm << " x "
+            << sheet.height_mm << " mm): " << calib::DescribeTargetDimensions(t) << "\nwrote " << yaml.string()
             << " (use it as --target)\nPrint at 100 % (actual size) and check the " << sheet.scale_bar_length_mm
             << " mm scale bar with a ruler.\n";
   return kExitOk;
@@ -96,9 +98,13 @@ const bool kRegistered = RegisterCommand(
     "target YAML that owlcal reads next to it (same name, .yaml).",
     [](CLI::App* cmd) {
       auto o = std::make_shared<TargetOptions>();
-      cmd->add_option("target", o->target_path, "target file (data/targets/*.yaml)")->required()->check(CLI::ExistingFile);
-      cmd->add_option("--out", o->out, "sheet to write: NAME.pdf or NAME.svg (NAME.yaml is written beside it)")->required();
-      cmd->add_option("--paper", o->paper, "auto, A4, A3, A2, A1, A0, letter, legal or WxH in mm")->capture_default_str();
+      cmd->add_option("target", o->target_path, "target file (data/targets/*.yaml)")
+          ->required()
+          ->check(CLI::ExistingFile);
+      cmd->add_option("--out", o->out, "sheet to write: NAME.pdf or NAME.svg (NAME.yaml is written beside it)")
+          ->required();
+      cmd->add_option("--paper", o->paper, "auto, A4, A3, A2, A1, A0, letter, legal or WxH in mm")
+          ->capture_default_str();
       cmd->add_option("--margin-mm", o->margin_mm, "printer margin kept free at each edge [mm]")->capture_default_str();
       cmd->add_option("--square-mm", o->square_mm, "chessboard square size [mm] (overrides the file)");
       cmd->add_option("--tag-size-mm", o->tag_size_mm, "AprilGrid tag size, black border [mm] (overrides the file)");

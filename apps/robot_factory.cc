@@ -19,7 +19,8 @@ std::unique_ptr<robot::RobotInterface> MakeRobot(const std::string& spec, const 
     vo.seed = options.seed;
     if (!options.robot_file.empty() || options.robot_config) {
       // The robot file the "server" is configured with (clamp limits) over the truth.
-      sim::RobotTruth truth = options.truth_file.empty() ? sim::DefaultRobotTruth() : sim::LoadRobotTruth(options.truth_file);
+      sim::RobotTruth truth =
+          options.truth_file.empty() ? sim::DefaultRobotTruth() : sim::LoadRobotTruth(options.truth_file);
       truth.robot = options.robot_config ? *options.robot_config : robot::LoadRobotFile(options.robot_file);
       vo.truth = truth;
     }

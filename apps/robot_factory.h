@@ -18,11 +18,11 @@
 namespace owlcal::apps {
 
 struct RobotFactoryOptions {
-  std::string robot_file;    // robot file (limits, centres); "" = built-in
-  std::string truth_file;    // sim only: robot-truth file; "" = built-in default truth
-  std::string scene_file;    // sim only
-  uint64_t seed = 1;         // sim only
-  int http_port = 8080;      // real robot: MJPEG stream port
+  std::string robot_file;  // robot file (limits, centres); "" = built-in
+  std::string truth_file;  // sim only: robot-truth file; "" = built-in default truth
+  std::string scene_file;  // sim only
+  uint64_t seed = 1;       // sim only
+  int http_port = 8080;    // real robot: MJPEG stream port
   // The limits, centres and stream layout to use instead of robot_file's (owlcal jog opens the
   // limits to its envelope; the re-validation runs on the file it wrote).
   std::optional<models::RobotConfig> robot_config;

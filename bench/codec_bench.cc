@@ -43,7 +43,8 @@ int main() {
       checksum += (*d.pwm_us)[0];
     }
     std::printf("codec: clamp + encode + decode: %.1f ns per packet (checksum %lld)\n",
-                Ms(Clock::now() - t0) * 1e6 / n, static_cast<long long>(checksum));
+                Ms(Clock::now() - t0) * 1e6 / n,
+                static_cast<long long>(checksum));
   }
   // 2. Servo round trip on loopback (client -> server -> "ok").
   {
@@ -62,7 +63,9 @@ int main() {
     }
     std::sort(ms.begin(), ms.end());
     std::printf("servo round trip (loopback, 2000 packets): mean %.3f ms, median %.3f ms, p99 %.3f ms\n",
-                std::accumulate(ms.begin(), ms.end(), 0.0) / ms.size(), ms[ms.size() / 2], ms[ms.size() * 99 / 100]);
+                std::accumulate(ms.begin(), ms.end(), 0.0) / ms.size(),
+                ms[ms.size() / 2],
+                ms[ms.size() * 99 / 100]);
   }
   // 3. MJPEG client throughput with decode + split, on the OpenCV stereo pairs side by side.
   {
@@ -103,7 +106,11 @@ int main() {
       for (int i = 0; i < n; ++i) got += client.Next(std::chrono::seconds(5)).has_value();
       const double s = Ms(Clock::now() - t0) / 1000;
       std::printf("mjpeg client (%s, 1280x480 q85, ~%zu kB): %d frames in %.2f s = %.0f frames/s\n",
-                  decode ? "decode + split" : "raw JPEG only", jpegs[0].size() / 1024, got, s, got / s);
+                  decode ? "decode + split" : "raw JPEG only",
+                  jpegs[0].size() / 1024,
+                  got,
+                  s,
+                  got / s);
     }
   }
   return 0;

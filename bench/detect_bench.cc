@@ -25,7 +25,7 @@ double Now() { return std::chrono::duration<double>(std::chrono::steady_clock::n
 // A 6x6 tag36h11 AprilGrid (ids 0..35, spacing 0.3) rendered into a 640x480 image, slightly tilted.
 cv::Mat AprilGridImage() {
   apriltag_family_t* tf = tag36h11_create();
-  const int cell = 4;  // px per tag bit at the board scale
+  const int cell = 4;                                                   // px per tag bit at the board scale
   const int tag_px = 10 * cell, pitch = int(tag_px * 1.3 * 0.8 + 0.5);  // tags incl. white rim; gap 0.3*8 cells
   cv::Mat board(6 * pitch + 40, 6 * pitch + 40, CV_8U, cv::Scalar(255));
   for (int r = 0; r < 6; ++r)
@@ -41,16 +41,23 @@ cv::Mat AprilGridImage() {
       big.copyTo(board(cv::Rect(20 + c * pitch, 20 + r * pitch, tag_px, tag_px)));
     }
   tag36h11_destroy(tf);
-  const std::vector<cv::Point2f> src = {{0, 0}, {float(board.cols), 0}, {float(board.cols), float(board.rows)},
-                                        {0, float(board.rows)}};
+  const std::vector<cv::Point2f> src = {
+      {0, 0}, {float(board.cols), 0}, {float(board.cols), float(board.rows)}, {0, float(board.rows)}};
   const std::vector<cv::Point2f> dst = {{150, 40}, {520, 70}, {500, 440}, {130, 420}};
   cv::Mat img;
-  cv::warpPerspective(board, img, cv::getPerspectiveTransform(src, dst), cv::Size(640, 480), cv::INTER_AREA,
-                      cv::BORDER_CONSTANT, cv::Scalar(200));
+  cv::warpPerspective(board,
+                      img,
+                      cv::getPerspectiveTransform(src, dst),
+                      cv::Size(640, 480),
+                      cv::INTER_AREA,
+                      cv::BORDER_CONSTANT,
+                      cv::Scalar(200));
   return img;
 }
 
-void Time(const char* name, const std::vector<cv::Mat>& images, const calib::TargetDefinition& t,
+void Time(const char* name,
+          const std::vector<cv::Mat>& images,
+          const calib::TargetDefinition& t,
           const calib::DetectorOptions& o) {
   int found = 0;
   const double t0 = Now();

@@ -63,7 +63,8 @@ void VirtualOwlSection() {
       double px[2];
       if (!truth.Project(p_cam.data(), px)) continue;
       // OpenCV may number the board from either end; compare with the nearer end's corner.
-      const Eigen::Vector3d p2 = cam_from_base * (base_from_target * corners.at(int(d.pixels.size()) - 1 - d.corner_ids[i]));
+      const Eigen::Vector3d p2 =
+          cam_from_base * (base_from_target * corners.at(int(d.pixels.size()) - 1 - d.corner_ids[i]));
       double px2[2] = {px[0], px[1]};
       if (!truth.Project(p2.data(), px2)) px2[0] = px2[1] = 1e9;  // behind the camera: never the nearer
       const double e1 = (d.pixels[i] - Eigen::Vector2d(px[0], px[1])).squaredNorm();
@@ -75,7 +76,9 @@ void VirtualOwlSection() {
     obs.insert(obs.end(), o.begin(), o.end());
   }
   std::printf("  virtual Owl left eye: board found in %d of 20 renders (%.0f ms), corner RMS error vs truth %.4f px\n",
-              found, 1e3 * (Now() - t0), std::sqrt(err_sq / std::max(1, n_err)));
+              found,
+              1e3 * (Now() - t0),
+              std::sqrt(err_sq / std::max(1, n_err)));
   if (found < 3) return;
   const fitting::IntrinsicsFit fit = fitting::FitIntrinsics(calib::GroupIntoViews(obs), truth.width, truth.height, {});
   if (!fit.ok) {
@@ -83,8 +86,11 @@ void VirtualOwlSection() {
     return;
   }
   for (int i = 0; i < 4; ++i)
-    std::printf("  virtual Owl %s = %.3f +- %.3f (truth %.3f, error %.3f %%, %.2f sigma)\n", fit.param_names[i].c_str(),
-                fit.camera.params[i], fit.sigmas[i], truth.params[i],
+    std::printf("  virtual Owl %s = %.3f +- %.3f (truth %.3f, error %.3f %%, %.2f sigma)\n",
+                fit.param_names[i].c_str(),
+                fit.camera.params[i],
+                fit.sigmas[i],
+                truth.params[i],
                 100 * (fit.camera.params[i] - truth.params[i]) / truth.params[i],
                 (fit.camera.params[i] - truth.params[i]) / fit.sigmas[i]);
   std::printf("  virtual Owl fit RMS %.4f px\n", fit.rms_px);
@@ -120,9 +126,14 @@ void MonteCarloSection() {
       ++total;
     }
   }
-  std::printf("  Monte Carlo (50 seeds, 15 views, 0.2 px noise, sigma estimated): within 1 sigma %.1f %% (target 68 +- 7), "
-              "within 3 sigma %.1f %% (target >= 98), %d parameters, %d failed fits, %.1f s\n",
-              100.0 * within1 / std::max(1, total), 100.0 * within3 / std::max(1, total), total, failed, Now() - t0);
+  std::printf(
+      "  Monte Carlo (50 seeds, 15 views, 0.2 px noise, sigma estimated): within 1 sigma %.1f %% (target 68 +- 7), "
+      "within 3 sigma %.1f %% (target >= 98), %d parameters, %d failed fits, %.1f s\n",
+      100.0 * within1 / std::max(1, total),
+      100.0 * within3 / std::max(1, total),
+      total,
+      failed,
+      Now() - t0);
 }
 
 int main() {
@@ -173,10 +184,17 @@ int main() {
     fitting::IntrinsicsFit fit;
     for (int r = 0; r < reps; ++r) fit = fitting::FitIntrinsics(eye_views[e], 640, 480, {});
     const double t_ow = (Now() - t0) / reps;
-    std::printf("  intrinsics %-5s: owlcal %7.1f ms RMS %.4f fx %.2f | cv::calibrateCamera %7.1f ms RMS %.4f fx %.2f | "
-                "time ratio %.2f\n",
-                e == 0 ? "left" : "right", 1e3 * t_ow, fit.rms_px, fit.camera.params[0], 1e3 * t_cv, rms_cv,
-                K.at<double>(0, 0), t_ow / t_cv);
+    std::printf(
+        "  intrinsics %-5s: owlcal %7.1f ms RMS %.4f fx %.2f | cv::calibrateCamera %7.1f ms RMS %.4f fx %.2f | "
+        "time ratio %.2f\n",
+        e == 0 ? "left" : "right",
+        1e3 * t_ow,
+        fit.rms_px,
+        fit.camera.params[0],
+        1e3 * t_cv,
+        rms_cv,
+        K.at<double>(0, 0),
+        t_ow / t_cv);
   }
   {
     double t0 = Now(), rms_cv = 0;
@@ -185,7 +203,18 @@ int main() {
       std::vector<cv::Mat> rv, tv;
       cv::calibrateCamera(op, ip[0], cv::Size(640, 480), K1, D1, rv, tv);
       cv::calibrateCamera(op, ip[1], cv::Size(640, 480), K2, D2, rv, tv);
-      rms_cv = cv::stereoCalibrate(op, ip[0], ip[1], K1, D1, K2, D2, cv::Size(640, 480), R, T, E, F,
+      rms_cv = cv::stereoCalibrate(op,
+                                   ip[0],
+                                   ip[1],
+                                   K1,
+                                   D1,
+                                   K2,
+                                   D2,
+                                   cv::Size(640, 480),
+                                   R,
+                                   T,
+                                   E,
+                                   F,
                                    cv::CALIB_USE_INTRINSIC_GUESS,
                                    cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5));
     }
@@ -196,12 +225,19 @@ int main() {
     so.length_unit = "square";
     for (int r = 0; r < reps; ++r) fit = fitting::FitStereo(eye_views[0], eye_views[1], so);
     const double t_ow = (Now() - t0) / reps;
-    std::printf("  stereo (incl. per-eye init): owlcal %7.1f ms RMS %.4f baseline %.4f | calibrateCamera x2 + "
-                "stereoCalibrate %7.1f ms RMS %.4f baseline %.4f | time ratio %.2f\n",
-                1e3 * t_ow, fit.rms_joint_px, fit.right_from_left.translation.norm(), 1e3 * t_cv, rms_cv, cv::norm(T),
-                t_ow / t_cv);
+    std::printf(
+        "  stereo (incl. per-eye init): owlcal %7.1f ms RMS %.4f baseline %.4f | calibrateCamera x2 + "
+        "stereoCalibrate %7.1f ms RMS %.4f baseline %.4f | time ratio %.2f\n",
+        1e3 * t_ow,
+        fit.rms_joint_px,
+        fit.right_from_left.translation.norm(),
+        1e3 * t_cv,
+        rms_cv,
+        cv::norm(T),
+        t_ow / t_cv);
     std::printf("  owlcal rectified |dy| mean %.4f max %.4f px; baseline sigma from covariance in the result file\n",
-                fit.rectified_dy_mean_px, fit.rectified_dy_max_px);
+                fit.rectified_dy_mean_px,
+                fit.rectified_dy_max_px);
   }
   MonteCarloSection();
   VirtualOwlSection();

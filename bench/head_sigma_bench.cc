@@ -38,25 +38,33 @@ int main(int argc, char** argv) {
     fitting::HeadFit fit = fitting::FitHead(data.views, robot, init, fitting::HeadFitOptions());
     if (!fit.ok) throw std::runtime_error(fit.message);
     times_s.push_back(fit.result.summaries[0].time_s);
-    const models::HeadModel canon = fitting::CanonicalHead(truth, robot.servos[models::kNeck].centre_us, true,
-                                                           init.geometry.centre_in_head[models::kLeftEye]);
+    const models::HeadModel canon = fitting::CanonicalHead(
+        truth, robot.servos[models::kNeck].centre_us, true, init.geometry.centre_in_head[models::kLeftEye]);
     fitting::SetHeadTruth(canon, &fit.result);
     ipd_err_mm.push_back(fit.result.Find("head.ipd_mm")->value - canon.geometry.Ipd() * 1000);
     for (int s = 0; s < models::kNumServos; ++s) {
-      const double rms = fitting::ServoMapRmsDeg(fit.head.servo_params[s].data(), canon.servo_params[s].data(),
-                                                 robot.servos[s].direction, robot.servos[s].min_us,
+      const double rms = fitting::ServoMapRmsDeg(fit.head.servo_params[s].data(),
+                                                 canon.servo_params[s].data(),
+                                                 robot.servos[s].direction,
+                                                 robot.servos[s].min_us,
                                                  robot.servos[s].max_us);
       map_rms_deg.push_back(rms);
       worst_map = std::max(worst_map, rms);
     }
-    std::printf("seed %llu: rms %.3f px, ipd err %+.3f mm +- %.3f, %.2f s\n", (unsigned long long)seed,
-                fit.result.summaries[0].rms_px, ipd_err_mm.back(), fit.result.Find("head.ipd_mm")->sigma,
+    std::printf("seed %llu: rms %.3f px, ipd err %+.3f mm +- %.3f, %.2f s\n",
+                (unsigned long long)seed,
+                fit.result.summaries[0].rms_px,
+                ipd_err_mm.back(),
+                fit.result.Find("head.ipd_mm")->sigma,
                 times_s.back());
     std::fflush(stdout);
     return fit.result.parameters;
   });
   std::printf("\n== head_sigma_bench: %d seeds, %d steps per sweep, %dx%d grid, neck moved, noise 0.15 px ==\n",
-              num_seeds, so.steps_per_sweep, so.grid_side, so.grid_side);
+              num_seeds,
+              so.steps_per_sweep,
+              so.grid_side,
+              so.grid_side);
   std::printf("%s", coverage.Report().c_str());
   auto rms = [](const std::vector<double>& v) {
     double s = 0;
@@ -67,10 +75,15 @@ int main(int argc, char** argv) {
   for (double e : ipd_err_mm) max_ipd = std::max(max_ipd, std::abs(e));
   std::sort(times_s.begin(), times_s.end());
   std::printf("IPD error: RMS %.3f mm, max %.3f mm (target 0.5)\n", rms(ipd_err_mm), max_ipd);
-  std::printf("servo map error over the range: RMS %.4f deg, worst %.4f deg (target 0.1)\n", rms(map_rms_deg), worst_map);
-  if (!times_s.empty()) std::printf("fit time: median %.2f s, max %.2f s\n", times_s[times_s.size() / 2], times_s.back());
+  std::printf(
+      "servo map error over the range: RMS %.4f deg, worst %.4f deg (target 0.1)\n", rms(map_rms_deg), worst_map);
+  if (!times_s.empty())
+    std::printf("fit time: median %.2f s, max %.2f s\n", times_s[times_s.size() / 2], times_s.back());
   const double f1 = coverage.FractionWithin(1), f3 = coverage.FractionWithin(3);
-  std::printf("VERDICT within-1-sigma %.1f %% %s, within-3-sigma %.2f %% %s\n", 100 * f1,
-              std::abs(f1 - 0.683) <= 0.07 ? "OK" : "OUT OF 68+-7", 100 * f3, f3 >= 0.98 ? "OK" : "BELOW 98");
+  std::printf("VERDICT within-1-sigma %.1f %% %s, within-3-sigma %.2f %% %s\n",
+              100 * f1,
+              std::abs(f1 - 0.683) <= 0.07 ? "OK" : "OUT OF 68+-7",
+              100 * f3,
+              f3 >= 0.98 ? "OK" : "BELOW 98");
   return 0;
 }

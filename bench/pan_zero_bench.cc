@@ -25,7 +25,9 @@ using namespace owlcal;
 
 namespace {
 
-void Report(const char* label, const fitting::HeadFit& fit, const models::HeadModel& canonical,
+void Report(const char* label,
+            const fitting::HeadFit& fit,
+            const models::HeadModel& canonical,
             const models::RobotConfig& config) {
   if (!fit.ok) {
     std::printf("%-13s FAILED: %s\n", label, fit.message.c_str());
@@ -35,8 +37,12 @@ void Report(const char* label, const fitting::HeadFit& fit, const models::HeadMo
     const fitting::Parameter* p = fit.result.Find(name);
     return p ? p->sigma : std::nan("");
   };
-  std::printf("%-13s RMS %.4f px, IPD %.3f mm (truth %.3f), %.1f s\n", label, fit.result.summaries.back().rms_px,
-              1000 * fit.head.geometry.Ipd(), 1000 * canonical.geometry.Ipd(), fit.result.summaries.back().time_s);
+  std::printf("%-13s RMS %.4f px, IPD %.3f mm (truth %.3f), %.1f s\n",
+              label,
+              fit.result.summaries.back().rms_px,
+              1000 * fit.head.geometry.Ipd(),
+              1000 * canonical.geometry.Ipd(),
+              fit.result.summaries.back().time_s);
   for (int s = 0; s < models::kNumServos; ++s) {
     const auto& lim = config.servos[s];
     const double* f = fit.head.servo_params[s].data();
@@ -45,14 +51,23 @@ void Report(const char* label, const fitting::HeadFit& fit, const models::HeadMo
     double mean = 0, sum_sq = 0;
     for (int i = 0; i <= 200; ++i) {
       const double u = lim.min_us + (lim.max_us - lim.min_us) * i / 200.0;
-      const double d = (models::ServoMap::JointAngle(f, dir, u, 0) - models::ServoMap::JointAngle(t, dir, u, 0)) * 180 / M_PI;
+      const double d =
+          (models::ServoMap::JointAngle(f, dir, u, 0) - models::ServoMap::JointAngle(t, dir, u, 0)) * 180 / M_PI;
       mean += d / 201;
       sum_sq += d * d / 201;
     }
     const std::string n = std::string("servo.") + models::kServoNames[s] + ".";
-    std::printf("  %-4s map RMS %.4f deg = offset %+.4f (+) rest %.4f; centre err %+.2f us (sigma %.2f), cubic err %+.3f (sigma %.3f)\n",
-                models::kServoNames[s], std::sqrt(sum_sq), mean, std::sqrt(std::max(0.0, sum_sq - mean * mean)),
-                f[0] - t[0], sigma_of(n + "centre_us"), f[3] - t[3], sigma_of(n + "cubic_deg"));
+    std::printf(
+        "  %-4s map RMS %.4f deg = offset %+.4f (+) rest %.4f; centre err %+.2f us (sigma %.2f), cubic err %+.3f "
+        "(sigma %.3f)\n",
+        models::kServoNames[s],
+        std::sqrt(sum_sq),
+        mean,
+        std::sqrt(std::max(0.0, sum_sq - mean * mean)),
+        f[0] - t[0],
+        sigma_of(n + "centre_us"),
+        f[3] - t[3],
+        sigma_of(n + "cubic_deg"));
   }
   const auto tp = fitting::HeadParameters(canonical, true);
   int n = 0, in1 = 0, in2 = 0, in3 = 0;
@@ -70,9 +85,14 @@ void Report(const char* label, const fitting::HeadFit& fit, const models::HeadMo
       if (z > worst_z) worst_z = z, worst = p.name;
     }
   }
-  std::printf("  parameters: %d with sigma: %.0f %% within 1 sigma, %.0f %% within 2, %.0f %% within 3; worst %s z %.2f\n", n,
-              100.0 * in1 / std::max(1, n), 100.0 * in2 / std::max(1, n), 100.0 * in3 / std::max(1, n), worst.c_str(),
-              worst_z);
+  std::printf(
+      "  parameters: %d with sigma: %.0f %% within 1 sigma, %.0f %% within 2, %.0f %% within 3; worst %s z %.2f\n",
+      n,
+      100.0 * in1 / std::max(1, n),
+      100.0 * in2 / std::max(1, n),
+      100.0 * in3 / std::max(1, n),
+      worst.c_str(),
+      worst_z);
   for (const char* name : {"head.left.centre_z_mm", "head.right.centre_x_mm", "head.left.fx", "head.right.fx"}) {
     const fitting::Parameter* p = fit.result.Find(name);
     for (const auto& t : tp)
@@ -85,7 +105,8 @@ void Report(const char* label, const fitting::HeadFit& fit, const models::HeadMo
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: pan_zero_bench SWEEP_DATASET_DIR [RESULT_JSON|-] [corner_sigma_px=0.15] [ROBOT_TRUTH_FILE]\n");
+    std::fprintf(stderr,
+                 "usage: pan_zero_bench SWEEP_DATASET_DIR [RESULT_JSON|-] [corner_sigma_px=0.15] [ROBOT_TRUTH_FILE]\n");
     return 2;
   }
   const std::string dir = argv[1];
@@ -98,8 +119,8 @@ int main(int argc, char** argv) {
   bool neck_moved = false;
   for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
   models::HeadModel initial = models::NominalHeadModel(config);
-  const models::HeadModel canonical = fitting::CanonicalHead(truth, config.servos[models::kNeck].centre_us, neck_moved,
-                                                             initial.geometry.centre_in_head[models::kLeftEye]);
+  const models::HeadModel canonical = fitting::CanonicalHead(
+      truth, config.servos[models::kNeck].centre_us, neck_moved, initial.geometry.centre_in_head[models::kLeftEye]);
   std::printf("%zu views, corner sigma %.3f px\n", views.size(), sigma);
   fitting::HeadFitOptions ho;
   ho.corner_sigma_px = sigma;
@@ -145,8 +166,10 @@ int main(int argc, char** argv) {
         }
         cov(k, k) = p->sigma * p->sigma;
       }
-      if (ok) po.intrinsics_prior_covariance[e] = cov;
-      else std::printf("no sigmas for the %s intrinsics in %s: no prior\n", models::kEyeNames[e], result_json.c_str());
+      if (ok)
+        po.intrinsics_prior_covariance[e] = cov;
+      else
+        std::printf("no sigmas for the %s intrinsics in %s: no prior\n", models::kEyeNames[e], result_json.c_str());
     }
     Report("result-prior", fitting::FitHead(views, config, init, po), canonical, config);
     fitting::HeadFitOptions fo = ho;

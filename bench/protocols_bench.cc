@@ -27,8 +27,13 @@ int main() {
     uint64_t bytes = 0;
     for (const auto& e : fs::recursive_directory_iterator(o.out_dir))
       if (e.is_regular_file()) bytes += e.file_size();
-    std::printf("%-14s %8.2f %10.1f %8lld %10.1f %s\n", name.c_str(), wall, s.elapsed_s, (long long)s.num_frames,
-                bytes / 1e6, s.status == "complete" ? "" : s.status.c_str());
+    std::printf("%-14s %8.2f %10.1f %8lld %10.1f %s\n",
+                name.c_str(),
+                wall,
+                s.elapsed_s,
+                (long long)s.num_frames,
+                bytes / 1e6,
+                s.status == "complete" ? "" : s.status.c_str());
     total_s += wall;
     fs::remove_all(o.out_dir);
   }

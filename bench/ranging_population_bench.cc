@@ -57,7 +57,8 @@ int main(int argc, char** argv) {
     pipeline::CalibrateOptions co;
     co.out = (dir / "cal").string();
     co.protocols = {"limits", "intrinsics", "stereo", "servo_sweep", "vergence"};
-    co.robot.sim = {{"seed", seed}, {"truth_file", (dir / "truth.yaml").string()}, {"scene_file", (dir / "scene.yaml").string()}};
+    co.robot.sim = {
+        {"seed", seed}, {"truth_file", (dir / "truth.yaml").string()}, {"scene_file", (dir / "scene.yaml").string()}};
     fitting::CalibrationRun d;
     try {
       d = pipeline::Calibrate(owl, co);
@@ -74,8 +75,12 @@ int main(int argc, char** argv) {
     int n = 0, in = 0;
     for (const auto& row : d.ranging->rows) {
       if (!row.ok) {
-        std::printf("  %s fixation %d (%.2f m) not ranged: %s: %s\n", name.c_str(), row.index, row.true_m,
-                    calib::TrialStatusName(row.status), row.reason.c_str());
+        std::printf("  %s fixation %d (%.2f m) not ranged: %s: %s\n",
+                    name.c_str(),
+                    row.index,
+                    row.true_m,
+                    calib::TrialStatusName(row.status),
+                    row.reason.c_str());
         continue;
       }
       ++n;
@@ -95,16 +100,31 @@ int main(int argc, char** argv) {
         res += b;
       }
     }
-    std::printf("%s: step %d us, dead bands %s us (Rx/Ry/Lx/Ly/Neck) | ranging %d ok of %zu, RMS %.3f %%, max %.3f %%, "
-                "%d of %d within 2 sigma | measured step/dead band [us]:%s\n",
-                name.c_str(), quantum, bands.c_str(), d.ranging->num_ok, d.ranging->rows.size(),
-                100 * d.ranging->rms_rel_error, 100 * d.ranging->max_abs_rel_error, in, n, res.c_str());
+    std::printf(
+        "%s: step %d us, dead bands %s us (Rx/Ry/Lx/Ly/Neck) | ranging %d ok of %zu, RMS %.3f %%, max %.3f %%, "
+        "%d of %d within 2 sigma | measured step/dead band [us]:%s\n",
+        name.c_str(),
+        quantum,
+        bands.c_str(),
+        d.ranging->num_ok,
+        d.ranging->rows.size(),
+        100 * d.ranging->rms_rel_error,
+        100 * d.ranging->max_abs_rel_error,
+        in,
+        n,
+        res.c_str());
     std::fflush(stdout);
     fs::remove_all(dir / "cal" / "datasets");
   }
-  std::printf("\n== ranging_population_bench: %d robots (seeds %llu..%llu) ==\n", num_robots,
-              (unsigned long long)first_seed, (unsigned long long)(first_seed + num_robots - 1));
+  std::printf("\n== ranging_population_bench: %d robots (seeds %llu..%llu) ==\n",
+              num_robots,
+              (unsigned long long)first_seed,
+              (unsigned long long)(first_seed + num_robots - 1));
   std::printf("robots over 1 %% RMS: %d; pooled %d of %d ranged fixations within 2 sigma (%.1f %%); %d failed runs\n",
-              robots_over, within, pooled, pooled ? 100.0 * within / pooled : NAN, failed_runs);
+              robots_over,
+              within,
+              pooled,
+              pooled ? 100.0 * within / pooled : NAN,
+              failed_runs);
   return robots_over == 0 && failed_runs == 0 && pooled > 0 && within >= 0.9 * pooled ? 0 : 1;
 }

@@ -79,9 +79,9 @@ int main(int argc, char** argv) {
   fs::create_directories(root);
 
   // One robot: draw it, calibrate it, score it. Robots are independent (each its own virtual Owl
-  // and folder), so OWLCAL_MC_JOBS (default 2) of them run at once on threads; each robot's seed, files and result depend
-  // only on its index, and the lines and the pooled table are made in robot order below, so the
-  // output does not depend on the number of jobs.
+  // and folder), so OWLCAL_MC_JOBS (default 2) of them run at once on threads; each robot's seed, files and result
+  // depend only on its index, and the lines and the pooled table are made in robot order below, so the output does not
+  // depend on the number of jobs.
   struct RobotRun {
     std::string name, line, failure;
     std::vector<fitting::Parameter> parameters;
@@ -113,7 +113,8 @@ int main(int argc, char** argv) {
     pipeline::CalibrateOptions co;
     co.out = (dir / "cal").string();
     co.protocols = protocols;
-    co.robot.sim = {{"seed", seed}, {"truth_file", (dir / "truth.yaml").string()}, {"scene_file", (dir / "scene.yaml").string()}};
+    co.robot.sim = {
+        {"seed", seed}, {"truth_file", (dir / "truth.yaml").string()}, {"scene_file", (dir / "scene.yaml").string()}};
     const fitting::CalibrationRun run = pipeline::Calibrate(owl, co);
     const fitting::CalibrationResult& r = run.result;
     out.parameters = r.parameters;
@@ -161,12 +162,26 @@ int main(int argc, char** argv) {
     }
     const fitting::Parameter* bow = r.Find("head.board_warp_x_mm");
     char buf[1024];
-    std::snprintf(buf, sizeof buf, "%s: f %.0f/%.0f px, quantum %d us, dead band %.1f us, noise %.1f, jpeg %d, warp %.2f mm (fitted %.3f) | "
-                "%d scored, RMS(z) %.2f, worst %s z = %+.2f | servo maps worst %.4f deg RMS (%s)\n",
-                name.c_str(), t.intrinsics[0].params[0], t.intrinsics[1].params[0], t.servos[0].quantum_us,
-                t.servos[0].dead_band_us, t.stream.noise_sigma, t.stream.jpeg_quality,
-                1000 * robot.scene.Find("chessboard")->warp_m.x(), bow ? bow->value : NAN, n, n ? std::sqrt(sum / n) : NAN,
-                worst_name.c_str(), worst, worst_map, worst_servo.c_str());
+    std::snprintf(
+        buf,
+        sizeof buf,
+        "%s: f %.0f/%.0f px, quantum %d us, dead band %.1f us, noise %.1f, jpeg %d, warp %.2f mm (fitted %.3f) | "
+        "%d scored, RMS(z) %.2f, worst %s z = %+.2f | servo maps worst %.4f deg RMS (%s)\n",
+        name.c_str(),
+        t.intrinsics[0].params[0],
+        t.intrinsics[1].params[0],
+        t.servos[0].quantum_us,
+        t.servos[0].dead_band_us,
+        t.stream.noise_sigma,
+        t.stream.jpeg_quality,
+        1000 * robot.scene.Find("chessboard")->warp_m.x(),
+        bow ? bow->value : NAN,
+        n,
+        n ? std::sqrt(sum / n) : NAN,
+        worst_name.c_str(),
+        worst,
+        worst_map,
+        worst_servo.c_str());
     out.line = buf;
     // Per head fit: RMS(z) and the worst |z| of its parameters, and the worst servo end.
     for (const char* fit : {"fused", "chessboard"}) {
@@ -250,13 +265,18 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
   }
   for (auto& w : workers) w.join();
-  std::printf("\n== robot_prior_mc_bench: %d %s (seeds %llu..%llu), protocols", num_robots,
-              shipped ? "runs of the shipped robots" : "robots from the prior", (unsigned long long)first_seed,
+  std::printf("\n== robot_prior_mc_bench: %d %s (seeds %llu..%llu), protocols",
+              num_robots,
+              shipped ? "runs of the shipped robots" : "robots from the prior",
+              (unsigned long long)first_seed,
               (unsigned long long)(first_seed + (shipped ? per_robot : num_robots) - 1));
   for (const auto& p : protocols) std::printf(" %s", p.c_str());
   std::printf(" ==\n%s\n", coverage.GroupTable().c_str());
-  std::printf("overall: %d scored, %.1f %% within 1 sigma, %.2f %% within 3 sigma, %d failed runs\n", coverage.num_scored(),
-              100 * coverage.FractionWithin(1), 100 * coverage.FractionWithin(3), coverage.num_failures());
+  std::printf("overall: %d scored, %.1f %% within 1 sigma, %.2f %% within 3 sigma, %d failed runs\n",
+              coverage.num_scored(),
+              100 * coverage.FractionWithin(1),
+              100 * coverage.FractionWithin(3),
+              coverage.num_failures());
   if (std::getenv("OWLCAL_MC_PER_PARAMETER")) std::printf("\n%s", coverage.Report().c_str());
   return 0;
 }

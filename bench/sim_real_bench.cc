@@ -66,7 +66,8 @@ double RealVergenceSpreadUs(const std::string& path, int* num_distances) {
   while (std::getline(in, line)) {
     std::stringstream ss(line);
     std::string run, cm, rx, lx;
-    if (!std::getline(ss, run, ',') || !std::getline(ss, cm, ',') || !std::getline(ss, rx, ',') || !std::getline(ss, lx, ','))
+    if (!std::getline(ss, run, ',') || !std::getline(ss, cm, ',') || !std::getline(ss, rx, ',') ||
+        !std::getline(ss, lx, ','))
       throw std::runtime_error(path + ": short row '" + line + "'");
     by_distance[std::stoi(cm)].push_back(std::stod(lx) - std::stod(rx));
   }
@@ -86,7 +87,8 @@ double RealVergenceSpreadUs(const std::string& path, int* num_distances) {
 // The virtual servo returning to target_us from random earlier pulse widths (within +-150 us, each
 // side equally often): the standard deviation of the joint angle [deg] a second later, and the
 // mean difference between approaches from above and from below [deg] (the backlash).
-void VirtualRepeatability(const owlcal::sim::ServoTruth& truth, int target_us, uint64_t seed, double* sd_deg, double* backlash_deg) {
+void VirtualRepeatability(
+    const owlcal::sim::ServoTruth& truth, int target_us, uint64_t seed, double* sd_deg, double* backlash_deg) {
   std::mt19937_64 rng(seed);
   std::uniform_int_distribution<int> away(3, 150);
   std::vector<double> angles;
@@ -147,7 +149,8 @@ int main(int argc, char** argv) {
     vo.truth = truth;
     vo.scene = scene;
     sim::VirtualOwl owl(vo);
-    const std::string dir = (std::filesystem::temp_directory_path() / ("owlcal_sim_real_" + std::to_string(seed))).string();
+    const std::string dir =
+        (std::filesystem::temp_directory_path() / ("owlcal_sim_real_" + std::to_string(seed))).string();
     std::filesystem::remove_all(dir);
     sim::HandHeldCaptureOptions ho;
     ho.seed = uint64_t(seed);
@@ -205,9 +208,14 @@ int main(int argc, char** argv) {
   };
 
   std::printf("\n== sim_real_bench: real Owl sets vs the virtual Owl ('%s', %d hand-held sets of %d pairs) ==\n",
-              truth.name.c_str(), num_seeds, sim::HandHeldCaptureOptions().num_pairs);
-  std::printf("| statistic | %s | %s | %s | %s | real median | virtual | ratio | verdict |\n", real[0].name.c_str(),
-              real[1].name.c_str(), real[2].name.c_str(), real[3].name.c_str());
+              truth.name.c_str(),
+              num_seeds,
+              sim::HandHeldCaptureOptions().num_pairs);
+  std::printf("| statistic | %s | %s | %s | %s | real median | virtual | ratio | verdict |\n",
+              real[0].name.c_str(),
+              real[1].name.c_str(),
+              real[2].name.c_str(),
+              real[3].name.c_str());
   std::printf("|---|---|---|---|---|---|---|---|---|\n");
   int num_ok = 0, num_explained = 0, num_bad = 0;
   for (const Row& r : rows) {
@@ -246,16 +254,20 @@ int main(int argc, char** argv) {
     return verdict;
   };
   std::printf("\n| servo statistic | real Owls | virtual Owl | verdict |\n|---|---|---|---|\n");
-  std::printf("| eye dead band [us] | 1 (guide, MKS DS65K) | %.1f / %.1f (Rx / Lx) | %s |\n", rx.dead_band_us,
-              lx.dead_band_us, count(std::abs(rx.dead_band_us - 1) <= 0.5 ? "ok" : "MISMATCH"));
+  std::printf("| eye dead band [us] | 1 (guide, MKS DS65K) | %.1f / %.1f (Rx / Lx) | %s |\n",
+              rx.dead_band_us,
+              lx.dead_band_us,
+              count(std::abs(rx.dead_band_us - 1) <= 0.5 ? "ok" : "MISMATCH"));
   const double pan_scale = 0.5 * (rx.deg_per_us + lx.deg_per_us);
   std::printf(
       "| eye pan scale [deg/us] | 0.094 +- 0.007 (8 toe-in calibrations, two Owls); guide 0.113 | %.3f | %s |\n",
-      pan_scale, count(pan_scale / 0.094 <= 1.5 && pan_scale / 0.094 >= 1 / 1.5 ? "ok" : "MISMATCH"));
+      pan_scale,
+      count(pan_scale / 0.094 <= 1.5 && pan_scale / 0.094 >= 1 / 1.5 ? "ok" : "MISMATCH"));
   const double centre_off = 0.5 * (std::abs(rx.centre_us - truth.robot.servos[models::kRx].centre_us) +
                                    std::abs(lx.centre_us - truth.robot.servos[models::kLx].centre_us));
   std::printf("| pan centre vs robot file [us] | up to 60 (course code; noble2020: 1445/1430 vs 1545) | %.0f | %s |\n",
-              centre_off, count(centre_off <= 60 ? "ok" : "MISMATCH"));
+              centre_off,
+              count(centre_off <= 60 ? "ok" : "MISMATCH"));
   // Repeatability and backlash: the students' three vergence runs against the virtual servos
   // returning to a vergence pose (each eye 30 us inwards of the robot file's centre).
   int num_distances = 0;
@@ -268,26 +280,42 @@ int main(int argc, char** argv) {
   VirtualRepeatability(lx, truth.robot.servos[models::kLx].centre_us + 30, 12, &sd[1], &backlash[1]);
   const double virt_spread_deg = std::hypot(sd[0], sd[1]);
   std::printf(
-      "| vergence repeatability, SD of Lx - Rx at one target [deg] | %.2f (%.1f us at 10.73 us/deg; noble2020, 3 runs x %d "
+      "| vergence repeatability, SD of Lx - Rx at one target [deg] | %.2f (%.1f us at 10.73 us/deg; noble2020, 3 runs "
+      "x %d "
       "distances) | %.2f (servos alone: SD %.2f / %.2f deg Rx / Lx, from random earlier pulses) | %s |\n",
-      real_spread_deg, real_spread_us, num_distances, virt_spread_deg, sd[0], sd[1],
+      real_spread_deg,
+      real_spread_us,
+      num_distances,
+      virt_spread_deg,
+      sd[0],
+      sd[1],
       count(virt_spread_deg / real_spread_deg >= 1 / 1.5 && virt_spread_deg / real_spread_deg <= 1.5
-          ? "ok"
-          : "explained: the real runs re-placed the target by hand and re-fixated it with a loop that stops within its "
-            "tolerance at every distance; the servos' own share (dead band, PWM step, backlash) is the virtual figure, "
-            "and fixation on the virtual Owl ends on a seated pulse (protocols/fixation)"));
+                ? "ok"
+                : "explained: the real runs re-placed the target by hand and re-fixated it with a loop that stops "
+                  "within its "
+                  "tolerance at every distance; the servos' own share (dead band, PWM step, backlash) is the virtual "
+                  "figure, "
+                  "and fixation on the virtual Owl ends on a seated pulse (protocols/fixation)"));
   // A backlash b taken up from either side at random spreads one eye by b/2 (SD), two eyes by
   // b/sqrt(2): the real spread bounds the backlash from above.
   const double backlash_bound_deg = std::sqrt(2.0) * real_spread_deg;
   std::printf(
-      "| backlash, approach from above minus below [deg] | <= %.2f (sqrt(2) x the vergence spread: no real log separates "
+      "| backlash, approach from above minus below [deg] | <= %.2f (sqrt(2) x the vergence spread: no real log "
+      "separates "
       "it; FACTS: ~1 deg scatter between toe-in sessions includes re-seating) | %.2f / %.2f (Rx / Lx; truth "
       "hysteresis %.1f / %.1f us) | %s |\n",
-      backlash_bound_deg, backlash[0], backlash[1], rx.hysteresis_us, lx.hysteresis_us,
-      count(std::max(backlash[0], backlash[1]) <= backlash_bound_deg ? "ok (within the bound)" : "MISMATCH (above the bound)"));
-  std::printf("| PWM quantum [us] | 1, or 5 with pigpio's default sampling | %d | %s |\n", rx.quantum_us,
+      backlash_bound_deg,
+      backlash[0],
+      backlash[1],
+      rx.hysteresis_us,
+      lx.hysteresis_us,
+      count(std::max(backlash[0], backlash[1]) <= backlash_bound_deg ? "ok (within the bound)"
+                                                                     : "MISMATCH (above the bound)"));
+  std::printf("| PWM quantum [us] | 1, or 5 with pigpio's default sampling | %d | %s |\n",
+              rx.quantum_us,
               count(rx.quantum_us == 1 || rx.quantum_us == 5 ? "ok (variant A has 5)" : "MISMATCH"));
-  std::printf("| stream latency [ms] | 100-150 (FACTS: course P-loop analysis) | %.0f | %s |\n", truth.stream.latency_ms,
+  std::printf("| stream latency [ms] | 100-150 (FACTS: course P-loop analysis) | %.0f | %s |\n",
+              truth.stream.latency_ms,
               count(truth.stream.latency_ms >= 100 / 1.5 && truth.stream.latency_ms <= 150 * 1.5 ? "ok" : "MISMATCH"));
 
   std::printf("\nverdicts: %d ok, %d explained, %d mismatches\n", num_ok, num_explained, num_bad);

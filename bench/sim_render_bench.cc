@@ -27,7 +27,10 @@ void Measure(const char* what, int n, const std::function<void(int)>& f) {
   for (int i = 1; i <= n; ++i) f(i);
   const double cpu = ThreadCpuSeconds() - c0;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
-  std::printf("%-44s %7.1f stereo frames/s (CPU)  %7.1f /s (wall)  %6.2f ms CPU per frame\n", what, n / cpu, n / wall,
+  std::printf("%-44s %7.1f stereo frames/s (CPU)  %7.1f /s (wall)  %6.2f ms CPU per frame\n",
+              what,
+              n / cpu,
+              n / wall,
               1e3 * cpu / n);
 }
 
@@ -49,7 +52,8 @@ int main() {
   owl_jpeg.SleepNs(1'000'000'000);
   const models::JointAngles a = owl_raw.JointAnglesAt(owl_raw.NowNs());
   const int n = 60;
-  std::printf("virtual Owl render benchmark: %d frames each, 1280x480 side by side, %zu targets + wall\n", n,
+  std::printf("virtual Owl render benchmark: %d frames each, 1280x480 side by side, %zu targets + wall\n",
+              n,
               owl_raw.SceneState().targets.size());
   Measure("renderer only (2 eyes, no noise)", n, [&](int) {
     owl_raw.RenderEyeGrey(models::kLeftEye, a);
@@ -67,7 +71,10 @@ int main() {
     ++grabbed;
   }
   const double cpu = ThreadCpuSeconds() - c0;
-  std::printf("GrabFrame loop: %d frames = %.2f s of virtual time in %.2f s CPU (%.1fx real time)\n", grabbed,
-              grabbed / owl_jpeg.Truth().stream.fps, cpu, grabbed / owl_jpeg.Truth().stream.fps / cpu);
+  std::printf("GrabFrame loop: %d frames = %.2f s of virtual time in %.2f s CPU (%.1fx real time)\n",
+              grabbed,
+              grabbed / owl_jpeg.Truth().stream.fps,
+              cpu,
+              grabbed / owl_jpeg.Truth().stream.fps / cpu);
   return 0;
 }

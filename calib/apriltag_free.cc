@@ -96,9 +96,12 @@ CachedDetector& GetDetector(const std::vector<std::string>& families, int max_ha
 cv::Mat ToGrey8(const cv::Mat& image) {
   if (image.empty()) throw std::invalid_argument("DetectAprilTags: empty image");
   cv::Mat g;
-  if (image.channels() == 3) cv::cvtColor(image, g, cv::COLOR_BGR2GRAY);
-  else if (image.channels() == 4) cv::cvtColor(image, g, cv::COLOR_BGRA2GRAY);
-  else g = image;
+  if (image.channels() == 3)
+    cv::cvtColor(image, g, cv::COLOR_BGR2GRAY);
+  else if (image.channels() == 4)
+    cv::cvtColor(image, g, cv::COLOR_BGRA2GRAY);
+  else
+    g = image;
   if (g.depth() != CV_8U) {
     cv::Mat g8;
     g.convertTo(g8, CV_8U);
@@ -134,8 +137,13 @@ bool FitLine(const std::vector<Eigen::Vector2d>& pts, Eigen::Vector2d* n, double
 
 // Refits one edge from a to b (outward normal `out`, cell size `cell_px`); false when the
 // edge has too few usable profiles.
-bool RefitEdge(const cv::Mat& g, const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& out,
-               double cell_px, Eigen::Vector2d* n, double* d) {
+bool RefitEdge(const cv::Mat& g,
+               const Eigen::Vector2d& a,
+               const Eigen::Vector2d& b,
+               const Eigen::Vector2d& out,
+               double cell_px,
+               Eigen::Vector2d* n,
+               double* d) {
   const double len = (b - a).norm();
   const Eigen::Vector2d t = (b - a) / len;
   const double h = std::clamp(0.45 * cell_px, 1.0, 6.0);
@@ -151,9 +159,9 @@ bool RefitEdge(const cv::Mat& g, const Eigen::Vector2d& a, const Eigen::Vector2d
       inside = Sample(g, q.x(), q.y(), &prof[i + m]);
     }
     if (!inside) continue;
-    const double lo_side = (prof[0] + prof[1] + prof[2]) / 3;                 // inside the quad
+    const double lo_side = (prof[0] + prof[1] + prof[2]) / 3;                      // inside the quad
     const double hi_side = (prof[2 * m] + prof[2 * m - 1] + prof[2 * m - 2]) / 3;  // outside
-    if (std::abs(hi_side - lo_side) < 20) continue;  // no edge here (grey levels)
+    if (std::abs(hi_side - lo_side) < 20) continue;                                // no edge here (grey levels)
     // Edge offset from the profile's integral: with w the grey level scaled to 0 inside and 1
     // outside, a step at e gives integral_{-h}^{h} w ds = h - e, whatever the (symmetric) blur
     // or the area sampling; exact for pixel-aligned edges, where a mid-level crossing of the
@@ -244,7 +252,8 @@ bool AprilTagOptions::Check(std::string* why) const {
   }
   if (!(quad_decimate >= 1.0 && quad_decimate <= 8.0))
     return fail("quad_decimate = " + std::to_string(quad_decimate) + " must be in 1..8");
-  if (!(quad_sigma >= 0 && quad_sigma <= 10)) return fail("quad_sigma = " + std::to_string(quad_sigma) + " must be in 0..10");
+  if (!(quad_sigma >= 0 && quad_sigma <= 10))
+    return fail("quad_sigma = " + std::to_string(quad_sigma) + " must be in 0..10");
   if (!(decode_sharpening >= 0 && decode_sharpening <= 2))
     return fail("decode_sharpening = " + std::to_string(decode_sharpening) + " must be in 0..2");
   if (max_hamming < 0 || max_hamming > 2) return fail("max_hamming = " + std::to_string(max_hamming) + " must be 0..2");

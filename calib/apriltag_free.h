@@ -52,13 +52,13 @@ namespace owlcal::calib {
 
 struct AprilTagOptions {
   std::vector<std::string> families = {"tag36h11"};  // or {"all"}
-  double quad_decimate = 2.0;     // libapriltag quad_decimate: 1 = full resolution (slower, ~3x)
-  double quad_sigma = 0.0;        // Gaussian blur before quad detection [px]
-  bool refine_edges = true;       // off: corners about 0.85 px off instead of 0.15 (docs/conventions.md)
+  double quad_decimate = 2.0;                        // libapriltag quad_decimate: 1 = full resolution (slower, ~3x)
+  double quad_sigma = 0.0;                           // Gaussian blur before quad detection [px]
+  bool refine_edges = true;  // off: corners about 0.85 px off instead of 0.15 (docs/conventions.md)
   double decode_sharpening = 0.25;
-  int max_hamming = 1;            // bits corrected: 0..2 (2 only for families up to 10000 codes)
-  double min_decision_margin = 0; // drop weaker detections (0 keeps all; the margin is reported)
-  bool refine_corners = true;     // owlcal's edge fit after libapriltag (see above)
+  int max_hamming = 1;             // bits corrected: 0..2 (2 only for families up to 10000 codes)
+  double min_decision_margin = 0;  // drop weaker detections (0 keeps all; the margin is reported)
+  bool refine_corners = true;      // owlcal's edge fit after libapriltag (see above)
 
   bool Check(std::string* why) const;
 };
@@ -66,14 +66,14 @@ struct AprilTagOptions {
 struct AprilTagDetection {
   std::string family;
   int id = 0;
-  int hamming = 0;                          // bits corrected
-  double decision_margin = 0;               // libapriltag's decision_margin
-  std::array<Eigen::Vector2d, 4> corners;   // OpenCV convention, order above
-  std::array<Eigen::Vector2d, 4> library_corners;  // libapriltag's corners - 0.5 px, same order
-  bool corners_refined = false;             // corners come from owlcal's edge fit
+  int hamming = 0;                                   // bits corrected
+  double decision_margin = 0;                        // libapriltag's decision_margin
+  std::array<Eigen::Vector2d, 4> corners;            // OpenCV convention, order above
+  std::array<Eigen::Vector2d, 4> library_corners;    // libapriltag's corners - 0.5 px, same order
+  bool corners_refined = false;                      // corners come from owlcal's edge fit
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // OpenCV convention
-  bool repeated_id = false;                 // another detection in this image has the same family and id
-  int id_count = 1;                         // detections of this (family, id) in the image
+  bool repeated_id = false;                          // another detection in this image has the same family and id
+  int id_count = 1;                                  // detections of this (family, id) in the image
 };
 
 // Names of the families libapriltag 3.3 ships.

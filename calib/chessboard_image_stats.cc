@@ -40,7 +40,7 @@ double FitErfSigma(const std::vector<double>& d, const std::vector<double>& v) {
   const int n = int(d.size());
   if (n < 8) return std::numeric_limits<double>::quiet_NaN();
   Eigen::Vector4d x(0.5 * (v.front() + v.back()), 0.5 * (v.back() - v.front()), 0.0, 0.6);  // m, a, d0, sigma
-  if (std::abs(x(1)) < 10) return std::numeric_limits<double>::quiet_NaN();  // too little contrast
+  if (std::abs(x(1)) < 10) return std::numeric_limits<double>::quiet_NaN();                 // too little contrast
   auto cost = [&](const Eigen::Vector4d& p) {
     double c = 0;
     for (int i = 0; i < n; ++i) {
@@ -132,10 +132,14 @@ ChessboardImageStats MeasureChessboardImage(const cv::Mat& image,
   std::vector<double> all_means;
   for (int r = 0; r + 1 < target.rows; ++r)
     for (int c = 0; c + 1 < target.cols; ++c) {
-      const Eigen::Vector2d p00 = corner(c, r), p10 = corner(c + 1, r), p01 = corner(c, r + 1), p11 = corner(c + 1, r + 1);
-      auto bil = [&](double s, double t) { return (1 - s) * (1 - t) * p00 + s * (1 - t) * p10 + (1 - s) * t * p01 + s * t * p11; };
+      const Eigen::Vector2d p00 = corner(c, r), p10 = corner(c + 1, r), p01 = corner(c, r + 1),
+                            p11 = corner(c + 1, r + 1);
+      auto bil = [&](double s, double t) {
+        return (1 - s) * (1 - t) * p00 + s * (1 - t) * p10 + (1 - s) * t * p01 + s * t * p11;
+      };
       std::vector<cv::Point> poly;
-      for (const auto& st : {std::pair{0.25, 0.25}, std::pair{0.75, 0.25}, std::pair{0.75, 0.75}, std::pair{0.25, 0.75}}) {
+      for (const auto& st :
+           {std::pair{0.25, 0.25}, std::pair{0.75, 0.25}, std::pair{0.75, 0.75}, std::pair{0.25, 0.75}}) {
         const Eigen::Vector2d q = bil(st.first, st.second);
         poly.emplace_back(int(std::lround(q.x())), int(std::lround(q.y())));
       }
@@ -263,8 +267,10 @@ double JpegBlockiness(const cv::Mat& image) {
     const uint8_t* p = g.ptr<uint8_t>(y);
     for (int x = 0; x + 1 < g.cols; ++x) {
       const double dd = std::abs(int(p[x + 1]) - int(p[x]));
-      if ((x + 1) % 8 == 0) on += dd, ++n_on;
-      else off += dd, ++n_off;
+      if ((x + 1) % 8 == 0)
+        on += dd, ++n_on;
+      else
+        off += dd, ++n_off;
     }
   }
   for (int y = 0; y + 1 < g.rows; ++y) {
@@ -273,8 +279,10 @@ double JpegBlockiness(const cv::Mat& image) {
     const bool boundary = (y + 1) % 8 == 0;
     for (int x = 0; x < g.cols; ++x) {
       const double dd = std::abs(int(q[x]) - int(p[x]));
-      if (boundary) on += dd, ++n_on;
-      else off += dd, ++n_off;
+      if (boundary)
+        on += dd, ++n_on;
+      else
+        off += dd, ++n_off;
     }
   }
   if (n_on == 0 || n_off == 0 || off <= 0) return std::numeric_limits<double>::quiet_NaN();

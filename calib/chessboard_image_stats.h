@@ -39,7 +39,7 @@ namespace owlcal::calib {
 
 struct ChessboardImageStats {
   bool ok = false;
-  std::string message;             // why not ok
+  std::string message;                      // why not ok
   double white_level = 0, black_level = 0;  // grey levels 0..255
   double noise_white = 0, noise_black = 0;  // grey levels
   double edge_sigma_px = 0;

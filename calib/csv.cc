@@ -20,8 +20,8 @@ struct Record {
   size_t next = 0;
   int line_breaks = 0;
   bool terminated = false;
-  bool blank = true;   // nothing but separators and spaces
-  std::string error;   // "" or what is wrong
+  bool blank = true;  // nothing but separators and spaces
+  std::string error;  // "" or what is wrong
 };
 
 Record ScanRecord(std::string_view text, size_t pos, bool trim) {
@@ -99,7 +99,9 @@ Record ScanRecord(std::string_view text, size_t pos, bool trim) {
   return r;
 }
 
-[[noreturn]] void Throw(const std::string& where, const std::string& what) { throw std::runtime_error(where + ": " + what); }
+[[noreturn]] void Throw(const std::string& where, const std::string& what) {
+  throw std::runtime_error(where + ": " + what);
+}
 
 std::string HeaderList(const std::vector<std::string>& header) {
   std::string out;
@@ -242,7 +244,9 @@ void CsvTable::RequireColumns(std::initializer_list<const char*> names) const {
 
 std::string CsvTable::Where(size_t row) const { return source_ + ":" + std::to_string(rows_[row].line); }
 
-const std::string& CsvTable::Text(size_t row, const std::string& column) const { return rows_[row].cells[Column(column)]; }
+const std::string& CsvTable::Text(size_t row, const std::string& column) const {
+  return rows_[row].cells[Column(column)];
+}
 
 double CsvTable::Number(size_t row, const std::string& column, double min, double max) const {
   double v = 0;

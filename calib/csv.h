@@ -29,7 +29,9 @@ namespace owlcal::calib {
 
 // Splits one record (no line break inside) into cells, unquoting quoted ones. Throws
 // std::runtime_error "WHERE: ..." on an unterminated quote or text after a closing quote.
-std::vector<std::string> SplitCsvLine(const std::string& line, bool trim = false, const std::string& where = "CSV line");
+std::vector<std::string> SplitCsvLine(const std::string& line,
+                                      bool trim = false,
+                                      const std::string& where = "CSV line");
 
 // A cell as a writer should put it: quoted (with doubled quotes) when it holds ',', '"', a line
 // break, or spaces at either end; as is otherwise.
@@ -57,14 +59,14 @@ int64_t CsvInteger(const std::vector<std::string>& cells,
                    int64_t max);
 
 struct CsvOptions {
-  bool trim = false;               // remove spaces and tabs around cells
-  bool skip_blank_lines = true;    // lines holding nothing but separators and spaces are skipped
-  bool allow_partial_tail = false; // a last record with no line break that does not parse (a
-                                   // recording cut short) is dropped, see DroppedPartialTail()
+  bool trim = false;                   // remove spaces and tabs around cells
+  bool skip_blank_lines = true;        // lines holding nothing but separators and spaces are skipped
+  bool allow_partial_tail = false;     // a last record with no line break that does not parse (a
+                                       // recording cut short) is dropped, see DroppedPartialTail()
   bool tail_needs_line_break = false;  // with allow_partial_tail: an appended log, whose writer
                                        // ends every record with a line break, so a last record
                                        // without one was cut short and is dropped even if it parses
-  bool allow_empty = false;        // a file with no complete header row is a table with no columns
+  bool allow_empty = false;            // a file with no complete header row is a table with no columns
 };
 
 // A CSV file with a header row, read whole; cells are looked up by column name.

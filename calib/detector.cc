@@ -46,13 +46,13 @@ bool FindChessboard(const cv::Mat& gray,
     if (o.fast_check) flags |= cv::CALIB_CB_FAST_CHECK;
     found = cv::findChessboardCorners(gray, pattern, *corners, flags);
     if (found) {
-      cv::cornerSubPix(gray,
-                       *corners,
-                       cv::Size(o.subpix_half_window, o.subpix_half_window),
-                       cv::Size(-1, -1),
-                       cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS,
-                                        o.subpix_max_iterations,
-                                        o.subpix_epsilon_px));
+      cv::cornerSubPix(
+          gray,
+          *corners,
+          cv::Size(o.subpix_half_window, o.subpix_half_window),
+          cv::Size(-1, -1),
+          cv::TermCriteria(
+              cv::TermCriteria::COUNT + cv::TermCriteria::EPS, o.subpix_max_iterations, o.subpix_epsilon_px));
     }
   } else {
     int flags = cv::CALIB_CB_NORMALIZE_IMAGE;
@@ -66,7 +66,8 @@ bool FindChessboard(const cv::Mat& gray,
 // The detectors tried, in order (calib/detector.h: auto = classic then sb; fast_check = classic).
 std::vector<ChessboardMethod> MethodsTried(const DetectorOptions& o) {
   if (o.fast_check) return {ChessboardMethod::kClassic};
-  if (o.chessboard_method == ChessboardMethod::kAuto) return {ChessboardMethod::kClassic, ChessboardMethod::kSectorBased};
+  if (o.chessboard_method == ChessboardMethod::kAuto)
+    return {ChessboardMethod::kClassic, ChessboardMethod::kSectorBased};
   return {o.chessboard_method};
 }
 
@@ -179,11 +180,13 @@ bool DetectorOptions::Check(std::string* why) const {
   };
   if (subpix_half_window < 1 || subpix_half_window > 30)
     return fail("subpix_half_window must be 1..30, got " + std::to_string(subpix_half_window));
-  if (subpix_max_iterations < 1) return fail("subpix_max_iterations must be >= 1, got " + std::to_string(subpix_max_iterations));
+  if (subpix_max_iterations < 1)
+    return fail("subpix_max_iterations must be >= 1, got " + std::to_string(subpix_max_iterations));
   if (!(subpix_epsilon_px > 0)) return fail("subpix_epsilon_px must be > 0, got " + std::to_string(subpix_epsilon_px));
   if (!(apriltag_decimate >= 1.0) || apriltag_decimate > 8)
     return fail("apriltag_decimate must be 1..8, got " + std::to_string(apriltag_decimate));
-  if (apriltag_blur_sigma < 0) return fail("apriltag_blur_sigma must be >= 0, got " + std::to_string(apriltag_blur_sigma));
+  if (apriltag_blur_sigma < 0)
+    return fail("apriltag_blur_sigma must be >= 0, got " + std::to_string(apriltag_blur_sigma));
   if (apriltag_max_hamming < 0 || apriltag_max_hamming > 2)
     return fail("apriltag_max_hamming must be 0..2, got " + std::to_string(apriltag_max_hamming));
   if (apriltag_min_tags < 1) return fail("apriltag_min_tags must be >= 1, got " + std::to_string(apriltag_min_tags));

@@ -44,16 +44,16 @@ std::string ChessboardMethodName(ChessboardMethod method);
 struct DetectorOptions {
   // chessboard
   ChessboardMethod chessboard_method = ChessboardMethod::kAuto;  // classic, then sb
-  int subpix_half_window = 5;       // cornerSubPix winSize = (h, h): window (2h+1)^2 px
+  int subpix_half_window = 5;                                    // cornerSubPix winSize = (h, h): window (2h+1)^2 px
   int subpix_max_iterations = 100;
   double subpix_epsilon_px = 0.001;
-  bool fast_check = false;          // live video: classic with CALIB_CB_FAST_CHECK only (see above)
-  bool adaptive_threshold = true;   // CALIB_CB_ADAPTIVE_THRESH | NORMALIZE_IMAGE (classic)
-  bool sb_accuracy = false;         // CALIB_CB_ACCURACY (sb)
-  bool sb_exhaustive = false;       // CALIB_CB_EXHAUSTIVE (sb)
+  bool fast_check = false;         // live video: classic with CALIB_CB_FAST_CHECK only (see above)
+  bool adaptive_threshold = true;  // CALIB_CB_ADAPTIVE_THRESH | NORMALIZE_IMAGE (classic)
+  bool sb_accuracy = false;        // CALIB_CB_ACCURACY (sb)
+  bool sb_exhaustive = false;      // CALIB_CB_EXHAUSTIVE (sb)
   // apriltag
-  double apriltag_decimate = 2.0;   // quad_decimate
-  double apriltag_blur_sigma = 0.0; // quad_sigma
+  double apriltag_decimate = 2.0;    // quad_decimate
+  double apriltag_blur_sigma = 0.0;  // quad_sigma
   bool apriltag_refine_edges = true;
   int apriltag_max_hamming = 1;     // bits corrected (<= 2)
   double apriltag_min_margin = 20;  // drop detections with a lower decision_margin

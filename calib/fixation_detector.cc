@@ -84,8 +84,8 @@ FixationDetection DetectFixationTarget(const cv::Mat& image, const FixationDetec
     const double area = cv::contourArea(c);
     if (area < min_area || area > max_area) continue;
     const cv::Rect box = cv::boundingRect(c);
-    if (box.x < options.border_px || box.y < options.border_px ||
-        box.x + box.width > g.cols - options.border_px || box.y + box.height > g.rows - options.border_px)
+    if (box.x < options.border_px || box.y < options.border_px || box.x + box.width > g.cols - options.border_px ||
+        box.y + box.height > g.rows - options.border_px)
       continue;
     const double perimeter = cv::arcLength(c, true);
     cv::Point2f cc;
@@ -107,9 +107,9 @@ FixationDetection DetectFixationTarget(const cv::Mat& image, const FixationDetec
     // A fixation target is a disc on a plain card: high contrast against a uniform surround
     // wins over dark spots of a textured background.
     const double uniformity = 1.0 / (1.0 + 4.0 * ring_sd / contrast);
-    const double score =
-        tracking ? 1.0 / (1.0 + std::hypot(cc.x - options.expected_px.x(), cc.y - options.expected_px.y()))
-                 : roundness * contrast * contrast * uniformity * std::sqrt(r);
+    const double score = tracking
+                             ? 1.0 / (1.0 + std::hypot(cc.x - options.expected_px.x(), cc.y - options.expected_px.y()))
+                             : roundness * contrast * contrast * uniformity * std::sqrt(r);
     if (score <= best_score) continue;
     // Sub-pixel centre: contrast-weighted centroid inside 1.25 * the enclosing radius.
     const double rw = cr * 1.25 + 1;

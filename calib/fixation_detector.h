@@ -27,17 +27,17 @@
 namespace owlcal::calib {
 
 struct FixationDetectorOptions {
-  bool dark_on_light = true;    // a dark disc on a lighter surround (false: light on dark)
-  double min_radius_px = 3;     // blobs smaller/larger than this are ignored
+  bool dark_on_light = true;  // a dark disc on a lighter surround (false: light on dark)
+  double min_radius_px = 3;   // blobs smaller/larger than this are ignored
   double max_radius_px = 150;
   // > 0: the disc's expected radius [px], from its known size, its placed distance and a nominal
   // focal length. Blobs outside 0.5x..2x of it are ignored instead of those outside
   // min/max_radius_px (a 24 mm disc at 2 m is 2.9 px on a 480 px lens, below the default
   // minimum, and a 12 px dark spot of the wall must not stand in for it). At least 1 px.
   double size_hint_px = 0;
-  double min_roundness = 0.6;   // 0..1, see above
-  double min_contrast = 25;     // grey levels between the blob and its surround
-  int border_px = 2;            // blobs touching the image border closer than this are ignored
+  double min_roundness = 0.6;  // 0..1, see above
+  double min_contrast = 25;    // grey levels between the blob and its surround
+  int border_px = 2;           // blobs touching the image border closer than this are ignored
   // Tracking: when expected_radius_px > 0, only blobs of 0.5x..2x that radius are kept and
   // the one closest to expected_px wins (instead of the best score).
   Eigen::Vector2d expected_px = Eigen::Vector2d::Zero();
@@ -49,10 +49,10 @@ struct FixationDetectorOptions {
 struct FixationDetection {
   bool found = false;
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // [px]
-  double radius_px = 0;                               // equivalent radius sqrt(area / pi)
+  double radius_px = 0;                              // equivalent radius sqrt(area / pi)
   double roundness = 0;
-  double contrast = 0;                                // grey levels
-  std::string message;                                // why not found
+  double contrast = 0;  // grey levels
+  std::string message;  // why not found
 };
 
 // Finds the best fixation blob in an 8-bit grey or BGR image. Never throws for "not found";
@@ -62,7 +62,7 @@ FixationDetection DetectFixationTarget(const cv::Mat& image, const FixationDetec
 struct TemplateMatch {
   bool found = false;
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // template centre in the image [px]
-  double score = 0;                                   // normalised correlation at the peak (-1..1)
+  double score = 0;                                  // normalised correlation at the peak (-1..1)
 };
 
 // Cuts a (2 * half_size + 1)^2 grey template centred on pixel `centre` (rounded). Throws
@@ -71,7 +71,9 @@ cv::Mat CutTemplate(const cv::Mat& image, const Eigen::Vector2d& centre, int hal
 
 // Finds `templ` (grey, odd size) in `image` by normalised correlation; found when the peak
 // score is >= min_score. search (optional) restricts the template centre's search area.
-TemplateMatch MatchTemplateNcc(const cv::Mat& image, const cv::Mat& templ, double min_score = 0.6,
+TemplateMatch MatchTemplateNcc(const cv::Mat& image,
+                               const cv::Mat& templ,
+                               double min_score = 0.6,
                                const cv::Rect& search = cv::Rect());
 
 }  // namespace owlcal::calib

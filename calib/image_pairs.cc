@@ -51,9 +51,12 @@ ImagePairList ListImagePairs(const std::string& dir, const ImagePairOptions& opt
     std::map<std::string, std::string> lefts, rights;
     for (const auto& f : files) {
       const std::string stem = f.stem().string(), low = Lower(stem);
-      if (low.rfind("left", 0) == 0) lefts[stem.substr(4)] = f.string();
-      else if (low.rfind("right", 0) == 0) rights[stem.substr(5)] = f.string();
-      else out.unpaired.push_back(f.string());
+      if (low.rfind("left", 0) == 0)
+        lefts[stem.substr(4)] = f.string();
+      else if (low.rfind("right", 0) == 0)
+        rights[stem.substr(5)] = f.string();
+      else
+        out.unpaired.push_back(f.string());
     }
     for (const auto& [k, l] : lefts) {
       auto it = rights.find(k);
@@ -72,8 +75,8 @@ ImagePairList ListImagePairs(const std::string& dir, const ImagePairOptions& opt
   });
   std::sort(out.unpaired.begin(), out.unpaired.end());
   if (out.pairs.empty())
-    throw std::runtime_error(dir + (options.side_by_side ? ": no image files (side-by-side frames)"
-                                                         : ": no left*/right* image pairs"));
+    throw std::runtime_error(
+        dir + (options.side_by_side ? ": no image files (side-by-side frames)" : ": no left*/right* image pairs"));
   return out;
 }
 
@@ -90,8 +93,7 @@ void LoadImagePair(const ImagePair& pair, const ImagePairOptions& options, cv::M
   if (options.side_by_side) {
     const cv::Mat frame = read(pair.left_path);
     if (frame.cols % 2 != 0)
-      throw std::runtime_error(pair.left_path + ": side-by-side frame width " + std::to_string(frame.cols) +
-                               " is odd");
+      throw std::runtime_error(pair.left_path + ": side-by-side frame width " + std::to_string(frame.cols) + " is odd");
     SplitStereoFrame(frame, options.mirror, options.swap, left, right);
     return;
   }

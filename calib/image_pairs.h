@@ -40,8 +40,8 @@ struct ImagePairOptions {
 };
 
 struct ImagePair {
-  std::string key;          // "0", "30cm", or the frame's file stem
-  std::string left_path;    // side_by_side: both paths are the frame
+  std::string key;        // "0", "30cm", or the frame's file stem
+  std::string left_path;  // side_by_side: both paths are the frame
   std::string right_path;
 };
 
@@ -61,7 +61,7 @@ void LoadImagePair(const ImagePair& pair, const ImagePairOptions& options, cv::M
 struct PairDetection {
   std::string key;
   bool found[2] = {false, false};
-  std::string message[2];   // why not found
+  std::string message[2];  // why not found
 };
 struct DetectedImageSet {
   std::vector<CornerObservation> observations;

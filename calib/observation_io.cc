@@ -18,8 +18,8 @@ constexpr const char* kHeader =
     "approach_Rx,approach_Ry,approach_Lx,approach_Ly,approach_Neck,stamp_ns";
 constexpr int kNumFields = 20;
 constexpr const char* kFieldNames[kNumFields] = {
-    "frame_index", "eye",        "target_id",   "corner_id",   "u_px",        "v_px",          "x_m",
-    "y_m",         "z_m",        "Rx_us",       "Ry_us",       "Lx_us",       "Ly_us",         "Neck_us",
+    "frame_index", "eye",         "target_id",   "corner_id",   "u_px",          "v_px",    "x_m",
+    "y_m",         "z_m",         "Rx_us",       "Ry_us",       "Lx_us",         "Ly_us",   "Neck_us",
     "approach_Rx", "approach_Ry", "approach_Lx", "approach_Ly", "approach_Neck", "stamp_ns"};
 
 void WriteRows(std::ostream& f, const std::vector<CornerObservation>& obs) {
@@ -40,7 +40,6 @@ void WriteRows(std::ostream& f, const std::vector<CornerObservation>& obs) {
   }
 }
 
-
 // Bounds of the numeric columns: pixels within +-1e5 px (a Ceres residual squares them), board
 // points within +-1 km, pulse widths four digits, ids that fit an int.
 constexpr double kMaxAbsPixel = 1e5;
@@ -60,7 +59,8 @@ CornerObservation ParseRow(const CsvTable& t, size_t r) {
   o.target_id = t.Text(r, "target_id");
   if (o.target_id.empty()) throw std::runtime_error(t.Where(r) + ": column target_id is empty");
   o.corner_id = t.Int(r, "corner_id", 0, INT32_MAX);
-  o.pixel = Eigen::Vector2d(t.Number(r, "u_px", -kMaxAbsPixel, kMaxAbsPixel), t.Number(r, "v_px", -kMaxAbsPixel, kMaxAbsPixel));
+  o.pixel = Eigen::Vector2d(t.Number(r, "u_px", -kMaxAbsPixel, kMaxAbsPixel),
+                            t.Number(r, "v_px", -kMaxAbsPixel, kMaxAbsPixel));
   o.point_in_target = Eigen::Vector3d(t.Number(r, "x_m", -kMaxAbsPoint_m, kMaxAbsPoint_m),
                                       t.Number(r, "y_m", -kMaxAbsPoint_m, kMaxAbsPoint_m),
                                       t.Number(r, "z_m", -kMaxAbsPoint_m, kMaxAbsPoint_m));
@@ -102,7 +102,8 @@ std::vector<CornerObservation> ReadObservationsCsv(const std::string& path) {
     for (const std::string& h : t.Header()) {
       bool known = false;
       for (const char* name : kFieldNames) known = known || h == name;
-      if (!known) throw std::runtime_error(path + ":1: unknown column '" + io::Printable(h) + "' (header: " + kHeader + ")");
+      if (!known)
+        throw std::runtime_error(path + ":1: unknown column '" + io::Printable(h) + "' (header: " + kHeader + ")");
     }
   }
   if (t.DroppedPartialTail())

@@ -2,10 +2,10 @@
 #include "io/number_text.h"
 
 #include <algorithm>
+#include <cmath>
 #include <iomanip>
 #include <limits>
 #include <sstream>
-#include <cmath>
 #include <stdexcept>
 #include <vector>
 
@@ -16,9 +16,12 @@ namespace {
 
 cv::Mat ToGrey(const cv::Mat& m) {
   cv::Mat g;
-  if (m.channels() == 3) cv::cvtColor(m, g, cv::COLOR_BGR2GRAY);
-  else if (m.channels() == 4) cv::cvtColor(m, g, cv::COLOR_BGRA2GRAY);
-  else g = m;
+  if (m.channels() == 3)
+    cv::cvtColor(m, g, cv::COLOR_BGR2GRAY);
+  else if (m.channels() == 4)
+    cv::cvtColor(m, g, cv::COLOR_BGRA2GRAY);
+  else
+    g = m;
   if (g.depth() != CV_8U) throw std::invalid_argument("MatchAlongRow: images must be 8-bit");
   return g;
 }
@@ -46,9 +49,12 @@ double ParabolaPeakOffset(double l, double c, double r) {
 
 const char* ToString(MatchConfidence c) {
   switch (c) {
-    case MatchConfidence::kOk: return "ok";
-    case MatchConfidence::kLowConfidence: return "low_confidence";
-    case MatchConfidence::kFailed: return "failed";
+    case MatchConfidence::kOk:
+      return "ok";
+    case MatchConfidence::kLowConfidence:
+      return "low_confidence";
+    case MatchConfidence::kFailed:
+      return "failed";
   }
   return "failed";
 }
@@ -68,7 +74,8 @@ bool StereoMatchOptions::Check(std::string* why) const {
   if (!(min_ncc > -1 && min_ncc < 1)) return fail("min_ncc = " + std::to_string(min_ncc) + " must be in (-1, 1)");
   if (!(low_ncc >= min_ncc && low_ncc < 1)) return fail("low_ncc must be in [min_ncc, 1)");
   if (noise_sigma < 0 || subpixel_floor_px < 0) return fail("noise_sigma and subpixel_floor_px must be >= 0");
-  if (!(min_contrast >= 0 && max_sigma_disparity_low_px > 0 && max_sigma_disparity_fail_px >= max_sigma_disparity_low_px))
+  if (!(min_contrast >= 0 && max_sigma_disparity_low_px > 0 &&
+        max_sigma_disparity_fail_px >= max_sigma_disparity_low_px))
     return fail("min_contrast >= 0 and 0 < max_sigma_disparity_low_px <= max_sigma_disparity_fail_px");
   if (!(lr_tolerance_px > 0 && lr_fail_px >= lr_tolerance_px)) return fail("0 < lr_tolerance_px <= lr_fail_px");
   if (!(peak_ratio_low > 0 && peak_ratio_fail >= peak_ratio_low && peak_ratio_fail <= 1))
@@ -83,9 +90,9 @@ namespace {
 struct Peak {
   bool ok = false;
   std::string message;
-  double x = 0, y = 0;     // sub-pixel top-left of the match in the searched image
+  double x = 0, y = 0;  // sub-pixel top-left of the match in the searched image
   double ncc = -1, second = -1;
-  bool at_edge = false;    // the peak sits at the end of the x range
+  bool at_edge = false;  // the peak sits at the end of the x range
   bool at_row_edge = false;
 };
 
@@ -125,12 +132,12 @@ Peak Search(const cv::Mat& templ, const cv::Mat& img, int x_lo, int x_hi, int y_
     p.message = "NCC peak at the end of the disparity range";
     return p;
   }
-  const double dx = ParabolaPeakOffset(score.at<float>(at.y, at.x - 1), score.at<float>(at.y, at.x),
-                                       score.at<float>(at.y, at.x + 1));
+  const double dx =
+      ParabolaPeakOffset(score.at<float>(at.y, at.x - 1), score.at<float>(at.y, at.x), score.at<float>(at.y, at.x + 1));
   double dyo = 0;
   if (at.y > 0 && at.y < score.rows - 1)
-    dyo = ParabolaPeakOffset(score.at<float>(at.y - 1, at.x), score.at<float>(at.y, at.x),
-                             score.at<float>(at.y + 1, at.x));
+    dyo = ParabolaPeakOffset(
+        score.at<float>(at.y - 1, at.x), score.at<float>(at.y, at.x), score.at<float>(at.y + 1, at.x));
   p.at_row_edge = score.rows > 1 && (at.y == 0 || at.y == score.rows - 1);
   p.x = x_lo + at.x + dx;
   p.y = y_lo + at.y + dyo;
@@ -152,8 +159,8 @@ StereoMatch MatchAlongRow(const cv::Mat& left_rect, const cv::Mat& right_rect, c
   m.lr_error_px = std::numeric_limits<double>::quiet_NaN();
   cv::Rect roi = o.template_roi;
   if (roi.area() == 0) {
-    roi = cv::Rect((left.cols - o.template_width) / 2, (left.rows - o.template_height) / 2, o.template_width,
-                   o.template_height);
+    roi = cv::Rect(
+        (left.cols - o.template_width) / 2, (left.rows - o.template_height) / 2, o.template_width, o.template_height);
   }
   m.template_roi = roi;
   auto fail = [&](const std::string& why_failed) {
@@ -170,8 +177,8 @@ StereoMatch MatchAlongRow(const cv::Mat& left_rect, const cv::Mat& right_rect, c
   m.contrast = stdev[0];
 
   // Forward: the left template along the right image's rows.
-  const Peak f = Search(templ, right, roi.x - o.max_disparity, roi.x - o.min_disparity, roi.y - o.row_search,
-                        roi.y + o.row_search);
+  const Peak f = Search(
+      templ, right, roi.x - o.max_disparity, roi.x - o.min_disparity, roi.y - o.row_search, roi.y + o.row_search);
   m.ncc = f.ncc;
   m.second_ncc = f.second;
   m.peak_ratio = f.ncc > 0 && f.second > 0 ? f.second / f.ncc : 0;
@@ -190,11 +197,17 @@ StereoMatch MatchAlongRow(const cv::Mat& left_rect, const cv::Mat& right_rect, c
   // Left-right check: the matched right region searched for in the left image.
   const int rx = static_cast<int>(std::lround(f.x)), ry = static_cast<int>(std::lround(f.y));
   if (rx >= 0 && ry >= 0 && rx + roi.width <= right.cols && ry + roi.height <= right.rows) {
-    const Peak b = Search(right(cv::Rect(rx, ry, roi.width, roi.height)), left, rx + o.min_disparity,
-                          rx + o.max_disparity, ry - o.row_search, ry + o.row_search);
+    const Peak b = Search(right(cv::Rect(rx, ry, roi.width, roi.height)),
+                          left,
+                          rx + o.min_disparity,
+                          rx + o.max_disparity,
+                          ry - o.row_search,
+                          ry + o.row_search);
     // Consistent: the back-match lands at roi.x, moved by the fraction the forward match had.
-    if (b.ok) m.lr_error_px = std::abs(b.x - (roi.x + rx - f.x));
-    else m.lr_error_px = std::numeric_limits<double>::infinity();
+    if (b.ok)
+      m.lr_error_px = std::abs(b.x - (roi.x + rx - f.x));
+    else
+      m.lr_error_px = std::numeric_limits<double>::infinity();
   }
   const double lr2 = std::isfinite(m.lr_error_px) ? 0.25 * m.lr_error_px * m.lr_error_px : 0;
   m.sigma_disparity_px = std::sqrt(crb2 + o.subpixel_floor_px * o.subpixel_floor_px + lr2);
@@ -204,7 +217,11 @@ StereoMatch MatchAlongRow(const cv::Mat& left_rect, const cv::Mat& right_rect, c
     const int hw = roi.width / 2, hh = roi.height / 2;
     for (int q = 0; q < 4; ++q) {
       const cv::Rect sub(roi.x + (q % 2) * hw, roi.y + (q / 2) * hh, hw, hh);
-      const Peak s = Search(left(sub), right, sub.x - o.max_disparity, sub.x - o.min_disparity, sub.y - o.row_search,
+      const Peak s = Search(left(sub),
+                            right,
+                            sub.x - o.max_disparity,
+                            sub.x - o.min_disparity,
+                            sub.y - o.row_search,
                             sub.y + o.row_search);
       if (!s.ok || s.ncc < o.min_ncc) continue;
       ++m.blocks_used;
@@ -218,30 +235,39 @@ StereoMatch MatchAlongRow(const cv::Mat& left_rect, const cv::Mat& right_rect, c
     (is_fail ? failed : low) = true;
     m.flags.push_back(text);
   };
-  if (f.ncc < o.min_ncc) flag(true, "best NCC " + Num(f.ncc, 3) + " < " + Num(o.min_ncc, 2));
-  else if (f.ncc < o.low_ncc) flag(false, "weak match: NCC " + Num(f.ncc, 3) + " < " + Num(o.low_ncc, 2));
+  if (f.ncc < o.min_ncc)
+    flag(true, "best NCC " + Num(f.ncc, 3) + " < " + Num(o.min_ncc, 2));
+  else if (f.ncc < o.low_ncc)
+    flag(false, "weak match: NCC " + Num(f.ncc, 3) + " < " + Num(o.low_ncc, 2));
   if (m.contrast < o.min_contrast)
-    flag(true, "no texture in the template (grey-level std " + Num(m.contrast, 1) + " < " + Num(o.min_contrast, 1) + ")");
+    flag(true,
+         "no texture in the template (grey-level std " + Num(m.contrast, 1) + " < " + Num(o.min_contrast, 1) + ")");
   const double sd = std::sqrt(crb2);
   if (sd > o.max_sigma_disparity_fail_px)
-    flag(true, "too little texture across the row: matching sigma " + Num(sd) + " px > " + Num(o.max_sigma_disparity_fail_px));
+    flag(
+        true,
+        "too little texture across the row: matching sigma " + Num(sd) + " px > " + Num(o.max_sigma_disparity_fail_px));
   else if (sd > o.max_sigma_disparity_low_px)
-    flag(false, "little texture across the row: matching sigma " + Num(sd) + " px > " + Num(o.max_sigma_disparity_low_px));
+    flag(false,
+         "little texture across the row: matching sigma " + Num(sd) + " px > " + Num(o.max_sigma_disparity_low_px));
   if (!(m.lr_error_px <= o.lr_fail_px))
-    flag(true, "left-right check: the right patch matches back " +
-                   (std::isfinite(m.lr_error_px) ? Num(m.lr_error_px, 1) + " px" : std::string("nowhere")) +
-                   " from the template (> " + Num(o.lr_fail_px, 1) + " px)");
+    flag(true,
+         "left-right check: the right patch matches back " +
+             (std::isfinite(m.lr_error_px) ? Num(m.lr_error_px, 1) + " px" : std::string("nowhere")) +
+             " from the template (> " + Num(o.lr_fail_px, 1) + " px)");
   else if (m.lr_error_px > o.lr_tolerance_px)
     flag(false, "left-right check off by " + Num(m.lr_error_px) + " px (> " + Num(o.lr_tolerance_px, 1) + ")");
   if (m.peak_ratio > o.peak_ratio_fail)
-    flag(true, "ambiguous: a second peak at NCC " + Num(f.second, 3) + " (" + Num(100 * m.peak_ratio, 0) +
-                   " % of the best): repeated texture");
+    flag(true,
+         "ambiguous: a second peak at NCC " + Num(f.second, 3) + " (" + Num(100 * m.peak_ratio, 0) +
+             " % of the best): repeated texture");
   else if (m.peak_ratio > o.peak_ratio_low)
     flag(false, "a second peak at NCC " + Num(f.second, 3) + " (" + Num(100 * m.peak_ratio, 0) + " % of the best)");
   const double block_tol = std::max(o.block_tolerance_px, o.block_tolerance_fraction * std::abs(m.disparity_px));
   if (m.block_spread_px > block_tol)
-    flag(false, "the template spans several depths: a quarter of it matches " + Num(m.block_spread_px, 1) +
-                    " px away from the whole (> " + Num(block_tol, 1) + " px; a target's edge against the background?)");
+    flag(false,
+         "the template spans several depths: a quarter of it matches " + Num(m.block_spread_px, 1) +
+             " px away from the whole (> " + Num(block_tol, 1) + " px; a target's edge against the background?)");
   if (f.at_row_edge && o.row_search > 0)
     flag(false, "best row at the edge of the row search (dy " + Num(m.dy_px, 1) + " px): rectification off?");
   m.confidence = failed ? MatchConfidence::kFailed : (low ? MatchConfidence::kLowConfidence : MatchConfidence::kOk);

@@ -42,18 +42,18 @@
 namespace owlcal::calib {
 
 struct StereoMatchOptions {
-  cv::Rect template_roi;           // in the left rectified image; empty = central region
-  int template_width = 64;         // size of the central region when template_roi is empty
+  cv::Rect template_roi;    // in the left rectified image; empty = central region
+  int template_width = 64;  // size of the central region when template_roi is empty
   int template_height = 48;
-  int min_disparity = 0;           // [px], x_left - x_right
+  int min_disparity = 0;  // [px], x_left - x_right
   int max_disparity = 256;
-  int row_search = 2;              // +- rows searched around the same row
-  double min_ncc = 0.6;            // weaker peaks are "not found"
-  double noise_sigma = 0;          // grey-level noise; 0 = estimate from the template
+  int row_search = 2;      // +- rows searched around the same row
+  double min_ncc = 0.6;    // weaker peaks are "not found"
+  double noise_sigma = 0;  // grey-level noise; 0 = estimate from the template
   double subpixel_floor_px = 0.1;
   // Confidence checks (above).
   double low_ncc = 0.8;
-  double min_contrast = 4.0;                  // grey levels
+  double min_contrast = 4.0;  // grey levels
   double max_sigma_disparity_low_px = 0.5;
   double max_sigma_disparity_fail_px = 2.0;
   double lr_tolerance_px = 1.0;
@@ -72,7 +72,7 @@ enum class MatchConfidence { kOk, kLowConfidence, kFailed };
 const char* ToString(MatchConfidence c);
 
 struct StereoMatch {
-  bool found = false;              // matched and no check failed (confidence ok or low_confidence)
+  bool found = false;  // matched and no check failed (confidence ok or low_confidence)
   MatchConfidence confidence = MatchConfidence::kFailed;
   std::vector<std::string> flags;  // every check that failed, with its numbers
   std::string message;             // why not found, or the flags joined
@@ -88,8 +88,8 @@ struct StereoMatch {
   double contrast = 0;             // grey-level std of the template
   double block_spread_px = 0;      // largest disagreement of a quarter with the whole
   int blocks_used = 0;
-  double sigma_disparity_px = 0;   // matching sigma (see above)
-  double noise_sigma = 0;          // grey-level noise used
+  double sigma_disparity_px = 0;  // matching sigma (see above)
+  double noise_sigma = 0;         // grey-level noise used
 };
 
 // left_rect, right_rect: rectified images of the same size, 8-bit grey or BGR (converted to

@@ -35,7 +35,8 @@ bool ParseCustomPaper(const std::string& s, double* w, double* h) {
 }
 
 std::vector<Paper> Candidates(const std::string& paper) {
-  const std::vector<Paper> iso = {{"A4", 210, 297}, {"A3", 297, 420}, {"A2", 420, 594}, {"A1", 594, 841}, {"A0", 841, 1189}};
+  const std::vector<Paper> iso = {
+      {"A4", 210, 297}, {"A3", 297, 420}, {"A2", 420, 594}, {"A1", 594, 841}, {"A0", 841, 1189}};
   if (paper == "auto") return iso;
   std::string up = paper;
   std::transform(up.begin(), up.end(), up.begin(), ::toupper);
@@ -63,7 +64,8 @@ Pattern MakePattern(const TargetDefinition& t) {
   Pattern p;
   switch (t.kind) {
     case TargetKind::kChessboard: {
-      if (t.cols < 2 || t.rows < 2) throw std::invalid_argument("target '" + t.id + "': a chessboard needs >= 2 x 2 inner corners");
+      if (t.cols < 2 || t.rows < 2)
+        throw std::invalid_argument("target '" + t.id + "': a chessboard needs >= 2 x 2 inner corners");
       if (!(t.square_m > 0)) throw std::invalid_argument("target '" + t.id + "': square size must be > 0");
       const double s = 1000 * t.square_m;
       for (int j = -1; j < t.rows; ++j)
@@ -77,7 +79,8 @@ Pattern MakePattern(const TargetDefinition& t) {
     }
     case TargetKind::kAprilGrid: {
       if (t.family != "tag36h11")
-        throw std::invalid_argument("target '" + t.id + "': family '" + t.family + "' cannot be printed (only tag36h11)");
+        throw std::invalid_argument("target '" + t.id + "': family '" + t.family +
+                                    "' cannot be printed (only tag36h11)");
       if (t.tag_cols < 1 || t.tag_rows < 1) throw std::invalid_argument("target '" + t.id + "': needs >= 1 x 1 tags");
       if (!(t.tag_size_m > 0) || !(t.tag_spacing >= 0))
         throw std::invalid_argument("target '" + t.id + "': tag size must be > 0 and spacing >= 0");
@@ -137,7 +140,8 @@ bool TargetSheetOptions::Check(std::string* why) const {
     return fail("paper must be auto, A0..A4, letter, legal or WxH in mm, got '" + paper + "'");
   if (!(printer_margin_mm >= 0) || printer_margin_mm > 50)
     return fail("printer_margin_mm must be 0..50, got " + Fixed(printer_margin_mm, 2));
-  if (!(scale_bar_mm >= 10) || scale_bar_mm > 1000) return fail("scale_bar_mm must be 10..1000, got " + Fixed(scale_bar_mm, 2));
+  if (!(scale_bar_mm >= 10) || scale_bar_mm > 1000)
+    return fail("scale_bar_mm must be 10..1000, got " + Fixed(scale_bar_mm, 2));
   for (char c : note)
     if (c < 32 || c > 126) return fail("note must be printable ASCII");
   return true;
@@ -153,9 +157,9 @@ std::string DescribeTargetDimensions(const TargetDefinition& t) {
              Fixed(1000 * (e[3] - e[2]), 1) + " mm";
     case TargetKind::kAprilGrid: {
       const double size = 1000 * t.tag_size_m, pitch = size * (1 + t.tag_spacing);
-      return "AprilGrid " + std::to_string(t.tag_cols) + " x " + std::to_string(t.tag_rows) + " " + t.family + ", ids " +
-             std::to_string(t.first_id) + "-" + std::to_string(t.first_id + t.tag_cols * t.tag_rows - 1) + ", tag " +
-             Fixed(size, 2) + " mm, gap " + Fixed(size * t.tag_spacing, 2) + " mm (tagSpacing " +
+      return "AprilGrid " + std::to_string(t.tag_cols) + " x " + std::to_string(t.tag_rows) + " " + t.family +
+             ", ids " + std::to_string(t.first_id) + "-" + std::to_string(t.first_id + t.tag_cols * t.tag_rows - 1) +
+             ", tag " + Fixed(size, 2) + " mm, gap " + Fixed(size * t.tag_spacing, 2) + " mm (tagSpacing " +
              Fixed(t.tag_spacing, 3) + "), tags span " + Fixed((t.tag_cols - 1) * pitch + size, 1) + " x " +
              Fixed((t.tag_rows - 1) * pitch + size, 1) + " mm";
     }
@@ -171,7 +175,8 @@ TargetSheet LayoutTargetSheet(const TargetDefinition& target, const TargetSheetO
   const Pattern pat = MakePattern(target);
   const double pw = pat.x1 - pat.x0, ph = pat.y1 - pat.y0, q = pat.quiet_mm, m = options.printer_margin_mm;
 
-  std::vector<std::string> head = {"owlcal calibration target '" + target.id + "'", DescribeTargetDimensions(target),
+  std::vector<std::string> head = {"owlcal calibration target '" + target.id + "'",
+                                   DescribeTargetDimensions(target),
                                    "Print at 100 % (actual size, no fit-to-page); mount flat and rigid."};
   if (!options.note.empty()) head.push_back(options.note);
   const double head_mm = kTitleMm + 1.6 * kLineMm * double(head.size() - 1) + 1.0;
@@ -187,8 +192,8 @@ TargetSheet LayoutTargetSheet(const TargetDefinition& target, const TargetSheetO
       // The pattern's quiet zone may overlap the printer margin (both are white), the text may not.
       const double need_w = pw + 2 * std::max(q, m);
       const double need_h = m + head_mm + q + ph + q + foot_mm + m;
-      tried += (tried.empty() ? "" : ", ") + paper.name + (landscape ? " landscape" : " portrait") + " " +
-               Fixed(W, 0) + " x " + Fixed(H, 0);
+      tried += (tried.empty() ? "" : ", ") + paper.name + (landscape ? " landscape" : " portrait") + " " + Fixed(W, 0) +
+               " x " + Fixed(H, 0);
       if (need_w > W || need_h > H) continue;
       TargetSheet s;
       s.width_mm = W, s.height_mm = H;
@@ -200,8 +205,10 @@ TargetSheet LayoutTargetSheet(const TargetDefinition& target, const TargetSheetO
       for (const SheetRect& r : pat.black)
         s.black.push_back({s.target_origin_mm.x() + r.x_mm, s.target_origin_mm.y() + r.y_mm, r.w_mm, r.h_mm});
       const Eigen::Vector4d e = target.Extent();
-      s.pattern_mm = {s.target_origin_mm.x() + 1000 * e[0], s.target_origin_mm.y() + 1000 * e[2],
-                      1000 * (e[1] - e[0]), 1000 * (e[3] - e[2])};
+      s.pattern_mm = {s.target_origin_mm.x() + 1000 * e[0],
+                      s.target_origin_mm.y() + 1000 * e[2],
+                      1000 * (e[1] - e[0]),
+                      1000 * (e[3] - e[2])};
       // Text starts at the pattern's left edge, or at the margin when the pattern is wider.
       const double text_x = std::max(m, std::min(px, W / 2 - 80));
       const double text_w = W - m - text_x;
@@ -259,7 +266,8 @@ std::string TargetSheetSvg(const TargetSheet& s) {
   for (const SheetText& t : s.texts) {
     std::string esc;
     for (char c : t.text) esc += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
-    o << "<text x=\"" << Fixed(t.x_mm, 3) << "\" y=\"" << Fixed(t.y_mm, 3) << "\" font-family=\"Helvetica, Arial, sans-serif\" "
+    o << "<text x=\"" << Fixed(t.x_mm, 3) << "\" y=\"" << Fixed(t.y_mm, 3)
+      << "\" font-family=\"Helvetica, Arial, sans-serif\" "
       << "font-size=\"" << Fixed(t.size_mm, 3) << "\" fill=\"#000000\">" << esc << "</text>\n";
   }
   o << "</svg>\n";

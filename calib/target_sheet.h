@@ -45,9 +45,9 @@ struct SheetRect {
   double x_mm, y_mm, w_mm, h_mm;  // top-left corner and size, page frame
 };
 struct SheetText {
-  double x_mm, y_mm;   // baseline start, page frame
-  double size_mm;      // font size (cap height is about 0.7 of it)
-  std::string text;    // printable ASCII
+  double x_mm, y_mm;  // baseline start, page frame
+  double size_mm;     // font size (cap height is about 0.7 of it)
+  std::string text;   // printable ASCII
 };
 
 struct TargetSheet {
@@ -56,8 +56,8 @@ struct TargetSheet {
   std::vector<SheetRect> black;  // the pattern, the scale bar and its ticks
   std::vector<SheetText> texts;
   Eigen::Vector2d target_origin_mm = Eigen::Vector2d::Zero();  // target frame origin on the page
-  SheetRect pattern_mm{};        // the printed pattern's extent (TargetDefinition::Extent())
-  SheetRect scale_bar_mm{};      // the solid scale bar
+  SheetRect pattern_mm{};    // the printed pattern's extent (TargetDefinition::Extent())
+  SheetRect scale_bar_mm{};  // the solid scale bar
   double scale_bar_length_mm = 0;
 };
 

@@ -42,8 +42,7 @@ TemplateRoiChoice Texture(const cv::Mat& grey, const TemplateRoiOptions& o) {
   for (const auto& [score, r] : scored) {
     if (static_cast<int>(c.candidates.size()) >= o.max_candidates) break;
     bool near = false;
-    for (const auto& k : c.candidates)
-      near |= std::abs(k.x - r.x) < o.width / 2 && std::abs(k.y - r.y) < o.height / 2;
+    for (const auto& k : c.candidates) near |= std::abs(k.x - r.x) < o.width / 2 && std::abs(k.y - r.y) < o.height / 2;
     if (!near && score > 0) c.candidates.push_back(r);
   }
   c.how = c.candidates.empty() ? "no textured window near the centre"
@@ -86,15 +85,19 @@ TemplateRoiChoice Colour(const cv::Mat& bgr, const TemplateRoiOptions& o) {
     const double score = area / (1 + d / 100);
     if (score > best) {
       best = score;
-      pick = cv::Rect(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
-                      stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+      pick = cv::Rect(stats.at<int>(i, cv::CC_STAT_LEFT),
+                      stats.at<int>(i, cv::CC_STAT_TOP),
+                      stats.at<int>(i, cv::CC_STAT_WIDTH),
+                      stats.at<int>(i, cv::CC_STAT_HEIGHT));
     }
   }
   if (best == 0) {
     c.how = "no " + o.colour + " blob of at least " + std::to_string(o.min_colour_area_px) + " px";
     return c;
   }
-  const cv::Rect grown(pick.x - o.colour_margin_px, pick.y - o.colour_margin_px, pick.width + 2 * o.colour_margin_px,
+  const cv::Rect grown(pick.x - o.colour_margin_px,
+                       pick.y - o.colour_margin_px,
+                       pick.width + 2 * o.colour_margin_px,
                        pick.height + 2 * o.colour_margin_px);
   c.candidates.push_back(AtLeast(Clip(grown, bgr.size()), std::min(o.width, 32), std::min(o.height, 24), bgr.size()));
   c.how = "the " + o.colour + " blob nearest the centre (" + std::to_string(pick.width) + "x" +
@@ -143,8 +146,10 @@ bool TemplateRoiOptions::Check(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (mode != "texture" && mode != "colour" && mode != "tag") return fail("mode '" + mode + "': use texture, colour or tag");
-  if (width < 8 || height < 8 || step_px < 1 || max_candidates < 1) return fail("template at least 8x8, step and candidates >= 1");
+  if (mode != "texture" && mode != "colour" && mode != "tag")
+    return fail("mode '" + mode + "': use texture, colour or tag");
+  if (width < 8 || height < 8 || step_px < 1 || max_candidates < 1)
+    return fail("template at least 8x8, step and candidates >= 1");
   if (!(centre_sigma_fraction > 0)) return fail("centre_sigma_fraction must be > 0");
   if (colour != "red" && colour != "green" && colour != "blue" && colour != "yellow")
     return fail("colour '" + colour + "': use red, green, blue or yellow");

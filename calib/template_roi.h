@@ -24,8 +24,8 @@
 namespace owlcal::calib {
 
 struct TemplateRoiOptions {
-  std::string mode = "texture";    // texture, colour, tag
-  int width = 64, height = 48;     // template size (texture; the least for colour and tag)
+  std::string mode = "texture";  // texture, colour, tag
+  int width = 64, height = 48;   // template size (texture; the least for colour and tag)
   int step_px = 8;
   double centre_sigma_fraction = 0.2;
   int max_candidates = 6;

@@ -90,7 +90,8 @@ StereoRig RigFromBlocks(const StereoRig& like, const Blocks& b) {
   r.cameras[1].params = b.camera[1];
   const Eigen::Vector3d rv(b.right_from_left[0], b.right_from_left[1], b.right_from_left[2]);
   const double angle = rv.norm();
-  r.right_from_left.rotation = angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, rv / angle)) : Eigen::Quaterniond::Identity();
+  r.right_from_left.rotation =
+      angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, rv / angle)) : Eigen::Quaterniond::Identity();
   r.right_from_left.translation = Eigen::Vector3d(b.right_from_left[3], b.right_from_left[4], b.right_from_left[5]);
   r.covariance.resize(0, 0);
   return r;
@@ -130,7 +131,9 @@ struct SolveOutcome {
   std::vector<std::array<double, 2>> view_rms;
 };
 
-ceres::CostFunction* Cost(const models::CameraIntrinsics& cam, bool right, const Eigen::Vector2d& px,
+ceres::CostFunction* Cost(const models::CameraIntrinsics& cam,
+                          bool right,
+                          const Eigen::Vector2d& px,
                           const Eigen::Vector3d& pt) {
   if (cam.model == models::DistortionModel::kOpenCv5) {
     if (right)
@@ -146,8 +149,8 @@ ceres::CostFunction* Cost(const models::CameraIntrinsics& cam, bool right, const
       new LeftCorner<models::Camera8>{px, pt});
 }
 
-SolveOutcome Solve(const std::vector<Pair>& pairs, const FreeMask& free, bool want_covariance, int max_iterations,
-                   Blocks* b) {
+SolveOutcome Solve(
+    const std::vector<Pair>& pairs, const FreeMask& free, bool want_covariance, int max_iterations, Blocks* b) {
   SolveOutcome out;
   ceres::Problem problem;
   std::vector<std::pair<ceres::ResidualBlockId, int>> ids;  // residual, eye
@@ -159,10 +162,15 @@ SolveOutcome Solve(const std::vector<Pair>& pairs, const FreeMask& free, bool wa
       const calib::View& v = pairs[i].view[e];
       for (size_t k = 0; k < v.pixels.size(); ++k) {
         ceres::ResidualBlockId id =
-            e == 0 ? problem.AddResidualBlock(Cost(cams[0], false, v.pixels[k], v.points_in_target[k]), nullptr,
-                                              b->camera[0].data(), b->poses[i].data())
-                   : problem.AddResidualBlock(Cost(cams[1], true, v.pixels[k], v.points_in_target[k]), nullptr,
-                                              b->camera[1].data(), b->right_from_left, b->poses[i].data());
+            e == 0 ? problem.AddResidualBlock(Cost(cams[0], false, v.pixels[k], v.points_in_target[k]),
+                                              nullptr,
+                                              b->camera[0].data(),
+                                              b->poses[i].data())
+                   : problem.AddResidualBlock(Cost(cams[1], true, v.pixels[k], v.points_in_target[k]),
+                                              nullptr,
+                                              b->camera[1].data(),
+                                              b->right_from_left,
+                                              b->poses[i].data());
         ids.emplace_back(id, e);
         id_pair.push_back(int(i));
       }
@@ -177,8 +185,10 @@ SolveOutcome Solve(const std::vector<Pair>& pairs, const FreeMask& free, bool wa
     for (int j = 0; j < size[k]; ++j)
       if (!free[offset[k] + j]) fixed.push_back(j);
     out.num_free += size[k] - int(fixed.size());
-    if (int(fixed.size()) == size[k]) problem.SetParameterBlockConstant(blocks[k]);
-    else if (!fixed.empty()) problem.SetManifold(blocks[k], new ceres::SubsetManifold(size[k], fixed));
+    if (int(fixed.size()) == size[k])
+      problem.SetParameterBlockConstant(blocks[k]);
+    else if (!fixed.empty())
+      problem.SetManifold(blocks[k], new ceres::SubsetManifold(size[k], fixed));
   }
   ceres::Solver::Options so;
   so.max_num_iterations = max_iterations;
@@ -249,8 +259,10 @@ std::vector<double> EpipolarDy(const StereoRig& rig, const std::vector<Pair>& pa
     double sum = 0;
     if (!l.empty()) {
       std::vector<cv::Point2d> lu, ru;
-      cv::undistortPoints(l, lu, CameraMatrix(rig.cameras[0]), DistCoeffs(rig.cameras[0]), cv::Mat(rect.R1), cv::Mat(rect.P1));
-      cv::undistortPoints(r, ru, CameraMatrix(rig.cameras[1]), DistCoeffs(rig.cameras[1]), cv::Mat(rect.R2), cv::Mat(rect.P2));
+      cv::undistortPoints(
+          l, lu, CameraMatrix(rig.cameras[0]), DistCoeffs(rig.cameras[0]), cv::Mat(rect.R1), cv::Mat(rect.P1));
+      cv::undistortPoints(
+          r, ru, CameraMatrix(rig.cameras[1]), DistCoeffs(rig.cameras[1]), cv::Mat(rect.R2), cv::Mat(rect.P2));
       for (size_t k = 0; k < lu.size(); ++k) dy.push_back(lu[k].y - ru[k].y), sum += lu[k].y - ru[k].y;
     }
     if (view_mean) view_mean->push_back(l.empty() ? 0.0 : sum / double(l.size()));
@@ -280,14 +292,19 @@ Layout MakeLayout(const StereoRig& rig) {
       l.scale.push_back(1);
     }
   }
-  for (const char* n : {"stereo.rx_deg", "stereo.ry_deg", "stereo.rz_deg"}) l.names.push_back(n), l.units.push_back("deg"), l.scale.push_back(kRadToDeg);
-  for (const char* n : {"stereo.tx_mm", "stereo.ty_mm", "stereo.tz_mm"}) l.names.push_back(n), l.units.push_back("mm"), l.scale.push_back(1000);
+  for (const char* n : {"stereo.rx_deg", "stereo.ry_deg", "stereo.rz_deg"})
+    l.names.push_back(n), l.units.push_back("deg"), l.scale.push_back(kRadToDeg);
+  for (const char* n : {"stereo.tx_mm", "stereo.ty_mm", "stereo.tz_mm"})
+    l.names.push_back(n), l.units.push_back("mm"), l.scale.push_back(1000);
   return l;
 }
 
-std::vector<CheckedParameter> Compare(const StereoRig& rig, const std::vector<double>& calibrated,
-                                      const std::vector<double>& refit, const Eigen::MatrixXd& cov_refit,
-                                      const std::vector<int>& indices, double moved_sigma) {
+std::vector<CheckedParameter> Compare(const StereoRig& rig,
+                                      const std::vector<double>& calibrated,
+                                      const std::vector<double>& refit,
+                                      const Eigen::MatrixXd& cov_refit,
+                                      const std::vector<int>& indices,
+                                      double moved_sigma) {
   const Layout l = MakeLayout(rig);
   const int n = rig.NumParams();
   const bool has_cov = rig.covariance.rows() == n && rig.covariance.cols() == n;
@@ -327,7 +344,8 @@ bool CalibrationCheckOptions::Check(std::string* why) const {
   return true;
 }
 
-CalibrationCheck CheckCalibration(const StereoRig& rig, const std::vector<calib::CornerObservation>& observations,
+CalibrationCheck CheckCalibration(const StereoRig& rig,
+                                  const std::vector<calib::CornerObservation>& observations,
                                   const CalibrationCheckOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument(why);
@@ -342,8 +360,10 @@ CalibrationCheck CheckCalibration(const StereoRig& rig, const std::vector<calib:
   }
   std::vector<Pair> pairs;
   for (auto& [f, p] : by_frame) {
-    if (p.view[0].pixels.size() >= 6 && p.view[1].pixels.size() >= 6) pairs.push_back(p);
-    else c.unpaired_frames.push_back(f);
+    if (p.view[0].pixels.size() >= 6 && p.view[1].pixels.size() >= 6)
+      pairs.push_back(p);
+    else
+      c.unpaired_frames.push_back(f);
   }
   c.num_pairs = int(pairs.size());
   if (c.num_pairs < options.min_pairs) {
@@ -359,7 +379,8 @@ CalibrationCheck CheckCalibration(const StereoRig& rig, const std::vector<calib:
     for (int e = 0; e < 2; ++e) {
       double rms = 0;
       if (!PoseOfView(rig.cameras[e], p.view[e], &pose[e], &rms)) {
-        c.message = "frame " + std::to_string(p.frame_index) + ": no board pose for the " + (e ? "right" : "left") + " eye";
+        c.message =
+            "frame " + std::to_string(p.frame_index) + ": no board pose for the " + (e ? "right" : "left") + " eye";
         return c;
       }
       mono_sq[e] += rms * rms * double(p.view[e].pixels.size());
@@ -496,8 +517,9 @@ CalibrationCheck CheckCalibration(const StereoRig& rig, const std::vector<calib:
   const double rms_limit = options.max_rms_ratio * c.refit_all_rms_px + options.min_rms_excess_px;
   if (c.rms_joint_px > rms_limit)
     c.reasons.push_back("reprojection RMS with the calibration fixed " + FixedOrDash(c.rms_joint_px, 3) + " px > " +
-                        FixedOrDash(rms_limit, 3) + " px (" + FixedOrDash(options.max_rms_ratio, 2) + " x the refit's " +
-                        FixedOrDash(c.refit_all_rms_px, 3) + " + " + FixedOrDash(options.min_rms_excess_px, 2) + ")");
+                        FixedOrDash(rms_limit, 3) + " px (" + FixedOrDash(options.max_rms_ratio, 2) +
+                        " x the refit's " + FixedOrDash(c.refit_all_rms_px, 3) + " + " +
+                        FixedOrDash(options.min_rms_excess_px, 2) + ")");
   const double epi_limit = std::max(options.max_epipolar_rms_px, 2 * c.refit_all_epipolar_rms_dy_px);
   if (c.epipolar_rms_dy_px > epi_limit)
     c.reasons.push_back("rectified epipolar RMS " + FixedOrDash(c.epipolar_rms_dy_px, 3) + " px > " +

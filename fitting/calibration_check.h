@@ -50,40 +50,40 @@ struct CalibrationCheckOptions {
   // Two calibrations of one real Owl from different image sets differ by 1.5-3 % in the range
   // at 1 m (kit2020's halves: +2.5 / -3.1 %), so smaller differences are no evidence of change.
   double max_range_error_pct = 3.0;
-  double single_chi2 = 10.83;   // chi-square (1 dof) for a single parameter's change: p < 0.001
-  double min_explained = 0.5;   // a parameter "moved" when it alone explains this share of the disagreement
+  double single_chi2 = 10.83;  // chi-square (1 dof) for a single parameter's change: p < 0.001
+  double min_explained = 0.5;  // a parameter "moved" when it alone explains this share of the disagreement
   int max_iterations = 100;
   bool Check(std::string* why) const;
 };
 
 struct CheckedParameter {
-  std::string name;       // "stereo.rx_deg", "right.cx" ...
+  std::string name;  // "stereo.rx_deg", "right.cx" ...
   std::string unit;
   double calibrated = 0, refit = 0;
   double sigma_calibration = 0, sigma_refit = 0;
-  double z = 0;           // (refit - calibrated) / combined sigma
+  double z = 0;  // (refit - calibrated) / combined sigma
   bool moved = false;
 };
 
 // One parameter freed alone (board poses float too), the rest held at the calibration.
 struct ParameterDiagnosis {
   std::string name, unit;
-  double change = 0;        // refit - calibrated (display units: px, deg, mm)
-  double explained = 0;     // share of the excess cost (fixed - refit B) this parameter alone removes
-  double chi2 = 0;          // cost drop / corner sigma^2 (chi-square with 1 dof)
-  bool significant = false; // chi2 > single_chi2
+  double change = 0;         // refit - calibrated (display units: px, deg, mm)
+  double explained = 0;      // share of the excess cost (fixed - refit B) this parameter alone removes
+  double chi2 = 0;           // cost drop / corner sigma^2 (chi-square with 1 dof)
+  bool significant = false;  // chi2 > single_chi2
 };
 
 struct CheckedView {
   int frame_index = 0;
   int num_corners[2] = {0, 0};
-  double rms_px[2] = {0, 0};     // calibration fixed, joint board pose
-  double mean_dy_px = 0;         // rectified y_left - y_right (calibration's rectification)
+  double rms_px[2] = {0, 0};  // calibration fixed, joint board pose
+  double mean_dy_px = 0;      // rectified y_left - y_right (calibration's rectification)
 };
 
 struct CalibrationCheck {
   bool ok = false;
-  std::string message;           // why no verdict
+  std::string message;  // why no verdict
   int num_pairs = 0, num_corners[2] = {0, 0};
   std::vector<int> unpaired_frames;
 
@@ -100,15 +100,15 @@ struct CalibrationCheck {
   double refit_extrinsics_rms_px = 0;
   double refit_all_rms_px = 0;
   double refit_all_epipolar_rms_dy_px = 0;
-  double corner_sigma_px = 0;      // from refit B
-  std::vector<CheckedParameter> extrinsics;   // refit A
-  std::vector<CheckedParameter> all;          // refit B
+  double corner_sigma_px = 0;                // from refit B
+  std::vector<CheckedParameter> extrinsics;  // refit A
+  std::vector<CheckedParameter> all;         // refit B
   std::vector<ParameterDiagnosis> single;    // every refit-B parameter alone, largest share first
-  double range_at_1m_m = 0;        // the calibration's range of a point refit B puts at 1 m
-  double sigma_range_at_1m_m = 0;  // what the new images can tell about that range (refit B)
+  double range_at_1m_m = 0;                  // the calibration's range of a point refit B puts at 1 m
+  double sigma_range_at_1m_m = 0;            // what the new images can tell about that range (refit B)
   bool calibration_has_covariance = false;
 
-  std::string verdict;             // "still valid" | "recalibrate"
+  std::string verdict;  // "still valid" | "recalibrate"
   std::vector<std::string> reasons;
   std::vector<std::string> moved;  // "right.cx +3.9 px alone explains 97 % of the disagreement (chi2 850)"
 };

@@ -65,7 +65,7 @@ struct CalibrationRun {
   std::optional<models::HeadModel> truth;  // virtual Owl only, in the fit's gauge
   std::optional<RangingEvaluation> ranging;
   std::optional<LimitsEvaluation> limits;
-  std::vector<StepTrace> steps;            // every step trial (P loop and saccade), failed ones too
+  std::vector<StepTrace> steps;  // every step trial (P loop and saccade), failed ones too
   std::optional<GainStudy> gains;
   std::vector<ServoResolutionResult> resolution;  // PWM step and dead band per servo, measured
   std::optional<SettlingStudy> settling;          // loop model vs measured settling

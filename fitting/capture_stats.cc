@@ -72,7 +72,8 @@ std::optional<models::Rigid3d> PosePnP(const calib::View& v, const models::Camer
     obj.emplace_back(v.points_in_target[i].x(), v.points_in_target[i].y(), v.points_in_target[i].z());
     img.emplace_back(v.pixels[i].x(), v.pixels[i].y());
   }
-  const cv::Mat k = (cv::Mat_<double>(3, 3) << cam.params[0], 0, cam.params[2], 0, cam.params[1], cam.params[3], 0, 0, 1);
+  const cv::Mat k =
+      (cv::Mat_<double>(3, 3) << cam.params[0], 0, cam.params[2], 0, cam.params[1], cam.params[3], 0, 0, 1);
   const std::vector<double> d = cam.Distortion();
   cv::Mat rvec, tvec;
   try {
@@ -85,7 +86,8 @@ std::optional<models::Rigid3d> PosePnP(const calib::View& v, const models::Camer
   Eigen::Matrix3d r;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) r(i, j) = rm.at<double>(i, j);
-  return models::Rigid3d(Eigen::Quaterniond(r), Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
+  return models::Rigid3d(Eigen::Quaterniond(r),
+                         Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
 }
 
 }  // namespace

@@ -33,8 +33,8 @@
 #include <Eigen/Core>
 
 #include "calib/detector.h"
-#include "calib/observation.h"
 #include "calib/image_pairs.h"
+#include "calib/observation.h"
 #include "calib/target.h"
 
 namespace owlcal::fitting {
@@ -48,28 +48,28 @@ Spread SpreadOf(std::vector<double> values);
 struct CaptureStats {
   std::string name;
   int num_images = 0;
-  int num_found = 0;                 // boards detected (whole board)
-  int num_pairs_used = 0;            // pairs in the stereo fit
-  std::vector<std::string> problems; // unreadable images, failed fits, ...
-  Spread view_rms_px;                // per view, per-eye intrinsics fits
-  double mono_rms_px[2] = {0, 0};    // per-eye intrinsics fits
-  double stereo_rms_px[2] = {0, 0};  // stereo fit, per eye
+  int num_found = 0;                  // boards detected (whole board)
+  int num_pairs_used = 0;             // pairs in the stereo fit
+  std::vector<std::string> problems;  // unreadable images, failed fits, ...
+  Spread view_rms_px;                 // per view, per-eye intrinsics fits
+  double mono_rms_px[2] = {0, 0};     // per-eye intrinsics fits
+  double stereo_rms_px[2] = {0, 0};   // stereo fit, per eye
   double stereo_rms_joint_px = 0;
-  Spread noise_white, noise_black;   // grey levels
+  Spread noise_white, noise_black;  // grey levels
   Spread edge_sigma_px;
   Spread white_level, black_level;
-  double saturated_fraction = 0;     // mean over images
-  double lens_shading = 0;           // relative loss at the image corner
+  double saturated_fraction = 0;  // mean over images
+  double lens_shading = 0;        // relative loss at the image corner
   // The same with a linear light gradient across each image besides (only the brightness's
   // curvature over each board measures it): a lamp's gradient does not read as shading.
   double lens_shading_curvature = 0;
   Spread blockiness;
-  int jpeg_quality = -1;             // most common quality of the files' tables
-  double warp_mm[2] = {0, 0};        // along the board's x and y (0 when not measured)
-  double warped_rms_px = 0;          // per-eye fit RMS with that warp (mean of the eyes)
+  int jpeg_quality = -1;       // most common quality of the files' tables
+  double warp_mm[2] = {0, 0};  // along the board's x and y (0 when not measured)
+  double warped_rms_px = 0;    // per-eye fit RMS with that warp (mean of the eyes)
   Spread tilt_deg, distance_m, board_area;
-  Spread jitter_mm, jitter_deg;      // per pair
-  double stereo_over_mono_rms = 0;   // mean of the two eyes' stereo RMS / mono RMS
+  Spread jitter_mm, jitter_deg;     // per pair
+  double stereo_over_mono_rms = 0;  // mean of the two eyes' stereo RMS / mono RMS
 
   double DetectionRate() const { return num_images ? double(num_found) / num_images : 0; }
 };
@@ -78,7 +78,7 @@ struct CaptureStats {
 // only when the folder cannot be listed; unreadable images are counted in `problems`.
 struct CaptureStatsOptions {
   calib::DetectorOptions detector;
-  bool measure_warp = true;          // ~70 intrinsics fits per eye
+  bool measure_warp = true;  // ~70 intrinsics fits per eye
 };
 
 CaptureStats MeasureCapture(const std::string& name,

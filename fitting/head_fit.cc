@@ -11,8 +11,8 @@
 #include <sstream>
 #include <string>
 
-#include <Eigen/Dense>
 #include <ceres/ceres.h>
+#include <Eigen/Dense>
 
 #include "fitting/board_warp.h"
 #include "fitting/head_problem.h"
@@ -117,8 +117,8 @@ void DropViewsTheModelDoesNotExplain(const std::vector<calib::View>& views,
     }
     std::ostringstream w;
     w.precision(3);
-    w << "frame " << v.frame_index << " (" << models::kEyeNames[v.eye] << ", " << v.target_id << "): RMS " << view_rms[k]
-      << " px, " << view_rms[k] / median
+    w << "frame " << v.frame_index << " (" << models::kEyeNames[v.eye] << ", " << v.target_id << "): RMS "
+      << view_rms[k] << " px, " << view_rms[k] / median
       << " x the median view's; the model does not explain it (a servo still moving, an eye at its end-stop?): dropped";
     fit->result.warnings.push_back(w.str());
   }
@@ -689,8 +689,9 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   for (auto& w : RobotFileWarnings(CompareWithRobotFile(fit.result, robot, options.robot_file_tolerance)))
     fit.result.warnings.push_back(std::move(w));
   if (stats.noise_factor > 1.5)
-    fit.result.warnings.push_back("corner errors are " + std::to_string(stats.noise_factor) +
-                                  " x corner_sigma_px: the model does not fit or the noise is larger; sigmas are too small");
+    fit.result.warnings.push_back(
+        "corner errors are " + std::to_string(stats.noise_factor) +
+        " x corner_sigma_px: the model does not fit or the noise is larger; sigmas are too small");
   SolveSummary& summary = fit.result.summaries.front();
   const ceres::Solver::Summary& s2 = solved.final_summary;
   summary.termination = ceres::TerminationTypeToString(s2.termination_type);
@@ -739,10 +740,10 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   }
   d["timing"] = timer.Timing();
   fit.ok = summary.usable;
-  fit.message = summary.usable ? "head fit: " + std::to_string(fit.num_views_used) + " views, " +
-                                     std::to_string(stats.num_corners) + " corners, RMS " + std::to_string(stats.rms_px) +
-                                     " px"
-                               : "head fit: solver failed: " + s2.message;
+  fit.message = summary.usable
+                    ? "head fit: " + std::to_string(fit.num_views_used) + " views, " +
+                          std::to_string(stats.num_corners) + " corners, RMS " + std::to_string(stats.rms_px) + " px"
+                    : "head fit: solver failed: " + s2.message;
   return fit;
 }
 

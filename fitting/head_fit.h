@@ -48,8 +48,8 @@ struct HeadFitOptions {
   // A fitted IPD, servo centre or scale this far from the robot file is a warning
   // (fitting/robot_file_check.h).
   RobotFileTolerance robot_file_tolerance;
-  double corner_sigma_px = 0.15;       // corner noise used to whiten [px], > 0 (with estimate_corner_sigma: the
-                                       // first guess, which sets the robust loss and the outlier threshold)
+  double corner_sigma_px = 0.15;  // corner noise used to whiten [px], > 0 (with estimate_corner_sigma: the
+                                  // first guess, which sets the robust loss and the outlier threshold)
   // Whiten with the noise the data shows: after the solve, each eye's corner sigma per axis is
   // measured from its residuals (sum of squares over 2N - p), multiplied by
   // measured_sigma_factor, floored at min_corner_sigma_px, and the problem solved again with it,
@@ -101,7 +101,7 @@ struct HeadFitOptions {
   // A bow of a few tenths of a millimetre fitted as flat biases the focal lengths, the servo
   // scales and the IPD together (owlcal calibrate turns it on).
   bool fit_board_warp = false;
-  bool fit_intrinsics = false;         // false: intrinsics held at the initial head's
+  bool fit_intrinsics = false;  // false: intrinsics held at the initial head's
   // Prior covariance of each eye's intrinsics params (fx fy cx cy dist..., physical units),
   // used when fit_intrinsics; empty = no prior (intrinsics free).
   std::optional<Eigen::MatrixXd> intrinsics_prior_covariance[2];
@@ -150,11 +150,11 @@ struct HeadFitOptions {
   // to the servos' centres only, the tilt centres (86.7-93.3 %) and the servo maps (75.3-76.0 %);
   // carried nowhere, the fused fit's tilt centres are somewhat narrow (RMS(z) 1.15-1.42).
   std::optional<Eigen::MatrixXd> principal_point_covariance_floor[2];
-  bool fit_nonlinear = true;           // quad_deg and cubic_deg; false: held at 0
-  bool fit_hysteresis = true;          // false: held at 0
-  double huber_sigma = 3.0;            // robust loss scale in sigma units for the first solve; 0 = none
+  bool fit_nonlinear = true;             // quad_deg and cubic_deg; false: held at 0
+  bool fit_hysteresis = true;            // false: held at 0
+  double huber_sigma = 3.0;              // robust loss scale in sigma units for the first solve; 0 = none
   double outlier_threshold_sigma = 5.0;  // corners with |error| > this * sigma are rejected; 0 = off
-  int min_corners_per_view = 6;        // smaller views are dropped (and named in warnings)
+  int min_corners_per_view = 6;          // smaller views are dropped (and named in warnings)
   int max_iterations = 100;
   double rank_tolerance = kDefaultRankTolerance;  // null-space threshold (fitting/observability.h rule 4)
   int num_threads = 1;
@@ -174,7 +174,7 @@ struct HeadOutlier {
 };
 
 struct HeadFit {
-  bool ok = false;         // false: nothing is usable, `message` says why
+  bool ok = false;  // false: nothing is usable, `message` says why
   std::string message;
   CalibrationResult result;  // parameters (servo.*, head.*), head, summaries, warnings, diagnostics
   models::HeadModel head;    // the estimate (same as *result.head)

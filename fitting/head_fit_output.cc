@@ -108,7 +108,9 @@ void ReportBlockParameters(const HeadState& s, const HeadCovariance& cov, bool w
 
 // Derived parameters: right centre z (= left z, gauge), mount pitch (gauge), the IPD with its
 // sigma from the centres' covariance.
-void ReportDerivedParameters(const HeadState& s, const HeadCovariance& cov, const models::HeadModel& head,
+void ReportDerivedParameters(const HeadState& s,
+                             const HeadCovariance& cov,
+                             const models::HeadModel& head,
                              CalibrationResult* out) {
   CalibrationResult& result = *out;
   const Eigen::MatrixXd& cov_tangent = cov.analysis.covariance;
@@ -181,8 +183,11 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
   nlohmann::json outliers = nlohmann::json::array();
   for (size_t i = 0; i < fit.outliers.size() && i < 200; ++i) {
     const HeadOutlier& o = fit.outliers[i];
-    outliers.push_back({{"frame", o.frame_index}, {"eye", models::kEyeNames[o.eye]}, {"target", o.target_id},
-                        {"corner", o.corner_id}, {"error_px", std::isfinite(o.error_px) ? o.error_px : -1.0}});
+    outliers.push_back({{"frame", o.frame_index},
+                        {"eye", models::kEyeNames[o.eye]},
+                        {"target", o.target_id},
+                        {"corner", o.corner_id},
+                        {"error_px", std::isfinite(o.error_px) ? o.error_px : -1.0}});
   }
   result.diagnostics["head"]["outliers"] = outliers;
   nlohmann::json boards = nlohmann::json::object();
@@ -195,9 +200,8 @@ void ReportDiagnostics(const HeadFitOptions& options, size_t num_views_given, He
   // Each noise class's whitening: the tags' and the chessboard's corners with their own sigma.
   nlohmann::json classes = nlohmann::json::object();
   for (const auto& [name, c] : fit.noise_classes)
-    classes[name] = {{"whitening_sigma_px", c.sigma_px},
-                     {"measured_sigma_px", c.measured_sigma_px},
-                     {"num_corners", c.num_corners}};
+    classes[name] = {
+        {"whitening_sigma_px", c.sigma_px}, {"measured_sigma_px", c.measured_sigma_px}, {"num_corners", c.num_corners}};
   result.diagnostics["head"]["noise_classes"] = classes;
   result.inputs["head_fit"] = {
       {"corner_sigma_px", options.corner_sigma_px},

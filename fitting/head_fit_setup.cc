@@ -37,12 +37,12 @@ std::vector<PreparedView> PrepareViews(const std::vector<calib::View>& views,
     }
     if (v.pixels.size() != v.points_in_target.size()) {
       warnings->push_back(where + ": " + std::to_string(v.pixels.size()) + " pixels but " +
-                                std::to_string(v.points_in_target.size()) + " target points; dropped");
+                          std::to_string(v.points_in_target.size()) + " target points; dropped");
       continue;
     }
     if (static_cast<int>(v.pixels.size()) < options.min_corners_per_view) {
       warnings->push_back(where + ": " + std::to_string(v.pixels.size()) + " corners < " +
-                                std::to_string(options.min_corners_per_view) + "; dropped");
+                          std::to_string(options.min_corners_per_view) + "; dropped");
       continue;
     }
     PreparedView p;
@@ -66,8 +66,7 @@ HeadState InitialState(const models::HeadModel& initial, const models::RobotConf
     if (i == kNeck) p[0] = robot.servos[kNeck].centre_us;
     std::vector<std::string> names;
     for (const char* n : kServoParamNames) names.push_back(std::string("servo.") + models::kServoNames[i] + "." + n);
-    s.servo[i] = MakeBlock(p, names, {1, 1, 1, 1, 1},
-                           std::vector<std::string>(kServoParamUnits, kServoParamUnits + 5));
+    s.servo[i] = MakeBlock(p, names, {1, 1, 1, 1, 1}, std::vector<std::string>(kServoParamUnits, kServoParamUnits + 5));
   }
   for (int e = 0; e < 2; ++e) {
     const std::string eye = models::kEyeNames[e];
@@ -76,9 +75,13 @@ HeadState InitialState(const models::HeadModel& initial, const models::RobotConf
     const double yaw = std::asin(std::clamp(-r(2, 0), -1.0, 1.0));
     const double roll = std::atan2(r(1, 0), r(0, 0));
     s.mount[e] = MakeBlock({roll, yaw, t.x(), t.y(), t.z()},
-                           {"head." + eye + ".mount_roll_deg", "head." + eye + ".mount_yaw_deg",
-                            "head." + eye + ".mount_x_mm", "head." + eye + ".mount_y_mm", "head." + eye + ".mount_z_mm"},
-                           {kRadToDeg, kRadToDeg, 1000, 1000, 1000}, {"deg", "deg", "mm", "mm", "mm"});
+                           {"head." + eye + ".mount_roll_deg",
+                            "head." + eye + ".mount_yaw_deg",
+                            "head." + eye + ".mount_x_mm",
+                            "head." + eye + ".mount_y_mm",
+                            "head." + eye + ".mount_z_mm"},
+                           {kRadToDeg, kRadToDeg, 1000, 1000, 1000},
+                           {"deg", "deg", "mm", "mm", "mm"});
     s.camera_model[e] = initial.intrinsics[e].model;
     s.prior_mean[e] = initial.intrinsics[e].params;
     std::vector<std::string> names, units;
@@ -91,9 +94,13 @@ HeadState InitialState(const models::HeadModel& initial, const models::RobotConf
   }
   const Eigen::Vector3d cl = initial.geometry.centre_in_head[kLeftEye], cr = initial.geometry.centre_in_head[kRightEye];
   s.centres = MakeBlock({cl.x(), cl.y(), cl.z(), cr.x(), cr.y()},
-                        {"head.left.centre_x_mm", "head.left.centre_y_mm", "head.left.centre_z_mm",
-                         "head.right.centre_x_mm", "head.right.centre_y_mm"},
-                        {1000, 1000, 1000, 1000, 1000}, {"mm", "mm", "mm", "mm", "mm"});
+                        {"head.left.centre_x_mm",
+                         "head.left.centre_y_mm",
+                         "head.left.centre_z_mm",
+                         "head.right.centre_x_mm",
+                         "head.right.centre_y_mm"},
+                        {1000, 1000, 1000, 1000, 1000},
+                        {"mm", "mm", "mm", "mm", "mm"});
   return s;
 }
 
@@ -131,18 +138,21 @@ bool HoldWhatTheDataCannotDetermine(const std::vector<calib::View>& views,
   }
   const bool neck_moved = pwm_seen[kNeck].size() > 1;
   if (!neck_moved) {
-    s.servo[kNeck].FixAll("not determined: the neck never moved (" +
-                          (pwm_seen[kNeck].empty() ? std::string("no view") : std::to_string(*pwm_seen[kNeck].begin()) + " us") +
-                          " in every view)");
+    s.servo[kNeck].FixAll(
+        "not determined: the neck never moved (" +
+        (pwm_seen[kNeck].empty() ? std::string("no view") : std::to_string(*pwm_seen[kNeck].begin()) + " us") +
+        " in every view)");
   }
-  s.servo[kNeck].Fix(0, "fixed at the robot file's centre " + std::to_string(robot.servos[kNeck].centre_us) +
-                            " us: the neck's zero only turns the base frame, which no board observation sees (gauge)");
+  s.servo[kNeck].Fix(0,
+                     "fixed at the robot file's centre " + std::to_string(robot.servos[kNeck].centre_us) +
+                         " us: the neck's zero only turns the base frame, which no board observation sees (gauge)");
   for (int i = 0; i < kNumServos; ++i) {
     Block& b = s.servo[i];
     const std::string name = models::kServoNames[i];
     const size_t distinct = pwm_seen[i].size();
     if (distinct == 1) {
-      b.FixAll("not determined: " + name + " took one pulse width only (" + std::to_string(*pwm_seen[i].begin()) + " us)");
+      b.FixAll("not determined: " + name + " took one pulse width only (" + std::to_string(*pwm_seen[i].begin()) +
+               " us)");
     } else if (distinct == 2) {
       b.Fix(2, "not determined: " + name + " took only 2 distinct pulse widths");
       b.Fix(3, "not determined: " + name + " took only 2 distinct pulse widths");
@@ -150,20 +160,24 @@ bool HoldWhatTheDataCannotDetermine(const std::vector<calib::View>& views,
       b.Fix(3, "not determined: " + name + " took only 3 distinct pulse widths");
     }
     if (approach_seen[i].size() < 2)
-      b.Fix(4, "not determined: " + name + " was never approached from both directions (held at " +
-                   std::to_string(b.values[4]) + " us)");
+      b.Fix(4,
+            "not determined: " + name + " was never approached from both directions (held at " +
+                std::to_string(b.values[4]) + " us)");
     if (!options.fit_nonlinear) {
       b.Fix(2, "held at " + std::to_string(b.values[2]) + " by option fit_nonlinear = false");
       b.Fix(3, "held at " + std::to_string(b.values[3]) + " by option fit_nonlinear = false");
     }
-    if (!options.fit_hysteresis) b.Fix(4, "held at " + std::to_string(b.values[4]) + " us by option fit_hysteresis = false");
+    if (!options.fit_hysteresis)
+      b.Fix(4, "held at " + std::to_string(b.values[4]) + " us by option fit_hysteresis = false");
   }
   if (neck_moved) {
-    s.centres.Fix(1, "fixed at " + std::to_string(s.centres.values[1] * 1000) +
-                         " mm: the base frame's height along the neck axis is a gauge (boards move with it)");
+    s.centres.Fix(1,
+                  "fixed at " + std::to_string(s.centres.values[1] * 1000) +
+                      " mm: the base frame's height along the neck axis is a gauge (boards move with it)");
   } else {
     for (int k = 0; k < 3; ++k)
-      s.centres.Fix(k, "fixed at the initial value: without neck motion the base origin is a gauge (boards move with it)");
+      s.centres.Fix(k,
+                    "fixed at the initial value: without neck motion the base origin is a gauge (boards move with it)");
   }
   if (!options.fit_intrinsics) {
     for (int e = 0; e < 2; ++e) s.camera[e].FixAll("held at the given intrinsics (fit_intrinsics = false)");
@@ -203,7 +217,7 @@ void InitialiseBoards(const std::vector<calib::View>& views,
     }
     if (!ok || tvec.at<double>(2) <= 0) {
       warnings->push_back("target '" + id + "': PnP failed on frame " + std::to_string(views[best->index].frame_index) +
-                                "; its views are dropped");
+                          "; its views are dropped");
       continue;
     }
     cv::Matx33d rm;
@@ -223,9 +237,10 @@ void InitialiseBoards(const std::vector<calib::View>& views,
     b.fixed_note.assign(7, "");
     s.boards.emplace(id, std::move(b));
   }
-  prepared.erase(std::remove_if(prepared.begin(), prepared.end(),
-                                [&](const PreparedView& p) { return !s.boards.count(p.target_id); }),
-                 prepared.end());
+  prepared.erase(
+      std::remove_if(
+          prepared.begin(), prepared.end(), [&](const PreparedView& p) { return !s.boards.count(p.target_id); }),
+      prepared.end());
 }
 
 void InitialiseWarps(const std::vector<calib::View>& views,

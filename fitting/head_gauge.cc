@@ -31,7 +31,8 @@ std::vector<Parameter> HeadParameters(const models::HeadModel& head, bool with_i
   };
   for (int i = 0; i < kNumServos; ++i)
     for (int k = 0; k < 5; ++k)
-      add(std::string("servo.") + models::kServoNames[i] + "." + kServoParamNames[k], head.servo_params[i][k],
+      add(std::string("servo.") + models::kServoNames[i] + "." + kServoParamNames[k],
+          head.servo_params[i][k],
           kServoParamUnits[k]);
   add("head.ipd_mm", head.geometry.Ipd() * 1000, "mm");
   const char* const axes[3] = {"x", "y", "z"};

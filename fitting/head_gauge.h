@@ -30,7 +30,8 @@ namespace owlcal::fitting {
 
 // Result names and units of the five servo map parameters (models/servo_map.h order):
 // servo.<Name>.<param>.
-inline constexpr const char* kServoParamNames[5] = {"centre_us", "deg_per_us", "quad_deg", "cubic_deg", "hysteresis_us"};
+inline constexpr const char* kServoParamNames[5] = {
+    "centre_us", "deg_per_us", "quad_deg", "cubic_deg", "hysteresis_us"};
 inline constexpr const char* kServoParamUnits[5] = {"us", "deg/us", "deg", "deg", "us"};
 
 // The flat, named parameters of a head (values only): servo.<Name>.{centre_us, deg_per_us,

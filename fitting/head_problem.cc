@@ -22,7 +22,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 }  // namespace
 
-bool Block::AllFixed() const { return std::all_of(fixed.begin(), fixed.end(), [](bool f) { return f; }); }
+bool Block::AllFixed() const {
+  return std::all_of(fixed.begin(), fixed.end(), [](bool f) { return f; });
+}
 
 int Block::TangentSize() const {
   if (is_pose) return 6;
@@ -95,7 +97,8 @@ HeadViewCommand CommandOf(const calib::View& v, const models::RobotConfig& robot
 
 models::Rigid3d CamFromBase(const HeadState& s, const HeadViewCommand& c) {
   const int eye = c.eye;
-  const double pan = ServoMap::JointAngle(s.servo[models::kPanServo[eye]].data(), c.pan_direction, c.pan_us, c.pan_approach);
+  const double pan =
+      ServoMap::JointAngle(s.servo[models::kPanServo[eye]].data(), c.pan_direction, c.pan_us, c.pan_approach);
   const double tilt =
       ServoMap::JointAngle(s.servo[models::kTiltServo[eye]].data(), c.tilt_direction, c.tilt_us, c.tilt_approach);
   const double neck = ServoMap::JointAngle(s.servo[kNeck].data(), c.neck_direction, c.neck_us, c.neck_approach);
@@ -106,7 +109,8 @@ models::Rigid3d CamFromBase(const HeadState& s, const HeadViewCommand& c) {
 }
 
 std::vector<double> CornerErrorsPx(const HeadState& s, const PreparedView& v) {
-  const models::Rigid3d cam_from_target = CamFromBase(s, v.command) * models::Rigid3d::Map(s.boards.at(v.target_id).data());
+  const models::Rigid3d cam_from_target =
+      CamFromBase(s, v.command) * models::Rigid3d::Map(s.boards.at(v.target_id).data());
   std::vector<double> err(v.pixels.size(), kNaN);
   models::CameraIntrinsics cam;
   cam.model = s.camera_model[v.command.eye];
@@ -169,9 +173,8 @@ int BuildHeadProblem(HeadState* state,
   int num_corners = 0;
   for (const PreparedView& v : views) {
     const int eye = v.command.eye;
-    const int stride = max_corners_per_view > 0
-                           ? std::max<int>(1, static_cast<int>(v.pixels.size()) / max_corners_per_view)
-                           : 1;
+    const int stride =
+        max_corners_per_view > 0 ? std::max<int>(1, static_cast<int>(v.pixels.size()) / max_corners_per_view) : 1;
     Block& board = s.boards.at(v.target_id);
     const std::string board_name = BoardOfTarget(v.target_id);
     Block& warp = s.warps.at(board_name);
@@ -183,36 +186,38 @@ int BuildHeadProblem(HeadState* state,
                          board.data(),
                          s.camera[eye].data(),
                          warp.data()};
-    ceres::CostFunction* cost = models::VisitCameraModel(s.camera_model[eye], [&]<typename Camera>() -> ceres::CostFunction* {
-      auto* f = new HeadViewResidual<Camera>;
-      f->command = v.command;
-      f->sigma_px = sigma_px.at(v.noise_class)[eye];
-      f->huber_k = huber_k;
-      f->span = s.warp_spans.at(board_name);
-      for (size_t i = 0; i < v.pixels.size(); ++i) {
-        if (!v.inlier[i] || i % stride != 0) continue;
-        f->points_in_target.push_back(v.points[i]);
-        f->pixels.push_back(v.pixels[i]);
-      }
-      if (f->pixels.empty()) {
-        delete f;
-        return nullptr;
-      }
-      num_corners += static_cast<int>(f->pixels.size());
-      return new ceres::AutoDiffCostFunction<HeadViewResidual<Camera>,
-                                             ceres::DYNAMIC,
-                                             ServoMap::kNumParams,
-                                             ServoMap::kNumParams,
-                                             ServoMap::kNumParams,
-                                             kMountParams,
-                                             kCentresParams,
-                                             7,
-                                             Camera::kNumParams,
-                                             2>(f, f->NumResiduals());
-    });
+    ceres::CostFunction* cost =
+        models::VisitCameraModel(s.camera_model[eye], [&]<typename Camera>() -> ceres::CostFunction* {
+          auto* f = new HeadViewResidual<Camera>;
+          f->command = v.command;
+          f->sigma_px = sigma_px.at(v.noise_class)[eye];
+          f->huber_k = huber_k;
+          f->span = s.warp_spans.at(board_name);
+          for (size_t i = 0; i < v.pixels.size(); ++i) {
+            if (!v.inlier[i] || i % stride != 0) continue;
+            f->points_in_target.push_back(v.points[i]);
+            f->pixels.push_back(v.pixels[i]);
+          }
+          if (f->pixels.empty()) {
+            delete f;
+            return nullptr;
+          }
+          num_corners += static_cast<int>(f->pixels.size());
+          return new ceres::AutoDiffCostFunction<HeadViewResidual<Camera>,
+                                                 ceres::DYNAMIC,
+                                                 ServoMap::kNumParams,
+                                                 ServoMap::kNumParams,
+                                                 ServoMap::kNumParams,
+                                                 kMountParams,
+                                                 kCentresParams,
+                                                 7,
+                                                 Camera::kNumParams,
+                                                 2>(f, f->NumResiduals());
+        });
     if (cost == nullptr) continue;
     s.input_view_of_residual[problem->AddResidualBlock(
-        cost, nullptr, blocks[0], blocks[1], blocks[2], blocks[3], blocks[4], blocks[5], blocks[6], blocks[7])] = v.index;
+        cost, nullptr, blocks[0], blocks[1], blocks[2], blocks[3], blocks[4], blocks[5], blocks[6], blocks[7])] =
+        v.index;
   }
   // Priors on the intrinsics.
   for (int e = 0; e < 2; ++e) {
@@ -227,8 +232,8 @@ int BuildHeadProblem(HeadState* state,
       auto* f = new GaussianPriorResidual<N>;
       f->mean = Eigen::Map<const Eigen::Matrix<double, N, 1>>(s.prior_mean[e].data());
       f->sqrt_information = upper;
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<GaussianPriorResidual<N>, N, N>(f), nullptr,
-                                s.camera[e].data());
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<GaussianPriorResidual<N>, N, N>(f), nullptr, s.camera[e].data());
     };
     if (n == 9) add_prior.template operator()<9>();
     if (n == 12) add_prior.template operator()<12>();

@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
+#include <Eigen/Core>
 
 #include "calib/observation.h"
 #include "fitting/head_fit.h"
@@ -31,8 +31,8 @@ namespace owlcal::fitting::internal {
 // One Ceres parameter block and how its entries are reported.
 struct Block {
   std::vector<double> values;
-  std::vector<std::string> names;   // report names per ambient entry (tangent names for poses)
-  std::vector<double> scale;        // internal -> report unit
+  std::vector<std::string> names;  // report names per ambient entry (tangent names for poses)
+  std::vector<double> scale;       // internal -> report unit
   std::vector<std::string> units;
   std::vector<bool> fixed;
   std::vector<std::string> fixed_note;

@@ -33,9 +33,9 @@
 #include <cmath>
 #include <vector>
 
+#include <ceres/jet.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <ceres/jet.h>
 
 #include "fitting/board_warp.h"
 #include "models/head_kinematics.h"
@@ -50,7 +50,10 @@ inline constexpr int kCentresParams = 5;
 // cam_from_eye of a mount block [roll, yaw, tx, ty, tz].
 template <typename T>
 models::Rigid3<T> CamFromEyeOfMount(const T* mount) {
-  using std::cos; using std::sin; using ceres::cos; using ceres::sin;
+  using ceres::cos;
+  using ceres::sin;
+  using std::cos;
+  using std::sin;
   const Eigen::Quaternion<T> rz(cos(mount[0] / T(2)), T(0), T(0), sin(mount[0] / T(2)));
   return models::Rigid3<T>(rz * models::RotY(mount[1]), Eigen::Matrix<T, 3, 1>(mount[2], mount[3], mount[4]));
 }
@@ -108,8 +111,7 @@ struct HeadViewResidual {
     // Same chain as models::PointInCam, composed once per view.
     const models::Rigid3<T> cam_from_target = CamFromEyeOfMount(mount) *
                                               models::HeadFromEye(centre, pan_rad, tilt_rad).Inverse() *
-                                              models::HeadFromBase(neck_rad) *
-                                              models::Rigid3<T>::Map(base_from_target);
+                                              models::HeadFromBase(neck_rad) * models::Rigid3<T>::Map(base_from_target);
     for (size_t i = 0; i < pixels.size(); ++i) {
       const Eigen::Matrix<T, 3, 1> p = cam_from_target * WarpedPoint(warp, points_in_target[i], span);
       T pixel[2];

@@ -14,16 +14,15 @@ using models::kRightEye;
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-double Uniform(std::mt19937_64* rng, double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(*rng); }
+double Uniform(std::mt19937_64* rng, double lo, double hi) {
+  return std::uniform_real_distribution<double>(lo, hi)(*rng);
+}
 double Normal(std::mt19937_64* rng, double sigma) { return std::normal_distribution<double>(0.0, sigma)(*rng); }
 
 // Board whose centre sits at `distance_m` along (yaw, pitch) from the base origin, facing it,
 // turned by a random small rotation.
-models::Rigid3d BoardPose(const calib::TargetDefinition& board,
-                          double yaw_deg,
-                          double pitch_deg,
-                          double distance_m,
-                          std::mt19937_64* rng) {
+models::Rigid3d BoardPose(
+    const calib::TargetDefinition& board, double yaw_deg, double pitch_deg, double distance_m, std::mt19937_64* rng) {
   const double yaw = yaw_deg * kDegToRad, pitch = pitch_deg * kDegToRad;
   const Eigen::Vector3d v(std::sin(yaw) * std::cos(pitch), -std::sin(pitch), std::cos(yaw) * std::cos(pitch));
   const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(v).normalized();
@@ -57,7 +56,8 @@ models::HeadModel PerturbedHead(const models::RobotConfig& robot,
   const double ipd = 0.0638 + Uniform(rng, -0.0005, 0.0005);
   const double mid_x = Uniform(rng, -0.001, 0.001);
   const double z = 0.03 + Uniform(rng, -0.003, 0.003);
-  h.geometry.centre_in_head[kLeftEye] = Eigen::Vector3d(mid_x - ipd / 2, canonical ? 0.0 : Uniform(rng, -0.001, 0.001), z);
+  h.geometry.centre_in_head[kLeftEye] =
+      Eigen::Vector3d(mid_x - ipd / 2, canonical ? 0.0 : Uniform(rng, -0.001, 0.001), z);
   h.geometry.centre_in_head[kRightEye] =
       Eigen::Vector3d(mid_x + ipd / 2, Uniform(rng, -0.001, 0.001), canonical ? z : z + Uniform(rng, -0.002, 0.002));
   for (int e = 0; e < 2; ++e) {
@@ -66,7 +66,8 @@ models::HeadModel PerturbedHead(const models::RobotConfig& robot,
     const Eigen::Quaterniond q = Eigen::Quaterniond(Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ())) *
                                  Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY()) *
                                  Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX());
-    const Eigen::Vector3d t(Uniform(rng, -0.003, 0.003), Uniform(rng, -0.003, 0.003), 0.015 + Uniform(rng, -0.003, 0.003));
+    const Eigen::Vector3d t(
+        Uniform(rng, -0.003, 0.003), Uniform(rng, -0.003, 0.003), 0.015 + Uniform(rng, -0.003, 0.003));
     h.geometry.cam_from_eye[e] = models::Rigid3d(q, t);
     const double f = 580 + Uniform(rng, -10, 10);
     h.intrinsics[e].params = {f * (1 + Uniform(rng, -0.002, 0.002)),
@@ -91,8 +92,12 @@ SyntheticHeadData SynthesizeHeadViews(const models::HeadModel& truth,
   const struct {
     const char* id;
     double yaw, pitch, dist;
-  } placements[] = {{"near", 0, 0, 0.5},   {"far", 8, 4, 1.0},   {"left", -32, 0, 0.7},
-                    {"right", 32, 0, 0.7}, {"up", 0, 28, 0.7},   {"down", 0, -28, 0.7}};
+  } placements[] = {{"near", 0, 0, 0.5},
+                    {"far", 8, 4, 1.0},
+                    {"left", -32, 0, 0.7},
+                    {"right", 32, 0, 0.7},
+                    {"up", 0, 28, 0.7},
+                    {"down", 0, -28, 0.7}};
   for (const auto& pl : placements)
     data.base_from_target[pl.id] = BoardPose(options.board, pl.yaw, pl.pitch, pl.dist, rng);
   const std::map<int, Eigen::Vector3d> corners = options.board.Corners();

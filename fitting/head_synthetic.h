@@ -24,8 +24,8 @@
 namespace owlcal::fitting {
 
 struct SyntheticHeadOptions {
-  int steps_per_sweep = 8;       // pulse widths per direction per eye servo
-  int grid_side = 4;             // grid_side^2 combined eye poses
+  int steps_per_sweep = 8;  // pulse widths per direction per eye servo
+  int grid_side = 4;        // grid_side^2 combined eye poses
   bool move_neck = true;
   int neck_steps = 6;            // per direction
   double sweep_fraction = 0.85;  // fraction of each side of the configured range that is swept
@@ -43,7 +43,7 @@ struct SyntheticHeadOptions {
 struct SyntheticHeadData {
   std::vector<calib::View> views;
   std::map<std::string, models::Rigid3d> base_from_target;  // truth
-  std::vector<models::PwmVector> poses;                      // in sequence order
+  std::vector<models::PwmVector> poses;                     // in sequence order
 };
 
 // A head perturbed from NominalHeadModel(robot) as a real Owl might be: eye-servo centres

@@ -58,7 +58,8 @@ std::vector<int> FixedIntrinsicIndices(const IntrinsicsFitOptions& o) {
   const int np = int(IntrinsicParamNames(o.model).size());
   const int radial_index[7] = {-1, 4, 5, 8, 9, 10, 11};  // k1..k6 in camera.params
   for (int k = 1; k <= 6; ++k) {
-    const bool held = (k == 3 && o.fix_k3) || std::find(o.fix_radial.begin(), o.fix_radial.end(), k) != o.fix_radial.end();
+    const bool held =
+        (k == 3 && o.fix_k3) || std::find(o.fix_radial.begin(), o.fix_radial.end(), k) != o.fix_radial.end();
     if (held && radial_index[k] < np) fixed.push_back(radial_index[k]);
   }
   std::sort(fixed.begin(), fixed.end());
@@ -75,7 +76,8 @@ std::string SigmaTooLarge(const std::string& name, double sigma, const Intrinsic
 
 std::string FixedReason(const std::string& name, const IntrinsicsFitOptions& o) {
   if (name == "fy" && o.fix_aspect_ratio) return "tied to fx by option fix_aspect_ratio";
-  if ((name == "cx" || name == "cy") && o.fix_principal_point) return "fixed at the image centre by option fix_principal_point";
+  if ((name == "cx" || name == "cy") && o.fix_principal_point)
+    return "fixed at the image centre by option fix_principal_point";
   if ((name == "p1" || name == "p2") && o.fix_tangential) return "fixed at 0 by option fix_tangential";
   if (name == "k3" && o.fix_k3) return "fixed at 0 by option fix_k3";
   if (name.size() == 2 && name[0] == 'k' && name[1] >= '1' && name[1] <= '6' &&
@@ -113,11 +115,13 @@ bool IntrinsicsFitOptions::Check(std::string* why) const {
   if (!(loss_scale_sigma > 0)) return fail("loss_scale_sigma must be > 0, got " + Fmt(loss_scale_sigma));
   if (outlier_threshold_sigma != 0 && !(outlier_threshold_sigma >= 2))
     return fail("outlier_threshold_sigma must be 0 (off) or >= 2, got " + Fmt(outlier_threshold_sigma));
-  if (min_corners_per_view < 4) return fail("min_corners_per_view must be >= 4, got " + std::to_string(min_corners_per_view));
+  if (min_corners_per_view < 4)
+    return fail("min_corners_per_view must be >= 4, got " + std::to_string(min_corners_per_view));
   if (max_iterations < 1) return fail("max_iterations must be >= 1, got " + std::to_string(max_iterations));
   if (!(max_sigma_px > 0)) return fail("max_sigma_px must be > 0, got " + Fmt(max_sigma_px));
   if (!(max_sigma_distortion > 0)) return fail("max_sigma_distortion must be > 0, got " + Fmt(max_sigma_distortion));
-  if (!(rank_tolerance > 0 && rank_tolerance < 1)) return fail("rank_tolerance must be in (0, 1), got " + Fmt(rank_tolerance));
+  if (!(rank_tolerance > 0 && rank_tolerance < 1))
+    return fail("rank_tolerance must be in (0, 1), got " + Fmt(rank_tolerance));
   if (!(solver_tolerance > 0 && solver_tolerance < 1e-3))
     return fail("solver_tolerance must be in (0, 1e-3), got " + Fmt(solver_tolerance));
   for (int k : fix_radial)
@@ -139,10 +143,10 @@ namespace {
 
 // What the initialisation gives the solver: the views it could place, one board pose per view.
 struct IntrinsicsStart {
-  std::vector<double> params;                  // fx fy cx cy dist... (models/camera_model.h)
-  std::vector<std::array<double, 7>> poses;    // cam_from_target per used view
+  std::vector<double> params;                // fx fy cx cy dist... (models/camera_model.h)
+  std::vector<std::array<double, 7>> poses;  // cam_from_target per used view
   std::vector<calib::View> used;
-  int num_orientations = 0;                    // board orientations more than 3 deg apart
+  int num_orientations = 0;  // board orientations more than 3 deg apart
 };
 
 // Per-corner pixel errors (projected - measured) per used view.
@@ -178,7 +182,8 @@ std::optional<IntrinsicsStart> Initialise(const std::vector<calib::View>& views,
     std::vector<cv::Point3f> op;
     std::vector<cv::Point2f> ip;
     for (size_t i = 0; i < v.pixels.size(); ++i) {
-      op.emplace_back(float(v.points_in_target[i].x()), float(v.points_in_target[i].y()), float(v.points_in_target[i].z()));
+      op.emplace_back(
+          float(v.points_in_target[i].x()), float(v.points_in_target[i].y()), float(v.points_in_target[i].z()));
       ip.emplace_back(float(v.pixels[i].x()), float(v.pixels[i].y()));
     }
     object_points.push_back(op);
@@ -186,7 +191,8 @@ std::optional<IntrinsicsStart> Initialise(const std::vector<calib::View>& views,
   }
   cv::Mat k;
   try {
-    k = cv::initCameraMatrix2D(object_points, image_points, cv::Size(width, height), options.fix_aspect_ratio ? 1.0 : 0.0);
+    k = cv::initCameraMatrix2D(
+        object_points, image_points, cv::Size(width, height), options.fix_aspect_ratio ? 1.0 : 0.0);
   } catch (const cv::Exception& e) {
     fit->message = all_params + " cannot be determined: initialisation failed (" + e.what() + ")";
     return std::nullopt;
@@ -201,8 +207,7 @@ std::optional<IntrinsicsStart> Initialise(const std::vector<calib::View>& views,
   st.params[1] = options.fix_aspect_ratio ? fx0 : fy0;
   st.params[2] = (width - 1) / 2.0;
   st.params[3] = (height - 1) / 2.0;
-  const cv::Mat k0 =
-      (cv::Mat_<double>(3, 3) << st.params[0], 0, st.params[2], 0, st.params[1], st.params[3], 0, 0, 1);
+  const cv::Mat k0 = (cv::Mat_<double>(3, 3) << st.params[0], 0, st.params[2], 0, st.params[1], st.params[3], 0, 0, 1);
   std::vector<models::Rigid3d> distinct;  // orientations more than 3 degrees apart
   for (size_t i = 0; i < views.size(); ++i) {
     cv::Mat rvec, tvec;
@@ -221,17 +226,19 @@ std::optional<IntrinsicsStart> Initialise(const std::vector<calib::View>& views,
     pose.ToArray(a.data());
     st.poses.push_back(a);
     st.used.push_back(views[i]);
-    if (std::none_of(distinct.begin(), distinct.end(),
-                     [&](const models::Rigid3d& q) { return AngleBetween(pose, q) < 3.0 * M_PI / 180; }))
+    if (std::none_of(distinct.begin(), distinct.end(), [&](const models::Rigid3d& q) {
+          return AngleBetween(pose, q) < 3.0 * M_PI / 180;
+        }))
       distinct.push_back(pose);
   }
   st.num_orientations = int(distinct.size());
   if (!st.used.empty() && distinct.size() >= 2) return st;
   fit->message = all_params + " cannot be determined: " +
                  (st.used.empty() ? std::string("no view could be initialised")
-                                  : std::to_string(st.used.size()) + " view(s) but all show the board in ONE orientation "
-                                                                     "(one pose only, or the board never moved); tilt "
-                                                                     "the board (or move the camera) between views");
+                                  : std::to_string(st.used.size()) +
+                                        " view(s) but all show the board in ONE orientation "
+                                        "(one pose only, or the board never moved); tilt "
+                                        "the board (or move the camera) between views");
   for (const auto& n : fit->param_names) fit->undetermined.push_back(n + ": board seen in one orientation only");
   return std::nullopt;
 }
@@ -263,8 +270,8 @@ Observability Solve(const IntrinsicsFitOptions& options,
     for (size_t i = 0; i < st->used[v].pixels.size(); ++i) {
       if (!inlier[v][i]) continue;
       ceres::CostFunction* cost = models::VisitCameraModel(options.model, [&]<typename Cam>() {
-        return internal::CornerResidual<Cam>::Create(st->used[v].pixels[i], st->used[v].points_in_target[i],
-                                                     1.0 / sigma_px, options.fix_aspect_ratio);
+        return internal::CornerResidual<Cam>::Create(
+            st->used[v].pixels[i], st->used[v].points_in_target[i], 1.0 / sigma_px, options.fix_aspect_ratio);
       });
       ceres::LossFunction* loss = nullptr;
       if (robust && options.loss == RobustLoss::kCauchy) loss = new ceres::CauchyLoss(options.loss_scale_sigma);
@@ -364,11 +371,8 @@ double MeasureRms(const CornerErrors& r,
 // Covariance in the full parameter space (scaled by (sigma_hat / sigma_used)^2), sigmas, and
 // what is not determined: held by an option, rejected by the observability rule, or with a
 // sigma too large to mean anything.
-void ReportCovariance(const Observability& obs,
-                      double scale,
-                      int dof,
-                      const IntrinsicsFitOptions& options,
-                      IntrinsicsFit* fit) {
+void ReportCovariance(
+    const Observability& obs, double scale, int dof, const IntrinsicsFitOptions& options, IntrinsicsFit* fit) {
   const int np = int(fit->param_names.size());
   const std::vector<int> fixed = internal::FixedIntrinsicIndices(options);
   fit->covariance = Eigen::MatrixXd::Zero(np, np);
@@ -379,7 +383,8 @@ void ReportCovariance(const Observability& obs,
     if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) free_idx.push_back(i);
   std::vector<std::string> reasons(np);
   if (!obs.ok || dof <= 0 || !std::isfinite(scale)) {
-    for (int i : free_idx) reasons[i] = dof <= 0 ? "more parameters than measurements" : "covariance failed: " + obs.message;
+    for (int i : free_idx)
+      reasons[i] = dof <= 0 ? "more parameters than measurements" : "covariance failed: " + obs.message;
   } else {
     for (size_t a = 0; a < free_idx.size(); ++a) {
       for (size_t b = 0; b < free_idx.size(); ++b)
@@ -466,8 +471,8 @@ IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
   const double sum_sq = MeasureRms(Residuals(fit.camera, *st, options.fix_aspect_ratio), inlier, *st, &n, &fit);
   fit.summary.rms_px = fit.rms_px;
   fit.summary.num_outliers = int(fit.rejected.size());
-  const int num_free = int(fit.param_names.size()) - int(internal::FixedIntrinsicIndices(options).size()) +
-                       6 * int(st->used.size());
+  const int num_free =
+      int(fit.param_names.size()) - int(internal::FixedIntrinsicIndices(options).size()) + 6 * int(st->used.size());
   const int dof = 2 * n - num_free;
   const double sigma_hat = options.corner_sigma_px > 0 ? sigma_used : (dof > 0 ? std::sqrt(sum_sq / dof) : kNaN);
   fit.corner_sigma_px = sigma_hat;
@@ -480,7 +485,8 @@ IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views_in,
       << Fmt(fit.rms_px) << " px, corner sigma " << Fmt(sigma_hat) << " px";
   if (!fit.rejected.empty()) msg << ", " << fit.rejected.size() << " outliers rejected";
   if (!core_ok) msg << "; focal length / principal point NOT determined";
-  if (st->num_orientations < 3) msg << "; WARNING: only " << st->num_orientations << " board orientations (use 10 or more)";
+  if (st->num_orientations < 3)
+    msg << "; WARNING: only " << st->num_orientations << " board orientations (use 10 or more)";
   fit.message = msg.str();
   fit.summary.message = fit.message + " | " + fit.summary.message;
   fit.summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

@@ -36,18 +36,18 @@ enum class RobustLoss { kNone, kHuber, kCauchy };
 
 struct IntrinsicsFitOptions {
   models::DistortionModel model = models::DistortionModel::kOpenCv5;
-  bool fix_aspect_ratio = false;      // fy = fx (CALIB_FIX_ASPECT_RATIO with ratio 1)
-  bool fix_principal_point = false;   // cx, cy stay at the image centre
-  bool fix_k3 = false;                // k3 = 0 (CALIB_FIX_K3)
+  bool fix_aspect_ratio = false;     // fy = fx (CALIB_FIX_ASPECT_RATIO with ratio 1)
+  bool fix_principal_point = false;  // cx, cy stay at the image centre
+  bool fix_k3 = false;               // k3 = 0 (CALIB_FIX_K3)
   // Radial coefficients held at 0 by number, 1..6 (CALIB_FIX_K1 ... CALIB_FIX_K6); a number the
   // model does not have (k4..k6 of opencv5) holds nothing.
   std::vector<int> fix_radial;
-  bool fix_tangential = false;        // p1 = p2 = 0 (CALIB_ZERO_TANGENT_DIST)
-  double corner_sigma_px = 0;         // corner noise; 0 = estimate from the residuals
+  bool fix_tangential = false;  // p1 = p2 = 0 (CALIB_ZERO_TANGENT_DIST)
+  double corner_sigma_px = 0;   // corner noise; 0 = estimate from the residuals
   RobustLoss loss = RobustLoss::kNone;
-  double loss_scale_sigma = 3.0;      // robust loss scale in units of corner sigma
+  double loss_scale_sigma = 3.0;         // robust loss scale in units of corner sigma
   double outlier_threshold_sigma = 6.0;  // reject |residual| > this * sigma, refit; 0 = off
-  int min_corners_per_view = 8;       // smaller views are dropped (and named)
+  int min_corners_per_view = 8;          // smaller views are dropped (and named)
   int max_iterations = 200;
   // A parameter is "undetermined" when sigma exceeds these: pixels params, distortion coeffs.
   double max_sigma_px = 50.0;
@@ -74,24 +74,24 @@ struct RejectedObservation {
 };
 
 struct IntrinsicsFit {
-  bool ok = false;                 // false: nothing here is usable; message says why
+  bool ok = false;  // false: nothing here is usable; message says why
   std::string message;
   models::CameraIntrinsics camera;
-  std::vector<int> frame_indices;            // per used view
+  std::vector<int> frame_indices;                // per used view
   std::vector<models::Rigid3d> cam_from_target;  // per used view
-  std::vector<double> view_rms_px;           // per used view, RMS of |error| per corner
-  double rms_px = 0;                         // sqrt(sum |e|^2 / num corners) (OpenCV's RMS)
-  double corner_sigma_px = 0;                // used to whiten (given or estimated per axis)
+  std::vector<double> view_rms_px;               // per used view, RMS of |error| per corner
+  double rms_px = 0;                             // sqrt(sum |e|^2 / num corners) (OpenCV's RMS)
+  double corner_sigma_px = 0;                    // used to whiten (given or estimated per axis)
   // Covariance of camera.params (fx fy cx cy dist...), physical units; rows/cols of fixed or
   // undetermined parameters are zero. param_names: "fx" "fy" "cx" "cy" "k1" "k2" "p1" "p2" "k3" ...
   Eigen::MatrixXd covariance;
   std::vector<std::string> param_names;
-  std::vector<double> sigmas;                // sqrt(diag); NaN when undetermined
+  std::vector<double> sigmas;  // sqrt(diag); NaN when undetermined
   std::vector<bool> determined;
   SolveSummary summary;
   std::vector<RejectedObservation> rejected;
-  std::vector<std::string> dropped_views;    // "frame 3: 5 corners < 8"
-  std::vector<std::string> undetermined;     // "k3: fixed by option fix_k3", "fx: ..." ...
+  std::vector<std::string> dropped_views;  // "frame 3: 5 corners < 8"
+  std::vector<std::string> undetermined;   // "k3: fixed by option fix_k3", "fx: ..." ...
 };
 
 IntrinsicsFit FitIntrinsics(const std::vector<calib::View>& views,

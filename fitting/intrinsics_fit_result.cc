@@ -20,7 +20,8 @@ void AppendIntrinsicsToResult(const IntrinsicsFit& fit, const std::string& eye_n
     result->warnings.push_back(eye_name + " intrinsics: " + fit.message);
     for (const auto& u : fit.undetermined) {
       const std::string name = u.substr(0, u.find(':'));
-      Parameter p{eye_name + "." + name, kNaN, kNaN, IntrinsicParamUnit(name), std::nullopt, false, u.substr(u.find(':') + 2)};
+      Parameter p{
+          eye_name + "." + name, kNaN, kNaN, IntrinsicParamUnit(name), std::nullopt, false, u.substr(u.find(':') + 2)};
       result->Set(p);
     }
     return;

@@ -3,8 +3,8 @@
 // Parameter blocks: camera [fx fy cx cy dist...] (models::OpenCvCamera<N> order), poses as
 // 7-blocks [qx qy qz qw tx ty tz] (models::Rigid3). Residual = (projection - measured) /
 // sigma_px, so the problem is whitened (docs/conventions.md).
-#include <Eigen/Core>
 #include <ceres/autodiff_cost_function.h>
+#include <Eigen/Core>
 
 #include "fitting/board_warp.h"
 #include "models/camera_model.h"
@@ -51,7 +51,10 @@ struct CornerResidual {
     return Evaluate(camera, cam_from_target, static_cast<const T*>(nullptr), residual);
   }
 
-  static ceres::CostFunction* Create(const Eigen::Vector2d& pixel, const Eigen::Vector3d& point, double inv_sigma, bool tie) {
+  static ceres::CostFunction* Create(const Eigen::Vector2d& pixel,
+                                     const Eigen::Vector3d& point,
+                                     double inv_sigma,
+                                     bool tie) {
     return new ceres::AutoDiffCostFunction<CornerResidual, 2, Camera::kNumParams, 7>(
         new CornerResidual{pixel, point, inv_sigma, tie, {}});
   }

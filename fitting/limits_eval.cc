@@ -9,10 +9,14 @@ namespace owlcal::fitting {
 
 const char* LimitCauseName(LimitCause c) {
   switch (c) {
-    case LimitCause::kEndStop: return "end-stop";
-    case LimitCause::kSocketRim: return "socket rim";
-    case LimitCause::kConfigured: return "configured";
-    default: return "unknown";
+    case LimitCause::kEndStop:
+      return "end-stop";
+    case LimitCause::kSocketRim:
+      return "socket rim";
+    case LimitCause::kConfigured:
+      return "configured";
+    default:
+      return "unknown";
   }
 }
 

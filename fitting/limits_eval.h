@@ -19,8 +19,8 @@
 namespace owlcal::fitting {
 
 enum class LimitCause { kEndStop, kSocketRim, kConfigured, kUnknown };
-const char* LimitCauseName(LimitCause c);              // "end-stop", "socket rim", "configured", "unknown"
-LimitCause LimitCauseFromName(const std::string& s);   // accepts the names above and endstop|rim|none
+const char* LimitCauseName(LimitCause c);             // "end-stop", "socket rim", "configured", "unknown"
+LimitCause LimitCauseFromName(const std::string& s);  // accepts the names above and endstop|rim|none
 
 struct LimitMeasurement {
   int servo = 0;          // models::ServoIndex

@@ -11,15 +11,24 @@ namespace owlcal::fitting {
 
 bool LoopModel::Check(std::string* why) const {
   std::string r, rw;
-  if (!(fps > 0)) r = "fps must be > 0";
-  else if (!(exposure_delay_s >= 0) || !(command_delay_s >= 0)) r = "delays must be >= 0";
-  else if (!(slew_us_per_s > 0)) r = "slew_us_per_s must be > 0";
-  else if (!(lag_s >= 0)) r = "lag_s must be >= 0";
-  else if (!(hysteresis_us >= 0)) r = "hysteresis_us must be >= 0";
-  else if (!(px_per_us > 0) || !(nominal_px_per_us > 0)) r = "px_per_us and nominal_px_per_us must be > 0";
-  else if (!(noise_px >= 0) || !(tolerance_px > 0)) r = "noise_px must be >= 0 and tolerance_px > 0";
-  else if (max_step_us < 1 || latency_frames < 0) r = "max_step_us must be >= 1 and latency_frames >= 0";
-  else if (!resolution.Check(&rw)) r = rw;
+  if (!(fps > 0))
+    r = "fps must be > 0";
+  else if (!(exposure_delay_s >= 0) || !(command_delay_s >= 0))
+    r = "delays must be >= 0";
+  else if (!(slew_us_per_s > 0))
+    r = "slew_us_per_s must be > 0";
+  else if (!(lag_s >= 0))
+    r = "lag_s must be >= 0";
+  else if (!(hysteresis_us >= 0))
+    r = "hysteresis_us must be >= 0";
+  else if (!(px_per_us > 0) || !(nominal_px_per_us > 0))
+    r = "px_per_us and nominal_px_per_us must be > 0";
+  else if (!(noise_px >= 0) || !(tolerance_px > 0))
+    r = "noise_px must be >= 0 and tolerance_px > 0";
+  else if (max_step_us < 1 || latency_frames < 0)
+    r = "max_step_us must be >= 1 and latency_frames >= 0";
+  else if (!resolution.Check(&rw))
+    r = rw;
   if (r.empty()) return true;
   if (why) *why = "LoopModel: " + r;
   return false;

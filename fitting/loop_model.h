@@ -31,11 +31,11 @@ struct LoopModel {
   double fps = 30;
   double exposure_delay_s = 0.1;
   double command_delay_s = 0.001;
-  double slew_us_per_s = 3400;       // 380 deg/s at 0.113 deg/us
+  double slew_us_per_s = 3400;  // 380 deg/s at 0.113 deg/us
   double lag_s = 0.025;
   double hysteresis_us = 0;
-  double px_per_us = 1.15;           // true image motion per us on this axis (magnitude)
-  double nominal_px_per_us = 1.15;   // the controller's conversion
+  double px_per_us = 1.15;          // true image motion per us on this axis (magnitude)
+  double nominal_px_per_us = 1.15;  // the controller's conversion
   models::ServoResolution resolution;
   double noise_px = 0.1;
   // Controller.

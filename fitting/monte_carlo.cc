@@ -57,8 +57,18 @@ std::string SigmaCoverage::GroupTable(double tol1, double min3) const {
     const double n = std::max(1, g.count);
     const double f1 = 100.0 * g.within1 / n, f2 = 100.0 * g.within2 / n, f3 = 100.0 * g.within3 / n;
     const bool ok = std::abs(f1 - 68.27) <= tol1 && f3 >= min3;
-    std::snprintf(line, sizeof(line), "| %s | %d | %.1f %% | %.1f %% | %.2f %% | %.2f | %.1f (%s) | %s |\n", name.c_str(),
-                  g.count, f1, f2, f3, std::sqrt(g.sum_z2 / n), g.worst_z, g.worst.c_str(), ok ? "ok" : "OUT OF TARGET");
+    std::snprintf(line,
+                  sizeof(line),
+                  "| %s | %d | %.1f %% | %.1f %% | %.2f %% | %.2f | %.1f (%s) | %s |\n",
+                  name.c_str(),
+                  g.count,
+                  f1,
+                  f2,
+                  f3,
+                  std::sqrt(g.sum_z2 / n),
+                  g.worst_z,
+                  g.worst.c_str(),
+                  ok ? "ok" : "OUT OF TARGET");
     out += line;
   }
   return out;
@@ -80,14 +90,26 @@ double SigmaCoverage::FractionWithin(double k) const {
 std::string SigmaCoverage::Report() const {
   std::string out;
   char line[256];
-  std::snprintf(line, sizeof(line), "fits %d (failed %d), scored %d: within 1 sigma %.1f %% (68.3), within 3 sigma %.2f %% (99.7)\n",
-                num_fits_, num_failures(), total_, 100 * FractionWithin(1), 100 * FractionWithin(3));
+  std::snprintf(line,
+                sizeof(line),
+                "fits %d (failed %d), scored %d: within 1 sigma %.1f %% (68.3), within 3 sigma %.2f %% (99.7)\n",
+                num_fits_,
+                num_failures(),
+                total_,
+                100 * FractionWithin(1),
+                100 * FractionWithin(3));
   out += line;
   std::snprintf(line, sizeof(line), "%-34s %6s %9s %9s %8s\n", "parameter", "n", "<=1sig %", "<=3sig %", "rms(z)");
   out += line;
   for (const auto& [name, pp] : per_) {
-    std::snprintf(line, sizeof(line), "%-34s %6d %9.1f %9.1f %8.2f\n", name.c_str(), pp.count,
-                  100.0 * pp.within1 / pp.count, 100.0 * pp.within3 / pp.count, std::sqrt(pp.sum_z2 / pp.count));
+    std::snprintf(line,
+                  sizeof(line),
+                  "%-34s %6d %9.1f %9.1f %8.2f\n",
+                  name.c_str(),
+                  pp.count,
+                  100.0 * pp.within1 / pp.count,
+                  100.0 * pp.within3 / pp.count,
+                  std::sqrt(pp.sum_z2 / pp.count));
     out += line;
   }
   for (const std::string& f : failures_) out += "failed: " + f + "\n";

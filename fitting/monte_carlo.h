@@ -50,7 +50,7 @@ class SigmaCoverage {
     int within3 = 0;
     double sum_z2 = 0;
     double worst_z = 0;
-    std::string worst;   // "robot 7 servo.Rx.centre_us"
+    std::string worst;  // "robot 7 servo.Rx.centre_us"
   };
   const std::map<std::string, Group>& per_group() const { return groups_; }
   // Label of the next Add() (e.g. "robot 7"), used to name the worst parameter of each group.

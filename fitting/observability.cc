@@ -63,8 +63,9 @@ Observability AnalyseInformation(const Eigen::MatrixXd& information,
     if (!(before > 0)) {
       out.reasons[i] = "no observation constrains it (zero information)";
     } else if (!(s(i, i) > kEliminatedFraction * before)) {
-      out.reasons[i] = "the data cannot separate it from the board poses (all its information goes to the eliminated "
-                       "local blocks)";
+      out.reasons[i] =
+          "the data cannot separate it from the board poses (all its information goes to the eliminated "
+          "local blocks)";
     } else {
       d(i) = 1.0 / std::sqrt(s(i, i));
       out.determined[i] = true;
@@ -103,8 +104,8 @@ Observability AnalyseInformation(const Eigen::MatrixXd& information,
     if (others.empty()) {
       out.reasons[i] = "no observation constrains it (null space of the information matrix)";
     } else if (names.size() == static_cast<size_t>(n)) {
-      out.reasons[i] = "the data cannot separate it from " + JoinCoupled(others, names) +
-                       " (null space of the information matrix)";
+      out.reasons[i] =
+          "the data cannot separate it from " + JoinCoupled(others, names) + " (null space of the information matrix)";
     } else {
       out.reasons[i] = "the data cannot separate it from other parameters (null space of the information matrix)";
     }
@@ -124,7 +125,8 @@ Observability AnalyseInformation(const Eigen::MatrixXd& information,
 int FreeTangentSize(ceres::Problem* problem, const std::vector<double*>& blocks) {
   int n = 0;
   for (double* b : blocks)
-    if (problem->HasParameterBlock(b) && !problem->IsParameterBlockConstant(b)) n += problem->ParameterBlockTangentSize(b);
+    if (problem->HasParameterBlock(b) && !problem->IsParameterBlockConstant(b))
+      n += problem->ParameterBlockTangentSize(b);
   return n;
 }
 
@@ -153,7 +155,8 @@ Observability AnalyseObservability(ceres::Problem* problem,
     return out;
   }
   if (!names.empty() && names.size() != static_cast<size_t>(ng)) {
-    out.message = "names: " + std::to_string(names.size()) + " given for " + std::to_string(ng) + " tangent coordinates";
+    out.message =
+        "names: " + std::to_string(names.size()) + " given for " + std::to_string(ng) + " tangent coordinates";
     return out;
   }
   ceres::Problem::EvaluateOptions eo;
@@ -164,9 +167,12 @@ Observability AnalyseObservability(ceres::Problem* problem,
     out.message = "Jacobian evaluation failed";
     return out;
   }
-  const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor>> j(
-      crs.num_rows, crs.num_cols, static_cast<int>(crs.values.size()), crs.rows.data(), crs.cols.data(),
-      crs.values.data());
+  const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor>> j(crs.num_rows,
+                                                                         crs.num_cols,
+                                                                         static_cast<int>(crs.values.size()),
+                                                                         crs.rows.data(),
+                                                                         crs.cols.data(),
+                                                                         crs.values.data());
   const Eigen::SparseMatrix<double> h = Eigen::SparseMatrix<double>(j.transpose()) * j;
   // Rule 2: Schur complement of each local block.
   Eigen::MatrixXd s = Eigen::MatrixXd(h.topLeftCorner(ng, ng));

@@ -39,8 +39,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <ceres/problem.h>
+#include <Eigen/Core>
 
 namespace owlcal::fitting {
 
@@ -51,14 +51,14 @@ inline constexpr double kEliminatedFraction = 1e-9;
 inline constexpr double kDefaultRankTolerance = 1e-12;
 
 struct Observability {
-  bool ok = false;                    // false: message says why (no free global, Jacobian failed)
+  bool ok = false;  // false: message says why (no free global, Jacobian failed)
   std::string message;
   // Over the concatenated tangent coordinates of the non-constant global blocks, in order.
   Eigen::MatrixXd covariance;
   std::vector<bool> determined;
-  std::vector<std::string> reasons;   // empty when determined; else why, naming the coupled ones
-  int null_dimension = 0;             // eigenvalues at or below the tolerance
-  double reciprocal_condition = 0;    // smallest / largest eigenvalue of C (>= 0)
+  std::vector<std::string> reasons;  // empty when determined; else why, naming the coupled ones
+  int null_dimension = 0;            // eigenvalues at or below the tolerance
+  double reciprocal_condition = 0;   // smallest / largest eigenvalue of C (>= 0)
 };
 
 // Rules 3-6 on a global information matrix S (symmetric, positive semi-definite). names: one

@@ -88,9 +88,18 @@ void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereo
     cv::Mat* m;
     int rows, cols;  // -1: any
   };
-  const Field fields[] = {{"M1", &c->M1, 3, 3}, {"D1", &c->D1, -1, -1}, {"M2", &c->M2, 3, 3}, {"D2", &c->D2, -1, -1},
-                          {"R", &c->R, 3, 3},   {"T", &c->T, -1, -1},   {"E", &c->E, 3, 3},   {"F", &c->F, 3, 3},
-                          {"R1", &c->R1, 3, 3}, {"R2", &c->R2, 3, 3},   {"P1", &c->P1, 3, 4}, {"P2", &c->P2, 3, 4},
+  const Field fields[] = {{"M1", &c->M1, 3, 3},
+                          {"D1", &c->D1, -1, -1},
+                          {"M2", &c->M2, 3, 3},
+                          {"D2", &c->D2, -1, -1},
+                          {"R", &c->R, 3, 3},
+                          {"T", &c->T, -1, -1},
+                          {"E", &c->E, 3, 3},
+                          {"F", &c->F, 3, 3},
+                          {"R1", &c->R1, 3, 3},
+                          {"R2", &c->R2, 3, 3},
+                          {"P1", &c->P1, 3, 4},
+                          {"P2", &c->P2, 3, 4},
                           {"Q", &c->Q, 4, 4}};
   for (const Field& f : fields) {
     const cv::FileNode n = fs[f.name];
@@ -117,11 +126,12 @@ void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereo
       throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " has " +
                                std::to_string(m.channels()) + " channels, expected 1");
     if (!cv::checkRange(m))
-      throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " holds a NaN or infinite value");
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name +
+                               " holds a NaN or infinite value");
     if (f.rows > 0 && (m.rows != f.rows || m.cols != f.cols))
-      throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " is " + std::to_string(m.rows) +
-                               "x" + std::to_string(m.cols) + ", expected " + std::to_string(f.rows) + "x" +
-                               std::to_string(f.cols));
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + f.name + " is " +
+                               std::to_string(m.rows) + "x" + std::to_string(m.cols) + ", expected " +
+                               std::to_string(f.rows) + "x" + std::to_string(f.cols));
     if (std::string(f.name) == "T" && m.total() != 3)
       throw std::runtime_error("OpenCV calibration file " + path + ": field T has " + std::to_string(m.total()) +
                                " values, expected 3");
@@ -140,7 +150,8 @@ void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereo
     const cv::FileNode n = fs[name];
     if (n.empty()) continue;
     if (!n.isInt() || int(n) < 1 || int(n) > 16384)
-      throw std::runtime_error("OpenCV calibration file " + path + ": field " + name + " is not an integer in 1..16384");
+      throw std::runtime_error("OpenCV calibration file " + path + ": field " + name +
+                               " is not an integer in 1..16384");
     *out = int(n);
   }
   // Camera matrices: positive focal lengths and the [0 0 1] last row.
@@ -191,8 +202,20 @@ OpenCvStereoCalibration MakeOpenCvCalibration(const models::CameraIntrinsics& le
   c.E = Skew(c.T) * c.R;
   c.F = c.M2.inv().t() * c.E * c.M1.inv();
   c.F /= c.F.at<double>(2, 2);
-  cv::stereoRectify(c.M1, c.D1, c.M2, c.D2, cv::Size(c.image_width, c.image_height), c.R, c.T, c.R1, c.R2, c.P1, c.P2,
-                    c.Q, cv::CALIB_ZERO_DISPARITY, rectify_alpha);
+  cv::stereoRectify(c.M1,
+                    c.D1,
+                    c.M2,
+                    c.D2,
+                    cv::Size(c.image_width, c.image_height),
+                    c.R,
+                    c.T,
+                    c.R1,
+                    c.R2,
+                    c.P1,
+                    c.P2,
+                    c.Q,
+                    cv::CALIB_ZERO_DISPARITY,
+                    rectify_alpha);
   return c;
 }
 
@@ -203,9 +226,13 @@ OpenCvStereoCalibration ToOpenCvCalibration(const StereoFit& fit, double rectify
 OpenCvStereoCalibration ToOpenCvCalibration(const CalibrationResult& r, double rectify_alpha) {
   const models::CameraIntrinsics* cam[2] = {nullptr, nullptr};
   for (int e = 0; e < 2; ++e) {
-    if (r.cameras[e]) cam[e] = &*r.cameras[e];
-    else if (r.head) cam[e] = &r.head->intrinsics[e];
-    else throw std::runtime_error(std::string("OpenCV calibration: the result has no ") + (e ? "right" : "left") + " camera");
+    if (r.cameras[e])
+      cam[e] = &*r.cameras[e];
+    else if (r.head)
+      cam[e] = &r.head->intrinsics[e];
+    else
+      throw std::runtime_error(std::string("OpenCV calibration: the result has no ") + (e ? "right" : "left") +
+                               " camera");
   }
   if (!r.stereo) throw std::runtime_error("OpenCV calibration: the result has no stereo estimate (right_from_left)");
   std::string unit = "m";
@@ -218,7 +245,8 @@ OpenCvStereoCalibration WithLengthUnit(const OpenCvStereoCalibration& c, const s
   if (unit == c.length_unit) return c;
   const double from = MetresPer(c.length_unit), to = MetresPer(unit);
   if (!std::isfinite(from) || !std::isfinite(to))
-    throw std::runtime_error("OpenCV calibration: cannot convert lengths from '" + c.length_unit + "' to '" + unit + "'");
+    throw std::runtime_error("OpenCV calibration: cannot convert lengths from '" + c.length_unit + "' to '" + unit +
+                             "'");
   const double k = from / to;
   OpenCvStereoCalibration o = c;
   auto scaled = [](const cv::Mat& m, double f) { return m.empty() ? m : cv::Mat(m * f); };
@@ -238,7 +266,9 @@ OpenCvStereoCalibration WithLengthUnit(const OpenCvStereoCalibration& c, const s
   return o;
 }
 
-void WriteOpenCvCalibration(const std::string& path, const OpenCvStereoCalibration& c) { WriteFile(path, c, true, true); }
+void WriteOpenCvCalibration(const std::string& path, const OpenCvStereoCalibration& c) {
+  WriteFile(path, c, true, true);
+}
 
 void WriteOpenCvSplitFiles(const std::string& intrinsics_path,
                            const std::string& extrinsics_path,
@@ -314,19 +344,23 @@ OpenCvStereoCalibration ParseOpenCvCalibration(const std::string& text, const st
 OpenCvStereoCalibration ReadOpenCvSplitFiles(const std::string& intrinsics_path, const std::string& extrinsics_path) {
   OpenCvStereoCalibration c = ReadOpenCvCalibration(intrinsics_path);
   const OpenCvStereoCalibration e = ReadOpenCvCalibration(extrinsics_path);
-  for (auto [dst, src] : {std::pair{&c.R, &e.R}, {&c.T, &e.T}, {&c.E, &e.E}, {&c.F, &e.F}, {&c.R1, &e.R1},
-                          {&c.R2, &e.R2}, {&c.P1, &e.P1}, {&c.P2, &e.P2}, {&c.Q, &e.Q}})
+  for (auto [dst, src] : {std::pair{&c.R, &e.R},
+                          {&c.T, &e.T},
+                          {&c.E, &e.E},
+                          {&c.F, &e.F},
+                          {&c.R1, &e.R1},
+                          {&c.R2, &e.R2},
+                          {&c.P1, &e.P1},
+                          {&c.P2, &e.P2},
+                          {&c.Q, &e.Q}})
     if (dst->empty()) *dst = *src;
   c.length_unit = e.length_unit;
   c.rectify_alpha = e.rectify_alpha;
   return c;
 }
 
-std::optional<models::CameraIntrinsics> CameraFromOpenCv(const cv::Mat& M,
-                                                         const cv::Mat& D,
-                                                         int width,
-                                                         int height,
-                                                         std::string* why) {
+std::optional<models::CameraIntrinsics> CameraFromOpenCv(
+    const cv::Mat& M, const cv::Mat& D, int width, int height, std::string* why) {
   auto fail = [&](const std::string& m) -> std::optional<models::CameraIntrinsics> {
     if (why) *why = m;
     return std::nullopt;

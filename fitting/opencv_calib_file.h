@@ -80,10 +80,7 @@ OpenCvStereoCalibration ReadOpenCvSplitFiles(const std::string& intrinsics_path,
 // A camera from M and D: 5-coefficient model when D has <= 5 entries or entries 5..7 are zero,
 // else the 8-coefficient model. Returns nullopt (and why) when D holds non-zero thin-prism or
 // tilt terms (entries 8..13) that models/camera_model.h cannot represent.
-std::optional<models::CameraIntrinsics> CameraFromOpenCv(const cv::Mat& M,
-                                                         const cv::Mat& D,
-                                                         int width,
-                                                         int height,
-                                                         std::string* why = nullptr);
+std::optional<models::CameraIntrinsics> CameraFromOpenCv(
+    const cv::Mat& M, const cv::Mat& D, int width, int height, std::string* why = nullptr);
 
 }  // namespace owlcal::fitting

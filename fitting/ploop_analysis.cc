@@ -8,8 +8,9 @@
 namespace owlcal::fitting {
 
 std::vector<double> SimulateDelayedPLoop(double gain, int delay_frames, int num_frames) {
-  if (delay_frames < 0) throw std::invalid_argument("SimulateDelayedPLoop: delay_frames = " +
-                                                    std::to_string(delay_frames) + " must be >= 0");
+  if (delay_frames < 0)
+    throw std::invalid_argument("SimulateDelayedPLoop: delay_frames = " + std::to_string(delay_frames) +
+                                " must be >= 0");
   if (num_frames < 1) throw std::invalid_argument("SimulateDelayedPLoop: num_frames must be >= 1");
   std::vector<double> y(num_frames + 1, 0.0);
   // y(k - d) for k - d <= 0 is 0 (at rest before the step).
@@ -73,8 +74,7 @@ std::vector<double> GainGrid(double lo, double hi, double step) {
 }
 
 double PhysicalLowerBoundS(double step_deg, double slew_deg_per_s, double latency_s, double fps) {
-  if (!(slew_deg_per_s > 0) || !(fps > 0))
-    throw std::invalid_argument("PhysicalLowerBoundS: slew and fps must be > 0");
+  if (!(slew_deg_per_s > 0) || !(fps > 0)) throw std::invalid_argument("PhysicalLowerBoundS: slew and fps must be > 0");
   return std::abs(step_deg) / slew_deg_per_s + latency_s + 1.0 / fps;
 }
 

@@ -32,11 +32,11 @@ double MonotoneGain(int delay_frames);
 
 struct GainSettling {
   double gain = 0;
-  bool stable = false;             // gain in (0, K_crit)
-  bool settled = false;            // settled within the simulated frames
-  int settling_frames = -1;        // frame index of settling (StepInfo::settling_index)
+  bool stable = false;       // gain in (0, K_crit)
+  bool settled = false;      // settled within the simulated frames
+  int settling_frames = -1;  // frame index of settling (StepInfo::settling_index)
   double overshoot_pct = 0;
-  double settling_time_s = 0;      // settling_frames / fps; NaN when not settled
+  double settling_time_s = 0;  // settling_frames / fps; NaN when not settled
 };
 
 // Simulates every gain (num_frames frames each; 0 = enough frames for the slowest gain to

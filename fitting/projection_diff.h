@@ -24,7 +24,7 @@ struct ProjectionDiff {
   std::vector<Eigen::Vector2d> pixels;  // row-major grid
   std::vector<double> diff_px;          // |q' - q| at each grid pixel (infinite where `a` cannot unproject)
   double centre_px = 0, median_px = 0, p90_px = 0, max_px = 0;
-  double rotation_deg = 0;              // size of the fitted rotation
+  double rotation_deg = 0;  // size of the fitted rotation
 };
 
 // a, b: the same camera calibrated twice (same image size).

@@ -12,7 +12,9 @@ namespace owlcal::fitting {
 namespace {
 
 // Pixel of a ray (x, y, 1) for parameters p.
-bool ProjectRay(const models::CameraIntrinsics& c, const std::vector<double>& p, const Eigen::Vector3d& ray,
+bool ProjectRay(const models::CameraIntrinsics& c,
+                const std::vector<double>& p,
+                const Eigen::Vector3d& ray,
                 Eigen::Vector2d* q) {
   models::CameraIntrinsics t = c;
   t.params = p;
@@ -90,7 +92,8 @@ UncertaintyGrid ProjectionUncertainty(const models::CameraIntrinsics& c, const E
 }
 
 Eigen::MatrixXd IntrinsicsCovariance(const CalibrationResult& r, int eye, std::string* source) {
-  const models::CameraIntrinsics* cam = r.cameras[eye] ? &*r.cameras[eye] : (r.head ? &r.head->intrinsics[eye] : nullptr);
+  const models::CameraIntrinsics* cam =
+      r.cameras[eye] ? &*r.cameras[eye] : (r.head ? &r.head->intrinsics[eye] : nullptr);
   if (!cam) return {};
   const std::string prefix = eye == 0 ? "left." : "right.";
   const std::vector<std::string> names = IntrinsicParamNames(cam->model);
@@ -159,8 +162,8 @@ ValidIntrinsicsRegion ComputeValidIntrinsicsRegion(const models::CameraIntrinsic
     }
     const double u = g.sigma_px[k];
     v.valid[k] = std::isfinite(u) && u < o.threshold_uncertainty * observed_sigma_px &&
-                 std::abs(v.mean_px[k]) < o.threshold_mean_px && v.stdev_px[k] < o.threshold_stdev * observed_sigma_px &&
-                 v.count[k] > o.threshold_count;
+                 std::abs(v.mean_px[k]) < o.threshold_mean_px &&
+                 v.stdev_px[k] < o.threshold_stdev * observed_sigma_px && v.count[k] > o.threshold_count;
     if (v.valid[k]) {
       mask.at<uint8_t>(k / g.nx, k % g.nx) = 1;
       ++num_valid;

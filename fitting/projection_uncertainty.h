@@ -36,8 +36,8 @@ struct CornerResidual {
 
 struct UncertaintyGrid {
   int nx = 0, ny = 0;
-  std::vector<double> x_px, y_px;    // cell centres, row-major (ny rows of nx)
-  std::vector<double> sigma_px;      // worst-direction standard deviation; NaN where unprojectable
+  std::vector<double> x_px, y_px;  // cell centres, row-major (ny rows of nx)
+  std::vector<double> sigma_px;    // worst-direction standard deviation; NaN where unprojectable
 };
 
 // cov: covariance of camera.params (same order and size). grid: cells per image row.
@@ -52,7 +52,7 @@ Eigen::MatrixXd IntrinsicsCovariance(const CalibrationResult& result, int eye, s
 struct ValidRegionOptions {
   double threshold_uncertainty = 1.0;  // x observed sigma
   double threshold_mean_px = 0.5;
-  double threshold_stdev = 1.5;        // x observed sigma
+  double threshold_stdev = 1.5;  // x observed sigma
   int threshold_count = 3;
   int gridn_width = 30;
 };
@@ -64,7 +64,7 @@ struct ValidIntrinsicsRegion {
   std::vector<int> count;
   std::vector<bool> valid;
   double observed_sigma_px = 0;
-  double valid_fraction = 0;             // of the cells
+  double valid_fraction = 0;  // of the cells
 };
 
 ValidIntrinsicsRegion ComputeValidIntrinsicsRegion(const models::CameraIntrinsics& camera,

@@ -16,11 +16,11 @@ namespace owlcal::fitting {
 
 struct RadtanRefit {
   bool ok = false;
-  std::string message;                      // why not, when !ok
-  models::CameraIntrinsics camera;          // kOpenCv5 with k3 = 0
+  std::string message;                        // why not, when !ok
+  models::CameraIntrinsics camera;            // kOpenCv5 with k3 = 0
   double max_error_px = 0, rms_error_px = 0;  // over the image grid
   int num_points = 0;
-  bool exact = false;                       // the original had no k3..k6: nothing changed
+  bool exact = false;  // the original had no k3..k6: nothing changed
 };
 
 // grid: points per image row (columns scaled by the aspect ratio).

@@ -40,5 +40,4 @@ struct DatumFit {
 // At least 3 rows (4 for leave-one-out) with distinct truths.
 DatumFit FitDatum(const std::vector<DatumFitRow>& rows);
 
-
 }  // namespace owlcal::fitting

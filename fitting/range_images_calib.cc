@@ -107,7 +107,8 @@ ImageSetCalibration CalibrateImageSet(const std::vector<calib::CornerObservation
   AppendVerdictToResult(c.set_verdict, &c.result);
   // An unusable set's numbers are refused, not printed as if they were good.
   if (c.set_verdict.status == "unusable" && !c.set_verdict.reasons.empty())
-    for (auto& p : c.result.parameters) MarkUndetermined(&c.result, p.name, "set unusable: " + c.set_verdict.reasons[0]);
+    for (auto& p : c.result.parameters)
+      MarkUndetermined(&c.result, p.name, "set unusable: " + c.set_verdict.reasons[0]);
   const char* eye_name[2] = {"left", "right"};
 
   // Diagnostics: per-view residuals and coverage.

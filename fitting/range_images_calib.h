@@ -27,12 +27,12 @@
 namespace owlcal::fitting {
 
 struct EyeCoverage {
-  double grid_fraction = 0;       // cells with a corner / 48
-  double max_radius_fraction = 0; // largest corner radius / half-diagonal
-  std::vector<int> frames;        // per view
-  std::vector<double> tilt_deg;   // per view
+  double grid_fraction = 0;        // cells with a corner / 48
+  double max_radius_fraction = 0;  // largest corner radius / half-diagonal
+  std::vector<int> frames;         // per view
+  std::vector<double> tilt_deg;    // per view
   double max_tilt_deg = 0;
-  double spread_deg = 0;          // largest angle between two views' board normals
+  double spread_deg = 0;  // largest angle between two views' board normals
 };
 
 struct ImageSetCalibration {

@@ -3,12 +3,12 @@
 #include "calib/csv.h"
 
 #include <algorithm>
-#include <limits>
-#include <optional>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -32,12 +32,9 @@ cv::Mat DistCoeffs(const models::CameraIntrinsics& c) {
   return cv::Mat(d, true).reshape(1, 1);
 }
 
-
 }  // namespace
 
-int StereoRig::NumParams() const {
-  return static_cast<int>(cameras[0].params.size() + cameras[1].params.size()) + 6;
-}
+int StereoRig::NumParams() const { return static_cast<int>(cameras[0].params.size() + cameras[1].params.size()) + 6; }
 
 std::vector<double> RigParameters(const StereoRig& rig) {
   std::vector<double> p = rig.cameras[0].params;
@@ -174,8 +171,7 @@ std::optional<double> TriangulateDepth(const StereoRig& rig,
   const Eigen::Matrix3d R =
       angle > 0 ? Eigen::AngleAxisd(angle, rv / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
   Eigen::Vector3d ray_l, ray_r;
-  if (!cl.Unproject(left_px.data(), ray_l.data()) || !cr.Unproject(right_px.data(), ray_r.data()))
-    return std::nullopt;
+  if (!cl.Unproject(left_px.data(), ray_l.data()) || !cr.Unproject(right_px.data(), ray_r.data())) return std::nullopt;
   // Right camera in the left frame: x_left = R^T (x_right - T).
   const Eigen::Vector3d o_r = -R.transpose() * t;
   const Eigen::Vector3d d_r = R.transpose() * ray_r;
@@ -192,8 +188,7 @@ RectifiedTriangulation TriangulateRectified(const StereoRig& rig,
   RectifiedTriangulation t;
   // Rectified pixel -> raw pixel of each eye: ray in the rectified frame, rotated back by
   // R^T, projected through the calibrated camera.
-  auto to_raw = [&](const cv::Point2d& u, const cv::Matx34d& P, const cv::Matx33d& Rr, int eye,
-                    Eigen::Vector2d* raw) {
+  auto to_raw = [&](const cv::Point2d& u, const cv::Matx34d& P, const cv::Matx33d& Rr, int eye, Eigen::Vector2d* raw) {
     const cv::Vec3d ray_rect((u.x - P(0, 2)) / P(0, 0), (u.y - P(1, 2)) / P(1, 1), 1.0);
     const cv::Vec3d ray = Rr.t() * ray_rect;
     double pt[3] = {ray[0], ray[1], ray[2]};
@@ -318,7 +313,8 @@ std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path) {
   t.RequireColumns({"left", "right"});
   std::string dist;
   double scale = 1;
-  for (const auto& [name, s] : {std::pair<const char*, double>{"distance_cm", 0.01}, {"distance_mm", 0.001}, {"distance_m", 1}}) {
+  for (const auto& [name, s] :
+       {std::pair<const char*, double>{"distance_cm", 0.01}, {"distance_mm", 0.001}, {"distance_m", 1}}) {
     if (!t.HasColumn(name)) continue;
     if (!dist.empty()) throw std::runtime_error(path + ":1: two distance columns, " + dist + " and " + name);
     dist = name;
@@ -335,12 +331,13 @@ std::vector<RangeTruthRow> ReadRangeTruthCsv(const std::string& path) {
     row.where = t.Where(r);
     row.left = t.Text(r, "left");
     row.right = t.Text(r, "right");
-    if (row.left.empty() || row.right.empty()) throw std::runtime_error(row.where + ": left and right must name image files");
+    if (row.left.empty() || row.right.empty())
+      throw std::runtime_error(row.where + ": left and right must name image files");
     // A true distance is a positive length; 1 km is far beyond what a stereo head ranges. A blank
     // distance (or no distance column) is an unknown distance (NaN), not an error: the pair is
     // ranged and reported with its sigma.
     row.distance_m = !dist.empty() && !t.Text(r, dist).empty() ? t.PositiveNumber(r, dist, 1e3 / scale) * scale
-                                                                : std::numeric_limits<double>::quiet_NaN();
+                                                               : std::numeric_limits<double>::quiet_NaN();
     const bool roi_given = num_roi_columns == 4 && !(t.Text(r, "roi_x").empty() && t.Text(r, "roi_y").empty() &&
                                                      t.Text(r, "roi_w").empty() && t.Text(r, "roi_h").empty());
     if (roi_given) {

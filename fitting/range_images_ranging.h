@@ -52,15 +52,15 @@
 namespace owlcal::fitting {
 
 struct StereoRig {
-  models::CameraIntrinsics cameras[2];   // [kLeftEye], [kRightEye]
-  models::Rigid3d right_from_left;       // metres
+  models::CameraIntrinsics cameras[2];  // [kLeftEye], [kRightEye]
+  models::Rigid3d right_from_left;      // metres
   // Layout as StereoFit::covariance with T in metres; empty = unknown.
   Eigen::MatrixXd covariance;
-  std::string source;                    // where it came from (file or "stereo fit")
+  std::string source;  // where it came from (file or "stereo fit")
   // The two halves of the calibration set, each calibrated alone (covariance layout, T in
   // metres); empty when unknown.
   std::vector<std::vector<double>> halves;
-  int NumParams() const;                 // size of the covariance layout
+  int NumParams() const;  // size of the covariance layout
 };
 
 // From a stereo fit; `length_unit_m` converts the fit's length unit to metres (1 for "m").
@@ -81,20 +81,21 @@ StereoRig LoadStereoRig(const std::string& path);
 
 struct Rectification {
   cv::Size size;
-  cv::Mat map_x[2], map_y[2];            // cv::initUndistortRectifyMap, CV_32FC1
+  cv::Mat map_x[2], map_y[2];  // cv::initUndistortRectifyMap, CV_32FC1
   cv::Matx33d R1, R2;
   cv::Matx34d P1, P2;
-  double focal_px = 0;                   // rectified focal length
-  double baseline_m = 0;                 // |T|
+  double focal_px = 0;    // rectified focal length
+  double baseline_m = 0;  // |T|
 };
 // cv::stereoRectify with CALIB_ZERO_DISPARITY and `alpha` (-1 = OpenCV's default).
 Rectification RectifyRig(const StereoRig& rig, double alpha = -1);
-void RemapPair(const Rectification& r, const cv::Mat& left, const cv::Mat& right, cv::Mat* left_rect, cv::Mat* right_rect);
+void RemapPair(
+    const Rectification& r, const cv::Mat& left, const cv::Mat& right, cv::Mat* left_rect, cv::Mat* right_rect);
 
 struct RangeOptions {
   calib::StereoMatchOptions match;
   std::vector<cv::Rect> candidate_rois;  // tried in order (non-empty: overrides match.template_roi)
-  double datum_offset_m = 0;   // added to the depth to compare with the logged distance
+  double datum_offset_m = 0;             // added to the depth to compare with the logged distance
   double rectify_alpha = -1;
   // Uncertainty of the logged true distance itself (ruler reading, target held by hand,
   // datum); used only when comparing with the truth: z = error / sqrt(sigma^2 + truth^2).
@@ -103,22 +104,22 @@ struct RangeOptions {
 };
 
 struct RangeMeasurement {
-  std::string name;                   // pair name (left file)
+  std::string name;                                          // pair name (left file)
   double true_m = std::numeric_limits<double>::quiet_NaN();  // NaN: distance unknown
   calib::StereoMatch match;
-  bool ok = false;                    // a range was computed (status ok or low_confidence)
-  std::string status = "failed";      // ok | low_confidence | failed
-  std::string message;                // why not ok (the match's flags), or empty
-  std::string roi_how;                // how the template was chosen
-  Eigen::Vector2d raw_px[2];          // matched template centre in each raw image
-  double range_m = 0;                 // depth + datum offset
-  double ray_gap_m = 0;               // closest distance between the two rays
-  double sigma_m = 0;                 // total predicted sigma
-  double sigma_calib_m = 0;           // from the calibration covariance (NaN if unknown)
-  double sigma_match_m = 0;           // from the matching sigma
-  double sigma_cov_m = 0;             // calibration term from the covariance (NaN if unknown)
-  double sigma_cv_m = 0;              // calibration term from the set's halves (NaN if unknown)
-  double truth_sigma_m = 0;           // RangeOptions::truth_sigma_m
+  bool ok = false;                // a range was computed (status ok or low_confidence)
+  std::string status = "failed";  // ok | low_confidence | failed
+  std::string message;            // why not ok (the match's flags), or empty
+  std::string roi_how;            // how the template was chosen
+  Eigen::Vector2d raw_px[2];      // matched template centre in each raw image
+  double range_m = 0;             // depth + datum offset
+  double ray_gap_m = 0;           // closest distance between the two rays
+  double sigma_m = 0;             // total predicted sigma
+  double sigma_calib_m = 0;       // from the calibration covariance (NaN if unknown)
+  double sigma_match_m = 0;       // from the matching sigma
+  double sigma_cov_m = 0;         // calibration term from the covariance (NaN if unknown)
+  double sigma_cv_m = 0;          // calibration term from the set's halves (NaN if unknown)
+  double truth_sigma_m = 0;       // RangeOptions::truth_sigma_m
   double error_sigma_m() const { return std::hypot(sigma_m, truth_sigma_m); }
   double error_m() const { return range_m - true_m; }
   bool has_truth() const { return std::isfinite(true_m); }
@@ -130,9 +131,9 @@ struct RangeMeasurement {
 // rig's two halves (see above), NaN without them.
 struct RectifiedTriangulation {
   bool ok = false;
-  std::string message;                // why not
+  std::string message;  // why not
   Eigen::Vector2d raw_px[2];
-  double depth_m = 0;                 // along the rectified z axis, from the optical centres
+  double depth_m = 0;  // along the rectified z axis, from the optical centres
   double ray_gap_m = 0;
   double sigma_calib_m = std::numeric_limits<double>::quiet_NaN();
   double sigma_cv_m = std::numeric_limits<double>::quiet_NaN();
@@ -190,9 +191,9 @@ void CheckRangeTruthRois(const std::vector<RangeTruthRow>& rows, const cv::Size&
 struct RangeSummary {
   int num_rows = 0, num_ranged = 0;  // rows with a truth in range; of them status ok
   int num_low_confidence = 0, num_failed = 0, num_unknown = 0;
-  double mean_abs_rel = 0;       // over ranged rows with truth
+  double mean_abs_rel = 0;  // over ranged rows with truth
   double max_abs_rel = 0;
-  double max_abs_z = 0;          // max |error| / sigma
+  double max_abs_z = 0;  // max |error| / sigma
   int num_outside_3sigma = 0;
 };
 RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_true_m = 0, double max_true_m = 1e9);

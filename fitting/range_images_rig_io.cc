@@ -12,8 +12,7 @@ namespace owlcal::fitting {
 namespace fs = std::filesystem;
 
 StereoRig RigFromOpenCv(const OpenCvStereoCalibration& c, int width, int height) {
-  if (!c.HasIntrinsics() || !c.HasExtrinsics())
-    throw std::runtime_error("OpenCV calibration lacks M1 D1 M2 D2 R T");
+  if (!c.HasIntrinsics() || !c.HasExtrinsics()) throw std::runtime_error("OpenCV calibration lacks M1 D1 M2 D2 R T");
   StereoRig rig;
   const int w = c.image_width > 0 ? c.image_width : width, h = c.image_height > 0 ? c.image_height : height;
   std::string why;

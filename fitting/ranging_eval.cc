@@ -73,8 +73,10 @@ RangeFix RangeFromPulses(const models::HeadModel& head,
   std::optional<Eigen::Vector2d> px[2];
   if (options.use_image_offset) {
     for (int e = 0; e < 2; ++e) {
-      if (pixels) px[e] = pixels[e];
-      else px[e] = f.target_px[e];
+      if (pixels)
+        px[e] = pixels[e];
+      else
+        px[e] = f.target_px[e];
     }
   }
   return RangeFromAngles(head, a, px);
@@ -113,7 +115,7 @@ std::optional<double> ImpliedRadius(const models::HeadModel& head, const Fixatio
 struct ParamSlot {
   int servo = -1;  // servo param index when >= 0
   int index = 0;
-  int eye = -1;    // intrinsics when >= 0
+  int eye = -1;  // intrinsics when >= 0
   bool ipd = false;
 };
 
@@ -131,7 +133,8 @@ std::optional<ParamSlot> Slot(const std::string& name) {
     const std::string servo = name.substr(dot1 + 1, dot2 - dot1 - 1);
     const std::string field = name.substr(dot2 + 1);
     for (int i = 0; i < models::kNumServos; ++i) {
-      if (servo == models::kServoNames[i] && kServoFields.count(field)) return ParamSlot{i, kServoFields.at(field), -1, false};
+      if (servo == models::kServoNames[i] && kServoFields.count(field))
+        return ParamSlot{i, kServoFields.at(field), -1, false};
     }
     return std::nullopt;
   }
@@ -158,10 +161,11 @@ bool RangingOptions::Check(std::string* why) const {
     return false;
   }
   if (!(pixel_sigma_px >= 0) || !(pwm_sigma_us >= 0) || !(max_ray_gap_m > 0) || !(max_ray_gap_per_m >= 0)) {
-    if (why) *why = "RangingOptions: pixel_sigma_px = " + std::to_string(pixel_sigma_px) +
-                    ", pwm_sigma_us = " + std::to_string(pwm_sigma_us) + " and max_ray_gap_per_m = " +
-                    std::to_string(max_ray_gap_per_m) + " must be >= 0, max_ray_gap_m = " +
-                    std::to_string(max_ray_gap_m) + " > 0";
+    if (why)
+      *why = "RangingOptions: pixel_sigma_px = " + std::to_string(pixel_sigma_px) +
+             ", pwm_sigma_us = " + std::to_string(pwm_sigma_us) +
+             " and max_ray_gap_per_m = " + std::to_string(max_ray_gap_per_m) +
+             " must be >= 0, max_ray_gap_m = " + std::to_string(max_ray_gap_m) + " > 0";
     return false;
   }
   return true;
@@ -436,10 +440,10 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
     } else if (fix.gap_m > options.max_ray_gap_m + options.max_ray_gap_per_m * fix.range_m) {
       row.status = calib::TrialStatus::kOffTarget;
       row.gap_m = fix.gap_m;
-      row.reason = "the two eyes' gaze rays pass " + std::to_string(1000 * fix.gap_m).substr(0, 6) +
-                   " mm apart (limit " +
-                   std::to_string(1000 * (options.max_ray_gap_m + options.max_ray_gap_per_m * fix.range_m)).substr(0, 5) +
-                   " mm): the eyes did not fixate one point";
+      row.reason =
+          "the two eyes' gaze rays pass " + std::to_string(1000 * fix.gap_m).substr(0, 6) + " mm apart (limit " +
+          std::to_string(1000 * (options.max_ray_gap_m + options.max_ray_gap_per_m * fix.range_m)).substr(0, 5) +
+          " mm): the eyes did not fixate one point";
     } else if (const auto ratio = radius ? SizeRatio(head, f, fix, *radius) : std::nullopt) {
       row.size_ratio = *ratio;
       if (!(*ratio <= options.max_size_ratio && *ratio >= 1 / options.max_size_ratio)) {
@@ -499,9 +503,10 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
     const double z2_out = models::TangentDepth(ipd, theta - dth, theta - dth);
     t.nominal_half_px_rel = std::max(std::abs(z2_in - D), std::abs(z2_out - D)) / D;
     const double neck_us = head.servo_params[models::kNeck][0];
-    const auto fx = SyntheticFixation(head, Eigen::Vector3d(0, 0, D + 0.5 * (head.geometry.centre_in_head[0].z() +
-                                                                              head.geometry.centre_in_head[1].z())),
-                                      neck_us);
+    const auto fx = SyntheticFixation(
+        head,
+        Eigen::Vector3d(0, 0, D + 0.5 * (head.geometry.centre_in_head[0].z() + head.geometry.centre_in_head[1].z())),
+        neck_us);
     t.calibrated_sigma_rel = fx ? std::sqrt(RangeVariance(head, cov, *fx, options)) / fx->true_distance_m : kNaN;
     ev.theory.push_back(t);
   }

@@ -67,14 +67,14 @@ namespace owlcal::fitting {
 
 struct Fixation {
   int index = 0;
-  calib::TrialStatus status = calib::TrialStatus::kOk;  // as the protocol recorded it
-  std::string reason;                                   // why not ok
-  models::PwmVector pwm_us{};                        // settled command, wire order
-  std::optional<models::PwmVector> applied_us;       // the pulse each servo applied, when known
+  calib::TrialStatus status = calib::TrialStatus::kOk;        // as the protocol recorded it
+  std::string reason;                                         // why not ok
+  models::PwmVector pwm_us{};                                 // settled command, wire order
+  std::optional<models::PwmVector> applied_us;                // the pulse each servo applied, when known
   std::array<double, models::kNumServos> applied_sigma_us{};  // uncertainty of the pulse used [us]
-  std::array<int8_t, models::kNumServos> approach{};  // sign of the last (applied) move per servo
-  std::optional<Eigen::Vector2d> target_px[2];       // detected target pixel per eye, after settling
-  double true_distance_m = 0;                        // from the midpoint of the eye rotation centres
+  std::array<int8_t, models::kNumServos> approach{};          // sign of the last (applied) move per servo
+  std::optional<Eigen::Vector2d> target_px[2];                // detected target pixel per eye, after settling
+  double true_distance_m = 0;                                 // from the midpoint of the eye rotation centres
   // The target's apparent radius per eye [px] and its known radius [m], when measured: the size
   // check below.
   std::optional<double> radius_px[2];
@@ -84,10 +84,10 @@ struct Fixation {
 };
 
 struct RangingOptions {
-  bool use_image_offset = true;   // refine the gaze with the target's pixel (else optical axis)
-  double pixel_sigma_px = 0.15;   // detection noise of the target pixel, per axis
-  double pwm_sigma_us = 0.2887;   // command quantisation, 1/sqrt(12) us, when no pixel is used
-  double max_ray_gap_m = 0.003;   // rays further apart than this + max_ray_gap_per_m * range: off target
+  bool use_image_offset = true;  // refine the gaze with the target's pixel (else optical axis)
+  double pixel_sigma_px = 0.15;  // detection noise of the target pixel, per axis
+  double pwm_sigma_us = 0.2887;  // command quantisation, 1/sqrt(12) us, when no pixel is used
+  double max_ray_gap_m = 0.003;  // rays further apart than this + max_ray_gap_per_m * range: off target
   double max_ray_gap_per_m = 0.003;
   // Size check: the depth the target's apparent size gives (f * radius / radius_px) over the
   // vergence fix's depth in the same camera, mean over the eyes; outside [1 / x, x]: off target.
@@ -116,8 +116,8 @@ bool PerturbHead(const std::string& name, double delta, models::HeadModel* head)
 struct RangeFix {
   bool ok = false;
   Eigen::Vector3d point_in_base = Eigen::Vector3d::Zero();
-  double range_m = 0;   // from the midpoint of the eye rotation centres
-  double gap_m = 0;     // closest distance between the two gaze rays
+  double range_m = 0;  // from the midpoint of the eye rotation centres
+  double gap_m = 0;    // closest distance between the two gaze rays
 };
 
 // The fix of one fixation with a head model. `pixels` overrides the fixation's pixels (for
@@ -133,33 +133,33 @@ std::optional<double> NominalRange(const models::RobotConfig& config, const mode
 struct RangingRow {
   int index = 0;
   double true_m = 0;
-  bool ok = false;                                 // ranged: status ok
+  bool ok = false;  // ranged: status ok
   calib::TrialStatus status = calib::TrialStatus::kOk;
   std::string reason;                              // why not ranged
   double range_m = 0, error_m = 0, rel_error = 0;  // error = range - true
   double sigma_m = 0;                              // predicted 1-sigma
   double gap_m = 0;
-  double size_ratio = 0;                           // size depth / vergence depth; NaN: not measured
-  std::optional<double> nominal_m;                 // course method
-  double nominal_rel_error = 0;                    // NaN when no nominal fix
+  double size_ratio = 0;            // size depth / vergence depth; NaN: not measured
+  std::optional<double> nominal_m;  // course method
+  double nominal_rel_error = 0;     // NaN when no nominal fix
 };
 
 struct RangingTheoryRow {
   double distance_m = 0;
-  double nominal_1us_rel = 0;        // larger relative range change of +-1 us on one eye, nominal formula
-  double nominal_half_px_rel = 0;    // larger of +-0.5 px fixation error on both eyes (f from the head)
-  double calibrated_sigma_rel = 0;   // predicted relative 1-sigma of the calibrated head
+  double nominal_1us_rel = 0;       // larger relative range change of +-1 us on one eye, nominal formula
+  double nominal_half_px_rel = 0;   // larger of +-0.5 px fixation error on both eyes (f from the head)
+  double calibrated_sigma_rel = 0;  // predicted relative 1-sigma of the calibrated head
 };
 
 struct RangingEvaluation {
-  std::vector<RangingRow> rows;                    // every fixation, ranged or not
+  std::vector<RangingRow> rows;  // every fixation, ranged or not
   std::vector<RangingTheoryRow> theory;
-  int num_ok = 0;                                  // rows ranged (of rows.size())
+  int num_ok = 0;  // rows ranged (of rows.size())
   double rms_rel_error = 0, mean_abs_rel_error = 0, max_abs_rel_error = 0;
   double fraction_within_2sigma = 0;
-  double nominal_rms_rel_error = 0;   // over rows with a nominal fix
+  double nominal_rms_rel_error = 0;     // over rows with a nominal fix
   std::vector<std::string> propagated;  // parameter names whose covariance went into sigma
-  std::vector<std::string> notes;     // one per fixation not ranged, naming it and why
+  std::vector<std::string> notes;       // one per fixation not ranged, naming it and why
 };
 
 // Evaluates every fixation. theory_distances_m: the distances of the theory curve (symmetric

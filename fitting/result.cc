@@ -54,15 +54,16 @@ models::CameraIntrinsics CameraFromJson(const json& j) {
   c.params.clear();
   for (size_t i = 0; i < params.size(); ++i) {
     const std::string name = "params[" + std::to_string(i) + "]" + (i < 4 ? std::string(" (") + kNames[i] + ")" : "");
-    if (!params[i].is_number()) throw std::runtime_error("camera " + name + " is " + params[i].dump() + ", not a number");
+    if (!params[i].is_number())
+      throw std::runtime_error("camera " + name + " is " + params[i].dump() + ", not a number");
     c.params.push_back(params[i].get<double>());
   }
   if (int(c.params.size()) != 4 + c.NumDistortion()) throw std::runtime_error("camera params has wrong length");
   // A focal length of 0 gave calibration.yaml full of NaN: refuse it here.
   for (int i = 0; i < 2; ++i)
     if (!(c.params[i] > 0))
-      throw std::runtime_error(std::string("camera params[") + std::to_string(i) + "] (" + kNames[i] + ") = " +
-                               std::to_string(c.params[i]) + " must be > 0");
+      throw std::runtime_error(std::string("camera params[") + std::to_string(i) + "] (" + kNames[i] +
+                               ") = " + std::to_string(c.params[i]) + " must be > 0");
   return c;
 }
 
@@ -123,7 +124,10 @@ json ToJson(const CalibrationResult& r) {
   j["software"] = {{"name", "owlcal"}, {"version", r.software_version}};
   j["parameters"] = json::array();
   for (const Parameter& p : r.parameters) {
-    json jp = {{"name", p.name}, {"value", Num(p.value)}, {"sigma", Num(p.sigma)}, {"unit", p.unit},
+    json jp = {{"name", p.name},
+               {"value", Num(p.value)},
+               {"sigma", Num(p.sigma)},
+               {"unit", p.unit},
                {"determined", p.determined}};
     if (p.truth) jp["truth"] = Num(*p.truth);
     if (!p.note.empty()) jp["note"] = p.note;
@@ -132,10 +136,16 @@ json ToJson(const CalibrationResult& r) {
   }
   j["solver"] = json::array();
   for (const SolveSummary& s : r.summaries) {
-    j["solver"].push_back({{"problem", s.problem}, {"termination", s.termination}, {"message", s.message},
-                           {"initial_cost", Num(s.initial_cost)}, {"final_cost", Num(s.final_cost)},
-                           {"iterations", s.iterations}, {"time_s", Num(s.time_s)}, {"rms_px", Num(s.rms_px)},
-                           {"num_residuals", s.num_residuals}, {"num_outliers", s.num_outliers},
+    j["solver"].push_back({{"problem", s.problem},
+                           {"termination", s.termination},
+                           {"message", s.message},
+                           {"initial_cost", Num(s.initial_cost)},
+                           {"final_cost", Num(s.final_cost)},
+                           {"iterations", s.iterations},
+                           {"time_s", Num(s.time_s)},
+                           {"rms_px", Num(s.rms_px)},
+                           {"num_residuals", s.num_residuals},
+                           {"num_outliers", s.num_outliers},
                            {"usable", s.usable}});
   }
   j["warnings"] = r.warnings;
@@ -198,8 +208,7 @@ CalibrationResult ResultFromJson(const json& j) {
   if (j.contains("verdict")) r.verdict = j.at("verdict");
   if (j.contains("cameras"))
     for (int e = 0; e < 2; ++e)
-      if (j.at("cameras").contains(models::kEyeNames[e]))
-        try {
+      if (j.at("cameras").contains(models::kEyeNames[e])) try {
           r.cameras[e] = CameraFromJson(j.at("cameras").at(models::kEyeNames[e]));
         } catch (const std::exception& ex) {
           throw std::runtime_error(std::string("cameras.") + models::kEyeNames[e] + ": " + ex.what());

@@ -41,14 +41,14 @@ struct SolveSummary {
   double initial_cost = 0, final_cost = 0;
   int iterations = 0;
   double time_s = 0;
-  double rms_px = 0;        // reprojection RMS over the inliers
+  double rms_px = 0;  // reprojection RMS over the inliers
   int num_residuals = 0;
-  int num_outliers = 0;     // observations rejected (listed in the problem's diagnostics)
+  int num_outliers = 0;  // observations rejected (listed in the problem's diagnostics)
   bool usable = false;
 };
 
 struct StereoEstimate {
-  models::Rigid3d right_from_left;       // x_in_right = right_from_left * x_in_left (OpenCV's R, T)
+  models::Rigid3d right_from_left;  // x_in_right = right_from_left * x_in_left (OpenCV's R, T)
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();  // [rot vec (rad), t (m)]
   // The joint covariance of the stereo fit with its correlations (focal length and baseline
   // are strongly correlated, which per-parameter sigmas lose): `full_names` in order, left
@@ -62,7 +62,7 @@ struct CalibrationResult {
   std::string software_version;
   std::vector<Parameter> parameters;
   std::vector<SolveSummary> summaries;
-  std::vector<std::string> warnings;      // e.g. "k3 not determined: all views fronto-parallel"
+  std::vector<std::string> warnings;  // e.g. "k3 not determined: all views fronto-parallel"
   std::optional<models::CameraIntrinsics> cameras[2];
   std::optional<StereoEstimate> stereo;
   std::optional<models::HeadModel> head;

@@ -10,10 +10,18 @@ using json = nlohmann::json;
 json RobotConfigToJson(const models::RobotConfig& c) {
   json s = json::array();
   for (const auto& v : c.servos)
-    s.push_back({{"name", v.name}, {"min_us", v.min_us}, {"max_us", v.max_us}, {"centre_us", v.centre_us},
-                 {"direction", v.direction}, {"nominal_deg_per_us", v.nominal_deg_per_us}});
-  return {{"name", c.name},           {"servos", s},           {"ipd_m", c.ipd_m},
-          {"image_width", c.image_width}, {"image_height", c.image_height}, {"swap_eyes", c.swap_eyes},
+    s.push_back({{"name", v.name},
+                 {"min_us", v.min_us},
+                 {"max_us", v.max_us},
+                 {"centre_us", v.centre_us},
+                 {"direction", v.direction},
+                 {"nominal_deg_per_us", v.nominal_deg_per_us}});
+  return {{"name", c.name},
+          {"servos", s},
+          {"ipd_m", c.ipd_m},
+          {"image_width", c.image_width},
+          {"image_height", c.image_height},
+          {"swap_eyes", c.swap_eyes},
           {"mirror_stream", c.mirror_stream}};
 }
 

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <sstream>
 
-
 namespace owlcal::fitting {
 namespace {
 
@@ -38,14 +37,19 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
     const double d = std::abs(fit - file);
     return d > tol.n_sigma * sigma && d > tolerance;
   };
-  auto add = [&](const std::string& servo, const std::string& kind, const Parameter& p, double file, const std::string& unit,
-                 const std::string& detail, const std::string& fix) {
+  auto add = [&](const std::string& servo,
+                 const std::string& kind,
+                 const Parameter& p,
+                 double file,
+                 const std::string& unit,
+                 const std::string& detail,
+                 const std::string& fix) {
     RobotFileDisagreement d{servo.empty() ? kind : servo + " " + kind, p.name, p.value, p.sigma, file, unit, "", ""};
     const double z = p.sigma > 0 ? (p.value - file) / p.sigma : INFINITY;
-    d.item = (servo.empty() ? kind : servo) + " " + Num(p.value, 6) + " \u00b1 " + Num(p.sigma, 2) + " " + unit + ", file " +
-             Num(file, 6) + " " + unit + " (" + detail + ", " + Num(std::abs(z), 3) + "\u03c3)";
-    d.message = (servo.empty() ? "" : servo + " ") + kind + " " + Num(p.value, 6) + " \u00b1 " + Num(p.sigma, 2) + " " + unit +
-                ", robot file says " + Num(file, 6) + " " + unit + " (" + detail + ", " + Num(std::abs(z), 3) +
+    d.item = (servo.empty() ? kind : servo) + " " + Num(p.value, 6) + " \u00b1 " + Num(p.sigma, 2) + " " + unit +
+             ", file " + Num(file, 6) + " " + unit + " (" + detail + ", " + Num(std::abs(z), 3) + "\u03c3)";
+    d.message = (servo.empty() ? "" : servo + " ") + kind + " " + Num(p.value, 6) + " \u00b1 " + Num(p.sigma, 2) + " " +
+                unit + ", robot file says " + Num(file, 6) + " " + unit + " (" + detail + ", " + Num(std::abs(z), 3) +
                 "\u03c3): " + fix;
     out.push_back(std::move(d));
   };
@@ -53,7 +57,12 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
   if (const Parameter* p = Usable(fitted, "head.ipd_mm")) {
     const double file = robot.ipd_m * 1000;
     if (far(p->value, p->sigma, file, tol.ipd_mm))
-      add("", "IPD", *p, file, "mm", Num(100 * std::abs(p->value - file) / p->value, 2) + " % of every nominal range",
+      add("",
+          "IPD",
+          *p,
+          file,
+          "mm",
+          Num(100 * std::abs(p->value - file) / p->value, 2) + " % of every nominal range",
           "update ipd_mm in the robot file");
   }
   for (int i = 0; i < models::kNumServos; ++i) {
@@ -61,7 +70,11 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
     const std::string name = models::kServoNames[i];
     if (const Parameter* p = Usable(fitted, "servo." + name + ".centre_us")) {
       if (far(p->value, p->sigma, sc.centre_us, tol.centre_us))
-        add(name, "centre", *p, sc.centre_us, "\u00b5s",
+        add(name,
+            "centre",
+            *p,
+            sc.centre_us,
+            "\u00b5s",
             Num(std::abs(p->value - sc.centre_us) * sc.nominal_deg_per_us, 2) + "\u00b0 off straight ahead",
             "update centre_us in the robot file");
     }
@@ -69,13 +82,18 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
       if (p->value < 0 && std::abs(p->value) > tol.n_sigma * p->sigma) {
         RobotFileDisagreement d{name + " direction", p->name, p->value, p->sigma, double(sc.direction), "", "", ""};
         d.item = name + " turns the other way from the file's direction " + std::to_string(sc.direction) +
-                 " (fitted deg/\u00b5s " + Num(p->value, 4) + " \u00b1 " + Num(p->sigma, 2) + "): set direction: " +
-                 std::to_string(-sc.direction);
+                 " (fitted deg/\u00b5s " + Num(p->value, 4) + " \u00b1 " + Num(p->sigma, 2) +
+                 "): set direction: " + std::to_string(-sc.direction);
         d.message = d.item + " in the robot file";
         out.push_back(std::move(d));
       } else if (far(p->value, p->sigma, sc.nominal_deg_per_us, tol.scale_fraction * sc.nominal_deg_per_us)) {
-        add(name, "scale", *p, sc.nominal_deg_per_us, "deg/\u00b5s",
-            Num(100 * (p->value / sc.nominal_deg_per_us - 1), 2) + " %", "update deg_per_us in the robot file");
+        add(name,
+            "scale",
+            *p,
+            sc.nominal_deg_per_us,
+            "deg/\u00b5s",
+            Num(100 * (p->value / sc.nominal_deg_per_us - 1), 2) + " %",
+            "update deg_per_us in the robot file");
       }
     }
   }
@@ -83,7 +101,8 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
 }
 
 std::vector<std::string> RobotFileWarnings(const std::vector<RobotFileDisagreement>& disagreements) {
-  static const char* kGroups[3] = {"the IPD; update ipd_mm", "servo centres; update centre_us",
+  static const char* kGroups[3] = {"the IPD; update ipd_mm",
+                                   "servo centres; update centre_us",
                                    "servo scales and directions; update deg_per_us or direction"};
   std::vector<std::string> lines(3);
   for (const auto& d : disagreements) {

@@ -19,9 +19,9 @@
 namespace owlcal::fitting {
 
 struct RobotFileTolerance {
-  double ipd_mm = 0.5;          // 0.5 mm: 1 % of range at the vergence protocol's distances
-  double centre_us = 10;        // ~1.1 deg at the guide's 0.113 deg/us
-  double scale_fraction = 0.03; // 3 % of deg/us: 0.6 deg over a 20 deg saccade
+  double ipd_mm = 0.5;           // 0.5 mm: 1 % of range at the vergence protocol's distances
+  double centre_us = 10;         // ~1.1 deg at the guide's 0.113 deg/us
+  double scale_fraction = 0.03;  // 3 % of deg/us: 0.6 deg over a 20 deg saccade
   double n_sigma = 3;
   bool Check(std::string* why) const;
 };
@@ -31,8 +31,8 @@ struct RobotFileDisagreement {
   std::string parameter;  // results.json parameter name ("head.ipd_mm")
   double fitted = 0, sigma = 0, file = 0;
   std::string unit;
-  std::string item;       // short, for a grouped list: "Rx 1556.96 ± 0.26 µs, file 1545 µs (1.4°)"
-  std::string message;    // one line on its own, with the fix
+  std::string item;     // short, for a grouped list: "Rx 1556.96 ± 0.26 µs, file 1545 µs (1.4°)"
+  std::string message;  // one line on its own, with the fix
 };
 
 // Compares the fitted head parameters (head.ipd_mm, servo.X.centre_us, servo.X.deg_per_us) with

@@ -28,8 +28,8 @@ SaccadeEvaluation EvaluateSaccades(const std::vector<StepTrace>& traces,
   ev.exposure_delay_s = exposure_delay_s;
   ev.fps = fps;
   ev.ploop_gain = ploop_gain;
-  ev.bound_s = slew_deg_per_s > 0 && fps > 0 ? PhysicalLowerBoundS(amplitude_deg, slew_deg_per_s, exposure_delay_s, fps)
-                                             : kNaN;
+  ev.bound_s =
+      slew_deg_per_s > 0 && fps > 0 ? PhysicalLowerBoundS(amplitude_deg, slew_deg_per_s, exposure_delay_s, fps) : kNaN;
   std::vector<double> sac, pl;
   for (const StepTrace& s : traces) {
     if (std::abs(std::abs(s.amplitude_deg) - amplitude_deg) > 1e-6) continue;
@@ -47,7 +47,8 @@ SaccadeEvaluation EvaluateSaccades(const std::vector<StepTrace>& traces,
       } else {
         ev.notes.push_back("saccade trial " + std::to_string(s.trial) + " did not settle within its frames");
       }
-    } else if (s.controller == "p-loop" && std::abs(s.gain - ploop_gain) < 1e-9 && s.status == calib::TrialStatus::kOk) {
+    } else if (s.controller == "p-loop" && std::abs(s.gain - ploop_gain) < 1e-9 &&
+               s.status == calib::TrialStatus::kOk) {
       ++ev.ploop_trials;
       if (s.info.settled) {
         ++ev.ploop_settled;
@@ -62,8 +63,8 @@ SaccadeEvaluation EvaluateSaccades(const std::vector<StepTrace>& traces,
   ev.ploop_median_s = Median(pl);
   ev.speedup_vs_ploop = ev.ploop_median_s / ev.median_s;
   if (ev.ploop_trials == 0)
-    ev.notes.push_back("no P-loop trial at gain " + std::to_string(ploop_gain) + " and " + std::to_string(amplitude_deg) +
-                       " deg to compare with");
+    ev.notes.push_back("no P-loop trial at gain " + std::to_string(ploop_gain) + " and " +
+                       std::to_string(amplitude_deg) + " deg to compare with");
   return ev;
 }
 

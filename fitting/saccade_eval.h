@@ -27,9 +27,9 @@ struct SaccadeEvaluation {
   double ratio_to_bound = 0;                // median / bound
   double ploop_gain = 0.1;
   int ploop_trials = 0, ploop_settled = 0;
-  double ploop_median_s = 0;                // NaN: none settled (then speedup_vs_ploop is a lower bound)
-  double speedup_vs_ploop = 0;              // P-loop median / saccade median
-  std::vector<std::string> notes;           // failed trials named
+  double ploop_median_s = 0;       // NaN: none settled (then speedup_vs_ploop is a lower bound)
+  double speedup_vs_ploop = 0;     // P-loop median / saccade median
+  std::vector<std::string> notes;  // failed trials named
 };
 
 // traces: every step trace of the run (controller "saccade" and "p-loop"); only those of

@@ -78,17 +78,18 @@ ServoMapError ServoMapErrorOverRange(const models::HeadModel& fitted,
                                      double hi_us,
                                      int num_samples) {
   return ErrorOverRange([&](double u) { return fitted.ServoAngle(servo, u); },
-                        [&](double u) { return truth.ServoAngle(servo, u); }, lo_us, hi_us, num_samples);
+                        [&](double u) { return truth.ServoAngle(servo, u); },
+                        lo_us,
+                        hi_us,
+                        num_samples);
 }
 
-ServoMapError ServoMapErrorOverRange(const double* fitted,
-                                     const double* truth,
-                                     int direction,
-                                     double lo_us,
-                                     double hi_us,
-                                     int num_samples) {
+ServoMapError ServoMapErrorOverRange(
+    const double* fitted, const double* truth, int direction, double lo_us, double hi_us, int num_samples) {
   return ErrorOverRange([&](double u) { return models::ServoMap::JointAngle(fitted, direction, u, 0); },
-                        [&](double u) { return models::ServoMap::JointAngle(truth, direction, u, 0); }, lo_us, hi_us,
+                        [&](double u) { return models::ServoMap::JointAngle(truth, direction, u, 0); },
+                        lo_us,
+                        hi_us,
                         num_samples);
 }
 

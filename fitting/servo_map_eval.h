@@ -48,12 +48,8 @@ ServoMapError ServoMapErrorOverRange(const models::HeadModel& fitted,
                                      double hi_us,
                                      int num_samples = 201);
 // The same for two parameter sets (models::ServoMap order) with one direction.
-ServoMapError ServoMapErrorOverRange(const double* fitted,
-                                     const double* truth,
-                                     int direction,
-                                     double lo_us,
-                                     double hi_us,
-                                     int num_samples = 201);
+ServoMapError ServoMapErrorOverRange(
+    const double* fitted, const double* truth, int direction, double lo_us, double hi_us, int num_samples = 201);
 
 // ServoMapErrorOverRange(...).rms_deg with 201 samples.
 double ServoMapRmsDeg(const double* a, const double* b, int direction, double lo_us, double hi_us);

@@ -97,10 +97,14 @@ class Problem {
 
 bool ServoMotionFitOptions::Check(std::string* why) const {
   std::string r;
-  if (!(fps > 0)) r = "fps must be > 0";
-  else if (!(exposure_delay_min_s >= 0) || !(exposure_delay_max_s >= exposure_delay_min_s)) r = "need 0 <= exposure delay min <= max";
-  else if (!(command_delay_s >= 0) || !(hysteresis_us >= 0)) r = "command delay and hysteresis must be >= 0";
-  else if (!resolution.Check(&r)) {}
+  if (!(fps > 0))
+    r = "fps must be > 0";
+  else if (!(exposure_delay_min_s >= 0) || !(exposure_delay_max_s >= exposure_delay_min_s))
+    r = "need 0 <= exposure delay min <= max";
+  else if (!(command_delay_s >= 0) || !(hysteresis_us >= 0))
+    r = "command delay and hysteresis must be >= 0";
+  else if (!resolution.Check(&r)) {
+  }
   if (r.empty()) return true;
   if (why) *why = "ServoMotionFitOptions: " + r;
   return false;
@@ -139,7 +143,8 @@ ServoMotionFit FitServoMotion(const std::vector<MotionSegment>& segments, const 
   for (int i = 0; i < 14; ++i)
     for (int j = 0; j <= 30; ++j)
       for (int k = 0; k < nd; ++k) {
-        Params p{std::log(800.0) + i * (std::log(20000.0) - std::log(800.0)) / 13.0, 0.005 * j,
+        Params p{std::log(800.0) + i * (std::log(20000.0) - std::log(800.0)) / 13.0,
+                 0.005 * j,
                  nd == 1 ? o.exposure_delay_min_s
                          : o.exposure_delay_min_s + k * (o.exposure_delay_max_s - o.exposure_delay_min_s) / (nd - 1)};
         const double rms = problem.Evaluate(p).rms;
@@ -153,7 +158,9 @@ ServoMotionFit FitServoMotion(const std::vector<MotionSegment>& segments, const 
   {
     const int dim = nd > 1 ? 3 : 2;
     auto to_params = [&](const Eigen::Vector3d& x) {
-      Params p{x[0], std::max(0.0, x[1]), nd > 1 ? std::clamp(x[2], o.exposure_delay_min_s, o.exposure_delay_max_s) : best.delay};
+      Params p{x[0],
+               std::max(0.0, x[1]),
+               nd > 1 ? std::clamp(x[2], o.exposure_delay_min_s, o.exposure_delay_max_s) : best.delay};
       return p;
     };
     auto cost = [&](const Eigen::Vector3d& x) {
@@ -183,8 +190,10 @@ ServoMotionFit FitServoMotion(const std::vector<MotionSegment>& segments, const 
       if (fr < f[lo]) {
         const Eigen::Vector3d xe = c + 2 * (c - simplex[hi]);
         const double fe = cost(xe);
-        if (fe < fr) simplex[hi] = xe, f[hi] = fe;
-        else simplex[hi] = xr, f[hi] = fr;
+        if (fe < fr)
+          simplex[hi] = xe, f[hi] = fe;
+        else
+          simplex[hi] = xr, f[hi] = fr;
       } else if (fr < f[nh]) {
         simplex[hi] = xr, f[hi] = fr;
       } else {
@@ -231,7 +240,9 @@ ServoMotionFit FitServoMotion(const std::vector<MotionSegment>& segments, const 
     const double step = up.*f - dn.*f;
     const Evaluation eu = problem.Evaluate(up), ed = problem.Evaluate(dn);
     for (int i = 0; i < n; ++i)
-      J(i, c) = (i < int(eu.residuals.size()) && i < int(ed.residuals.size())) ? (eu.residuals[i] - ed.residuals[i]) / step : 0;
+      J(i, c) = (i < int(eu.residuals.size()) && i < int(ed.residuals.size()))
+                    ? (eu.residuals[i] - ed.residuals[i]) / step
+                    : 0;
   }
   const double s2 = ev.rms * ev.rms * n / std::max(1, n - np - 1 - int(segs.size()));
   const Eigen::MatrixXd info = J.transpose() * J;

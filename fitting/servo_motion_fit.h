@@ -23,10 +23,10 @@
 namespace owlcal::fitting {
 
 struct MotionFrame {
-  double t_s = 0;          // arrival time (any origin, increasing within a segment)
-  double offset_px = 0;    // target offset along the servo's image axis
-  bool found = true;       // false: the frame only carries the command
-  int command_us = 0;      // command in force when the frame arrived
+  double t_s = 0;        // arrival time (any origin, increasing within a segment)
+  double offset_px = 0;  // target offset along the servo's image axis
+  bool found = true;     // false: the frame only carries the command
+  int command_us = 0;    // command in force when the frame arrived
 };
 
 struct MotionSegment {
@@ -51,7 +51,7 @@ struct ServoMotionFit {
   double lag_s = 0, lag_sigma_s = 0;
   double exposure_delay_s = 0, exposure_delay_sigma_s = 0;
   bool slew_determined = false, lag_determined = false;
-  double px_per_us = 0;   // signed
+  double px_per_us = 0;  // signed
   double rms_px = 0;
   int num_frames = 0, num_segments = 0;
 };

@@ -78,8 +78,10 @@ std::string Name(const models::ServoResolution& r) {
 bool ResolutionFitOptions::Check(std::string* why) const {
   if (max_step_us < 1 || max_step_us > 50 || max_dead_band_us < 1 || max_dead_band_us > 50 ||
       (initial_approach != -1 && initial_approach != 0 && initial_approach != 1) || !(min_rms_ratio >= 1)) {
-    if (why) *why = "ResolutionFitOptions: need 1 <= max_step_us, max_dead_band_us <= 50, initial_approach in {-1, 0, 1}, "
-                    "min_rms_ratio >= 1";
+    if (why)
+      *why =
+          "ResolutionFitOptions: need 1 <= max_step_us, max_dead_band_us <= 50, initial_approach in {-1, 0, 1}, "
+          "min_rms_ratio >= 1";
     return false;
   }
   return true;
@@ -89,8 +91,10 @@ std::string DescribeResolution(const ResolutionFit& f) {
   const models::ServoResolution& r = f.resolution;
   std::string s = "step " + std::to_string(r.step_us) + " us";
   if (r.step_us > 1) s += " (phase " + std::to_string(r.phase_us) + ")";
-  if (f.dead_band_determined) s += ", dead band " + std::to_string(r.dead_band_us) + " us";
-  else s += ", dead band " + std::to_string(f.dead_band_min_us) + "-" + std::to_string(f.dead_band_max_us) + " us";
+  if (f.dead_band_determined)
+    s += ", dead band " + std::to_string(r.dead_band_us) + " us";
+  else
+    s += ", dead band " + std::to_string(f.dead_band_min_us) + "-" + std::to_string(f.dead_band_max_us) + " us";
   return s;
 }
 
@@ -160,8 +164,8 @@ ResolutionFit FitServoResolution(const std::vector<ResolutionSample>& samples, c
   }
   out.determined = !std::isfinite(out.runner_up_rms_px) ||
                    (out.runner_up_rms_px >= o.min_rms_ratio * out.rms_px && out.runner_up_rms_px >= out.rms_px + 0.3);
-  out.message = DescribeResolution(out) + " (RMS " + std::to_string(out.rms_px) +
-                " px; next best " + (out.runner_up.empty() ? std::string("none") : out.runner_up) + ", RMS " +
+  out.message = DescribeResolution(out) + " (RMS " + std::to_string(out.rms_px) + " px; next best " +
+                (out.runner_up.empty() ? std::string("none") : out.runner_up) + ", RMS " +
                 std::to_string(out.runner_up_rms_px) + " px)" + (out.determined ? "" : ": not clearly determined");
   return out;
 }

@@ -38,25 +38,25 @@ struct ResolutionSample {
 struct ResolutionFitOptions {
   int max_step_us = 10;
   int max_dead_band_us = 12;
-  int initial_approach = 1;     // the sweep started from below (backlash taken up)
+  int initial_approach = 1;  // the sweep started from below (backlash taken up)
   double min_rms_ratio = 2.5;
   bool Check(std::string* why) const;
 };
 
 struct ResolutionFit {
-  bool ok = false;                  // a model was fitted (enough samples and motion)
-  bool determined = false;          // clearly better than every different model
-  bool dead_band_determined = false;  // dead_band_min_us == dead_band_max_us
+  bool ok = false;                                 // a model was fitted (enough samples and motion)
+  bool determined = false;                         // clearly better than every different model
+  bool dead_band_determined = false;               // dead_band_min_us == dead_band_max_us
   int dead_band_min_us = 0, dead_band_max_us = 0;  // dead bands that fit equally well
-  std::string message;              // what was found, or why nothing was
+  std::string message;                             // what was found, or why nothing was
   models::ServoResolution resolution;
-  double px_per_us = 0;             // signed: image motion per us
+  double px_per_us = 0;  // signed: image motion per us
   double hysteresis_us = 0;
-  double rms_px = 0;                // residual of the best model
-  double runner_up_rms_px = 0;      // best model with a different applied sequence (NaN: none)
-  std::string runner_up;            // "step 1 us, dead band 2 us, phase 0"
-  int num_samples = 0;              // samples with a position
-  std::vector<int> applied_us;      // replayed applied pulse per input sample
+  double rms_px = 0;            // residual of the best model
+  double runner_up_rms_px = 0;  // best model with a different applied sequence (NaN: none)
+  std::string runner_up;        // "step 1 us, dead band 2 us, phase 0"
+  int num_samples = 0;          // samples with a position
+  std::vector<int> applied_us;  // replayed applied pulse per input sample
 };
 
 // One servo's fit, as a calibration run keeps it (fitting/calibration_run.h).
@@ -65,7 +65,8 @@ struct ServoResolutionResult {
   ResolutionFit fit;
 };
 
-ResolutionFit FitServoResolution(const std::vector<ResolutionSample>& samples, const ResolutionFitOptions& options = {});
+ResolutionFit FitServoResolution(const std::vector<ResolutionSample>& samples,
+                                 const ResolutionFitOptions& options = {});
 
 // "step 5 us (phase 3), dead band 1-5 us" / "step 1 us, dead band 3 us".
 std::string DescribeResolution(const ResolutionFit& fit);

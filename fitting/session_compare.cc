@@ -59,7 +59,8 @@ SessionComparison CompareSessions(const std::vector<NamedResult>& sessions,
         d.diff.push_back(diff);
         d.z.push_back(z);
         if (std::isfinite(z) && std::abs(z) > z_changed)
-          c.changed.push_back(c.parameters[i] + ": " + c.sessions[a] + " -> " + c.sessions[b] + " z = " + FixedOrDash(z, 1));
+          c.changed.push_back(c.parameters[i] + ": " + c.sessions[a] + " -> " + c.sessions[b] +
+                              " z = " + FixedOrDash(z, 1));
       }
       c.pairs.push_back(d);
     }

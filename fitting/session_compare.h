@@ -12,7 +12,7 @@
 namespace owlcal::fitting {
 
 struct NamedResult {
-  std::string name;           // "session1"
+  std::string name;  // "session1"
   CalibrationResult result;
 };
 
@@ -23,14 +23,14 @@ struct SessionCell {
 };
 
 struct SessionPairDiff {
-  int a = 0, b = 0;             // session indices
-  std::vector<double> diff;     // per parameter, b - a (NaN when absent)
-  std::vector<double> z;        // per parameter, NaN without sigma
+  int a = 0, b = 0;          // session indices
+  std::vector<double> diff;  // per parameter, b - a (NaN when absent)
+  std::vector<double> z;     // per parameter, NaN without sigma
 };
 
 struct SessionComparison {
   std::vector<std::string> sessions;
-  std::vector<std::string> parameters;   // names
+  std::vector<std::string> parameters;  // names
   std::vector<std::string> units;
   std::vector<std::vector<SessionCell>> cells;  // [parameter][session]
   std::vector<SessionPairDiff> pairs;           // every a < b

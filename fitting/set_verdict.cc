@@ -1,8 +1,8 @@
 #include "fitting/set_verdict.h"
 
 #include <algorithm>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -15,8 +15,8 @@ namespace owlcal::fitting {
 namespace {
 
 const char* kEye[2] = {"left", "right"};
-const char* kZone[9] = {"top-left", "top", "top-right", "left edge", "centre", "right edge", "bottom-left", "bottom",
-                        "bottom-right"};
+const char* kZone[9] = {
+    "top-left", "top", "top-right", "left edge", "centre", "right edge", "bottom-left", "bottom", "bottom-right"};
 
 int ZoneOf(const Eigen::Vector2d& q, int width, int height) {
   const int zx = std::clamp(static_cast<int>(3 * (q.x() + 0.5) / width), 0, 2);
@@ -78,7 +78,8 @@ double CovOf(const UncertaintyMap& u, int param_index) {
 
 nlohmann::json StatsJson(const UncertaintyMap& u) {
   if (!u.ok) return {{"ok", false}, {"message", u.message}};
-  return {{"ok", true}, {"centre_px", u.centre_px}, {"median_px", u.median_px}, {"p90_px", u.p90_px}, {"max_px", u.max_px}};
+  return {
+      {"ok", true}, {"centre_px", u.centre_px}, {"median_px", u.median_px}, {"p90_px", u.p90_px}, {"max_px", u.max_px}};
 }
 
 }  // namespace
@@ -131,8 +132,9 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
     return v;
   }
   if (v.num_pairs < vo.min_pairs)
-    add_reason(true, "only " + std::to_string(v.num_pairs) + " pairs show the board in both eyes (< " +
-                         std::to_string(vo.min_pairs) + ")");
+    add_reason(true,
+               "only " + std::to_string(v.num_pairs) + " pairs show the board in both eyes (< " +
+                   std::to_string(vo.min_pairs) + ")");
 
   // Physical sanity.
   if (vo.recognise_rig) {
@@ -184,7 +186,8 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
     for (double x : m.at_infinity.sigma_px) within += x <= 1.0;
     m.image_fraction_within_1px = static_cast<double>(within) / std::max<size_t>(1, m.at_infinity.sigma_px.size());
     const auto& p = f.camera.params;
-    m.relative_focal_sigma = std::max(std::sqrt(CovOf(m.at_infinity, 0)) / p[0], std::sqrt(CovOf(m.at_infinity, 1)) / p[1]);
+    m.relative_focal_sigma =
+        std::max(std::sqrt(CovOf(m.at_infinity, 0)) / p[0], std::sqrt(CovOf(m.at_infinity, 1)) / p[1]);
     m.principal_sigma_px = std::max(std::sqrt(CovOf(m.at_infinity, 2)), std::sqrt(CovOf(m.at_infinity, 3)));
     // The trusted region: predicted uncertainty at the judged range against the observed noise.
     m.noise_px = f.corner_sigma_px;
@@ -225,14 +228,16 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
     }
     if (m.relative_focal_sigma > vo.max_relative_focal_sigma) {
       weak_focal = true;
-      add_reason(false, eye + " eye: the focal length is known only to " + FixedOrDash(100 * m.relative_focal_sigma, 2) +
-                            " % (limit " + FixedOrDash(100 * vo.max_relative_focal_sigma, 2) + " %)");
+      add_reason(false,
+                 eye + " eye: the focal length is known only to " + FixedOrDash(100 * m.relative_focal_sigma, 2) +
+                     " % (limit " + FixedOrDash(100 * vo.max_relative_focal_sigma, 2) + " %)");
       refuse_focal(e, v.reasons.back());
     }
     if (m.principal_sigma_px > vo.max_principal_sigma_px) {
       weak_focal = true;
-      add_reason(false, eye + " eye: the principal point is known only to " + FixedOrDash(m.principal_sigma_px, 1) +
-                            " px (limit " + FixedOrDash(vo.max_principal_sigma_px, 1) + " px)");
+      add_reason(false,
+                 eye + " eye: the principal point is known only to " + FixedOrDash(m.principal_sigma_px, 1) +
+                     " px (limit " + FixedOrDash(vo.max_principal_sigma_px, 1) + " px)");
     }
   }
 
@@ -286,8 +291,8 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
         EyeVerdictMetrics& m = v.eye[e];
         const std::string eye = kEye[e];
         const int W = fit.per_eye[e].camera.width, H = fit.per_eye[e].camera.height;
-        m.halves = CompareProjection(hf[0].cameras[e], hf[1].cameras[e], vo.grid_cols, vo.grid_rows,
-                                     vo.working_radius_fraction);
+        m.halves = CompareProjection(
+            hf[0].cameras[e], hf[1].cameras[e], vo.grid_cols, vo.grid_rows, vo.working_radius_fraction);
         const auto& pa = hf[0].cameras[e].params;
         const auto& pb = hf[1].cameras[e].params;
         m.half_focal_diff = std::max(std::abs(pa[0] - pb[0]) / pa[0], std::abs(pa[1] - pb[1]) / pa[1]);
@@ -296,18 +301,22 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
           if (m.working_p90_px > 0) m.covariance_scale = m.halves_working_p90_px / (2 * m.working_p90_px);
         }
         if (!m.halves.ok || !(m.halves_working_p90_px <= vo.max_half_diff_px)) {
-          add_reason(false, eye + " eye: two halves of the set, calibrated alone, project " +
-                                (m.halves.ok ? FixedOrDash(m.halves_working_p90_px, 2) + " px apart over 10 % of the working region (limit " +
-                                                   FixedOrDash(vo.max_half_diff_px, 2) + " px)"
-                                             : "too differently to compare (" + m.halves.message + ")"));
-          advise(4, "add views (15-25 pairs in all) that differ from each other: board near and far, in every "
-                        "part of the image, tilted several ways");
+          add_reason(false,
+                     eye + " eye: two halves of the set, calibrated alone, project " +
+                         (m.halves.ok ? FixedOrDash(m.halves_working_p90_px, 2) +
+                                            " px apart over 10 % of the working region (limit " +
+                                            FixedOrDash(vo.max_half_diff_px, 2) + " px)"
+                                      : "too differently to compare (" + m.halves.message + ")"));
+          advise(4,
+                 "add views (15-25 pairs in all) that differ from each other: board near and far, in every "
+                 "part of the image, tilted several ways");
         }
         if (m.half_focal_diff > vo.max_half_focal_diff) {
           weak_focal = true;
-          add_reason(false, eye + " eye: the halves' focal lengths differ by " + FixedOrDash(100 * m.half_focal_diff, 2) +
-                                " % (limit " + FixedOrDash(100 * vo.max_half_focal_diff, 1) + " %; fx " +
-                                FixedOrDash(pa[0], 1) + " vs " + FixedOrDash(pb[0], 1) + " px)");
+          add_reason(false,
+                     eye + " eye: the halves' focal lengths differ by " + FixedOrDash(100 * m.half_focal_diff, 2) +
+                         " % (limit " + FixedOrDash(100 * vo.max_half_focal_diff, 1) + " %; fx " +
+                         FixedOrDash(pa[0], 1) + " vs " + FixedOrDash(pb[0], 1) + " px)");
           refuse_focal(e, v.reasons.back());
         }
       }
@@ -322,15 +331,17 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
       for (int z = 0; z < 9; ++z)
         if (v.eye[e].corners_per_zone[z] < 0.02 * std::max(1, total)) zones.push_back(kZone[z]);
       if (!zones.empty())
-        advise(2, "fill the " + Join(zones) + " of the " + kEye[e] +
-                      " image: add views where the board reaches there (closer to the cameras, or moved off-centre)");
+        advise(2,
+               "fill the " + Join(zones) + " of the " + kEye[e] +
+                   " image: add views where the board reaches there (closer to the cameras, or moved off-centre)");
     }
     advise(3, "bring the board closer so it fills more of the image in some views");
   }
   if (weak_focal)
-    advise(1, "tilt the board 30-45 deg about its horizontal axis (top edge away from the cameras, then towards "
-                  "them) in some views and about its vertical axis in others: boards facing the cameras let the "
-                  "focal length trade against the board's distance");
+    advise(1,
+           "tilt the board 30-45 deg about its horizontal axis (top edge away from the cameras, then towards "
+           "them) in some views and about its vertical axis in others: boards facing the cameras let the "
+           "focal length trade against the board's distance");
   if (v.sanity.mirrored_or_swapped) advise(0, "calibrate again with --mirror or --swap (see the reason above)");
   for (const auto& [rank, list] : advice) v.advice.insert(v.advice.end(), list.begin(), list.end());
   v.status = unusable ? "unusable" : (poor ? "poor" : "good");
@@ -343,7 +354,9 @@ nlohmann::json SetVerdict::ToJson() const {
     const EyeVerdictMetrics& m = eye[e];
     nlohmann::json h = nlohmann::json::object();
     if (m.halves.ok)
-      h = {{"p90_px", m.halves.p90_px}, {"max_px", m.halves.max_px}, {"median_px", m.halves.median_px},
+      h = {{"p90_px", m.halves.p90_px},
+           {"max_px", m.halves.max_px},
+           {"median_px", m.halves.median_px},
            {"focal_diff", m.half_focal_diff}};
     if (m.halves.ok) h["working_p90_px"] = m.halves_working_p90_px;
     nlohmann::json trusted = nlohmann::json::object();

@@ -50,10 +50,10 @@
 
 #include "calib/observation.h"
 #include "fitting/projection_diff.h"
-#include "fitting/uncertainty_map.h"
 #include "fitting/result.h"
 #include "fitting/stereo_fit.h"
 #include "fitting/stereo_sanity.h"
+#include "fitting/uncertainty_map.h"
 
 namespace owlcal::fitting {
 
@@ -62,8 +62,8 @@ struct SetVerdictOptions {
   // --rig auto: when the fit is plainly not `rig` (fitting/stereo_sanity.h WhyNotThisRig), it is
   // judged as RigExpectation::Generic() instead, and SetVerdict::rig_note says so once.
   bool recognise_rig = false;
-  int min_pairs = 3;                        // fewer paired views: unusable
-  double working_radius_fraction = 0.5;     // of the half-diagonal
+  int min_pairs = 3;                     // fewer paired views: unusable
+  double working_radius_fraction = 0.5;  // of the half-diagonal
   // The trusted region (mrcal's valid-intrinsics region, uncertainty part): grid pixels whose
   // predicted projection uncertainty at `judged_range_m` (0 = infinity, mrcal's default: a gaze
   // direction, which is what fixation and vergence use) is below trust_threshold_noise x the
@@ -72,10 +72,10 @@ struct SetVerdictOptions {
   double judged_range_m = 0.0;
   double trust_threshold_noise = 10.0;
   double min_trusted_working_fraction = 0.9;  // of the working region's grid pixels
-  double max_relative_focal_sigma = 0.005;  // sigma_f / f
+  double max_relative_focal_sigma = 0.005;    // sigma_f / f
   double max_principal_sigma_px = 3.0;
-  double max_half_focal_diff = 0.02;        // |f_A - f_B| / f
-  double max_half_diff_px = 4.0;            // p90 projection difference of the halves, working region
+  double max_half_focal_diff = 0.02;  // |f_A - f_B| / f
+  double max_half_diff_px = 4.0;      // p90 projection difference of the halves, working region
   int min_pairs_to_split = 6;
   int grid_cols = 16, grid_rows = 12;
   bool Check(std::string* why) const;
@@ -105,20 +105,20 @@ struct EyeVerdictMetrics {
 };
 
 struct SetVerdict {
-  std::string status = "unusable";       // good | poor | unusable
-  std::vector<std::string> reasons;      // why not good (empty when good)
-  std::vector<std::string> advice;       // which views to add
+  std::string status = "unusable";   // good | poor | unusable
+  std::vector<std::string> reasons;  // why not good (empty when good)
+  std::vector<std::string> advice;   // which views to add
   StereoSanity sanity;
-  RigExpectation rig;                    // the rig the set was judged as
-  std::string rig_note;                  // why not the rig asked for (recognise_rig), else empty
+  RigExpectation rig;    // the rig the set was judged as
+  std::string rig_note;  // why not the rig asked for (recognise_rig), else empty
   EyeVerdictMetrics eye[2];
   int num_pairs = 0;
   // The trusted region's definition (from the options; judged_range_m = 0 when judged at
   // infinity, a non-metric target).
   double judged_range_m = 0, trust_threshold_noise = 0, working_radius_fraction = 0;
-  bool split = false;                    // halves calibrated and compared
-  std::string split_message;             // why not
-  double half_baseline_diff = 0;         // |B_A - B_B| / B
+  bool split = false;             // halves calibrated and compared
+  std::string split_message;      // why not
+  double half_baseline_diff = 0;  // |B_A - B_B| / B
   // Each half's calibration as a rig parameter vector (left params, right params, rotation
   // vector [rad], T [m]); empty unless split and the target is metric. Written to results.json
   // as diagnostics.cross_validation; ranging uses it (fitting/range_images_ranging.h).
@@ -126,7 +126,7 @@ struct SetVerdict {
   // Parameters the verdict refuses (name -> why): an eye's fx fy cx cy when its focal length is
   // weak (sigma_f over the limit, the halves' f apart, or the lens undetermined).
   std::vector<std::pair<std::string, std::string>> refused;
-  nlohmann::json ToJson() const;         // {status, reasons, advice, metrics}
+  nlohmann::json ToJson() const;  // {status, reasons, advice, metrics}
 };
 
 // fit: the stereo fit of `views` (views[0] left, views[1] right, as given to FitStereo with
@@ -141,6 +141,5 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
 // against v.rig; each reason a warning, the rig note one too; the refused parameters marked
 // determined = false (sigma NaN) with the reason as note.
 void AppendVerdictToResult(const SetVerdict& v, CalibrationResult* result);
-
 
 }  // namespace owlcal::fitting

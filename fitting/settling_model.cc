@@ -213,13 +213,16 @@ SettlingStudy CompareSettling(const LoopModel& model,
       st.curve.push_back(c);
     }
   st.notes.push_back("loop model: exposure delay " + F(1000 * model.exposure_delay_s, 1) + " ms, slew " +
-                     F(model.slew_us_per_s * deg_per_us, 0) + " deg/s" + (motion.slew_determined ? "" : " (not determined by the steps)") +
-                     ", lag " + F(1000 * model.lag_s, 1) + " ms, dead zone " + F(model.DeadZonePx(), 2) +
-                     " px, PWM step " + std::to_string(model.resolution.step_us) + " us, dead band " +
+                     F(model.slew_us_per_s * deg_per_us, 0) + " deg/s" +
+                     (motion.slew_determined ? "" : " (not determined by the steps)") + ", lag " +
+                     F(1000 * model.lag_s, 1) + " ms, dead zone " + F(model.DeadZonePx(), 2) + " px, PWM step " +
+                     std::to_string(model.resolution.step_us) + " us, dead band " +
                      std::to_string(model.resolution.dead_band_us) + " us, backlash " + F(model.hysteresis_us, 1) +
                      " us, noise " + F(model.noise_px, 2) + " px");
-  st.notes.push_back("course model: d = " + std::to_string(ideal_delay_frames) + " frames (the latency protocol's first "
-                     "motion " + F(latency_ms, 1) + " ms after the command = frame d + 1), K_crit " + F(kcrit, 3));
+  st.notes.push_back("course model: d = " + std::to_string(ideal_delay_frames) +
+                     " frames (the latency protocol's first "
+                     "motion " +
+                     F(latency_ms, 1) + " ms after the command = frame d + 1), K_crit " + F(kcrit, 3));
   return st;
 }
 

@@ -32,9 +32,9 @@
 namespace owlcal::fitting {
 
 struct SettlingOptions {
-  int frames = 75;               // frames per simulated trial (the protocol's trial length)
-  int noise_seeds = 3;           // simulations per exposure delay
-  double delay_spread_s = 0.004; // +- exposure delay (at least the fit's 2 sigma is used)
+  int frames = 75;                // frames per simulated trial (the protocol's trial length)
+  int noise_seeds = 3;            // simulations per exposure delay
+  double delay_spread_s = 0.004;  // +- exposure delay (at least the fit's 2 sigma is used)
   std::vector<double> curve_gains = {0.02, 0.05, 0.08, 0.1, 0.13, 0.16, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5};
   bool Check(std::string* why) const;
 };
@@ -42,15 +42,15 @@ struct SettlingOptions {
 struct SettlingRow {
   double gain = 0, amplitude_deg = 0;
   int num_trials = 0, num_ok = 0, num_settled = 0;  // num_ok: trials that ran to the end (ok or not settled)
-  double measured_median_s = 0, measured_lo_s = 0, measured_hi_s = 0;     // NaN: no settled trial
+  double measured_median_s = 0, measured_lo_s = 0, measured_hi_s = 0;  // NaN: no settled trial
   int predicted_settled = 0, predicted_runs = 0;
   double predicted_median_s = 0, predicted_lo_s = 0, predicted_hi_s = 0;  // NaN: none settled
-  double ideal_s = 0;                      // course model; NaN when unstable or not settled
+  double ideal_s = 0;  // course model; NaN when unstable or not settled
   bool ideal_stable = false;
-  double band = 0.02;                      // settling band used (fraction of the step)
-  double no_servo_dynamics_s = 0;          // loop model with an ideal servo (median, as predicted_median_s)
-  double no_dead_zone_s = 0;               // loop model without dead zone, PWM step and noise
-  std::string agreement;                   // "agrees", "measured slower", "measured faster", "no measurement", ...
+  double band = 0.02;              // settling band used (fraction of the step)
+  double no_servo_dynamics_s = 0;  // loop model with an ideal servo (median, as predicted_median_s)
+  double no_dead_zone_s = 0;       // loop model without dead zone, PWM step and noise
+  std::string agreement;           // "agrees", "measured slower", "measured faster", "no measurement", ...
   std::string why;
 };
 

@@ -28,8 +28,8 @@ bool StepInfoOptions::Check(std::string* why) const {
   if (!(settling_band > 0 && settling_band < 1))
     return fail("StepInfoOptions.settling_band = " + std::to_string(settling_band) + " must be in (0, 1)");
   if (!(rise_low >= 0 && rise_low < rise_high && rise_high <= 1))
-    return fail("StepInfoOptions.rise_low/rise_high = " + std::to_string(rise_low) + "/" +
-                std::to_string(rise_high) + " must satisfy 0 <= low < high <= 1");
+    return fail("StepInfoOptions.rise_low/rise_high = " + std::to_string(rise_low) + "/" + std::to_string(rise_high) +
+                " must satisfy 0 <= low < high <= 1");
   if (y_init && !std::isfinite(*y_init)) return fail("StepInfoOptions.y_init is not finite");
   if (y_final && !std::isfinite(*y_final)) return fail("StepInfoOptions.y_final is not finite");
   return true;

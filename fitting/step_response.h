@@ -42,7 +42,7 @@ struct StepInfo {
   double y_init = 0, y_final = 0;
   double rise_time = 0;
   double settling_time = 0;
-  int settling_index = -1;          // index of the settling sample; -1 when not settled
+  int settling_index = -1;  // index of the settling sample; -1 when not settled
   bool settled = false;
   double overshoot_pct = 0;
   double undershoot_pct = 0;
@@ -63,15 +63,15 @@ struct StepTrace {
   double gain = 0;
   double amplitude_deg = 0;
   int trial = 0;
-  std::string eye_axis;            // "right pan"
+  std::string eye_axis;                                 // "right pan"
   calib::TrialStatus status = calib::TrialStatus::kOk;  // as the protocol recorded the trial
-  std::string reason;              // why not ok
-  std::string controller = "p-loop";  // "p-loop" or "saccade" (fitting/settling_model.h)
-  double band = 0.02;              // settling band used (fraction of the step)
-  std::vector<double> t_s;         // from the step command
+  std::string reason;                                   // why not ok
+  std::string controller = "p-loop";                    // "p-loop" or "saccade" (fitting/settling_model.h)
+  double band = 0.02;                                   // settling band used (fraction of the step)
+  std::vector<double> t_s;                              // from the step command
   std::vector<double> y;
-  double residual_px = 0;          // |target offset| after settling
-  StepInfo info;                   // of (t_s, y) with y_init 0, y_final 1
+  double residual_px = 0;  // |target offset| after settling
+  StepInfo info;           // of (t_s, y) with y_init 0, y_final 1
   bool simulated = false;
 };
 

@@ -36,7 +36,8 @@ bool SgbmOptions::Check(std::string* why) const {
     return fail("block_size must be odd and 1..31, got " + std::to_string(block_size));
   if (p1 < 0 || p2 < 0) return fail("p1, p2 must be >= 0 (0 = default)");
   if (P2() <= P1()) return fail("p2 (" + std::to_string(P2()) + ") must exceed p1 (" + std::to_string(P1()) + ")");
-  if (pre_filter_cap < 1 || pre_filter_cap > 63) return fail("pre_filter_cap must be 1..63, got " + std::to_string(pre_filter_cap));
+  if (pre_filter_cap < 1 || pre_filter_cap > 63)
+    return fail("pre_filter_cap must be 1..63, got " + std::to_string(pre_filter_cap));
   if (uniqueness_ratio < 0 || uniqueness_ratio > 100)
     return fail("uniqueness_ratio must be 0..100, got " + std::to_string(uniqueness_ratio));
   if (speckle_window_size < 0) return fail("speckle_window_size must be >= 0");
@@ -60,7 +61,9 @@ bool DepthOptions::Check(std::string* why) const {
   return true;
 }
 
-DepthMaps ComputeDepth(const cv::Mat& left_raw, const cv::Mat& right_raw, const Rectification& rect,
+DepthMaps ComputeDepth(const cv::Mat& left_raw,
+                       const cv::Mat& right_raw,
+                       const Rectification& rect,
                        const DepthOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument(why);
@@ -77,9 +80,17 @@ DepthMaps ComputeDepth(const cv::Mat& left_raw, const cv::Mat& right_raw, const 
                    : o.mode == "3way" ? cv::StereoSGBM::MODE_SGBM_3WAY
                    : o.mode == "hh4"  ? cv::StereoSGBM::MODE_HH4
                                       : cv::StereoSGBM::MODE_SGBM;
-  cv::Ptr<cv::StereoSGBM> sgbm =
-      cv::StereoSGBM::create(o.min_disparity, o.num_disparities, o.block_size, o.P1(), o.P2(), o.disp12_max_diff,
-                             o.pre_filter_cap, o.uniqueness_ratio, o.speckle_window_size, o.speckle_range, mode);
+  cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(o.min_disparity,
+                                                        o.num_disparities,
+                                                        o.block_size,
+                                                        o.P1(),
+                                                        o.P2(),
+                                                        o.disp12_max_diff,
+                                                        o.pre_filter_cap,
+                                                        o.uniqueness_ratio,
+                                                        o.speckle_window_size,
+                                                        o.speckle_range,
+                                                        mode);
   sgbm->compute(m.left_rect, m.right_rect, m.disparity16);
   m.focal_px = rect.P1(0, 0);
   m.cx = rect.P1(0, 2);
@@ -107,7 +118,10 @@ DepthMaps ComputeDepth(const cv::Mat& left_raw, const cv::Mat& right_raw, const 
   return m;
 }
 
-RoiDepth DepthAtRoi(const DepthMaps& maps, const cv::Rect& roi_in, const StereoRig& rig, const Rectification& rect,
+RoiDepth DepthAtRoi(const DepthMaps& maps,
+                    const cv::Rect& roi_in,
+                    const StereoRig& rig,
+                    const Rectification& rect,
                     const DepthOptions& options) {
   RoiDepth r;
   r.roi = roi_in & cv::Rect(0, 0, maps.disparity_px.cols, maps.disparity_px.rows);
@@ -173,7 +187,12 @@ cv::Mat RectifyTruthDepth(const Rectification& rect, const cv::Mat& depth_z_raw_
   if (depth_z_raw_left.type() != CV_32F || depth_z_raw_left.size() != rect.size)
     throw std::invalid_argument("RectifyTruthDepth: truth depth must be CV_32F of the calibration's image size");
   cv::Mat raw_z;
-  cv::remap(depth_z_raw_left, raw_z, rect.map_x[0], rect.map_y[0], cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+  cv::remap(depth_z_raw_left,
+            raw_z,
+            rect.map_x[0],
+            rect.map_y[0],
+            cv::INTER_NEAREST,
+            cv::BORDER_CONSTANT,
             cv::Scalar(std::numeric_limits<double>::quiet_NaN()));
   // A rectified pixel's ray r_rect = ((x - cx) / f, (y - cy) / f, 1) is R1^T r_rect in the raw
   // camera, so a point at rectified depth Z has raw z = Z (R1^T r_rect)_z.
@@ -229,14 +248,17 @@ cv::Mat DepthMillimetres16(const cv::Mat& depth_m) {
   return out;
 }
 
-DisparityConstantFit FitDisparityConstant(const std::vector<double>& disparity16, const std::vector<double>& true_m,
-                                          double focal_px, double baseline_m) {
+DisparityConstantFit FitDisparityConstant(const std::vector<double>& disparity16,
+                                          const std::vector<double>& true_m,
+                                          double focal_px,
+                                          double baseline_m) {
   if (disparity16.size() != true_m.size()) throw std::invalid_argument("FitDisparityConstant: size mismatch");
   DisparityConstantFit f;
   f.k_calibration = 16 * focal_px * baseline_m;
   std::vector<double> products;
   for (size_t i = 0; i < true_m.size(); ++i)
-    if (disparity16[i] > 0 && std::isfinite(disparity16[i]) && true_m[i] > 0) products.push_back(disparity16[i] * true_m[i]);
+    if (disparity16[i] > 0 && std::isfinite(disparity16[i]) && true_m[i] > 0)
+      products.push_back(disparity16[i] * true_m[i]);
   f.num_rows = int(products.size());
   f.estimate_m.assign(true_m.size(), kNaN);
   f.loo_estimate_m.assign(true_m.size(), kNaN);

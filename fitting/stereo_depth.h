@@ -41,15 +41,15 @@ namespace owlcal::fitting {
 // OpenCV's stereo_match sample (8 and 32 x channels x block^2).
 struct SgbmOptions {
   int min_disparity = 0;
-  int num_disparities = 192;    // > 0, multiple of 16
-  int block_size = 7;           // odd, 1..31
-  int p1 = 0, p2 = 0;           // 0 = 8 / 32 * block_size^2 (grey images)
-  int disp12_max_diff = 1;      // left-right check [px]; < 0 disables it
+  int num_disparities = 192;  // > 0, multiple of 16
+  int block_size = 7;         // odd, 1..31
+  int p1 = 0, p2 = 0;         // 0 = 8 / 32 * block_size^2 (grey images)
+  int disp12_max_diff = 1;    // left-right check [px]; < 0 disables it
   int pre_filter_cap = 63;
-  int uniqueness_ratio = 10;    // [%]
+  int uniqueness_ratio = 10;  // [%]
   int speckle_window_size = 100;
-  int speckle_range = 2;        // [px]: OpenCV multiplies it by 16 internally
-  std::string mode = "sgbm";    // sgbm (5 directions), hh (8 directions), 3way, hh4
+  int speckle_range = 2;      // [px]: OpenCV multiplies it by 16 internally
+  std::string mode = "sgbm";  // sgbm (5 directions), hh (8 directions), 3way, hh4
 
   bool Check(std::string* why) const;
   int P1() const { return p1 > 0 ? p1 : 8 * block_size * block_size; }
@@ -72,26 +72,28 @@ struct DepthMaps {
   cv::Mat disparity_px;           // CV_32F d, NaN where invalid
   cv::Mat depth_m;                // CV_32F Z, NaN where invalid
   double focal_px = 0, baseline_m = 0;
-  double cx = 0, cy = 0;          // rectified principal point of the left image
+  double cx = 0, cy = 0;  // rectified principal point of the left image
   int num_valid = 0;
 };
 
 // Rectifies and matches one raw pair (8-bit grey or BGR, the calibration's image size).
 // Throws std::invalid_argument for empty images, a size other than the rectification's, or
 // options failing Check.
-DepthMaps ComputeDepth(const cv::Mat& left_raw, const cv::Mat& right_raw, const Rectification& rect,
+DepthMaps ComputeDepth(const cv::Mat& left_raw,
+                       const cv::Mat& right_raw,
+                       const Rectification& rect,
                        const DepthOptions& options);
 
 struct RoiDepth {
   bool ok = false;
-  std::string message;              // why not
-  cv::Rect roi;                     // as used (clipped to the image)
+  std::string message;  // why not
+  cv::Rect roi;         // as used (clipped to the image)
   int num_pixels = 0, num_valid = 0;
-  double disparity_px = 0;          // median
-  double disparity16 = 0;           // median of the 16-bit map (the students' number)
-  double scatter_px = 0;            // robust scatter about the ROI's plane
-  double sigma_disparity_px = 0;    // of the median (see above)
-  double depth_m = 0;               // at the ROI centre, median disparity
+  double disparity_px = 0;        // median
+  double disparity16 = 0;         // median of the 16-bit map (the students' number)
+  double scatter_px = 0;          // robust scatter about the ROI's plane
+  double sigma_disparity_px = 0;  // of the median (see above)
+  double depth_m = 0;             // at the ROI centre, median disparity
   double sigma_match_m = 0, sigma_calib_m = std::numeric_limits<double>::quiet_NaN(), sigma_m = 0;
   double valid_fraction() const { return num_pixels ? double(num_valid) / num_pixels : 0.0; }
 };
@@ -119,9 +121,9 @@ cv::Mat DepthMillimetres16(const cv::Mat& depth_m);
 // estimated as K / disp16 (and, honestly, leave-one-out: K from the other rows).
 struct DisparityConstantFit {
   int num_rows = 0;
-  double k_disp16_m = 0;          // mean of disp16 * distance [16 px * m]
-  double k_cv_pct = 0;        // coefficient of variation of the products [%]
-  double k_calibration = 0;   // 16 f B from the calibration, for comparison
+  double k_disp16_m = 0;                           // mean of disp16 * distance [16 px * m]
+  double k_cv_pct = 0;                             // coefficient of variation of the products [%]
+  double k_calibration = 0;                        // 16 f B from the calibration, for comparison
   std::vector<double> estimate_m, loo_estimate_m;  // per row (NaN when the row had no disparity)
   double mean_abs_pct = 0, max_abs_pct = 0, loo_mean_abs_pct = 0;
 };

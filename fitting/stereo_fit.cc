@@ -71,13 +71,13 @@ struct StereoObs {
 
 // The joint problem's data: parameter blocks and observations.
 struct StereoProblemData {
-  int np = 0;                                     // params per camera
+  int np = 0;  // params per camera
   std::vector<double> cam[2];
-  std::array<double, 7> ext;                      // right_from_left
+  std::array<double, 7> ext;  // right_from_left
   // Board poses: one per left-eye frame (left cam_from_target), one per right-only frame.
   std::vector<std::array<double, 7>> poses;
   std::map<int, int> pose_of_left_frame, pose_of_right_only_frame;
-  std::vector<StereoObs> obs;                     // minus each eye's rejected outliers
+  std::vector<StereoObs> obs;  // minus each eye's rejected outliers
   double sigma_used[2] = {1, 1};
   std::array<double, 2> warp = {0, 0};  // board bow (options.fit_board_warp)
   WarpSpan span;
@@ -205,10 +205,12 @@ Observability SolveStereo(const StereoFitOptions& options, StereoProblemData* d,
   for (const StereoObs& o : d->obs) {
     ceres::LossFunction* loss = nullptr;
     if (options.intrinsics.loss == RobustLoss::kHuber) loss = new ceres::HuberLoss(options.intrinsics.loss_scale_sigma);
-    if (options.intrinsics.loss == RobustLoss::kCauchy) loss = new ceres::CauchyLoss(options.intrinsics.loss_scale_sigma);
+    if (options.intrinsics.loss == RobustLoss::kCauchy)
+      loss = new ceres::CauchyLoss(options.intrinsics.loss_scale_sigma);
     const double inv = 1.0 / d->sigma_used[o.eye];
     const bool on_left_pose = d->pose_of_left_frame.count(o.frame) > 0;
-    double* pose = d->poses[on_left_pose ? d->pose_of_left_frame.at(o.frame) : d->pose_of_right_only_frame.at(o.frame)].data();
+    double* pose =
+        d->poses[on_left_pose ? d->pose_of_left_frame.at(o.frame) : d->pose_of_right_only_frame.at(o.frame)].data();
     if (options.fit_board_warp && o.eye == 1 && on_left_pose) {
       ceres::CostFunction* c = models::VisitCameraModel(model, [&]<typename Cam>() {
         return internal::WarpedStereoCornerResidual<Cam>::Create(o.pixel, o.point, d->span, inv, tie);
@@ -225,9 +227,8 @@ Observability SolveStereo(const StereoFitOptions& options, StereoProblemData* d,
       });
       problem.AddResidualBlock(c, loss, d->cam[1].data(), d->ext.data(), pose);
     } else {
-      ceres::CostFunction* c = models::VisitCameraModel(model, [&]<typename Cam>() {
-        return internal::CornerResidual<Cam>::Create(o.pixel, o.point, inv, tie);
-      });
+      ceres::CostFunction* c = models::VisitCameraModel(
+          model, [&]<typename Cam>() { return internal::CornerResidual<Cam>::Create(o.pixel, o.point, inv, tie); });
       problem.AddResidualBlock(c, loss, d->cam[o.eye].data(), pose);
     }
   }
@@ -368,8 +369,20 @@ void Rectify(const std::vector<calib::View>& left_views,
   cv::eigen2cv(Eigen::Matrix3d(fit->right_from_left.rotation.toRotationMatrix()), r);
   cv::eigen2cv(Eigen::Vector3d(fit->right_from_left.translation), t);
   try {
-    cv::stereoRectify(m1, d1, m2, d2, cv::Size(options.width, options.height), r, t, r1, r2, p1, p2, q,
-                      cv::CALIB_ZERO_DISPARITY, options.rectify_alpha);
+    cv::stereoRectify(m1,
+                      d1,
+                      m2,
+                      d2,
+                      cv::Size(options.width, options.height),
+                      r,
+                      t,
+                      r1,
+                      r2,
+                      p1,
+                      p2,
+                      q,
+                      cv::CALIB_ZERO_DISPARITY,
+                      options.rectify_alpha);
     cv::cv2eigen(r1, fit->R1);
     cv::cv2eigen(r2, fit->R2);
     cv::cv2eigen(p1, fit->P1);
@@ -425,11 +438,11 @@ StereoFit FitStereo(const std::vector<calib::View>& left_views,
   // 1. Build: per-eye fits (initialisation and per-eye outlier rejection), pairs, blocks.
   const std::string stereo_params = "stereo R, T and the baseline";
   if (left_views.empty() || right_views.empty()) {
-    fit.message = stereo_params + " cannot be determined: " +
-                  (left_views.empty() && right_views.empty() ? std::string("no views at all")
-                                                             : std::string("only the ") +
-                                                                   (left_views.empty() ? "right" : "left") +
-                                                                   " eye has views (one eye only)");
+    fit.message =
+        stereo_params + " cannot be determined: " +
+        (left_views.empty() && right_views.empty()
+             ? std::string("no views at all")
+             : std::string("only the ") + (left_views.empty() ? "right" : "left") + " eye has views (one eye only)");
     fit.undetermined.push_back("stereo.*: one eye only");
   }
   const std::vector<calib::View>* vs[2] = {&left_views, &right_views};
@@ -444,13 +457,16 @@ StereoFit FitStereo(const std::vector<calib::View>& left_views,
     return fit;
   }
   std::map<int, int> left_of_frame, right_of_frame;
-  for (size_t i = 0; i < fit.per_eye[0].frame_indices.size(); ++i) left_of_frame[fit.per_eye[0].frame_indices[i]] = int(i);
-  for (size_t i = 0; i < fit.per_eye[1].frame_indices.size(); ++i) right_of_frame[fit.per_eye[1].frame_indices[i]] = int(i);
+  for (size_t i = 0; i < fit.per_eye[0].frame_indices.size(); ++i)
+    left_of_frame[fit.per_eye[0].frame_indices[i]] = int(i);
+  for (size_t i = 0; i < fit.per_eye[1].frame_indices.size(); ++i)
+    right_of_frame[fit.per_eye[1].frame_indices[i]] = int(i);
   for (const auto& [f, i] : left_of_frame)
     if (right_of_frame.count(f)) fit.paired_frames.push_back(f);
   if (fit.paired_frames.empty()) {
-    fit.message = stereo_params + " cannot be determined: no frame has the board detected in both eyes (pairs are "
-                                  "matched by frame_index)";
+    fit.message = stereo_params +
+                  " cannot be determined: no frame has the board detected in both eyes (pairs are "
+                  "matched by frame_index)";
     fit.undetermined.push_back("stereo.*: no common frames");
     return fit;
   }

@@ -23,7 +23,8 @@ Eigen::Vector3d RotVec(const Eigen::Quaterniond& q) {
 void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   if (!fit.ok) {
     for (int e = 0; e < 2; ++e)
-      if (fit.per_eye[e].ok || !fit.per_eye[e].message.empty()) AppendIntrinsicsToResult(fit.per_eye[e], kEye[e], result);
+      if (fit.per_eye[e].ok || !fit.per_eye[e].message.empty())
+        AppendIntrinsicsToResult(fit.per_eye[e], kEye[e], result);
     result->warnings.push_back("stereo: " + fit.message);
     SolveSummary s = fit.summary;
     s.problem = "stereo";
@@ -32,7 +33,12 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
     result->summaries.push_back(s);
     const bool metres = fit.length_unit == "m";
     const std::string unit = metres ? "mm" : fit.length_unit + "s";
-    result->Set({metres ? "stereo.baseline_mm" : "stereo.baseline_" + unit, kNaN, kNaN, unit, std::nullopt, false,
+    result->Set({metres ? "stereo.baseline_mm" : "stereo.baseline_" + unit,
+                 kNaN,
+                 kNaN,
+                 unit,
+                 std::nullopt,
+                 false,
                  fit.message});
     return;
   }
@@ -47,8 +53,13 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
     result->cameras[e] = fit.cameras[e];
     for (int i = 0; i < np; ++i) {
       const int k = e * np + i;
-      Parameter p{fit.param_names[k], fit.cameras[e].params[i], fit.sigmas[k], IntrinsicParamUnit(names[i]),
-                  std::nullopt, bool(fit.determined[k]), note_of(fit.param_names[k])};
+      Parameter p{fit.param_names[k],
+                  fit.cameras[e].params[i],
+                  fit.sigmas[k],
+                  IntrinsicParamUnit(names[i]),
+                  std::nullopt,
+                  bool(fit.determined[k]),
+                  note_of(fit.param_names[k])};
       // Held by a --fix option (not fix_intrinsics, whose values are the per-eye estimates).
       p.held = !p.determined && internal::IsHeldReason(p.note) && p.note.find("fix_intrinsics") == std::string::npos;
       if (p.held) p.sigma = 0;
@@ -64,9 +75,19 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   const char* rn[3] = {"stereo.rx_deg", "stereo.ry_deg", "stereo.rz_deg"};
   const char* tn[3] = {"stereo.tx", "stereo.ty", "stereo.tz"};
   for (int j = 0; j < 3; ++j) {
-    result->Set({rn[j], rv(j) * 180 / M_PI, fit.sigmas[ro + j] * 180 / M_PI, "deg", std::nullopt,
-                 bool(fit.determined[ro + j]), note_of(fit.param_names[ro + j])});
-    result->Set({tn[j], t(j) * f, fit.sigmas[to + j] * f, unit, std::nullopt, bool(fit.determined[to + j]),
+    result->Set({rn[j],
+                 rv(j) * 180 / M_PI,
+                 fit.sigmas[ro + j] * 180 / M_PI,
+                 "deg",
+                 std::nullopt,
+                 bool(fit.determined[ro + j]),
+                 note_of(fit.param_names[ro + j])});
+    result->Set({tn[j],
+                 t(j) * f,
+                 fit.sigmas[to + j] * f,
+                 unit,
+                 std::nullopt,
+                 bool(fit.determined[to + j]),
                  note_of(fit.param_names[to + j])});
   }
   // Baseline |T| and its sigma by first-order propagation.
@@ -74,8 +95,12 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   const Eigen::Vector3d g = t / b;
   const Eigen::Matrix3d Ct = fit.covariance.block(to, to, 3, 3);
   const bool t_ok = fit.determined[to] && fit.determined[to + 1] && fit.determined[to + 2];
-  result->Set({metres ? "stereo.baseline_mm" : "stereo.baseline_" + unit, b * f,
-               t_ok ? std::sqrt(g.dot(Ct * g)) * f : kNaN, unit, std::nullopt, t_ok,
+  result->Set({metres ? "stereo.baseline_mm" : "stereo.baseline_" + unit,
+               b * f,
+               t_ok ? std::sqrt(g.dot(Ct * g)) * f : kNaN,
+               unit,
+               std::nullopt,
+               t_ok,
                t_ok ? "" : "translation not determined"});
   if (fit.board_warp_fitted) {
     // The board's bow (fitting/board_warp.h), fitted so that it does not bias the focal lengths.
@@ -125,7 +150,10 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   d["length_unit"] = fit.length_unit;
   nlohmann::json rej = nlohmann::json::array();
   for (const auto& r : fit.rejected)
-    rej.push_back({{"eye", kEye[r.eye == 1 ? 1 : 0]}, {"frame", r.frame_index}, {"corner", r.corner_id}, {"residual_px", r.residual_px}});
+    rej.push_back({{"eye", kEye[r.eye == 1 ? 1 : 0]},
+                   {"frame", r.frame_index},
+                   {"corner", r.corner_id},
+                   {"residual_px", r.residual_px}});
   d["rejected"] = rej;
   result->diagnostics["stereo"] = d;
 }

@@ -27,8 +27,8 @@ bool RigExpectation::Check(std::string* why) const {
   if (ipd_m < 0 || !(ipd_tolerance_m > 0)) return fail("ipd_m must be >= 0 and ipd_tolerance_m > 0");
   if (focal_max_px < focal_min_px || focal_min_px < 0) return fail("focal range must satisfy 0 <= min <= max");
   if (!(reference_width_px > 0)) return fail("reference_width_px must be > 0");
-  if (!(max_rotation_deg > 0 && max_off_axis_fraction > 0 && max_principal_offset_fraction > 0 && max_aspect_error > 0 &&
-        max_focal_mismatch > 0))
+  if (!(max_rotation_deg > 0 && max_off_axis_fraction > 0 && max_principal_offset_fraction > 0 &&
+        max_aspect_error > 0 && max_focal_mismatch > 0))
     return fail("the tolerances (rotation, off-axis, principal point, aspect, focal mismatch) must be > 0");
   return true;
 }
@@ -56,7 +56,8 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
   }
   if (t.x() >= 0) {
     s.mirrored_or_swapped = true;
-    add("tx_sign", true,
+    add("tx_sign",
+        true,
         "T_x = +" + FixedOrDash(t.x() * to_shown, 1) + " " + unit +
             ": the right camera is on the LEFT of the left camera, which is physically impossible when left* is "
             "the left eye. The set is mirrored (halves cut from the Owl's 1280x480 stream without the course "
@@ -67,11 +68,12 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
   }
   const double off_axis = std::hypot(t.y(), t.z()) / n;
   if (off_axis > e.max_off_axis_fraction)
-    add("t_direction", false,
+    add("t_direction",
+        false,
         "T = (" + FixedOrDash(t.x() * to_shown, 1) + ", " + FixedOrDash(t.y() * to_shown, 1) + ", " +
             FixedOrDash(t.z() * to_shown, 1) + ") " + unit + ": " + FixedOrDash(100 * off_axis, 0) +
-            " % of the baseline is off the x axis (> " + FixedOrDash(100 * e.max_off_axis_fraction, 0) +
-            " %" + rig_limit + "); side-by-side eyes have T along x. Check the image pairing (same number = same instant)");
+            " % of the baseline is off the x axis (> " + FixedOrDash(100 * e.max_off_axis_fraction, 0) + " %" +
+            rig_limit + "); side-by-side eyes have T along x. Check the image pairing (same number = same instant)");
   if (metric && e.ipd_m > 0) {
     const double b = n * length_unit_m;
     if (std::abs(b - e.ipd_m) > e.ipd_tolerance_m) {
@@ -81,7 +83,8 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
         if (std::abs(ratio / k - 1) < 0.15)
           hint = " The ratio " + FixedOrDash(ratio, 2) + " suggests the target file's square size is off by a factor " +
                  FixedOrDash(k, k < 1 ? 3 : 1) + " (the baseline scales with it).";
-      add("baseline", false,
+      add("baseline",
+          false,
           "baseline " + FixedOrDash(b * 1000, 1) + " mm, but the " + e.name + " rig's IPD is " +
               FixedOrDash(e.ipd_m * 1000, 1) + " +- " + FixedOrDash(e.ipd_tolerance_m * 1000, 1) +
               " mm: check the square size in the target file and the robot's IPD." + hint + not_owl);
@@ -91,7 +94,8 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
   if (angle_deg > e.max_rotation_deg) {
     const Eigen::AngleAxisd aa(right_from_left.rotation);
     const Eigen::Vector3d rv = aa.axis() * aa.angle() * 180 / M_PI;
-    add("rotation", false,
+    add("rotation",
+        false,
         "the cameras are rotated by " + FixedOrDash(angle_deg, 1) + " deg relative to each other (rotation vector " +
             FixedOrDash(rv.x(), 1) + ", " + FixedOrDash(rv.y(), 1) + ", " + FixedOrDash(rv.z(), 1) + " deg; > " +
             FixedOrDash(e.max_rotation_deg, 0) + rig_limit +
@@ -107,7 +111,8 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
       const double lo = e.focal_min_px * scale, hi = e.focal_max_px * scale;
       for (double f : {fx, fy}) {
         if (f < lo || f > hi) {
-          add("focal", false,
+          add("focal",
+              false,
               std::string(eye[i]) + " eye: f = " + FixedOrDash(f, 1) + " px is outside the " + e.name +
                   " lens family (" + FixedOrDash(lo, 0) + "-" + FixedOrDash(hi, 0) + " px at " +
                   std::to_string(cameras[i].width) +
@@ -120,25 +125,31 @@ StereoSanity CheckStereoSanity(const models::CameraIntrinsics cameras[2],
       }
     }
     if (std::abs(fx / fy - 1) > e.max_aspect_error)
-      add("focal", false,
-          std::string(eye[i]) + " eye: fx / fy = " + FixedOrDash(fx / fy, 3) + " (the " + e.name +
-              " rig allows 1 +- " + FixedOrDash(e.max_aspect_error, 3) + "): the sensor's pixels are square, so the set does not pin the focal length (tilt the board about "
+      add("focal",
+          false,
+          std::string(eye[i]) + " eye: fx / fy = " + FixedOrDash(fx / fy, 3) + " (the " + e.name + " rig allows 1 +- " +
+              FixedOrDash(e.max_aspect_error, 3) +
+              "): the sensor's pixels are square, so the set does not pin the focal length (tilt the board about "
               "both axes) or the images were resized unevenly");
     const double dx = p[2] - (cameras[i].width - 1) / 2.0, dy = p[3] - (cameras[i].height - 1) / 2.0;
     if (std::hypot(dx, dy) > e.max_principal_offset_fraction * cameras[i].width)
-      add("principal_point", false,
-          std::string(eye[i]) + " eye: principal point (" + FixedOrDash(p[2], 1) + ", " + FixedOrDash(p[3], 1) + ") is " +
-              FixedOrDash(std::hypot(dx, dy), 0) + " px from the image centre (> " +
+      add("principal_point",
+          false,
+          std::string(eye[i]) + " eye: principal point (" + FixedOrDash(p[2], 1) + ", " + FixedOrDash(p[3], 1) +
+              ") is " + FixedOrDash(std::hypot(dx, dy), 0) + " px from the image centre (> " +
               FixedOrDash(e.max_principal_offset_fraction * cameras[i].width, 0) + " px" + rig_limit +
               "): cropped images, or boards that never reached the image's edges");
   }
   const double f_ratio = cameras[0].params[0] / cameras[1].params[0];
   if (std::abs(f_ratio - 1) > e.max_focal_mismatch)
-    add("focal", false,
+    add("focal",
+        false,
         "the two eyes' focal lengths differ by " + FixedOrDash(100 * std::abs(f_ratio - 1), 1) + " % (left " +
             FixedOrDash(cameras[0].params[0], 1) + ", right " + FixedOrDash(cameras[1].params[0], 1) +
             " px): the same lens on both eyes should agree within " + FixedOrDash(100 * e.max_focal_mismatch, 0) +
-            " % (the " + e.name + " rig's limit); one eye's f is not determined by the set, or the eyes have different lenses or image sizes");
+            " % (the " + e.name +
+            " rig's limit); one eye's f is not determined by the set, or the eyes have different lenses or image "
+            "sizes");
   return s;
 }
 
@@ -159,8 +170,8 @@ std::string WhyNotThisRig(const models::CameraIntrinsics cameras[2],
              std::to_string(cameras[i].width) + " px wide)";
   }
   if (lens.empty()) return "";
-  return "baseline " + FixedOrDash(b * 1000, 1) + " mm, not the " + e.name + " rig's " + FixedOrDash(e.ipd_m * 1000, 1) +
-         " +- " + FixedOrDash(e.ipd_tolerance_m * 1000, 1) + " mm; " + lens;
+  return "baseline " + FixedOrDash(b * 1000, 1) + " mm, not the " + e.name + " rig's " +
+         FixedOrDash(e.ipd_m * 1000, 1) + " +- " + FixedOrDash(e.ipd_tolerance_m * 1000, 1) + " mm; " + lens;
 }
 
 void AppendSanityToResult(const StereoSanity& s, const RigExpectation& e, CalibrationResult* r) {
@@ -169,8 +180,8 @@ void AppendSanityToResult(const StereoSanity& s, const RigExpectation& e, Calibr
     f.push_back({{"check", x.check}, {"severity", x.unusable ? "unusable" : "poor"}, {"message", x.message}});
     r->warnings.push_back("sanity: " + x.message);
   }
-  r->diagnostics["sanity"] = {{"rig", e.name}, {"ok", s.ok()}, {"mirrored_or_swapped", s.mirrored_or_swapped},
-                              {"findings", f}};
+  r->diagnostics["sanity"] = {
+      {"rig", e.name}, {"ok", s.ok()}, {"mirrored_or_swapped", s.mirrored_or_swapped}, {"findings", f}};
 }
 
 }  // namespace owlcal::fitting

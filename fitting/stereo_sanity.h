@@ -36,12 +36,12 @@ namespace owlcal::fitting {
 
 struct RigExpectation {
   std::string name = "owl";
-  double ipd_m = 0.065;                   // 0 = no IPD check
+  double ipd_m = 0.065;  // 0 = no IPD check
   double ipd_tolerance_m = 0.008;
   double focal_min_px = 540, focal_max_px = 680;  // at reference_width_px; 0 = no lens family
   double reference_width_px = 640;
   double max_aspect_error = 0.02;
-  double max_focal_mismatch = 0.05;        // |f_left / f_right - 1|
+  double max_focal_mismatch = 0.05;  // |f_left / f_right - 1|
   double max_rotation_deg = 10;
   double max_off_axis_fraction = 0.3;
   double max_principal_offset_fraction = 0.15;
@@ -52,9 +52,9 @@ struct RigExpectation {
 };
 
 struct SanityFinding {
-  std::string check;     // "tx_sign", "t_direction", "baseline", "rotation", "focal", "principal_point"
-  bool unusable = false; // else poor
-  std::string message;   // what is wrong, why it matters, what fixes it
+  std::string check;      // "tx_sign", "t_direction", "baseline", "rotation", "focal", "principal_point"
+  bool unusable = false;  // else poor
+  std::string message;    // what is wrong, why it matters, what fixes it
 };
 
 struct StereoSanity {

@@ -10,8 +10,8 @@ namespace owlcal::fitting {
 
 std::array<Eigen::Vector3d, 4> TagCornersOf(const Eigen::Vector3d& corner_in_target, int corner_id, double tag_size_m) {
   const double s = tag_size_m;
-  const std::array<Eigen::Vector3d, 4> offset = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(s, 0, 0),
-                                                 Eigen::Vector3d(s, s, 0), Eigen::Vector3d(0, s, 0)};
+  const std::array<Eigen::Vector3d, 4> offset = {
+      Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(s, 0, 0), Eigen::Vector3d(s, s, 0), Eigen::Vector3d(0, s, 0)};
   const int k = ((corner_id % 4) + 4) % 4;
   const Eigen::Vector3d top_left = corner_in_target - offset[k];
   std::array<Eigen::Vector3d, 4> out;

@@ -79,12 +79,15 @@ ToeInServoFit FitToeIn(const std::vector<ToeInSet>& sets, const ToeInFitOptions&
   if (!o.Check(&why)) throw std::invalid_argument("ToeInFitOptions: " + why);
   std::vector<int> use;
   for (size_t i = 0; i < sets.size(); ++i) {
-    if (sets[i].ok) use.push_back(static_cast<int>(i));
-    else fit.notes.push_back(sets[i].name + " left out: " + sets[i].message);
+    if (sets[i].ok)
+      use.push_back(static_cast<int>(i));
+    else
+      fit.notes.push_back(sets[i].name + " left out: " + sets[i].message);
   }
   fit.num_sets = static_cast<int>(use.size());
   if (use.size() < 3) {
-    fit.message = std::to_string(use.size()) + " usable sets: at least 3 (at 3 or more different pan settings) are needed";
+    fit.message =
+        std::to_string(use.size()) + " usable sets: at least 3 (at 3 or more different pan settings) are needed";
     return fit;
   }
   for (int i : use)
@@ -115,14 +118,16 @@ ToeInServoFit FitToeIn(const std::vector<ToeInSet>& sets, const ToeInFitOptions&
       use_per_eye = o.scale_mode == ScaleMode::kPerEye || (sr < o.max_scale_sigma && sl < o.max_scale_sigma);
       if (!use_per_eye)
         fit.notes.push_back("one scale per eye is not determined by these sets (sigma " + FixedOrDash(sr, 4) + " / " +
-                            FixedOrDash(sl, 4) + " deg/us: Rx and Lx moved together); one common scale fitted. "
+                            FixedOrDash(sl, 4) +
+                            " deg/us: Rx and Lx moved together); one common scale fitted. "
                             "To separate the eyes, add sets where only one eye moves");
     } else if (o.scale_mode == ScaleMode::kPerEye) {
       fit.message = "one scale per eye cannot be fitted: Rx and Lx always move together in these sets";
       return fit;
     } else {
-      fit.notes.push_back("Rx and Lx moved together in every set, so only their common scale is measured; to "
-                          "separate the eyes, add sets where only one eye moves");
+      fit.notes.push_back(
+          "Rx and Lx moved together in every set, so only their common scale is measured; to "
+          "separate the eyes, add sets where only one eye moves");
     }
   } else if (o.scale_mode == ScaleMode::kPerEye) {
     fit.message = "one scale per eye needs at least 4 usable sets";
@@ -130,8 +135,9 @@ ToeInServoFit FitToeIn(const std::vector<ToeInSet>& sets, const ToeInFitOptions&
   }
   const LinearFit& f = use_per_eye ? per_eye : common;
   if (!f.ok) {
-    fit.message = "the sets do not determine a scale: every set has the same (Lx - Rx); pan the eyes to at least "
-                  "3 different settings";
+    fit.message =
+        "the sets do not determine a scale: every set has the same (Lx - Rx); pan the eyes to at least "
+        "3 different settings";
     return fit;
   }
   const int p = use_per_eye ? 3 : 2;
@@ -188,13 +194,25 @@ ToeInServoFit FitToeIn(const std::vector<ToeInSet>& sets, const ToeInFitOptions&
   const std::string shared = use_per_eye ? "" : "one scale for both eyes";
   add("servo.Rx.deg_per_us", fit.rx_deg_per_us, fit.rx_sigma, "deg/us", shared);
   add("servo.Lx.deg_per_us", fit.lx_deg_per_us, fit.lx_sigma, "deg/us", shared);
-  add("servo.Rx.us_per_deg", 1 / fit.rx_deg_per_us, fit.rx_sigma / (fit.rx_deg_per_us * fit.rx_deg_per_us), "us/deg",
+  add("servo.Rx.us_per_deg",
+      1 / fit.rx_deg_per_us,
+      fit.rx_sigma / (fit.rx_deg_per_us * fit.rx_deg_per_us),
+      "us/deg",
       shared);
-  add("servo.Lx.us_per_deg", 1 / fit.lx_deg_per_us, fit.lx_sigma / (fit.lx_deg_per_us * fit.lx_deg_per_us), "us/deg",
+  add("servo.Lx.us_per_deg",
+      1 / fit.lx_deg_per_us,
+      fit.lx_sigma / (fit.lx_deg_per_us * fit.lx_deg_per_us),
+      "us/deg",
       shared);
-  add("toe_in.yaw_at_mean_pwm_deg", fit.offset_deg, fit.offset_sigma, "deg",
+  add("toe_in.yaw_at_mean_pwm_deg",
+      fit.offset_deg,
+      fit.offset_sigma,
+      "deg",
       "relative yaw at Rx " + FixedOrDash(mean_rx, 1) + ", Lx " + FixedOrDash(mean_lx, 1) + " us");
-  add("toe_in.repeatability_deg", fit.repeatability_deg, std::numeric_limits<double>::quiet_NaN(), "deg",
+  add("toe_in.repeatability_deg",
+      fit.repeatability_deg,
+      std::numeric_limits<double>::quiet_NaN(),
+      "deg",
       "per-set scatter beyond the calibration sigma");
   fit.parameters.back().determined = fit.dof >= 2;
   fit.ok = true;

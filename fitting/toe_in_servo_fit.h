@@ -33,14 +33,14 @@
 namespace owlcal::fitting {
 
 struct ToeInSet {
-  std::string name;              // where it came from (folder or results.json)
+  std::string name;  // where it came from (folder or results.json)
   double rx_us = 0, ry_us = 0, lx_us = 0, ly_us = 0;
-  bool ok = false;               // has a usable stereo result
-  std::string message;           // why not
-  double yaw_deg = 0;            // yaw of right_from_left (above)
-  double yaw_sigma_deg = 0;      // from the stereo covariance (rotation vector y)
+  bool ok = false;                     // has a usable stereo result
+  std::string message;                 // why not
+  double yaw_deg = 0;                  // yaw of right_from_left (above)
+  double yaw_sigma_deg = 0;            // from the stereo covariance (rotation vector y)
   double pitch_deg = 0, roll_deg = 0;  // rotation vector x, z of right_from_left [deg]
-  std::string verdict;           // the set's verdict status, when known
+  std::string verdict;                 // the set's verdict status, when known
 };
 
 // The yaw, pitch, roll and yaw sigma of a stereo result (result.stereo); ok = false with a
@@ -57,14 +57,14 @@ struct ToeInFitOptions {
 };
 
 struct ToeInSetResidual {
-  int set = 0;                   // index into the input
+  int set = 0;                                        // index into the input
   double predicted_deg = 0, residual_deg = 0, z = 0;  // z = residual / yaw_sigma
 };
 
 struct ToeInServoFit {
   bool ok = false;
   std::string message;
-  bool per_eye = false;          // one scale per eye (else common)
+  bool per_eye = false;  // one scale per eye (else common)
   double rx_deg_per_us = 0, lx_deg_per_us = 0, offset_deg = 0;
   double rx_sigma = 0, lx_sigma = 0, offset_sigma = 0;  // scaled by sqrt(chi2/dof) when > 1
   double chi2 = 0;
@@ -79,6 +79,5 @@ struct ToeInServoFit {
 };
 
 ToeInServoFit FitToeIn(const std::vector<ToeInSet>& sets, const ToeInFitOptions& options = {});
-
 
 }  // namespace owlcal::fitting

@@ -32,24 +32,32 @@ std::map<std::string, double> IntrinsicsTruthValues(const models::HeadModel& tru
   return m;
 }
 
-std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth, const models::PwmVector& pwm_us,
+std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth,
+                                                const models::PwmVector& pwm_us,
                                                 const std::array<int, models::kNumServos>& approach) {
   std::array<double, models::kNumServos> pwm;
   for (int i = 0; i < models::kNumServos; ++i) pwm[i] = pwm_us[i];
   const models::JointAngles a = truth.Angles(pwm, approach);
   models::Rigid3d cam_from_base[2];
   for (int e = 0; e < 2; ++e) {
-    cam_from_base[e] = truth.geometry.cam_from_eye[e] *
-                       models::HeadFromEye(truth.geometry.centre_in_head[e].data(), a.pan_rad[e], a.tilt_rad[e]).Inverse() *
-                       models::HeadFromBase(a.neck_rad);
+    cam_from_base[e] =
+        truth.geometry.cam_from_eye[e] *
+        models::HeadFromEye(truth.geometry.centre_in_head[e].data(), a.pan_rad[e], a.tilt_rad[e]).Inverse() *
+        models::HeadFromBase(a.neck_rad);
   }
   const models::Rigid3d right_from_left = cam_from_base[1] * cam_from_base[0].Inverse();
   const Eigen::AngleAxisd aa(right_from_left.rotation);
   const Eigen::Vector3d rv = aa.axis() * aa.angle() * 180.0 / M_PI;
   const Eigen::Vector3d t = right_from_left.translation * 1000.0;
-  return {{"stereo.baseline_mm", t.norm()}, {"stereo.tx", t.x()},          {"stereo.ty", t.y()},
-          {"stereo.tz", t.z()},             {"stereo.tx_mm", t.x()},       {"stereo.ty_mm", t.y()},
-          {"stereo.tz_mm", t.z()},          {"stereo.rx_deg", rv.x()},     {"stereo.ry_deg", rv.y()},
+  return {{"stereo.baseline_mm", t.norm()},
+          {"stereo.tx", t.x()},
+          {"stereo.ty", t.y()},
+          {"stereo.tz", t.z()},
+          {"stereo.tx_mm", t.x()},
+          {"stereo.ty_mm", t.y()},
+          {"stereo.tz_mm", t.z()},
+          {"stereo.rx_deg", rv.x()},
+          {"stereo.ry_deg", rv.y()},
           {"stereo.rz_deg", rv.z()}};
 }
 
@@ -96,7 +104,9 @@ int CompareLensByProjection(const models::HeadModel& truth,
                             const std::vector<std::string>& prefixes,
                             CalibrationResult* result) {
   static const char* kCoefficients[] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"};
-  auto model_name = [](models::DistortionModel m) { return m == models::DistortionModel::kOpenCv8 ? "opencv8" : "opencv5"; };
+  auto model_name = [](models::DistortionModel m) {
+    return m == models::DistortionModel::kOpenCv8 ? "opencv8" : "opencv5";
+  };
   int compared = 0;
   for (int e = 0; e < 2; ++e) {
     const models::CameraIntrinsics& t = truth.intrinsics[e];
@@ -112,13 +122,15 @@ int CompareLensByProjection(const models::HeadModel& truth,
                         {"truth_model", model_name(t.model)},
                         {"ok", whole.ok},
                         {"message", whole.message},
-                        {"note", "the fitted lens model is not the truth's: compared by projection (through the truth, "
-                                 "back through the fit, best rotation taken out), not coefficient by coefficient"}};
+                        {"note",
+                         "the fitted lens model is not the truth's: compared by projection (through the truth, "
+                         "back through the fit, best rotation taken out), not coefficient by coefficient"}};
     if (whole.ok) {
       std::vector<double> inner;
       const double cx = (t.width - 1) / 2.0, cy = (t.height - 1) / 2.0, half = std::hypot(cx, cy);
       for (size_t i = 0; i < whole.pixels.size(); ++i)
-        if (std::hypot(whole.pixels[i].x() - cx, whole.pixels[i].y() - cy) <= 0.6 * half) inner.push_back(whole.diff_px[i]);
+        if (std::hypot(whole.pixels[i].x() - cx, whole.pixels[i].y() - cy) <= 0.6 * half)
+          inner.push_back(whole.diff_px[i]);
       double ss = 0;
       for (double d : whole.diff_px) ss += d * d;
       double ss_inner = 0, max_inner = 0;

@@ -27,14 +27,15 @@ std::map<std::string, double> IntrinsicsTruthValues(const models::HeadModel& tru
 // + T) at `pwm_us`, as stereo.baseline_mm, stereo.tx/ty/tz (mm), stereo.rx_deg/ry_deg/rz_deg
 // (rotation vector, deg), the names of fitting/stereo_fit.h. `approach`: each servo's last move
 // (+1/-1/0, models::ServoMap), which side of the backlash the joints sit on.
-std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth, const models::PwmVector& pwm_us,
+std::map<std::string, double> StereoTruthValues(const models::HeadModel& truth,
+                                                const models::PwmVector& pwm_us,
                                                 const std::array<int, models::kNumServos>& approach = {});
 
 struct TruthRow {
   std::string name, unit;
   double value = 0, sigma = 0, truth = 0;
-  double error = 0;     // value - truth
-  double z = 0;         // error / sigma; NaN when sigma is not positive and finite
+  double error = 0;  // value - truth
+  double z = 0;      // error / sigma; NaN when sigma is not positive and finite
   bool determined = true;
   bool within_2sigma = false;
 };

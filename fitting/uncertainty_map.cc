@@ -81,9 +81,9 @@ double MedianBoardDistance(const IntrinsicsFit& fit) {
 }
 
 UncertaintyMap ComputeUncertaintyMap(const IntrinsicsFit& fit,
-                                                   const std::vector<calib::View>& views,
-                                                   const std::vector<int>& fixed,
-                                                   const UncertaintyMapOptions& o) {
+                                     const std::vector<calib::View>& views,
+                                     const std::vector<int>& fixed,
+                                     const UncertaintyMapOptions& o) {
   UncertaintyMap out;
   std::string why;
   if (!o.Check(&why)) {
@@ -152,8 +152,10 @@ UncertaintyMap ComputeUncertaintyMap(const IntrinsicsFit& fit,
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(scaled);
   const Eigen::VectorXd ev = es.eigenvalues();
   if (!(ev.minCoeff() > 1e-10 * ev.maxCoeff())) {
-    out.message = "the corners leave a combination of the intrinsics and board poses undetermined "
-                  "(information matrix singular: condition " + std::to_string(ev.maxCoeff() / std::max(ev.minCoeff(), 1e-300)) + ")";
+    out.message =
+        "the corners leave a combination of the intrinsics and board poses undetermined "
+        "(information matrix singular: condition " +
+        std::to_string(ev.maxCoeff() / std::max(ev.minCoeff(), 1e-300)) + ")";
     return out;
   }
   const double sigma = fit.corner_sigma_px > 0 ? fit.corner_sigma_px : std::max(fit.rms_px, 1e-3);
@@ -184,7 +186,8 @@ UncertaintyMap ComputeUncertaintyMap(const IntrinsicsFit& fit,
     ray.normalize();
     const Vec3 x = at_infinity ? ray : Vec3(ray * o.distance_m);
     std::vector<Vec3> in_board;
-    for (const auto& p : s.poses) in_board.push_back(at_infinity ? Vec3(p.R.transpose() * x) : Vec3(p.R.transpose() * (x - p.t)));
+    for (const auto& p : s.poses)
+      in_board.push_back(at_infinity ? Vec3(p.R.transpose() * x) : Vec3(p.R.transpose() * (x - p.t)));
     Eigen::MatrixXd G(2, n);
     for (int k = 0; k < n; ++k) {
       const double h = Step(s, k);

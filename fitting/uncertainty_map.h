@@ -43,7 +43,7 @@ struct UncertaintyMapOptions {
 
 struct UncertaintyMap {
   bool ok = false;
-  std::string message;                  // why not computed (singular: a parameter undetermined)
+  std::string message;  // why not computed (singular: a parameter undetermined)
   int grid_cols = 0, grid_rows = 0;
   std::vector<Eigen::Vector2d> pixels;  // row-major grid
   std::vector<double> sigma_px;         // worst-direction stdev at each grid pixel
@@ -59,9 +59,9 @@ struct UncertaintyMap {
 // fit.frame_indices are used, minus fit.rejected corners); fixed: indices of camera.params
 // held fixed (internal::FixedIntrinsicIndices of the fit's options).
 UncertaintyMap ComputeUncertaintyMap(const IntrinsicsFit& fit,
-                                                   const std::vector<calib::View>& views,
-                                                   const std::vector<int>& fixed,
-                                                   const UncertaintyMapOptions& options = {});
+                                     const std::vector<calib::View>& views,
+                                     const std::vector<int>& fixed,
+                                     const UncertaintyMapOptions& options = {});
 
 // Median distance of the boards from the camera in `fit` (target unit), 0 if none.
 double MedianBoardDistance(const IntrinsicsFit& fit);

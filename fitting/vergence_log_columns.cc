@@ -53,11 +53,11 @@ std::string VergenceColumns::Describe() const {
 VergenceColumns ResolveVergenceColumns(const std::vector<std::string>& header,
                                        const VergenceColumnRequest& req,
                                        const std::string& path) {
-  if (!header.empty() && std::all_of(header.begin(), header.end(), [](const std::string& c) {
-        return c.empty() || LooksNumeric(c);
-      }))
-    throw std::runtime_error(path + ": line 1 is numbers, not a header; add a header line naming the columns "
-                                    "(a true distance such as distance_cm, and the eye-pan PWM Rx and Lx)");
+  if (!header.empty() &&
+      std::all_of(header.begin(), header.end(), [](const std::string& c) { return c.empty() || LooksNumeric(c); }))
+    throw std::runtime_error(path +
+                             ": line 1 is numbers, not a header; add a header line naming the columns "
+                             "(a true distance such as distance_cm, and the eye-pan PWM Rx and Lx)");
   std::vector<std::string> lower;
   for (const auto& h : header) lower.push_back(Lower(h));
   auto find_named = [&](const std::string& name, const char* option) {
@@ -79,11 +79,11 @@ VergenceColumns ResolveVergenceColumns(const std::vector<std::string>& header,
   c.lx = req.lx.empty() ? find_auto({"lx", "lx_us", "lx_pwm"}) : find_named(req.lx, "--lx-column");
   c.run = req.run.empty() ? find_auto({"run"}) : find_named(req.run, "--run-column");
   if (c.rx < 0)
-    throw std::runtime_error(path + ": no right-eye pan PWM column (Rx, Rx_us or Rx_pwm) in the header (" + List(header) +
-                             "); name it with --rx-column");
+    throw std::runtime_error(path + ": no right-eye pan PWM column (Rx, Rx_us or Rx_pwm) in the header (" +
+                             List(header) + "); name it with --rx-column");
   if (c.lx < 0)
-    throw std::runtime_error(path + ": no left-eye pan PWM column (Lx, Lx_us or Lx_pwm) in the header (" + List(header) +
-                             "); name it with --lx-column");
+    throw std::runtime_error(path + ": no left-eye pan PWM column (Lx, Lx_us or Lx_pwm) in the header (" +
+                             List(header) + "); name it with --lx-column");
   for (int i = 0; i < static_cast<int>(header.size()); ++i)
     if (i != c.rx && i != c.lx && i != c.run && DistanceLike(lower[i])) c.distance_like.push_back(header[i]);
   if (!req.distance.empty()) {
@@ -94,21 +94,25 @@ VergenceColumns ResolveVergenceColumns(const std::vector<std::string>& header,
     throw std::runtime_error(path + ": no distance column in the header (" + List(header) +
                              "); name the true distance with --distance-column");
   } else {
-    throw std::runtime_error(path + ": " + std::to_string(c.distance_like.size()) +
-                             " distance-like columns (" + List(c.distance_like) +
+    throw std::runtime_error(path + ": " + std::to_string(c.distance_like.size()) + " distance-like columns (" +
+                             List(c.distance_like) +
                              "): which is the TRUE distance? Name it with --distance-column (the others are "
                              "estimates owlcal must not fit to)");
   }
   if (c.distance == c.rx || c.distance == c.lx || c.distance == c.run)
-    throw std::runtime_error(path + ": --distance-column '" + header[c.distance] + "' is also the Rx, Lx or run column");
+    throw std::runtime_error(path + ": --distance-column '" + header[c.distance] +
+                             "' is also the Rx, Lx or run column");
   c.distance_name = header[c.distance];
   c.rx_name = header[c.rx];
   c.lx_name = header[c.lx];
   if (c.run >= 0) c.run_name = header[c.run];
   c.distance_unit = req.distance_unit.empty() ? UnitSuffix(lower[c.distance]) : Lower(req.distance_unit);
-  if (c.distance_unit == "m") c.distance_scale_m = 1;
-  else if (c.distance_unit == "cm") c.distance_scale_m = 0.01;
-  else if (c.distance_unit == "mm") c.distance_scale_m = 0.001;
+  if (c.distance_unit == "m")
+    c.distance_scale_m = 1;
+  else if (c.distance_unit == "cm")
+    c.distance_scale_m = 0.01;
+  else if (c.distance_unit == "mm")
+    c.distance_scale_m = 0.001;
   else if (req.distance_unit.empty())
     throw std::runtime_error(path + ": distance column '" + c.distance_name +
                              "' has no unit suffix (_m, _cm, _mm); give --distance-unit");

@@ -27,10 +27,10 @@ struct VergenceColumnRequest {
 struct VergenceColumns {
   int distance = -1, rx = -1, lx = -1, run = -1;  // header index; run -1 = absent
   std::string distance_name, rx_name, lx_name, run_name;
-  std::string distance_unit;                      // "m", "cm", "mm"
-  double distance_scale_m = 1;                    // logged value * scale = metres
-  std::vector<std::string> distance_like;         // every distance-like column of the header
-  std::vector<std::string> ignored;               // header cells not used
+  std::string distance_unit;               // "m", "cm", "mm"
+  double distance_scale_m = 1;             // logged value * scale = metres
+  std::vector<std::string> distance_like;  // every distance-like column of the header
+  std::vector<std::string> ignored;        // header cells not used
   // "distance: actual_distance_cm (cm), Rx: Rx_us, Lx: Lx_us, run: run; ignored: sheet_estimate_cm"
   std::string Describe() const;
 };

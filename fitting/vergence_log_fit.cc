@@ -25,7 +25,6 @@ namespace {
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kDegToRad = M_PI / 180.0;
 
-
 // Residual of one row: predicted minus logged PWM for both eyes, whitened.
 struct VergenceRowResidual {
   double distance_m, rx_us, lx_us, sigma_us;
@@ -209,7 +208,8 @@ std::vector<VergenceLogRow> ReadVergenceLogCsv(const std::string& path,
   return rows;
 }
 
-FixedConstantVergence FixedConstantVergence::FromRobot(const models::RobotConfig& robot, double datum_offset_m,
+FixedConstantVergence FixedConstantVergence::FromRobot(const models::RobotConfig& robot,
+                                                       double datum_offset_m,
                                                        const std::string& source) {
   FixedConstantVergence f;
   const auto& rx = robot.servos[models::kRx];
@@ -246,8 +246,8 @@ std::optional<double> VergenceMaps::Distance(double rx_us, double lx_us) const {
 }
 
 void VergenceMaps::PredictPwm(double distance_m, int run_index, double* rx_us, double* lx_us) const {
-  const double phi = run_index >= 0 && run_index < static_cast<int>(run_bearing_rad.size())
-                         ? run_bearing_rad[run_index] : 0.0;
+  const double phi =
+      run_index >= 0 && run_index < static_cast<int>(run_bearing_rad.size()) ? run_bearing_rad[run_index] : 0.0;
   const double rho = distance_m + datum_offset_m;
   const double x = rho * std::sin(phi), z = rho * std::cos(phi);
   *lx_us = lx_centre_us + lx_us_per_deg * std::atan2(x + ipd_m / 2, z) * kRadToDeg;
@@ -270,7 +270,8 @@ bool VergenceFitOptions::Check(std::string* why) const {
 VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const VergenceFitOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument("VergenceFitOptions: " + why);
-  if (rows.size() < 4) throw std::invalid_argument("vergence log has " + std::to_string(rows.size()) + " rows; need >= 4");
+  if (rows.size() < 4)
+    throw std::invalid_argument("vergence log has " + std::to_string(rows.size()) + " rows; need >= 4");
   if (const size_t runs = RunIndex(rows).size(); runs > kMaxVergenceRuns)
     throw std::invalid_argument("vergence log has " + std::to_string(runs) + " runs (distinct run ids); at most " +
                                 std::to_string(kMaxVergenceRuns) +
@@ -278,10 +279,11 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
   std::vector<double> distances;
   for (size_t i = 0; i < rows.size(); ++i) {
     const VergenceLogRow& r = rows[i];
-    if (!(std::isfinite(r.true_distance_m) && r.true_distance_m > 0) || !std::isfinite(r.rx_us) || !std::isfinite(r.lx_us))
-      throw std::invalid_argument("vergence log row " + std::to_string(i) + ": distance " + FixedOrDash(r.true_distance_m, 4) +
-                                  " m, Rx " + FixedOrDash(r.rx_us, 1) + ", Lx " + FixedOrDash(r.lx_us, 1) +
-                                  ": distances must be positive and every value finite");
+    if (!(std::isfinite(r.true_distance_m) && r.true_distance_m > 0) || !std::isfinite(r.rx_us) ||
+        !std::isfinite(r.lx_us))
+      throw std::invalid_argument("vergence log row " + std::to_string(i) + ": distance " +
+                                  FixedOrDash(r.true_distance_m, 4) + " m, Rx " + FixedOrDash(r.rx_us, 1) + ", Lx " +
+                                  FixedOrDash(r.lx_us, 1) + ": distances must be positive and every value finite");
     distances.push_back(r.true_distance_m);
   }
   std::sort(distances.begin(), distances.end());
@@ -292,7 +294,8 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     // Each eye's Rx = centre - scale * angle(D): one distance gives one equation per eye for two
     // unknowns, however many rows repeat it.
     fit.notes.push_back("all " + std::to_string(rows.size()) + " rows are at one distance (" +
-                        FixedOrDash(distances[0] * 100, 1) + " cm): a centre and a us/deg scale cannot both be determined "
+                        FixedOrDash(distances[0] * 100, 1) +
+                        " cm): a centre and a us/deg scale cannot both be determined "
                         "from one distance; log at least two (better five or more, near and far)");
   }
   bool ipd_free = false;
@@ -346,24 +349,24 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
   auto sig = [&](const std::string& k, double unit) {
     return s.covariance_ok && s.sigma.count(k) ? s.sigma[k] * scale * unit : nan;
   };
-  auto add = [&](const std::string& name, double v, double sigma, const std::string& unit, bool det,
-                 const std::string& note) {
-    Parameter p;
-    p.name = name;
-    p.value = v;
-    p.sigma = det ? sigma : nan;  // a parameter that is not determined has no sigma
-    p.unit = unit;
-    p.determined = det;
-    p.note = note;
-    fit.parameters.push_back(p);
-  };
+  auto add =
+      [&](const std::string& name, double v, double sigma, const std::string& unit, bool det, const std::string& note) {
+        Parameter p;
+        p.name = name;
+        p.value = v;
+        p.sigma = det ? sigma : nan;  // a parameter that is not determined has no sigma
+        p.unit = unit;
+        p.determined = det;
+        p.note = note;
+        fit.parameters.push_back(p);
+      };
   // Determined by the observability rule, else the rule's reason; nothing is determined by a
   // solve that did not converge or by one distance.
   const bool converged = s.summary.termination_type == ceres::CONVERGENCE;
-  const std::string blocked = !converged              ? "solver did not converge"
-                              : num_distances < 2     ? "not determined: one distance only"
-                              : !s.covariance_ok      ? "not determined: the covariance failed"
-                                                      : "";
+  const std::string blocked = !converged          ? "solver did not converge"
+                              : num_distances < 2 ? "not determined: one distance only"
+                              : !s.covariance_ok  ? "not determined: the covariance failed"
+                                                  : "";
   const std::map<std::string, std::string> no_signal =
       ScalesWithoutSignal(rows, s.maps, sig("rx.scale", 1), sig("lx.scale", 1));
   for (const auto& [k, why] : no_signal) fit.notes.push_back(why);
@@ -375,17 +378,39 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     return it != s.undetermined.end() ? "not determined: " + it->second : note;
   };
   add("servo.Rx.centre_us", s.maps.rx_centre_us, sig("rx.centre", 1), "us", det("rx.centre"), note_of("rx.centre", ""));
-  add("servo.Rx.us_per_deg", s.maps.rx_us_per_deg, sig("rx.scale", 1), "us/deg", det("rx.scale"), note_of("rx.scale", ""));
+  add("servo.Rx.us_per_deg",
+      s.maps.rx_us_per_deg,
+      sig("rx.scale", 1),
+      "us/deg",
+      det("rx.scale"),
+      note_of("rx.scale", ""));
   add("servo.Lx.centre_us", s.maps.lx_centre_us, sig("lx.centre", 1), "us", det("lx.centre"), note_of("lx.centre", ""));
-  add("servo.Lx.us_per_deg", s.maps.lx_us_per_deg, sig("lx.scale", 1), "us/deg", det("lx.scale"), note_of("lx.scale", ""));
-  add("head.ipd_mm", s.maps.ipd_m * 1000, ipd_free ? sig("ipd", 1000) : nan, "mm", ipd_free && det("ipd"),
+  add("servo.Lx.us_per_deg",
+      s.maps.lx_us_per_deg,
+      sig("lx.scale", 1),
+      "us/deg",
+      det("lx.scale"),
+      note_of("lx.scale", ""));
+  add("head.ipd_mm",
+      s.maps.ipd_m * 1000,
+      ipd_free ? sig("ipd", 1000) : nan,
+      "mm",
+      ipd_free && det("ipd"),
       ipd_free ? note_of("ipd", "") : "fixed: not determined by a vergence log");
-  add("vergence.datum_mm", s.maps.datum_offset_m * 1000, datum_free ? sig("datum", 1000) : nan, "mm",
-      datum_free && det("datum"), datum_free ? note_of("datum", "eye-centre baseline to the distance datum") : "fixed");
+  add("vergence.datum_mm",
+      s.maps.datum_offset_m * 1000,
+      datum_free ? sig("datum", 1000) : nan,
+      "mm",
+      datum_free && det("datum"),
+      datum_free ? note_of("datum", "eye-centre baseline to the distance datum") : "fixed");
   for (size_t k = 1; k < s.runs.size() && options.per_run_bearing; ++k) {
     const std::string b = "bearing" + std::to_string(k);
-    add("vergence.run" + std::to_string(s.runs[k]) + ".bearing_deg", s.maps.run_bearing_rad[k] * kRadToDeg,
-        sig(b, kRadToDeg), "deg", det(b), note_of(b, "relative to run " + std::to_string(s.runs[0])));
+    add("vergence.run" + std::to_string(s.runs[k]) + ".bearing_deg",
+        s.maps.run_bearing_rad[k] * kRadToDeg,
+        sig(b, kRadToDeg),
+        "deg",
+        det(b),
+        note_of(b, "relative to run " + std::to_string(s.runs[0])));
   }
   const bool ok = s.covariance_ok && det("rx.centre") && det("rx.scale") && det("lx.centre") && det("lx.scale");
   fit.summary.problem = "vergence_log";

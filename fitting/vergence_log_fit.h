@@ -64,7 +64,8 @@ struct FixedConstantVergence {
   double datum_offset_m = 0.030;
   std::string source = "noble2020 sheet constants";
   // From a robot file's Rx / Lx centres, deg_per_us and directions and its IPD.
-  static FixedConstantVergence FromRobot(const models::RobotConfig& robot, double datum_offset_m,
+  static FixedConstantVergence FromRobot(const models::RobotConfig& robot,
+                                         double datum_offset_m,
                                          const std::string& source);
   // Distance from the datum [m]; nullopt when the rays do not converge.
   std::optional<double> Distance(double rx_us, double lx_us) const;
@@ -74,7 +75,7 @@ struct VergenceMaps {
   double rx_centre_us = 1445, rx_us_per_deg = 10.73;
   double lx_centre_us = 1430, lx_us_per_deg = 10.73;
   double ipd_m = 0.065;
-  double datum_offset_m = 0.030;   // d0: eye-centre baseline to the distance datum [m]
+  double datum_offset_m = 0.030;        // d0: eye-centre baseline to the distance datum [m]
   std::vector<double> run_bearing_rad;  // phi per run, in the order of VergenceLogFit::runs
   // Inward eye angles for a PWM pair [rad].
   double ThetaLeft(double lx_us) const;
@@ -88,24 +89,24 @@ struct VergenceMaps {
 enum class IpdMode { kFixed, kFree, kAuto };
 
 struct VergenceFitOptions {
-  double pwm_sigma_us = 1.0;   // prior per-reading sigma (quantisation 1 us + fixation)
+  double pwm_sigma_us = 1.0;  // prior per-reading sigma (quantisation 1 us + fixation)
   IpdMode ipd_mode = IpdMode::kAuto;
-  double ipd_m = 0.065;        // value when fixed, start when free
+  double ipd_m = 0.065;  // value when fixed, start when free
   double ipd_sigma_threshold_m = 0.003;
-  bool fit_datum = true;       // else datum fixed at datum_offset_m
+  bool fit_datum = true;  // else datum fixed at datum_offset_m
   double datum_offset_m = 0.030;
   double datum_sigma_threshold_m = 0.05;  // above this the datum is fixed with a note
-  bool per_run_bearing = true; // one bearing per run after the first
-  int max_iterations = 200;    // solver iterations; a fit that needs more is NO_CONVERGENCE, not usable
-  VergenceMaps initial;        // starting centres and scales
+  bool per_run_bearing = true;            // one bearing per run after the first
+  int max_iterations = 200;               // solver iterations; a fit that needs more is NO_CONVERGENCE, not usable
+  VergenceMaps initial;                   // starting centres and scales
   bool Check(std::string* why) const;
 };
 
 struct VergenceRowDiagnostic {
-  int row = 0;                  // index into the input rows
+  int row = 0;                              // index into the input rows
   double residual_rx = 0, residual_lx = 0;  // whitened (pred - obs) / pwm_sigma_us
-  double chi2 = 0;              // residual_rx^2 + residual_lx^2
-  double range_per_us_m = 0;    // |d distance / d PWM| for 1 us on either eye (RSS) [m/us]
+  double chi2 = 0;                          // residual_rx^2 + residual_lx^2
+  double range_per_us_m = 0;                // |d distance / d PWM| for 1 us on either eye (RSS) [m/us]
 };
 
 // summary.usable is true only when the solver converged and the covariance has full rank; then
@@ -114,12 +115,12 @@ struct VergenceRowDiagnostic {
 // identical rows) leave it "not determined" with a note saying why.
 struct VergenceLogFit {
   VergenceMaps maps;
-  std::vector<int> runs;                 // run ids, order of maps.run_bearing_rad
-  std::vector<Parameter> parameters;     // rx.centre_us, rx.us_per_deg, lx.*, ipd_mm, datum_mm, bearing
+  std::vector<int> runs;              // run ids, order of maps.run_bearing_rad
+  std::vector<Parameter> parameters;  // rx.centre_us, rx.us_per_deg, lx.*, ipd_mm, datum_mm, bearing
   SolveSummary summary;
-  double residual_sigma_us = 0;          // sqrt(chi2/dof) * pwm_sigma_us
+  double residual_sigma_us = 0;  // sqrt(chi2/dof) * pwm_sigma_us
   std::vector<VergenceRowDiagnostic> rows;
-  std::vector<std::string> notes;        // what was fixed and why
+  std::vector<std::string> notes;  // what was fixed and why
   bool ipd_free = false;
   bool datum_free = false;
 };
@@ -146,9 +147,9 @@ struct LooRow {
 inline constexpr size_t kMaxVergenceFolds = 100;
 struct LooSummary {
   std::vector<LooRow> rows;
-  int folds = 0;                   // refits made: the rows, or kMaxVergenceFolds for a longer log
-  bool has_fixed = false;          // a fixed-constant comparison was made
-  std::string fixed_source;        // whose constants
+  int folds = 0;             // refits made: the rows, or kMaxVergenceFolds for a longer log
+  bool has_fixed = false;    // a fixed-constant comparison was made
+  std::string fixed_source;  // whose constants
   // Mean / median absolute relative error; rows without a fix count as 100 %.
   double fixed_mean_abs_rel = 0, fixed_median_abs_rel = 0;
   double loo_mean_abs_rel = 0, loo_median_abs_rel = 0;

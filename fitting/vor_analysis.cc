@@ -108,8 +108,8 @@ VorGain GainFromSines(const SineFit& neck, const SineFit& pan, double hz) {
     return g;
   }
   g.gain = pan.amplitude / neck.amplitude;
-  g.gain_sigma = g.gain * std::hypot(pan.amplitude_sigma / std::max(pan.amplitude, 1e-12),
-                                     neck.amplitude_sigma / neck.amplitude);
+  g.gain_sigma =
+      g.gain * std::hypot(pan.amplitude_sigma / std::max(pan.amplitude, 1e-12), neck.amplitude_sigma / neck.amplitude);
   // A perfect VOR: pan = -neck, i.e. the eye's phase is the neck's + 180 deg. The lag is how much
   // less the eye's phase is than that.
   const double lag = Wrap(neck.phase_rad + M_PI - pan.phase_rad);
@@ -175,8 +175,8 @@ SlipStats ComputeSlip(const std::vector<double>& t,
     if (prev >= 0 && t[i] > t[prev]) {
       const double dt = t[i] - t[prev];
       const double v = std::abs(x[i] - x[prev]) / dt;
-      const double wv = std::isfinite(angle[i]) && std::isfinite(angle[prev]) ? std::abs(angle[i] - angle[prev]) / dt
-                                                                              : 0.0;
+      const double wv =
+          std::isfinite(angle[i]) && std::isfinite(angle[prev]) ? std::abs(angle[i] - angle[prev]) / dt : 0.0;
       sum_v += v * v;
       sum_w += wv * wv;
       s.peak_px_per_s = std::max(s.peak_px_per_s, v);

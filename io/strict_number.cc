@@ -64,7 +64,8 @@ std::optional<int64_t> ParseInteger(std::string_view text) {
 std::string CheckNumber(std::string_view text, double min, double max, double* value) {
   const std::optional<double> v = ParseFiniteDouble(text);
   if (!v) return "= '" + Printable(text) + "' is not a finite decimal number";
-  if (*v < min || *v > max) return "= " + FormatNumber(*v) + " is outside [" + FormatNumber(min) + ", " + FormatNumber(max) + "]";
+  if (*v < min || *v > max)
+    return "= " + FormatNumber(*v) + " is outside [" + FormatNumber(min) + ", " + FormatNumber(max) + "]";
   *value = *v;
   return "";
 }

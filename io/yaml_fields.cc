@@ -95,11 +95,13 @@ YamlFields::YamlFields(const YAML::Node& node, std::string source, std::string p
   for (const auto& kv : node) {
     const int line = LineOf(kv.first);
     const std::string at = At(source_, line) + ": ";
-    if (!kv.first.IsScalar()) Throw(at + "a key of " + name + " is a " + (kv.first.IsSequence() ? "list" : "map") + ", not a name");
+    if (!kv.first.IsScalar())
+      Throw(at + "a key of " + name + " is a " + (kv.first.IsSequence() ? "list" : "map") + ", not a name");
     const std::string key = kv.first.Scalar();
     const auto it = entries_.find(key);
     if (it != entries_.end()) {
-      Throw(at + "key '" + Printable(FieldName(key)) + "' given twice (first on line " + std::to_string(it->second.line) + ")");
+      Throw(at + "key '" + Printable(FieldName(key)) + "' given twice (first on line " +
+            std::to_string(it->second.line) + ")");
     }
     entries_[key] = {kv.second, line};
     keys_.push_back(key);
@@ -143,7 +145,10 @@ const YamlFields::Entry& YamlFields::Scalar(const std::string& key) {
   read_.insert(key);
   const Entry& e = entries_.at(key);
   if (!e.value.IsScalar()) {
-    Fail(key, std::string("must be a single value, not a ") + (e.value.IsSequence() ? "list" : e.value.IsMap() ? "map" : "null"));
+    Fail(key,
+         std::string("must be a single value, not a ") + (e.value.IsSequence() ? "list"
+                                                          : e.value.IsMap()    ? "map"
+                                                                               : "null"));
   }
   return e;
 }
@@ -191,7 +196,8 @@ int YamlFields::Int(const std::string& key, int def, int min, int max) {
 bool YamlFields::Bool(const std::string& key) {
   const Entry& e = Scalar(key);
   bool b = false;
-  if (!YAML::convert<bool>::decode(e.value, b)) Fail(key, "= '" + Printable(e.value.Scalar()) + "' is not true or false");
+  if (!YAML::convert<bool>::decode(e.value, b))
+    Fail(key, "= '" + Printable(e.value.Scalar()) + "' is not true or false");
   return b;
 }
 

@@ -46,9 +46,8 @@ Eigen::Matrix<T, 3, 1> PointInCam(const T* cam_from_eye,
                                   const T& tilt_rad,
                                   const T& neck_rad,
                                   const Eigen::Matrix<T, 3, 1>& x_in_base) {
-  const Rigid3<T> cam_from_base = Rigid3<T>::Map(cam_from_eye) *
-                                  HeadFromEye(centre_in_head, pan_rad, tilt_rad).Inverse() *
-                                  HeadFromBase(neck_rad);
+  const Rigid3<T> cam_from_base =
+      Rigid3<T>::Map(cam_from_eye) * HeadFromEye(centre_in_head, pan_rad, tilt_rad).Inverse() * HeadFromBase(neck_rad);
   return cam_from_base * x_in_base;
 }
 

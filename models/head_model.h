@@ -20,7 +20,7 @@
 namespace owlcal::models {
 
 struct JointAngles {
-  double pan_rad[2] = {0, 0};   // [kLeftEye], [kRightEye]
+  double pan_rad[2] = {0, 0};  // [kLeftEye], [kRightEye]
   double tilt_rad[2] = {0, 0};
   double neck_rad = 0;
 };
@@ -62,8 +62,8 @@ struct HeadModel {
   Eigen::Vector3d PointInCam(Eye eye, const JointAngles& a, const Eigen::Vector3d& x_in_base) const {
     double pose[7];
     geometry.cam_from_eye[eye].ToArray(pose);
-    return models::PointInCam<double>(pose, geometry.centre_in_head[eye].data(), a.pan_rad[eye],
-                                      a.tilt_rad[eye], a.neck_rad, x_in_base);
+    return models::PointInCam<double>(
+        pose, geometry.centre_in_head[eye].data(), a.pan_rad[eye], a.tilt_rad[eye], a.neck_rad, x_in_base);
   }
 
   bool Project(Eye eye, const JointAngles& a, const Eigen::Vector3d& x_in_base, Eigen::Vector2d* pixel) const {

@@ -42,13 +42,12 @@ struct PLoopSettings {
 
 class PLoopAxis {
  public:
-  PLoopAxis(int command_us, ServoState applied)
-      : state_us_(command_us), sent_us_(command_us), applied_(applied) {}
+  PLoopAxis(int command_us, ServoState applied) : state_us_(command_us), sent_us_(command_us), applied_(applied) {}
 
   // One update; the command to send, or nullopt when the axis does not move. lo_us/hi_us bound
   // the command (grid commands inside them).
-  std::optional<int> Update(double e_px, double err_us, const PLoopSettings& s, double px_per_us,
-                            int lo_us = 0, int hi_us = 1 << 20) {
+  std::optional<int> Update(
+      double e_px, double err_us, const PLoopSettings& s, double px_per_us, int lo_us = 0, int hi_us = 1 << 20) {
     if (std::abs(e_px) <= s.DeadZonePx(px_per_us)) return std::nullopt;
     state_us_ += std::clamp(s.gain * err_us, -double(s.max_step_us), double(s.max_step_us));
     state_us_ = std::clamp(state_us_, double(lo_us), double(hi_us));

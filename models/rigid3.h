@@ -3,9 +3,9 @@
 // [qx, qy, qz, qw, tx, ty, tz] (Eigen quaternion order, docs/conventions.md), so a pose is
 // one Ceres parameter block with ProductManifold<EigenQuaternionManifold, EuclideanManifold<3>>.
 //   x_in_a = a_from_b * x_in_b = q * x_in_b + t
+#include <ceres/jet.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <ceres/jet.h>
 
 namespace owlcal::models {
 
@@ -24,8 +24,13 @@ struct Rigid3 {
     return Rigid3(q, Eigen::Matrix<T, 3, 1>(p[4], p[5], p[6]));
   }
   void ToArray(T* p) const {
-    p[0] = rotation.x(); p[1] = rotation.y(); p[2] = rotation.z(); p[3] = rotation.w();
-    p[4] = translation.x(); p[5] = translation.y(); p[6] = translation.z();
+    p[0] = rotation.x();
+    p[1] = rotation.y();
+    p[2] = rotation.z();
+    p[3] = rotation.w();
+    p[4] = translation.x();
+    p[5] = translation.y();
+    p[6] = translation.z();
   }
 
   Rigid3 Inverse() const {
@@ -54,13 +59,19 @@ using Rigid3d = Rigid3<double>;
 // Rotation about the y axis (down) by `angle` rad: positive turns +z towards +x (right).
 template <typename T>
 Eigen::Quaternion<T> RotY(const T& angle) {
-  using std::cos; using std::sin; using ceres::cos; using ceres::sin;
+  using ceres::cos;
+  using ceres::sin;
+  using std::cos;
+  using std::sin;
   return Eigen::Quaternion<T>(cos(angle / T(2)), T(0), sin(angle / T(2)), T(0));
 }
 // Rotation about the x axis (right) by `angle` rad: positive turns +z towards -y (up).
 template <typename T>
 Eigen::Quaternion<T> RotX(const T& angle) {
-  using std::cos; using std::sin; using ceres::cos; using ceres::sin;
+  using ceres::cos;
+  using ceres::sin;
+  using std::cos;
+  using std::sin;
   return Eigen::Quaternion<T>(cos(angle / T(2)), sin(angle / T(2)), T(0), T(0));
 }
 

@@ -31,13 +31,13 @@ struct ServoConfig {
 struct RobotConfig {
   std::string name = "guide-owl";
   std::array<ServoConfig, kNumServos> servos;
-  double ipd_m = 0.065;            // design inter-pupillary distance
-  int image_width = 640;           // per eye
+  double ipd_m = 0.065;   // design inter-pupillary distance
+  int image_width = 640;  // per eye
   int image_height = 480;
   // Stream layout. A real Owl's stream arrives mirrored (the course code flips the whole
   // 1280x480 frame, then left eye = columns 0-639), so mirror_stream is true by default.
-  bool swap_eyes = false;          // true: left eye = columns 640-1279 (after the flip if mirrored)
-  bool mirror_stream = true;       // true: the stream frame is flipped horizontally first
+  bool swap_eyes = false;     // true: left eye = columns 640-1279 (after the flip if mirrored)
+  bool mirror_stream = true;  // true: the stream frame is flipped horizontally first
 
   PwmVector Centre() const {
     PwmVector c{};

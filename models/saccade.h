@@ -33,8 +33,8 @@ namespace owlcal::models {
 
 // The base-frame point at range_m along the ray through `pixel` of `eye`, with the head at
 // joint angles `a`; nullopt when the pixel cannot be unprojected.
-inline std::optional<Eigen::Vector3d> PointAtPixel(const HeadModel& head, Eye eye, const JointAngles& a,
-                                                   const Eigen::Vector2d& pixel, double range_m) {
+inline std::optional<Eigen::Vector3d> PointAtPixel(
+    const HeadModel& head, Eye eye, const JointAngles& a, const Eigen::Vector2d& pixel, double range_m) {
   Eigen::Vector3d ray;
   if (!head.intrinsics[eye].Unproject(pixel.data(), ray.data())) return std::nullopt;
   const Rigid3d cam_from_base =
@@ -50,10 +50,15 @@ inline std::optional<Eigen::Vector3d> PointAtPixel(const HeadModel& head, Eye ey
 // move (+1 from below, -1 from above). The point goes to `goal_px` (default: the principal
 // point; a controller that measures offsets from the image centre passes that). nullopt when the
 // point cannot be centred.
-inline std::optional<std::array<double, 2>> SaccadePulses(const HeadModel& head, Eye eye, JointAngles a,
-                                                          const Eigen::Vector3d& x_in_base, bool pan, bool tilt,
-                                                          const std::array<int, 2>& approach,
-                                                          const std::optional<Eigen::Vector2d>& goal_px = std::nullopt) {
+inline std::optional<std::array<double, 2>> SaccadePulses(
+    const HeadModel& head,
+    Eye eye,
+    JointAngles a,
+    const Eigen::Vector3d& x_in_base,
+    bool pan,
+    bool tilt,
+    const std::array<int, 2>& approach,
+    const std::optional<Eigen::Vector2d>& goal_px = std::nullopt) {
   const double cx = goal_px ? goal_px->x() : head.intrinsics[eye].params[2];
   const double cy = goal_px ? goal_px->y() : head.intrinsics[eye].params[3];
   for (int it = 0; it < 30; ++it) {
@@ -94,8 +99,8 @@ struct SaccadeShape {
 };
 
 // The fastest shaped step of amplitude_us (signed) for a joint at rest. band_us > 0.
-inline SaccadeShape ShapeSaccade(double amplitude_us, double slew_us_per_s, double lag_s, double band_us,
-                                 double max_overdrive_us = 200) {
+inline SaccadeShape ShapeSaccade(
+    double amplitude_us, double slew_us_per_s, double lag_s, double band_us, double max_overdrive_us = 200) {
   const double a = std::abs(amplitude_us);
   auto settle = [&](double b, double t1) {
     // Last time |y - a| > band, sampled every 0.5 ms over 0.5 s.

@@ -52,8 +52,7 @@ struct ServoMap {
   // The pulse width (real-valued) that gives `angle_rad`: Newton from the linear guess.
   // Returns NaN if the map is not invertible there.
   static double PulseWidth(const double* params, int direction, double angle_rad, int approach) {
-    double u = params[0] + double(approach) * params[4] +
-               direction * angle_rad * 180.0 / M_PI / params[1];
+    double u = params[0] + double(approach) * params[4] + direction * angle_rad * 180.0 / M_PI / params[1];
     for (int it = 0; it < 60; ++it) {
       const double f = JointAngle(params, direction, u, approach) - angle_rad;
       const double s = Slope(params, direction, u, approach);

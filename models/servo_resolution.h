@@ -47,8 +47,7 @@ struct ServoResolution {
   }
 
   bool Check(std::string* why) const {
-    if (step_us < 1 || step_us > 100 || dead_band_us < 1 || dead_band_us > 100 || phase_us < 0 ||
-        phase_us >= step_us) {
+    if (step_us < 1 || step_us > 100 || dead_band_us < 1 || dead_band_us > 100 || phase_us < 0 || phase_us >= step_us) {
       if (why)
         *why = "servo resolution: step " + std::to_string(step_us) + " us, dead band " + std::to_string(dead_band_us) +
                " us, phase " + std::to_string(phase_us) + " us: need 1 <= step, dead band <= 100 and 0 <= phase < step";

@@ -16,8 +16,8 @@
 namespace owlcal::models {
 
 // y after dt seconds from state (r0, y0) heading for `target`; *r_out gets r.
-inline double SlewLagState(double r0, double y0, double target, double slew, double lag, double dt,
-                           double* r_out = nullptr) {
+inline double SlewLagState(
+    double r0, double y0, double target, double slew, double lag, double dt, double* r_out = nullptr) {
   const double diff = target - r0;
   const double s = diff > 0 ? slew : (diff < 0 ? -slew : 0.0);
   const double t_ramp = s == 0 ? 0.0 : std::abs(diff) / slew;

@@ -1,10 +1,10 @@
 #include "pipeline/bring_up.h"
 
 #include <algorithm>
-#include <charconv>
-#include <fstream>
 #include <array>
+#include <charconv>
 #include <cmath>
+#include <fstream>
 #include <optional>
 
 #include "calib/trial_status.h"
@@ -35,9 +35,11 @@ nlohmann::json BringUp::ToJson() const {
   nlohmann::json servos = nlohmann::json::array();
   for (int s = 0; s < models::kNumServos; ++s) {
     const models::ServoConfig &a = file.servos[s], &b = learned.servos[s];
-    servos.push_back({{"servo", models::kServoNames[s]},
-                      {"file", {{"min_us", a.min_us}, {"max_us", a.max_us}, {"centre_us", a.centre_us}, {"direction", a.direction}}},
-                      {"used", {{"min_us", b.min_us}, {"max_us", b.max_us}, {"centre_us", b.centre_us}, {"direction", b.direction}}}});
+    servos.push_back(
+        {{"servo", models::kServoNames[s]},
+         {"file", {{"min_us", a.min_us}, {"max_us", a.max_us}, {"centre_us", a.centre_us}, {"direction", a.direction}}},
+         {"used",
+          {{"min_us", b.min_us}, {"max_us", b.max_us}, {"centre_us", b.centre_us}, {"direction", b.direction}}}});
   }
   return {{"changed", Changed()},
           {"findings", findings},
@@ -98,8 +100,8 @@ BringUp LearnFromLimits(const models::RobotConfig& file,
   for (int s = 0; s < models::kNumServos; ++s)
     reversed[s] = seen[s] != 0 && seen[s] != ImageSignOfPositiveDirection(s) * file.servos[s].direction;
   const bool x_all = reversed[models::kRx] && reversed[models::kLx] && reversed[models::kNeck];
-  const bool tilts_agree = seen[models::kRy] != 0 && seen[models::kLy] != 0 && !reversed[models::kRy] &&
-                           !reversed[models::kLy];
+  const bool tilts_agree =
+      seen[models::kRy] != 0 && seen[models::kLy] != 0 && !reversed[models::kRy] && !reversed[models::kLy];
   if (x_all && tilts_agree) {
     b.findings.push_back(
         std::string("the image moves the other way from the robot file for Rx, Lx and the neck while both tilts agree: "
@@ -111,8 +113,8 @@ BringUp LearnFromLimits(const models::RobotConfig& file,
       if (!reversed[s]) continue;
       const int turns = -file.servos[s].direction;
       b.learned.servos[s].direction = turns;
-      b.findings.push_back("your robot file says " + Signed(file.servos[s].direction) + " for " + models::kServoNames[s] +
-                           "; the robot turns " + Signed(turns) + "; used " + Signed(turns));
+      b.findings.push_back("your robot file says " + Signed(file.servos[s].direction) + " for " +
+                           models::kServoNames[s] + "; the robot turns " + Signed(turns) + "; used " + Signed(turns));
     }
   }
   for (int s = 0; s < models::kNumServos; ++s)

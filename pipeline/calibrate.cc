@@ -134,7 +134,8 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
   std::unique_ptr<robot::ReconfiguredRobot> learned;
   // Every protocol is read before the robot moves: a typo in the last one costs no robot time.
   std::vector<protocols::Protocol> loaded;
-  for (const std::string& name : names) loaded.push_back(protocols::LoadProtocolFile(protocols::ResolveProtocolPath(name)));
+  for (const std::string& name : names)
+    loaded.push_back(protocols::LoadProtocolFile(protocols::ResolveProtocolPath(name)));
   for (size_t i = 0; i < names.size(); ++i) {
     const std::string& name = names[i];
     const protocols::Protocol& p = loaded[i];
@@ -160,8 +161,13 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
   // 2) The fit, 3) the protocols that use it, 4) the evaluations of everything recorded.
   fitting::CalibrationRun run = FitCalibration(datasets, fit);
   for (const auto& [p, dir] : after_fit) {
-    Record(p, dir, ControllerCalibration(run, "this calibrate run's head fit and step-response motion fit"), *current,
-           o, &runs, &warnings);
+    Record(p,
+           dir,
+           ControllerCalibration(run, "this calibrate run's head fit and step-response motion fit"),
+           *current,
+           o,
+           &runs,
+           &warnings);
     datasets[p.name] = dir;
   }
   FinishCalibration(datasets, fit, &run);
@@ -225,8 +231,10 @@ fitting::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOpt
     on_file |= file_config && !learned_config;
   }
   if (on_learned && on_file)
-    throw std::runtime_error(dir + ": some datasets were recorded on the robot file's configuration and some on what "
-                             "the bring-up learned (" + file_manifest + "): not one calibrate run");
+    throw std::runtime_error(dir +
+                             ": some datasets were recorded on the robot file's configuration and some on what "
+                             "the bring-up learned (" +
+                             file_manifest + "): not one calibrate run");
   // Applied as calibrate applied it: when the later datasets ran on it (or nothing differs).
   if (bring_up && !on_file) {
     fit.config = bring_up->learned;

@@ -44,15 +44,15 @@ CalibratePipelineOptions DefaultFitOptions();
 
 // What a manifest records about the robot a dataset was recorded on (protocols::RunOptions).
 struct RobotRecord {
-  std::string spec = "sim";    // "sim" or HOST[:PORT]
-  std::string robot_file;      // path of the robot file ("" = built-in)
+  std::string spec = "sim";     // "sim" or HOST[:PORT]
+  std::string robot_file;       // path of the robot file ("" = built-in)
   std::string robot_file_text;  // its text, so a refit needs no file
-  nlohmann::json sim;          // virtual Owl: {"seed", "truth_file", "scene_file"}; null otherwise
+  nlohmann::json sim;           // virtual Owl: {"seed", "truth_file", "scene_file"}; null otherwise
 };
 
 struct CalibrateOptions {
-  std::string out;                      // the calibration folder; datasets go to out/datasets/NAME
-  std::vector<std::string> protocols;   // names or paths; empty: the standard suite
+  std::string out;                                     // the calibration folder; datasets go to out/datasets/NAME
+  std::vector<std::string> protocols;                  // names or paths; empty: the standard suite
   CalibratePipelineOptions fit = DefaultFitOptions();  // truth fields are filled by Calibrate
   // The virtual Owl's truth; nullopt: taken from the robot when it is a sim::VirtualOwl.
   std::optional<sim::RobotTruth> truth;
@@ -88,7 +88,7 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
 
 struct FitDatasetsOptions {
   CalibratePipelineOptions fit = DefaultFitOptions();  // robot config and truth come from the manifests
-  std::function<void(const std::string&)> progress;   // progress lines (may be null)
+  std::function<void(const std::string&)> progress;    // progress lines (may be null)
 };
 
 // Re-fits the datasets of a folder Calibrate wrote (dir/datasets/*). Throws std::runtime_error

@@ -25,8 +25,8 @@
 #include "fitting/limits_eval.h"
 #include "fitting/ploop_analysis.h"
 #include "fitting/ranging_eval.h"
-#include "fitting/servo_resolution_fit.h"
 #include "fitting/robot_config_json.h"
+#include "fitting/servo_resolution_fit.h"
 #include "fitting/step_response.h"
 #include "fitting/stereo_sanity.h"
 #include "fitting/truth_compare.h"
@@ -127,8 +127,9 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
       f.reason = "no true distance (no placement or distance_m)";
     }
     if (f.status != calib::TrialStatus::kOk)
-      excluded->push_back("vergence fixation " + std::to_string(r) + " (fixations.csv line " + std::to_string(row.line) +
-                          ") not ranged: " + calib::TrialStatusName(f.status) + ": " + f.reason);
+      excluded->push_back("vergence fixation " + std::to_string(r) + " (fixations.csv line " +
+                          std::to_string(row.line) + ") not ranged: " + calib::TrialStatusName(f.status) + ": " +
+                          f.reason);
     out.push_back(f);
   }
   return out;
@@ -139,7 +140,8 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
 // servo.<S>.dead_band_us: the step is exact when determined; the dead band is known only to the
 // range of values that replay the sweep identically (within a step when the step exceeds 1 us),
 // so its value is the middle of that range and its sigma that of a uniform spread over it.
-std::vector<fitting::ServoResolutionResult> FitResolution(const std::string& dataset, fitting::CalibrationResult* result) {
+std::vector<fitting::ServoResolutionResult> FitResolution(const std::string& dataset,
+                                                          fitting::CalibrationResult* result) {
   std::map<std::string, std::vector<fitting::ResolutionSample>> samples;
   for (const protocols::ResolutionRow& row : protocols::ReadResolutionCsv(dataset)) {
     if (row.status == calib::TrialStatus::kSkipped) {
@@ -162,14 +164,24 @@ std::vector<fitting::ServoResolutionResult> FitResolution(const std::string& dat
       const fitting::ResolutionFit& f = r.fit;
       const double db_mid = 0.5 * (f.dead_band_min_us + f.dead_band_max_us);
       const double db_sigma = (f.dead_band_max_us - f.dead_band_min_us) / std::sqrt(12.0);
-      result->Set({p + "pwm_step_us", double(f.resolution.step_us), 0, "us", {}, true,
+      result->Set({p + "pwm_step_us",
+                   double(f.resolution.step_us),
+                   0,
+                   "us",
+                   {},
+                   true,
                    "fine sweep at the centre (resolution.csv), RMS " + reports::Fmt(f.rms_px, 3) + " px, next model " +
                        f.runner_up + " " + reports::Fmt(f.runner_up_rms_px, 3) + " px"});
-      result->Set({p + "dead_band_us", db_mid, db_sigma, "us", {}, true,
-                   f.dead_band_determined ? "fine sweep at the centre (resolution.csv)"
-                                          : "dead bands " + std::to_string(f.dead_band_min_us) + "-" +
-                                                std::to_string(f.dead_band_max_us) +
-                                                " us replay the sweep identically (uniform over them)"});
+      result->Set({p + "dead_band_us",
+                   db_mid,
+                   db_sigma,
+                   "us",
+                   {},
+                   true,
+                   f.dead_band_determined
+                       ? "fine sweep at the centre (resolution.csv)"
+                       : "dead bands " + std::to_string(f.dead_band_min_us) + "-" + std::to_string(f.dead_band_max_us) +
+                             " us replay the sweep identically (uniform over them)"});
     }
     out.push_back(r);
   }
@@ -197,7 +209,8 @@ void ApplyResolution(const std::vector<fitting::ServoResolutionResult>& resoluti
 }
 
 // The measured ends of a limits dataset (pipeline/bring_up.h LimitMeasurements).
-std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset, std::vector<std::string>* failed,
+std::vector<fitting::LimitMeasurement> ReadLimits(const std::string& dataset,
+                                                  std::vector<std::string>* failed,
                                                   int* num_rows) {
   return LimitMeasurements(protocols::ReadLimitsCsv(dataset), failed, num_rows);
 }
@@ -275,7 +288,8 @@ void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
     nlohmann::json m = nlohmann::json::array();
     for (int i = 0; i < h.covariance.rows(); ++i) {
       std::vector<double> row(h.covariance.cols());
-      for (int j = 0; j < h.covariance.cols(); ++j) row[j] = std::isfinite(h.covariance(i, j)) ? h.covariance(i, j) : 0.0;
+      for (int j = 0; j < h.covariance.cols(); ++j)
+        row[j] = std::isfinite(h.covariance(i, j)) ? h.covariance(i, j) : 0.0;
       m.push_back(row);
     }
     r->diagnostics["covariance"] = {{"names", h.param_names}, {"matrix", m}, {"source", "head fit"}};
@@ -396,7 +410,6 @@ std::vector<fitting::StepTrace> ReadStepTraces(const std::string& dataset) {
   return out;
 }
 
-
 // Why each value: docs/uncertainty.md (the noise model, with the figures each was chosen on).
 fitting::StereoFitOptions CalibratePipelineOptions::CalibrateStereoFitOptions() {
   fitting::StereoFitOptions so;
@@ -478,9 +491,10 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
                       {"fix_k3", in.fix_k3},
                       {"fix_tangential", in.fix_tangential},
                       {"corner_sigma_px", in.corner_sigma_px},
-                      {"loss", in.loss == fitting::RobustLoss::kHuber    ? "huber"
-                               : in.loss == fitting::RobustLoss::kCauchy ? "cauchy"
-                                                                         : "none"},
+                      {"loss",
+                       in.loss == fitting::RobustLoss::kHuber    ? "huber"
+                       : in.loss == fitting::RobustLoss::kCauchy ? "cauchy"
+                                                                 : "none"},
                       {"loss_scale_sigma", in.loss_scale_sigma},
                       {"outlier_threshold_sigma", in.outlier_threshold_sigma},
                       {"min_corners_per_view", in.min_corners_per_view},
@@ -547,8 +561,15 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
   fitting::CalibrationRun d;
   d.config = config;
   for (const auto& [name, dir] : datasets) {
-    static const std::set<std::string> kKnown = {"intrinsics", "stereo",        "servo_sweep", "vergence",
-                                                 "latency",    "step_response", "limits",      "alignment", "saccade"};
+    static const std::set<std::string> kKnown = {"intrinsics",
+                                                 "stereo",
+                                                 "servo_sweep",
+                                                 "vergence",
+                                                 "latency",
+                                                 "step_response",
+                                                 "limits",
+                                                 "alignment",
+                                                 "saccade"};
     if (!kKnown.count(name)) progress("dataset " + dir + " (protocol " + name + "): no calibration step reads it");
   }
 
@@ -642,16 +663,16 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
       if (const auto it = head_options.noise_class_of_board.find(board); it != head_options.noise_class_of_board.end())
         head_options.sigma_factor_of_class[it->second] = o.tag_sigma_factor;
     const size_t num_chessboard_views = WithoutTags(views, head_options.noise_class_of_board).size();
-    progress("head fit: " + std::to_string(views.size()) + " views (" + std::to_string(views.size() - num_chessboard_views) +
-             " of tag sheets)");
+    progress("head fit: " + std::to_string(views.size()) + " views (" +
+             std::to_string(views.size() - num_chessboard_views) + " of tag sheets)");
     for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
     // The stereo fit's intrinsics as a prior (CalibratePipelineOptions::head_prior_from_stereo):
     // the sweep's boards pin the focal lengths, the servo scales and the IPD only together; the
     // stereo views pin the focal lengths on their own (docs/uncertainty.md).
     fitting::HeadFitOptions& ho = head_options;
     bool prior_from_stereo = false;
-    if (o.head_prior_from_stereo && ho.fit_intrinsics && stereo && stereo->ok &&
-        !ho.intrinsics_prior_covariance[0] && !ho.intrinsics_prior_covariance[1]) {
+    if (o.head_prior_from_stereo && ho.fit_intrinsics && stereo && stereo->ok && !ho.intrinsics_prior_covariance[0] &&
+        !ho.intrinsics_prior_covariance[1]) {
       for (int e = 0; e < 2; ++e) {
         ho.intrinsics_prior_covariance[e] = IntrinsicsPriorFromStereo(*stereo, e, ho.measured_sigma_factor);
         prior_from_stereo |= ho.intrinsics_prior_covariance[e].has_value();
@@ -659,7 +680,8 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
         // share the detector's bias with the stereo views (HeadFitOptions::intrinsics_covariance_floor).
         ho.intrinsics_covariance_floor[e] = IntrinsicsPriorFromStereo(*stereo, e, 1.0);
       }
-      if (prior_from_stereo) progress("  intrinsics prior: the stereo fit's covariance x " + Fmt(ho.measured_sigma_factor, 3) + "^2");
+      if (prior_from_stereo)
+        progress("  intrinsics prior: the stereo fit's covariance x " + Fmt(ho.measured_sigma_factor, 3) + "^2");
     }
     // With tag views, the fit on the chessboard alone and the fit fusing the tags: two
     // independent single-threaded fits, run at once. The result is the chessboard's unless
@@ -726,8 +748,8 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
 
   // 3) Truth (virtual Owl), in the fit's gauge.
   if (o.truth) {
-    models::HeadModel canonical = fitting::CanonicalHead(*o.truth, config.servos[models::kNeck].centre_us, neck_moved,
-                                                         initial.geometry.centre_in_head[0]);
+    models::HeadModel canonical = fitting::CanonicalHead(
+        *o.truth, config.servos[models::kNeck].centre_us, neck_moved, initial.geometry.centre_in_head[0]);
     // In the fit's direction convention (models/servo_map.h: the same angles with the direction
     // and the slope, quadratic and cubic terms negated), so a robot file whose direction is wrong
     // compares the map, not the sign convention.
@@ -751,13 +773,18 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
     // A lens fitted with another model than the truth's: by projection, not by coefficient.
     std::array<const models::CameraIntrinsics*, 2> fitted{};
     for (int e = 0; e < 2; ++e)
-      fitted[e] = d.result.cameras[e] ? &*d.result.cameras[e] : (d.result.head ? &d.result.head->intrinsics[e] : nullptr);
+      fitted[e] =
+          d.result.cameras[e] ? &*d.result.cameras[e] : (d.result.head ? &d.result.head->intrinsics[e] : nullptr);
     fitting::CompareLensByProjection(*o.truth, fitted, {"", "head."}, &d.result);
   }
 
   if (with_tags && with_tags->ok) {
-    d.result.diagnostics["tags"] = TagStudy(sweep_views, head_options.noise_class_of_board, *with_tags, without_tags,
-                                            config, d.truth ? &*d.truth : nullptr);
+    d.result.diagnostics["tags"] = TagStudy(sweep_views,
+                                            head_options.noise_class_of_board,
+                                            *with_tags,
+                                            without_tags,
+                                            config,
+                                            d.truth ? &*d.truth : nullptr);
     d.result.diagnostics["tags"]["head_result"] = o.fuse_tags ? "fused (chessboard and tags)" : "chessboard only";
     if (o.fused_pinhole_floor || o.fused_pan_zero_floor)
       d.result.diagnostics["tags"]["floors"] =
@@ -801,9 +828,10 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
       // Only what this run measured: a figure from a bench run elsewhere does not belong here.
       d.result.diagnostics["tags"]["note"] =
           "the calibration's head is the chessboard's (fuse_tags off); the with-tags sigmas are a diagnostic" +
-          (z_hi > 0 ? std::string("; in this run (the virtual Owl's truth) the fused fit's errors at the servo ends are ") +
-                          Fmt(z_lo, 2) + "-" + Fmt(z_hi, 2) + " of its own sigmas (worst: " + worst + ")"
-                    : std::string());
+          (z_hi > 0
+               ? std::string("; in this run (the virtual Owl's truth) the fused fit's errors at the servo ends are ") +
+                     Fmt(z_lo, 2) + "-" + Fmt(z_hi, 2) + " of its own sigmas (worst: " + worst + ")"
+               : std::string());
     }
   }
 
@@ -846,21 +874,28 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
     for (const auto& st : d.steps)
       if (st.status != calib::TrialStatus::kOk)
         d.result.warnings.push_back("step trial (gain " + Fmt(st.gain, 3) + ", " + Fmt(st.amplitude_deg, 3) +
-                                    " deg, trial " + std::to_string(st.trial) + ") " + calib::TrialStatusName(st.status) +
-                                    ": " + st.reason);
+                                    " deg, trial " + std::to_string(st.trial) + ") " +
+                                    calib::TrialStatusName(st.status) + ": " + st.reason);
     progress("step responses: " + std::to_string(d.steps.size()) + " trials; delay " + std::to_string(delay) +
              " frames, K_crit " + Fmt(d.gains->critical_gain, 3));
     const std::optional<double> latency_ms =
         dataset("latency").empty() ? std::nullopt : MedianLatencyMs(dataset("latency"));
-    d.settling = StudySettling(dataset("step_response"), d.steps, config, d.result, latency_ms, delay, o.fps,
-                               &d.result.warnings, d.resolution);
+    d.settling = StudySettling(dataset("step_response"),
+                               d.steps,
+                               config,
+                               d.result,
+                               latency_ms,
+                               delay,
+                               o.fps,
+                               &d.result.warnings,
+                               d.resolution);
     if (d.settling) {
       int agree = 0;
       for (const auto& r : d.settling->rows) agree += r.agreement.rfind("agrees", 0) == 0;
       progress("settling: loop model (slew " + Fmt(d.settling->model.slew_us_per_s, 4) + " us/s, lag " +
                Fmt(1000 * d.settling->model.lag_s, 3) + " ms, exposure delay " +
-               Fmt(1000 * d.settling->model.exposure_delay_s, 3) + " ms) agrees with " + std::to_string(agree) + " of " +
-               std::to_string(d.settling->rows.size()) + " (gain, step) groups");
+               Fmt(1000 * d.settling->model.exposure_delay_s, 3) + " ms) agrees with " + std::to_string(agree) +
+               " of " + std::to_string(d.settling->rows.size()) + " (gain, step) groups");
     }
   }
   return d;

@@ -56,13 +56,13 @@ struct CalibratePipelineOptions {
   // The virtual Owl's stream and servo dynamics, for the latency check's truth column (the
   // reading the truth predicts per trial, fitting/reference_checks.h). nullopt on a real robot.
   std::optional<fitting::LatencyTruth> latency_truth;
-  double fps = 30.0;                  // stream frame rate (latency in frames, gain study)
+  double fps = 30.0;  // stream frame rate (latency in frames, gain study)
   // The virtual Owl's true servo slew [deg/s] and stream latency (exposure to arrival) [s]: the
   // saccade's physical bound (pipeline/saccade_study.h). 0: unknown (a real robot), then the
   // bound uses the slew and exposure delay fitted from the step frames.
   std::array<double, models::kNumServos> truth_slew_deg_per_s{};
   double truth_latency_s = 0;
-  int default_delay_frames = 3;       // loop delay when no latency dataset measured it
+  int default_delay_frames = 3;  // loop delay when no latency dataset measured it
   fitting::StereoFitOptions stereo = CalibrateStereoFitOptions();
   // The lens model of both eyes (and so of the head fit), chosen by cross-validation over the
   // intrinsics and stereo views (fitting/lens_model_choice.h); Off() keeps stereo.intrinsics.model.

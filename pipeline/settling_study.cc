@@ -49,8 +49,8 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
   for (const protocols::StepResponseRow& row : protocols::ReadStepResponseCsv(dataset)) {
     fitting::MotionSegment& s = segs[{row.step_index, row.gain, row.amplitude_deg, row.trial}];
     if (s.name.empty())
-      s.name = "gain " + std::to_string(row.gain).substr(0, 4) + ", " + std::to_string(int(std::lround(row.amplitude_deg))) +
-               " deg, trial " + std::to_string(row.trial);
+      s.name = "gain " + std::to_string(row.gain).substr(0, 4) + ", " +
+               std::to_string(int(std::lround(row.amplitude_deg))) + " deg, trial " + std::to_string(row.trial);
     fitting::MotionFrame f;
     f.t_s = row.t_s;
     f.found = row.found && row.offset_px.has_value();
@@ -105,7 +105,8 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
 
   // deg per us of the stepped servo: the head fit's, else the robot file's.
   double deg_per_us = sc.nominal_deg_per_us;
-  if (const fitting::Parameter* p = result.Find("servo." + name + ".deg_per_us"); p && std::isfinite(p->value) && p->value > 0)
+  if (const fitting::Parameter* p = result.Find("servo." + name + ".deg_per_us");
+      p && std::isfinite(p->value) && p->value > 0)
     deg_per_us = p->value;
 
   // Measured settling with the model's band (the same criterion as the prediction).

@@ -60,7 +60,8 @@ cv::Rect BoardBox(const std::vector<Eigen::Vector2d>& px, const cv::Size& size) 
 // square_px > 0: the board's squares in the image; the edge window must hold one edge and the
 // plateaus on both sides, not the next edge: probe_px <= (square - 3) / 2, at least 2 px (a
 // window of +-2 px holds the edges of a board in focus, sigma ~0.3 px, to +-6 sigma).
-void Measure(SharpnessRow* row, const cv::Mat& image, const cv::Rect& roi, const SharpnessOptions& o, double square_px = 0) {
+void Measure(
+    SharpnessRow* row, const cv::Mat& image, const cv::Rect& roi, const SharpnessOptions& o, double square_px = 0) {
   calib::EdgeSharpnessOptions eo = o.edge;
   if (square_px > 0) {
     eo.probe_px = std::min(eo.probe_px, (square_px - 3) / 2);
@@ -219,8 +220,9 @@ SharpnessStudy MeasureSharpnessDataset(const std::string& dir, const SharpnessOp
           Measure(&row, eyes[e], BoardBox(det.pixels, eyes[e].size()), o, square_px);
         } else {
           row.status = "no target";
-          row.reason = "the chessboard was not found (classic and sector-based detectors) and does not fill the view at " +
-                       Fx(d, 2) + " m";
+          row.reason =
+              "the chessboard was not found (classic and sector-based detectors) and does not fill the view at " +
+              Fx(d, 2) + " m";
         }
       }
       s.rows.push_back(row);

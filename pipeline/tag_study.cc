@@ -27,7 +27,8 @@ fitting::CalibrationResult ResultOf(const fitting::HeadFit& h) {
     nlohmann::json m = nlohmann::json::array();
     for (int i = 0; i < h.covariance.rows(); ++i) {
       std::vector<double> row(h.covariance.cols());
-      for (int j = 0; j < h.covariance.cols(); ++j) row[j] = std::isfinite(h.covariance(i, j)) ? h.covariance(i, j) : 0.0;
+      for (int j = 0; j < h.covariance.cols(); ++j)
+        row[j] = std::isfinite(h.covariance(i, j)) ? h.covariance(i, j) : 0.0;
       m.push_back(row);
     }
     r.diagnostics["covariance"] = {{"names", h.param_names}, {"matrix", m}};
@@ -83,7 +84,8 @@ nlohmann::json TagStudy(const std::vector<calib::View>& views,
     ++num_views[c][v.eye == models::kLeftEye ? 0 : 1];
     for (int s = 0; s < models::kNumServos; ++s) {
       // An eye's views say nothing about the other eye's servos.
-      const bool other_eye = (s == models::kRx || s == models::kRy) != (v.eye == models::kRightEye) && s != models::kNeck;
+      const bool other_eye =
+          (s == models::kRx || s == models::kRy) != (v.eye == models::kRightEye) && s != models::kNeck;
       if (other_eye) continue;
       range[c][s][0] = std::min(range[c][s][0], v.pwm_us[s]);
       range[c][s][1] = std::max(range[c][s][1], v.pwm_us[s]);

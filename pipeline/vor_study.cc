@@ -73,7 +73,8 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
   const std::string frames_csv = dir + "/vor.csv", trials_csv = dir + "/vor_trials.csv";
   if (!fs::exists(trials_csv)) throw std::runtime_error(trials_csv + ": no such file (is " + dir + " a vor dataset?)");
   const calib::CsvTable tt = protocols::ReadAppendedCsv(trials_csv);
-  tt.RequireColumns({"trial", "profile", "frequency_hz", "amplitude_deg", "condition", "frames", "map", "status", "reason"});
+  tt.RequireColumns(
+      {"trial", "profile", "frequency_hz", "amplitude_deg", "condition", "frames", "map", "status", "reason"});
   std::map<int, TrialInfo> trials;
   std::map<int, VorTrialEye> proto;
   for (size_t r = 0; r < tt.NumRows(); ++r) {
@@ -94,9 +95,25 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
   s.num_trials = int(trials.size());
   if (fs::exists(frames_csv)) {
     const calib::CsvTable t = protocols::ReadAppendedCsv(frames_csv);
-    t.RequireColumns({"trial", "k", "t_s", "eye", "neck_cmd_us", "pan_cmd_us", "neck_cmd_deg", "pan_cmd_deg", "found",
-                      "x_px", "y_px", "gaze_err_deg", "neck_deg", "pan_deg", "true_neck_deg", "true_pan_deg",
-                      "true_x_px", "true_y_px", "true_gaze_err_deg"});
+    t.RequireColumns({"trial",
+                      "k",
+                      "t_s",
+                      "eye",
+                      "neck_cmd_us",
+                      "pan_cmd_us",
+                      "neck_cmd_deg",
+                      "pan_cmd_deg",
+                      "found",
+                      "x_px",
+                      "y_px",
+                      "gaze_err_deg",
+                      "neck_deg",
+                      "pan_deg",
+                      "true_neck_deg",
+                      "true_pan_deg",
+                      "true_x_px",
+                      "true_y_px",
+                      "true_gaze_err_deg"});
     for (size_t r = 0; r < t.NumRows(); ++r) {
       VorFrame f;
       f.trial = t.Int(r, "trial", 0, 1000000);
@@ -349,9 +366,8 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
           c.amplitude_deg == v.amplitude_deg && c.trial == v.trial - 1)
         still = &c;
     const bool sine = v.profile == "sine";
-    const double red = still && still->slip.rms_deg_per_s > 0
-                           ? 100 * (1 - v.slip.rms_deg_per_s / still->slip.rms_deg_per_s)
-                           : NAN;
+    const double red =
+        still && still->slip.rms_deg_per_s > 0 ? 100 * (1 - v.slip.rms_deg_per_s / still->slip.rms_deg_per_s) : NAN;
     const bool tg = v.true_gain && v.true_gain->ok;
     summary.rows.push_back({v.profile,
                             sine ? Fx(v.frequency_hz, 3) : "",
@@ -371,33 +387,15 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
                             v.status + (still && still->status != "ok" ? " (still: " + still->status + ")" : "")});
   }
 
-  reports::Table frames{"vor_frames",
-                        "VOR frames: one row per frame and eye (angles in the head model's convention, gaze = neck + "
-                        "pan; empty = not measured or no truth)",
-                        {"trial",
-                         "profile",
-                         "frequency_hz",
-                         "amplitude_deg",
-                         "condition",
-                         "k",
-                         "t_s",
-                         "eye",
-                         "neck_cmd_us",
-                         "pan_cmd_us",
-                         "neck_cmd_deg",
-                         "pan_cmd_deg",
-                         "found",
-                         "x_px",
-                         "y_px",
-                         "gaze_err_deg",
-                         "neck_deg",
-                         "pan_deg",
-                         "true_neck_deg",
-                         "true_pan_deg",
-                         "true_x_px",
-                         "true_y_px",
-                         "true_gaze_err_deg"},
-                        {}};
+  reports::Table frames{
+      "vor_frames",
+      "VOR frames: one row per frame and eye (angles in the head model's convention, gaze = neck + "
+      "pan; empty = not measured or no truth)",
+      {"trial",         "profile",      "frequency_hz", "amplitude_deg", "condition",        "k",
+       "t_s",           "eye",          "neck_cmd_us",  "pan_cmd_us",    "neck_cmd_deg",     "pan_cmd_deg",
+       "found",         "x_px",         "y_px",         "gaze_err_deg",  "neck_deg",         "pan_deg",
+       "true_neck_deg", "true_pan_deg", "true_x_px",    "true_y_px",     "true_gaze_err_deg"},
+      {}};
   for (const VorFrame& f : s.frames)
     frames.rows.push_back({std::to_string(f.trial),
                            f.profile,
@@ -460,11 +458,27 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
     tr.title = "VOR at " + Fx(shown->frequency_hz, 2) + " Hz, right eye: neck and counter-rotating eye";
     tr.xlabel = "time from the trial's start [s]";
     tr.ylabel = "angle from the start [deg]";
-    tr.series.push_back(series(vf, &VorFrame::neck_deg, 1, "neck (measured)", std::string("lines lw 2 lc rgb '") + blue + "'", "neck_deg"));
-    tr.series.push_back(series(vf, &VorFrame::pan_deg, -1, "-eye pan (measured)", std::string("lines lw 2 lc rgb '") + red + "'", "minus_pan_deg"));
+    tr.series.push_back(series(
+        vf, &VorFrame::neck_deg, 1, "neck (measured)", std::string("lines lw 2 lc rgb '") + blue + "'", "neck_deg"));
+    tr.series.push_back(series(vf,
+                               &VorFrame::pan_deg,
+                               -1,
+                               "-eye pan (measured)",
+                               std::string("lines lw 2 lc rgb '") + red + "'",
+                               "minus_pan_deg"));
     if (s.has_truth) {
-      tr.series.push_back(series(vf, &VorFrame::true_neck_deg, 1, "neck (truth)", std::string("lines dt 2 lw 1.5 lc rgb '") + blue + "'", "true_neck_deg"));
-      tr.series.push_back(series(vf, &VorFrame::true_pan_deg, -1, "-eye pan (truth)", std::string("lines dt 2 lw 1.5 lc rgb '") + red + "'", "minus_true_pan_deg"));
+      tr.series.push_back(series(vf,
+                                 &VorFrame::true_neck_deg,
+                                 1,
+                                 "neck (truth)",
+                                 std::string("lines dt 2 lw 1.5 lc rgb '") + blue + "'",
+                                 "true_neck_deg"));
+      tr.series.push_back(series(vf,
+                                 &VorFrame::true_pan_deg,
+                                 -1,
+                                 "-eye pan (truth)",
+                                 std::string("lines dt 2 lw 1.5 lc rgb '") + red + "'",
+                                 "minus_true_pan_deg"));
     }
     tr.settings = {"set grid"};
     tr.key = "below";
@@ -472,7 +486,8 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
                  Fx(shown->frequency_hz, 2) + " Hz counter-rotating trial, and the truth (dashed): a perfect VOR " +
                  "makes the two curves coincide. Gain " +
                  (shown->gain.ok ? Fx(shown->gain.gain, 3) + " +- " + Fx(shown->gain.gain_sigma, 3) : "not measured") +
-                 (shown->true_gain && shown->true_gain->ok ? " (truth " + Fx(shown->true_gain->gain, 3) + ")" : "") + ".";
+                 (shown->true_gain && shown->true_gain->ok ? " (truth " + Fx(shown->true_gain->gain, 3) + ")" : "") +
+                 ".";
     figs.push_back(reports::WriteFigure(tr, out + "/figures", draw));
     drawn.push_back(tr);
 
@@ -481,15 +496,22 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
     sl.title = "Image slip at " + Fx(shown->frequency_hz, 2) + " Hz, right eye: eyes still against VOR";
     sl.xlabel = "time from the trial's start [s]";
     sl.ylabel = "target's x from its first position [px]";
-    sl.series.push_back(series(sf, &VorFrame::x_px, 1, "eyes held still", std::string("lines lw 2 lc rgb '") + grey + "'", "x_px"));
-    sl.series.push_back(series(vf, &VorFrame::x_px, 1, "eyes counter-rotating (VOR)", std::string("lines lw 2 lc rgb '") + red + "'", "x_px"));
+    sl.series.push_back(
+        series(sf, &VorFrame::x_px, 1, "eyes held still", std::string("lines lw 2 lc rgb '") + grey + "'", "x_px"));
+    sl.series.push_back(series(
+        vf, &VorFrame::x_px, 1, "eyes counter-rotating (VOR)", std::string("lines lw 2 lc rgb '") + red + "'", "x_px"));
     if (s.has_truth)
-      sl.series.push_back(series(vf, &VorFrame::true_x_px, 1, "VOR, true pixel", std::string("lines dt 2 lw 1.5 lc rgb '") + blue + "'", "true_x_px"));
+      sl.series.push_back(series(vf,
+                                 &VorFrame::true_x_px,
+                                 1,
+                                 "VOR, true pixel",
+                                 std::string("lines dt 2 lw 1.5 lc rgb '") + blue + "'",
+                                 "true_x_px"));
     sl.settings = {"set grid"};
     sl.key = "below";
     sl.caption = "The target's horizontal image position during the " + Fx(shown->frequency_hz, 2) +
-                 " Hz neck sine, eyes held still and counter-rotating (RMS slip " +
-                 Fx(shown->slip.rms_deg_per_s, 2) + " deg/s with the VOR).";
+                 " Hz neck sine, eyes held still and counter-rotating (RMS slip " + Fx(shown->slip.rms_deg_per_s, 2) +
+                 " deg/s with the VOR).";
     figs.push_back(reports::WriteFigure(sl, out + "/figures", draw));
     drawn.push_back(sl);
   }
@@ -526,9 +548,10 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
   }
   gf.settings = {"set grid", "set xrange [0:*]", "set offsets 0.1, 0.1, 0.02, 0.02"};
   gf.key = "below";  // inside, the legend hid the 0.5 Hz map points
-  gf.caption = "VOR gain (amplitude of the eye's counter-rotation over the neck's) per frequency: measured from the "
-               "frames with +-2 sigma bars, the truth (open circles) and what the commands asked for through the maps "
-               "(crosses).";
+  gf.caption =
+      "VOR gain (amplitude of the eye's counter-rotation over the neck's) per frequency: measured from the "
+      "frames with +-2 sigma bars, the truth (open circles) and what the commands asked for through the maps "
+      "(crosses).";
   if (!gf.series.empty()) {
     figs.push_back(reports::WriteFigure(gf, out + "/figures", draw));
     drawn.push_back(gf);

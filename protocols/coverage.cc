@@ -6,8 +6,8 @@
 
 namespace owlcal::protocols {
 
-bool ComputeViewParams(const calib::View& view, const calib::TargetDefinition& target, int width, int height,
-                       ViewParams* params) {
+bool ComputeViewParams(
+    const calib::View& view, const calib::TargetDefinition& target, int width, int height, ViewParams* params) {
   if (view.pixels.size() < 4) return false;
   // Outer corners: the detected corners extreme in target coordinates (works for partial
   // AprilGrid views too): up-left, up-right, down-right, down-left.
@@ -76,8 +76,8 @@ std::string Coverage::Bars() const {
   std::ostringstream o;
   for (int k = 0; k < 4; ++k) {
     const int n = int(std::lround(progress[k] * 20));
-    o << kNames[k] << " [" << std::string(n, '#') << std::string(20 - n, '-') << "] " << int(std::lround(progress[k] * 100))
-      << "%  (" << min[k] << " .. " << max[k] << ")\n";
+    o << kNames[k] << " [" << std::string(n, '#') << std::string(20 - n, '-') << "] "
+      << int(std::lround(progress[k] * 100)) << "%  (" << min[k] << " .. " << max[k] << ")\n";
   }
   return o.str();
 }

@@ -33,8 +33,8 @@ struct Coverage {
 // Parameters of one view from its detected corners (ids of target.Corners()); nullopt-like
 // false when the four outer corners of the board are not all detected (chessboards) or
 // fewer than 4 corners exist.
-bool ComputeViewParams(const calib::View& view, const calib::TargetDefinition& target, int width, int height,
-                       ViewParams* params);
+bool ComputeViewParams(
+    const calib::View& view, const calib::TargetDefinition& target, int width, int height, ViewParams* params);
 
 Coverage ComputeCoverage(const std::vector<ViewParams>& views);
 

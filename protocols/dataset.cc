@@ -10,9 +10,9 @@
 
 #include <algorithm>
 #include <charconv>
-#include <cmath>
 #include <chrono>
 #include <cinttypes>
+#include <cmath>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -80,10 +80,24 @@ FrameRecord ParseFrameRow(const std::vector<std::string>& f, const std::string& 
   if (static_cast<int>(f.size()) != kFramesCsvFields)
     throw std::runtime_error(where + ": " + std::to_string(f.size()) + " fields, expected " +
                              std::to_string(kFramesCsvFields));
-  static const char* names[kFramesCsvFields] = {
-      "frame_index", "seq", "stamp_ns", "Rx_us", "Ry_us", "Lx_us", "Ly_us", "Neck_us", "approach_Rx",
-      "approach_Ry", "approach_Lx", "approach_Ly", "approach_Neck", "step_index", "step_name",
-      "placement_index", "jpeg_bytes", "jpeg_crc32"};
+  static const char* names[kFramesCsvFields] = {"frame_index",
+                                                "seq",
+                                                "stamp_ns",
+                                                "Rx_us",
+                                                "Ry_us",
+                                                "Lx_us",
+                                                "Ly_us",
+                                                "Neck_us",
+                                                "approach_Rx",
+                                                "approach_Ry",
+                                                "approach_Lx",
+                                                "approach_Ly",
+                                                "approach_Neck",
+                                                "step_index",
+                                                "step_name",
+                                                "placement_index",
+                                                "jpeg_bytes",
+                                                "jpeg_crc32"};
   auto w = [&](int i) { return where + " field " + names[i]; };
   FrameRecord r;
   r.frame_index = ParseInt(f[0], w(0), 0);
@@ -135,12 +149,16 @@ PlacementRecord ParsePlacementRow(const std::vector<std::string>& f, const std::
   p.step_index = static_cast<int>(ParseInt(f[1], where + " field step_index", -1, INT32_MAX));
   p.target = f[2];
   p.distance_m = ParseDouble(f[3], where + " field distance_m", 0, 1e3);
-  Eigen::Vector3d t(ParseDouble(f[4], where + " field tx_m"), ParseDouble(f[5], where + " field ty_m"),
+  Eigen::Vector3d t(ParseDouble(f[4], where + " field tx_m"),
+                    ParseDouble(f[5], where + " field ty_m"),
                     ParseDouble(f[6], where + " field tz_m"));
-  Eigen::Quaterniond q(ParseDouble(f[10], where + " field qw"), ParseDouble(f[7], where + " field qx"),
-                       ParseDouble(f[8], where + " field qy"), ParseDouble(f[9], where + " field qz"));
+  Eigen::Quaterniond q(ParseDouble(f[10], where + " field qw"),
+                       ParseDouble(f[7], where + " field qx"),
+                       ParseDouble(f[8], where + " field qy"),
+                       ParseDouble(f[9], where + " field qz"));
   if (std::abs(q.norm() - 1) > 1e-6)
-    throw std::runtime_error(where + " fields qx..qw: norm " + io::FormatNumber(q.norm()) + " is not a unit quaternion");
+    throw std::runtime_error(where + " fields qx..qw: norm " + io::FormatNumber(q.norm()) +
+                             " is not a unit quaternion");
   p.base_from_target = Eigen::Isometry3d::Identity();
   p.base_from_target.linear() = q.normalized().toRotationMatrix();
   p.base_from_target.translation() = t;
@@ -152,8 +170,8 @@ PlacementRecord ParsePlacementRow(const std::vector<std::string>& f, const std::
 
 std::string StepLine(const StepRecord& s) {
   std::ostringstream o;
-  o << s.step_index << ',' << calib::CsvCell(s.step_name) << ',' << calib::CsvCell(s.kind) << ',' << calib::CsvCell(s.status) << ','
-    << s.start_ns << ',' << s.end_ns << ',' << s.num_frames << '\n';
+  o << s.step_index << ',' << calib::CsvCell(s.step_name) << ',' << calib::CsvCell(s.kind) << ','
+    << calib::CsvCell(s.status) << ',' << s.start_ns << ',' << s.end_ns << ',' << s.num_frames << '\n';
   return o.str();
 }
 
@@ -321,7 +339,8 @@ int64_t DatasetWriter::SupersedeFrom(int first_step, int64_t stamp_ns) {
     moved += num_gone;
   }
   if (superseded.empty() && moved == 0) return 0;  // stopped between steps: nothing to set apart
-  Event(stamp_ns, "supersede",
+  Event(stamp_ns,
+        "supersede",
         "resuming at step " + std::to_string(first_step) + ": " + std::to_string(superseded.size()) +
             " frames relabelled 'superseded:', " + std::to_string(moved) + " table rows moved to superseded/");
   return static_cast<int64_t>(superseded.size());
@@ -425,8 +444,8 @@ std::vector<FrameRecord> ReadFramesCsv(const std::string& dir) {
   return ReadTable<FrameRecord>((fs::path(dir) / "frames.csv").string(), kFramesCsvHeader, ParseFrameRow);
 }
 std::vector<PlacementRecord> ReadPlacementsCsv(const std::string& dir) {
-  return ReadTable<PlacementRecord>((fs::path(dir) / "placements.csv").string(), kPlacementsCsvHeader,
-                                    ParsePlacementRow);
+  return ReadTable<PlacementRecord>(
+      (fs::path(dir) / "placements.csv").string(), kPlacementsCsvHeader, ParsePlacementRow);
 }
 std::vector<StepRecord> ReadStepsCsv(const std::string& dir) {
   return ReadTable<StepRecord>((fs::path(dir) / "steps.csv").string(), kStepsCsvHeader, ParseStepRow);

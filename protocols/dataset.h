@@ -172,11 +172,11 @@ extern const char* const kStepsCsvHeader;
 inline constexpr int64_t kMaxDatasetFrames = 100'000'000;
 
 struct DatasetCheck {
-  bool ok = false;                   // the dataset is usable (maybe after dropping a partial tail)
-  int64_t num_frames = 0;            // complete, verified frames
-  std::string status;                // manifest status
-  std::vector<std::string> errors;   // each names the file, line and field
-  std::vector<std::string> warnings; // partial last lines, orphan files, interrupted run
+  bool ok = false;                    // the dataset is usable (maybe after dropping a partial tail)
+  int64_t num_frames = 0;             // complete, verified frames
+  std::string status;                 // manifest status
+  std::vector<std::string> errors;    // each names the file, line and field
+  std::vector<std::string> warnings;  // partial last lines, orphan files, interrupted run
 };
 
 // Checks a dataset: manifest readable; frames.csv lines complete and consecutive from 0;

@@ -27,7 +27,9 @@ class Rows {
 
   const std::string& Text(size_t r, const char* column) const { return table_.Text(r, column); }
   std::string TextOr(size_t r, const char* column) const { return Has(column) ? Text(r, column) : std::string(); }
-  double Number(size_t r, const char* column, double min, double max) const { return table_.Number(r, column, min, max); }
+  double Number(size_t r, const char* column, double min, double max) const {
+    return table_.Number(r, column, min, max);
+  }
   int Int(size_t r, const char* column, int min, int max) const { return table_.Int(r, column, min, max); }
   int64_t Int64(size_t r, const char* column) const { return table_.Integer(r, column, INT64_MIN, INT64_MAX); }
   // Empty (or "nan", as earlier runners wrote a measurement not made) -> nullopt.

@@ -32,22 +32,22 @@ struct FixationRow {
   int line = 0;
   int step_index = 0;
   std::string step_name;
-  int placement_index = -1;              // row of placements.csv in force, -1 none
+  int placement_index = -1;  // row of placements.csv in force, -1 none
   std::string target;
-  std::optional<double> distance_m;      // the placement's distance, if any
-  std::string eyes;                      // both | left | right
+  std::optional<double> distance_m;  // the placement's distance, if any
+  std::string eyes;                  // both | left | right
   double gain = 0;
-  std::string outcome;                   // the loop's outcome: converged, target-lost, ...
+  std::string outcome;  // the loop's outcome: converged, target-lost, ...
   int iterations = 0;
-  models::PwmVector pwm_us{};            // the settled command
-  std::array<bool, 2> found{};           // left, right
+  models::PwmVector pwm_us{};                               // the settled command
+  std::array<bool, 2> found{};                              // left, right
   std::array<std::optional<Eigen::Vector2d>, 2> offset_px;  // target - image centre; nullopt if not measured
   int64_t stamp_ns = 0;
   std::array<int8_t, models::kNumServos> approach{};  // sign of each servo's last move, 0 unknown
   std::optional<calib::TrialStatus> status;           // nullopt: a dataset older than the column
   std::string reason;
-  std::array<std::optional<double>, 2> radius_px;     // apparent target radius per eye
-  std::optional<double> target_radius_m;              // the target's known radius
+  std::array<std::optional<double>, 2> radius_px;  // apparent target radius per eye
+  std::optional<double> target_radius_m;           // the target's known radius
 };
 std::vector<FixationRow> ReadFixationsCsv(const std::string& dir);
 
@@ -58,13 +58,13 @@ struct StepResponseRow {
   double gain = 0;
   double amplitude_deg = 0;
   int trial = 0;
-  int k = 0;                             // frame of the trial
-  double t_s = 0;                        // from the trial's first frame
-  std::optional<double> offset_px;       // along the stepped axis (x for pan, y for tilt)
-  std::optional<double> offset_y_px;     // across it
-  int pwm_us = 0;                        // the stepped servo's command
+  int k = 0;                          // frame of the trial
+  double t_s = 0;                     // from the trial's first frame
+  std::optional<double> offset_px;    // along the stepped axis (x for pan, y for tilt)
+  std::optional<double> offset_y_px;  // across it
+  int pwm_us = 0;                     // the stepped servo's command
   bool found = false;
-  int64_t frame_index = -1;              // -1: frame not recorded
+  int64_t frame_index = -1;  // -1: frame not recorded
 };
 std::vector<StepResponseRow> ReadStepResponseCsv(const std::string& dir);
 
@@ -76,7 +76,7 @@ struct StepTrialRow {
   double amplitude_deg = 0;
   int trial = 0;
   std::string eye, axis, servo;
-  std::string outcome;                   // converged, no-fixation, target-lost, ...
+  std::string outcome;  // converged, no-fixation, target-lost, ...
   int frames = 0;
   std::optional<double> final_offset_px;
   std::string message;
@@ -89,11 +89,11 @@ std::vector<StepTrialRow> ReadStepTrialsCsv(const std::string& dir);
 struct LimitRow {
   int line = 0;
   int step_index = 0;
-  std::string servo;                     // Rx, Ry, Lx, Ly, Neck (as written; not checked here)
-  std::string end;                       // min | max
+  std::string servo;  // Rx, Ry, Lx, Ly, Neck (as written; not checked here)
+  std::string end;    // min | max
   int configured_us = 0;
-  std::optional<int> measured_us;        // empty when the probe failed
-  std::string cause;                     // column "reason": end-stop | rim | configured
+  std::optional<int> measured_us;  // empty when the probe failed
+  std::string cause;               // column "reason": end-stop | rim | configured
   std::optional<double> last_shift_px;
   std::optional<double> rim_darkening;
   // Signed image shift along the servo's axis per +1 us [px/us] (x right, y down; 0: nothing
@@ -113,10 +113,10 @@ std::vector<LimitRow> ReadLimitsCsv(const std::string& dir);
 struct ResolutionRow {
   int line = 0;
   int step_index = 0;
-  std::string servo;                     // Rx, Ry, Lx, Ly, Neck (as written; not checked here)
+  std::string servo;  // Rx, Ry, Lx, Ly, Neck (as written; not checked here)
   int sample = 0;
   int command_us = 0;
-  std::optional<double> position_px;     // empty: not measured (the command was still sent)
+  std::optional<double> position_px;  // empty: not measured (the command was still sent)
   std::optional<calib::TrialStatus> status;
   std::string reason;
 };
@@ -129,7 +129,7 @@ struct LatencyRow {
   int trial = 0;
   std::string servo;
   int amplitude_us = 0;
-  std::optional<double> latency_ms;      // nullopt: no motion seen within the frames waited
+  std::optional<double> latency_ms;  // nullopt: no motion seen within the frames waited
   int frames_waited = 0;
   std::optional<double> shift_px;
   // Newer datasets (nullopt in older ones): the robot clock when the step was sent, the step's

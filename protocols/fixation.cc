@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <array>
-#include <optional>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include <opencv2/calib3d.hpp>
@@ -15,7 +15,6 @@
 
 namespace owlcal::protocols {
 namespace {
-
 
 class FixationLocator : public TargetLocator {
  public:
@@ -311,9 +310,9 @@ struct PeakTracker {
 struct CrossingTracker {
   int sign = 0;
   int crossings = 0;
-  std::vector<double> half;               // |offset| in the current half-cycle
-  double plateau[2] = {-1, -1};           // [0] negative side, [1] positive side; -1 unknown
-  double min_jump = 0;                    // smallest |e_after - e_before| at a crossing
+  std::vector<double> half;      // |offset| in the current half-cycle
+  double plateau[2] = {-1, -1};  // [0] negative side, [1] positive side; -1 unknown
+  double min_jump = 0;           // smallest |e_after - e_before| at a crossing
   double last = 0;
   void Add(double e, double near_px) {
     const int s = e > 0 ? 1 : (e < 0 ? -1 : 0);
@@ -347,8 +346,12 @@ struct CrossingTracker {
 // servo to the seating grid, reaches it with one move of seat_back_us from a known side, waits,
 // and measures the residual offsets there. r->outcome becomes kLost when the target is not
 // found in a controlled eye at the end.
-void SeatCommand(const FixationOptions& o, const models::RobotConfig& robot, TargetLocator& locator,
-                 const FixationIo& io, const std::array<int, models::kNumServos>& approach, FixationResult* r) {
+void SeatCommand(const FixationOptions& o,
+                 const models::RobotConfig& robot,
+                 TargetLocator& locator,
+                 const FixationIo& io,
+                 const std::array<int, models::kNumServos>& approach,
+                 FixationResult* r) {
   const models::PwmVector sent = r->final_pwm_us;
   models::PwmVector target = sent;
   std::vector<int> seat;  // the controlled servos
@@ -616,12 +619,18 @@ double NominalFocalPx(const models::RobotConfig& robot) { return 585.0 * robot.i
 
 const char* OutcomeName(FixationResult::Outcome o) {
   switch (o) {
-    case FixationResult::Outcome::kConverged: return "converged";
-    case FixationResult::Outcome::kMaxIterations: return "max-iterations";
-    case FixationResult::Outcome::kDiverged: return "diverged";
-    case FixationResult::Outcome::kLimit: return "heading-for-limit";
-    case FixationResult::Outcome::kLost: return "target-lost";
-    case FixationResult::Outcome::kNotStarted: return "not-started";
+    case FixationResult::Outcome::kConverged:
+      return "converged";
+    case FixationResult::Outcome::kMaxIterations:
+      return "max-iterations";
+    case FixationResult::Outcome::kDiverged:
+      return "diverged";
+    case FixationResult::Outcome::kLimit:
+      return "heading-for-limit";
+    case FixationResult::Outcome::kLost:
+      return "target-lost";
+    case FixationResult::Outcome::kNotStarted:
+      return "not-started";
   }
   return "?";
 }
@@ -637,11 +646,21 @@ calib::TrialStatus FixationStatus(const FixationResult& r, const FixationOptions
           return calib::TrialStatus::kLostTarget;
         }
       return calib::TrialStatus::kOk;
-    case Outcome::kLost: *reason = r.message; return calib::TrialStatus::kLostTarget;
-    case Outcome::kMaxIterations: *reason = r.message; return calib::TrialStatus::kNotSettled;
-    case Outcome::kDiverged: *reason = "diverged: " + r.message; return calib::TrialStatus::kNotSettled;
-    case Outcome::kLimit: *reason = "stopped before a limit: " + r.message; return calib::TrialStatus::kNotSettled;
-    case Outcome::kNotStarted: *reason = "could not start: " + r.message; return calib::TrialStatus::kFailed;
+    case Outcome::kLost:
+      *reason = r.message;
+      return calib::TrialStatus::kLostTarget;
+    case Outcome::kMaxIterations:
+      *reason = r.message;
+      return calib::TrialStatus::kNotSettled;
+    case Outcome::kDiverged:
+      *reason = "diverged: " + r.message;
+      return calib::TrialStatus::kNotSettled;
+    case Outcome::kLimit:
+      *reason = "stopped before a limit: " + r.message;
+      return calib::TrialStatus::kNotSettled;
+    case Outcome::kNotStarted:
+      *reason = "could not start: " + r.message;
+      return calib::TrialStatus::kFailed;
   }
   *reason = r.message;
   return calib::TrialStatus::kFailed;
@@ -665,7 +684,9 @@ bool FixationOptions::Check(std::string* why) const {
   return true;
 }
 
-Eigen::Vector2d OffsetToPulseError(const Eigen::Vector2d& offset_px, int eye, const models::RobotConfig& robot,
+Eigen::Vector2d OffsetToPulseError(const Eigen::Vector2d& offset_px,
+                                   int eye,
+                                   const models::RobotConfig& robot,
                                    double focal_px) {
   const models::ServoConfig& pan = robot.servos[models::kPanServo[eye]];
   const models::ServoConfig& tilt = robot.servos[models::kTiltServo[eye]];
@@ -675,7 +696,9 @@ Eigen::Vector2d OffsetToPulseError(const Eigen::Vector2d& offset_px, int eye, co
                          tilt.direction * tilt_deg / tilt.nominal_deg_per_us);
 }
 
-FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& robot, TargetLocator& locator,
+FixationResult RunFixation(const FixationOptions& o,
+                           const models::RobotConfig& robot,
+                           TargetLocator& locator,
                            const FixationIo& io) {
   FixationResult r;
   std::string why;
@@ -720,7 +743,8 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       r.found[e] = true;
       r.residual_px[e] = s.offset_px[e];
       r.radius_px[e] = s.radius_px[e];
-      const double err = std::max(o.pan ? std::abs(s.offset_px[e].x()) : 0.0, o.tilt ? std::abs(s.offset_px[e].y()) : 0.0);
+      const double err =
+          std::max(o.pan ? std::abs(s.offset_px[e].x()) : 0.0, o.tilt ? std::abs(s.offset_px[e].y()) : 0.0);
       eye_err[e] = err;
       if (initial_err[e] < 0) initial_err[e] = err;
       peaks[e][0].Add(s.offset_px[e].x(), o.tolerance_px);
@@ -762,8 +786,7 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       if (initial_err[e] >= 0 && eye_err[e] > 2 * std::max(initial_err[e], 10.0)) {
         r.outcome = FixationResult::Outcome::kDiverged;
         r.message = std::string(models::kEyeNames[e]) + " error grew to " + std::to_string(eye_err[e]) + " px from " +
-                    std::to_string(initial_err[e]) +
-                    " px at gain " + std::to_string(o.gain);
+                    std::to_string(initial_err[e]) + " px at gain " + std::to_string(o.gain);
         r.final_pwm_us = sent;
         return r;
       }
@@ -795,9 +818,9 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
       const models::ServoConfig& c = robot.servos[i];
       if (next[i] < c.min_us + o.limit_margin_us || next[i] > c.max_us - o.limit_margin_us) {
         r.outcome = FixationResult::Outcome::kLimit;
-        r.message = std::string(models::kServoNames[i]) + " would go to " + std::to_string(next[i]) +
-                    " us, within " + std::to_string(o.limit_margin_us) + " us of its limit [" +
-                    std::to_string(c.min_us) + ", " + std::to_string(c.max_us) + "]: stopped before sending";
+        r.message = std::string(models::kServoNames[i]) + " would go to " + std::to_string(next[i]) + " us, within " +
+                    std::to_string(o.limit_margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
+                    std::to_string(c.max_us) + "]: stopped before sending";
         r.final_pwm_us = sent;
         return r;
       }
@@ -836,8 +859,9 @@ FixationResult RunFixation(const FixationOptions& o, const models::RobotConfig& 
   }
   r.final_pwm_us = sent;
   r.outcome = still >= o.still_frames ? FixationResult::Outcome::kConverged : FixationResult::Outcome::kMaxIterations;
-  r.message = r.outcome == FixationResult::Outcome::kConverged ? "converged (ran all frames)"
-                                                                 : "not converged in " + std::to_string(o.max_iterations) + " frames";
+  r.message = r.outcome == FixationResult::Outcome::kConverged
+                  ? "converged (ran all frames)"
+                  : "not converged in " + std::to_string(o.max_iterations) + " frames";
   return r;
 }
 

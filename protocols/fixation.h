@@ -186,32 +186,32 @@ std::unique_ptr<AppearanceCheckedLocator> MakeAppearanceCheckedLocator(std::uniq
 std::unique_ptr<TargetLocator> MakePixelLocator(const std::array<std::optional<Eigen::Vector2d>, 2>& px);
 
 struct FixationOptions {
-  bool eyes[2] = {true, true};    // [kLeftEye], [kRightEye]
-  bool pan = true, tilt = true;   // axes controlled
+  bool eyes[2] = {true, true};   // [kLeftEye], [kRightEye]
+  bool pan = true, tilt = true;  // axes controlled
   double gain = 0.1;
-  int max_iterations = 90;        // frames (updates + waits)
+  int max_iterations = 90;  // frames (updates + waits)
   bool stop_when_converged = true;
-  double tolerance_px = 1.0;      // converged: |e| <= tolerance with the command unchanged
-  int still_frames = 4;           //   for this many consecutive frames
+  double tolerance_px = 1.0;  // converged: |e| <= tolerance with the command unchanged
+  int still_frames = 4;       //   for this many consecutive frames
   int latency_frames = 0;
-  int max_step_us = 60;           // per update and servo
+  int max_step_us = 60;  // per update and servo
   int limit_margin_us = 20;
   int lost_frames = 5;
-  double focal_px = 585;          // nominal focal length: NominalFocalPx()
-  int seat_grid_us = 5;           // 0: no seating (see the header comment)
+  double focal_px = 585;  // nominal focal length: NominalFocalPx()
+  int seat_grid_us = 5;   // 0: no seating (see the header comment)
   int seat_back_us = 10;
-  int seat_frames = 12;           // frames after the seating move: latency + slew + lag
+  int seat_frames = 12;  // frames after the seating move: latency + slew + lag
   int seat_average = 3;
 
   bool Check(std::string* why) const;
 };
 
 struct FixationSample {
-  int k = 0;                      // frame number in the loop
+  int k = 0;  // frame number in the loop
   int64_t stamp_ns = 0;
   bool found[2] = {false, false};
   Eigen::Vector2d offset_px[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};  // target - centre
-  models::PwmVector pwm_us{};     // command in force when the frame arrived
+  models::PwmVector pwm_us{};          // command in force when the frame arrived
   std::optional<double> radius_px[2];  // apparent target radius (TargetLocator::LastRadiusPx)
 };
 
@@ -227,7 +227,7 @@ struct FixationResult {
   // locator does not measure it.
   std::optional<double> radius_px[2];
   std::vector<FixationSample> trace;
-  bool seated = false;            // the settled command was seated (see FixationOptions)
+  bool seated = false;  // the settled command was seated (see FixationOptions)
 };
 const char* OutcomeName(FixationResult::Outcome outcome);
 
@@ -258,7 +258,9 @@ FixationResult RunFixation(const FixationOptions& options,
 
 // The pulse-width change that would centre an image offset for one eye (the loop's error
 // term before the gain): [pan_us, tilt_us] on servos kPanServo[eye], kTiltServo[eye].
-Eigen::Vector2d OffsetToPulseError(const Eigen::Vector2d& offset_px, int eye, const models::RobotConfig& robot,
+Eigen::Vector2d OffsetToPulseError(const Eigen::Vector2d& offset_px,
+                                   int eye,
+                                   const models::RobotConfig& robot,
                                    double focal_px);
 
 }  // namespace owlcal::protocols

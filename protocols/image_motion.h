@@ -19,7 +19,7 @@ cv::Mat MotionThumb(const cv::Mat& eye_image, int downsample = 4);
 
 struct Shift {
   Eigen::Vector2d px = Eigen::Vector2d::Zero();  // full-resolution pixels
-  double response = 0;                            // phase-correlation peak (0..1): low = unreliable
+  double response = 0;                           // phase-correlation peak (0..1): low = unreliable
 };
 
 // Shift between two thumbnails made with the same `downsample`.

@@ -37,7 +37,8 @@ bool JogOptions::Check(std::string* why) const {
     return bad("envelope " + std::to_string(envelope_min_us) + ".." + std::to_string(envelope_max_us) +
                " us must lie within 1000..2200 us");
   if (settle_ms < 0 || settle_ms > 10000) return bad("settle_ms " + std::to_string(settle_ms) + " is outside 0..10000");
-  if (scale_step_us < 5 || scale_step_us > 100) return bad("scale_step_us " + std::to_string(scale_step_us) + " is outside 5..100");
+  if (scale_step_us < 5 || scale_step_us > 100)
+    return bad("scale_step_us " + std::to_string(scale_step_us) + " is outside 5..100");
   if (!(rim_fraction > 0 && rim_fraction < 1)) return bad("rim_fraction must be in (0, 1)");
   if (max_auto_steps < 1) return bad("max_auto_steps must be at least 1");
   return true;
@@ -52,7 +53,9 @@ models::RobotConfig MakeJogRobotConfig(const models::RobotConfig& file, const Jo
   return c;
 }
 
-JogSession::JogSession(robot::RobotInterface& robot, const models::RobotConfig& file, const JogOptions& options,
+JogSession::JogSession(robot::RobotInterface& robot,
+                       const models::RobotConfig& file,
+                       const JogOptions& options,
                        std::ostream* log)
     : robot_(robot), file_(file), o_(options), log_(log) {
   std::string why;
@@ -190,8 +193,8 @@ bool JogSession::Anchor(int servo, int direction) {
   scale_ = std::abs(shift) / std::abs(lim - inside);
   sign_ = shift > 0 ? 1.0 : -1.0;  // sign of an outward image shift
   image_check_ = true;
-  Log(std::string(models::kServoNames[servo]) + " anchor at " + std::to_string(lim) + " us: image scale " + Num(scale_, 3) +
-      " px/us (nominal " + Num(nominal, 3) + ") from " + std::to_string(inside) + " us");
+  Log(std::string(models::kServoNames[servo]) + " anchor at " + std::to_string(lim) + " us: image scale " +
+      Num(scale_, 3) + " px/us (nominal " + Num(nominal, 3) + ") from " + std::to_string(inside) + " us");
   return true;
 }
 
@@ -253,9 +256,9 @@ bool JogSession::WidenOnce(int direction, std::string* what) {
   }
   end.limit_us = nv;
   end.how = "widened";
-  end.message = image_check_ ? "the image follows: " + Num(last_travel_) + " of " + std::to_string(std::abs(nv - anchor_us_)) +
-                                    " us since " + std::to_string(anchor_us_)
-                              : "no image check";
+  end.message = image_check_ ? "the image follows: " + Num(last_travel_) + " of " +
+                                   std::to_string(std::abs(nv - anchor_us_)) + " us since " + std::to_string(anchor_us_)
+                             : "no image check";
   *what = name + " widened to " + std::to_string(nv) + " us (" + end.message + "; press Enter to confirm)";
   return false;
 }
@@ -263,8 +266,8 @@ bool JogSession::WidenOnce(int direction, std::string* what) {
 std::string JogSession::Widen(int direction) {
   const JogEnd& end = End(servo_, direction);
   if (end.how == "end-stop" || end.how == "rim")
-    return Log(std::string(models::kServoNames[servo_]) + " " + EndName(direction) + ": the images showed the " + end.how +
-               " at " + std::to_string(end.limit_us) + " us; not widened further");
+    return Log(std::string(models::kServoNames[servo_]) + " " + EndName(direction) + ": the images showed the " +
+               end.how + " at " + std::to_string(end.limit_us) + " us; not widened further");
   std::string what;
   WidenOnce(direction, &what);
   return Log(what);
@@ -274,12 +277,12 @@ std::string JogSession::WidenAuto(int direction) {
   const JogEnd& end = End(servo_, direction);
   if (end.how == "end-stop" || end.how == "rim") return Widen(direction);
   if (!textured_[ServoEye(servo_)])
-    return Log("auto-widening needs the images (this eye is black or constant): widen step by step ('w') and confirm by eye");
+    return Log(
+        "auto-widening needs the images (this eye is black or constant): widen step by step ('w') and confirm by eye");
   std::string what;
   for (int i = 0; i < o_.max_auto_steps; ++i) {
     if (WidenOnce(direction, &what)) return Log(rim_at_limit_ ? Narrow(direction) : what);
-    if (!image_check_)
-      return Log(what + "; auto-widening stopped: the images show no motion to check (widen by eye)");
+    if (!image_check_) return Log(what + "; auto-widening stopped: the images show no motion to check (widen by eye)");
     Log(what);
   }
   return Log(what + "; auto-widening stopped after " + std::to_string(o_.max_auto_steps) + " steps");
@@ -319,7 +322,8 @@ std::string JogSession::Confirm() {
   end.limit_us = p;
   end.how = "confirmed";
   end.message = "confirmed by the person";
-  return Log(std::string(models::kServoNames[s]) + " " + EndName(d) + " limit confirmed at " + std::to_string(p) + " us");
+  return Log(std::string(models::kServoNames[s]) + " " + EndName(d) + " limit confirmed at " + std::to_string(p) +
+             " us");
 }
 
 std::string JogSession::StatusLine() const {
@@ -327,8 +331,8 @@ std::string JogSession::StatusLine() const {
   const JogEnd& lo = End(s, -1);
   const JogEnd& hi = End(s, +1);
   std::string line = std::string(models::kServoNames[s]) + " " + std::to_string(pose_[s]) + " us  [min " +
-                     std::to_string(lo.limit_us) + " " + lo.how + " .. max " + std::to_string(hi.limit_us) + " " + hi.how +
-                     "]  pose";
+                     std::to_string(lo.limit_us) + " " + lo.how + " .. max " + std::to_string(hi.limit_us) + " " +
+                     hi.how + "]  pose";
   for (int i = 0; i < models::kNumServos; ++i) line.append(" ").append(std::to_string(pose_[i]));
   if (anchor_servo_ == s) line += "  image shift " + Num(last_shift_px_) + " px, rim " + Num(last_rim_, 3);
   return line;
@@ -343,8 +347,8 @@ models::RobotConfig JogSession::Result(std::vector<std::string>* notes) const {
         (d > 0 ? c.servos[s].max_us : c.servos[s].min_us) = e.limit_us;
       } else if (e.how == "widened" && notes) {
         notes->push_back(std::string(models::kServoNames[s]) + " " + EndName(d) + " widened to " +
-                         std::to_string(e.limit_us) + " us but not confirmed: the file keeps " + std::to_string(e.file_us) +
-                         " us");
+                         std::to_string(e.limit_us) + " us but not confirmed: the file keeps " +
+                         std::to_string(e.file_us) + " us");
       }
     }
   return c;

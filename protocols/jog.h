@@ -59,8 +59,8 @@ struct JogOptions {
 models::RobotConfig MakeJogRobotConfig(const models::RobotConfig& file, const JogOptions& options);
 
 struct JogEnd {
-  int file_us = 0;        // the robot file's limit
-  int limit_us = 0;       // the current limit of the session
+  int file_us = 0;           // the robot file's limit
+  int limit_us = 0;          // the current limit of the session
   std::string how = "file";  // file | widened (not confirmed) | confirmed | end-stop | rim
   std::string message;
   bool Final() const { return how == "confirmed" || how == "end-stop" || how == "rim"; }
@@ -70,18 +70,21 @@ class JogSession {
  public:
   // `robot` must accept MakeJogRobotConfig(file, options)'s limits. `log` gets one line per
   // event (may be nullptr). Throws std::invalid_argument on bad options.
-  JogSession(robot::RobotInterface& robot, const models::RobotConfig& file, const JogOptions& options, std::ostream* log);
+  JogSession(robot::RobotInterface& robot,
+             const models::RobotConfig& file,
+             const JogOptions& options,
+             std::ostream* log);
 
   // Centre pose; baseline images (texture and rim) of both eyes. Returns a status text.
   std::string Start();
   void Select(int servo);
   int Selected() const { return servo_; }
   // Each returns one line saying what happened.
-  std::string Step(int direction);             // +1 / -1, within the current limits
-  std::string GoToLimit(int direction);        // to the current limit of that end
-  std::string Widen(int direction);            // one step beyond the limit of that end
-  std::string WidenAuto(int direction);        // widening steps until the images stop it
-  std::string Confirm();                       // the current pulse becomes its end's limit
+  std::string Step(int direction);       // +1 / -1, within the current limits
+  std::string GoToLimit(int direction);  // to the current limit of that end
+  std::string Widen(int direction);      // one step beyond the limit of that end
+  std::string WidenAuto(int direction);  // widening steps until the images stop it
+  std::string Confirm();                 // the current pulse becomes its end's limit
   std::string Centre();
 
   // "Rx 1890 us [1200 file .. 1905 end-stop]" for the selected servo, plus image feedback.

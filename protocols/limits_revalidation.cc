@@ -37,7 +37,8 @@ RunSummary SetUpLimitsScene(robot::RobotInterface& robot, const RunOptions& opti
   return RunProtocols({setup}, robot, options);
 }
 
-std::vector<ServoRevalidation> RevalidateLimits(robot::RobotInterface& robot, const std::string& out_dir,
+std::vector<ServoRevalidation> RevalidateLimits(robot::RobotInterface& robot,
+                                                const std::string& out_dir,
                                                 const RevalidationOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument(why);
@@ -90,8 +91,9 @@ std::vector<ServoRevalidation> RevalidateLimits(robot::RobotInterface& robot, co
       }
       const int inside = e ? r.limit_us[1] - r.measured_us[1] : r.measured_us[0] - r.limit_us[0];
       if (inside > options.tolerance_us)
-        msg += std::string(msg.empty() ? "" : "; ") + end + " " + r.cause[e] + " at " + std::to_string(r.measured_us[e]) +
-               " us, " + std::to_string(inside) + " us inside the limit " + std::to_string(r.limit_us[e]);
+        msg += std::string(msg.empty() ? "" : "; ") + end + " " + r.cause[e] + " at " +
+               std::to_string(r.measured_us[e]) + " us, " + std::to_string(inside) + " us inside the limit " +
+               std::to_string(r.limit_us[e]);
     }
     r.pass = msg.empty();
     r.message = r.pass ? "both ends reached (within " + std::to_string(options.tolerance_us) + " us)" : msg;

@@ -37,7 +37,8 @@ RunSummary SetUpLimitsScene(robot::RobotInterface& robot, const RunOptions& opti
 
 // Runs the limits protocol on `robot` (whose Config() is the file to check). Throws on bad
 // options or an unreadable protocol; a failed search is a failing servo, not an exception.
-std::vector<ServoRevalidation> RevalidateLimits(robot::RobotInterface& robot, const std::string& out_dir,
+std::vector<ServoRevalidation> RevalidateLimits(robot::RobotInterface& robot,
+                                                const std::string& out_dir,
                                                 const RevalidationOptions& options);
 
 }  // namespace owlcal::protocols

@@ -48,8 +48,12 @@ bool LimitSearchOptions::Check(std::string* why) const {
   return true;
 }
 
-LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nominal_px_per_us,
-                              const LimitSearchOptions& o, const LimitSearchIo& io) {
+LimitSearchResult SearchLimit(int centre_us,
+                              int limit_us,
+                              int axis,
+                              double nominal_px_per_us,
+                              const LimitSearchOptions& o,
+                              const LimitSearchIo& io) {
   std::string why;
   if (!o.Check(&why)) throw std::invalid_argument(why);
   if (!(nominal_px_per_us > 0)) throw std::invalid_argument("SearchLimit: nominal_px_per_us must be > 0");
@@ -97,7 +101,7 @@ LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nomi
   double shift_sum = 0;
   std::vector<double> step_scales;
   std::vector<std::string> first_tries;  // the first step's probes that did not move enough
-  int retry_to = 0;                       // the next first-step probe, longer (0: none)
+  int retry_to = 0;                      // the next first-step probe, longer (0: none)
   while (v != limit_us) {
     int nv = d > 0 ? std::min(limit_us, v + o.coarse_us) : std::max(limit_us, v - o.coarse_us);
     if (retry_to) nv = retry_to, retry_to = 0;

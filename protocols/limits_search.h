@@ -67,9 +67,9 @@ struct LimitSearchOptions {
   int fine_us = 4;
   double moved_fraction = 0.3;
   double rim_fraction = 0.02;
-  bool check_rim = true;          // false for the neck (it carries the sockets with the head)
-  double min_contrast_grey = 4;   // thumbnail grey std below this: black or constant image
-  int first_step_tries = 3;       // coarse steps from the centre tried before "no image motion"
+  bool check_rim = true;         // false for the neck (it carries the sockets with the head)
+  double min_contrast_grey = 4;  // thumbnail grey std below this: black or constant image
+  int first_step_tries = 3;      // coarse steps from the centre tried before "no image motion"
   // The centre is first approached from this far on the other end's side [us] (the caller keeps
   // it inside the configured range); 0: not.
   int approach_us = 0;
@@ -85,12 +85,12 @@ struct LimitSearchIo {
 
 struct LimitSearchResult {
   calib::TrialStatus status = calib::TrialStatus::kOk;  // ok, or failed (no usable image/motion)
-  std::string cause;        // ok: "end-stop", "rim" or "configured"; failed: ""
-  std::string message;      // failed: why; ok: how it was found
-  int measured_us = 0;      // the usable end (failed: the centre, never to be used)
-  double last_shift_px = 0; // image shift of the last probe
-  double rim = 0;           // rim darkening of the last probe over the centre pose
-  double px_per_us = 0;     // measured image scale
+  std::string cause;                                    // ok: "end-stop", "rim" or "configured"; failed: ""
+  std::string message;                                  // failed: why; ok: how it was found
+  int measured_us = 0;                                  // the usable end (failed: the centre, never to be used)
+  double last_shift_px = 0;                             // image shift of the last probe
+  double rim = 0;                                       // rim darkening of the last probe over the centre pose
+  double px_per_us = 0;                                 // measured image scale
   // The image's shift along the axis per +1 us of command [px/us], signed (x right, y down): its
   // sign is the servo's direction as the camera sees it; 0 when no coarse step moved.
   double image_px_per_us = 0;
@@ -101,7 +101,11 @@ struct LimitSearchResult {
 // side of the centre); axis 0 = the image moves in x (pan, neck), 1 = y (tilt);
 // nominal_px_per_us > 0: the expected image shift per us. Throws std::invalid_argument on bad
 // options.
-LimitSearchResult SearchLimit(int centre_us, int limit_us, int axis, double nominal_px_per_us,
-                              const LimitSearchOptions& options, const LimitSearchIo& io);
+LimitSearchResult SearchLimit(int centre_us,
+                              int limit_us,
+                              int axis,
+                              double nominal_px_per_us,
+                              const LimitSearchOptions& options,
+                              const LimitSearchIo& io);
 
 }  // namespace owlcal::protocols

@@ -24,7 +24,11 @@ void RunResolutionProbe(RunContext& run, const LimitsStep& s, int servo, const L
   const int centre = sc.centre_us, span = s.resolution_span_us;
   const char* header = "step_index,servo,sample,command_us,position_px,response,status,reason";
   const std::string name = models::kServoNames[servo];
-  auto row = [&](int sample, int command, const std::string& pos, const std::string& resp, calib::TrialStatus st,
+  auto row = [&](int sample,
+                 int command,
+                 const std::string& pos,
+                 const std::string& resp,
+                 calib::TrialStatus st,
                  const std::string& reason) {
     run.writer().AppendRow("resolution.csv",
                            header,
@@ -39,7 +43,11 @@ void RunResolutionProbe(RunContext& run, const LimitsStep& s, int servo, const L
   };
   const int below = centre - std::max(2 * span, s.coarse_us);
   if (below < sc.min_us || centre + span > sc.max_us) {
-    row(0, centre, "", "", calib::TrialStatus::kSkipped,
+    row(0,
+        centre,
+        "",
+        "",
+        calib::TrialStatus::kSkipped,
         "the sweep " + std::to_string(below) + "-" + std::to_string(centre + span) + " us leaves the configured range");
     run.Event("resolution", name + ": skipped, the sweep leaves the configured range");
     return;
@@ -55,7 +63,10 @@ void RunResolutionProbe(RunContext& run, const LimitsStep& s, int servo, const L
     const std::optional<Eigen::Vector2d> at = locator->Locate(io.image(), eye);
     if (at && !first) first = (*at)[axis];
     const bool usable = at && first;
-    row(sample++, centre + off, usable ? calib::CsvFixed((*at)[axis] - *first, 4) : "", "",
+    row(sample++,
+        centre + off,
+        usable ? calib::CsvFixed((*at)[axis] - *first, 4) : "",
+        "",
         usable ? calib::TrialStatus::kOk : calib::TrialStatus::kLostTarget,
         usable ? "" : "the fixation target was not found in the image");
   }

@@ -14,10 +14,10 @@ namespace owlcal::protocols {
 namespace {
 
 const char* kParamNames[4] = {"X", "Y", "Size", "Skew"};
-constexpr int kBarLeft = 90;        // from the eye column's left edge
+constexpr int kBarLeft = 90;  // from the eye column's left edge
 constexpr int kBarWidth = 400;
 constexpr int kBarHeight = 18;
-constexpr int kBarTop = 34;         // below the panel's top
+constexpr int kBarTop = 34;  // below the panel's top
 constexpr int kBarPitch = 28;
 
 std::string F2(double v) {
@@ -49,8 +49,11 @@ void DrawEye(cv::Mat& canvas, int eye, const cv::Mat& image, const calib::Target
   const char* name = models::kEyeNames[eye];
   Text(roi, std::string(name) + " eye", {10, 24}, cv::Scalar(255, 255, 255), 0.7);
   if (!d.found) {
-    Text(roi, "no board" + (d.message.empty() ? std::string() : ": " + d.message.substr(0, 48)), {10, 52},
-         cv::Scalar(40, 40, 255), 0.6);
+    Text(roi,
+         "no board" + (d.message.empty() ? std::string() : ": " + d.message.substr(0, 48)),
+         {10, 52},
+         cv::Scalar(40, 40, 255),
+         0.6);
     return;
   }
   // Corners joined in id order (as cv::drawChessboardCorners), hue running along the ids.
@@ -73,16 +76,22 @@ void DrawPanel(cv::Mat& canvas, int eye, const Coverage& c) {
   Text(canvas,
        std::string(models::kEyeNames[eye]) + " eye: " + std::to_string(c.num_views) + " views" +
            (c.Good() ? "  - coverage GOOD" : ""),
-       {x0 + 10, y0 + 22}, c.Good() ? cv::Scalar(60, 220, 60) : cv::Scalar(255, 255, 255), 0.6);
+       {x0 + 10, y0 + 22},
+       c.Good() ? cv::Scalar(60, 220, 60) : cv::Scalar(255, 255, 255),
+       0.6);
   for (int k = 0; k < 4; ++k) {
     const cv::Rect bar = LiveBarRect(eye, k);
     Text(canvas, kParamNames[k], {x0 + 12, bar.y + bar.height - 3}, cv::Scalar(255, 255, 255));
     cv::rectangle(canvas, bar, kLiveBarEmpty, cv::FILLED);
     const double p = std::clamp(c.progress[k], 0.0, 1.0);
     const int w = int(std::lround(p * bar.width));
-    if (w > 0) cv::rectangle(canvas, cv::Rect(bar.x, bar.y, w, bar.height), p >= 1 ? kLiveBarDone : kLiveBarPartial, cv::FILLED);
-    Text(canvas, c.num_views ? F2(c.min[k]) + ".." + F2(c.max[k]) : "-", {bar.x + bar.width + 10, bar.y + bar.height - 3},
-         cv::Scalar(220, 220, 220), 0.5);
+    if (w > 0)
+      cv::rectangle(canvas, cv::Rect(bar.x, bar.y, w, bar.height), p >= 1 ? kLiveBarDone : kLiveBarPartial, cv::FILLED);
+    Text(canvas,
+         c.num_views ? F2(c.min[k]) + ".." + F2(c.max[k]) : "-",
+         {bar.x + bar.width + 10, bar.y + bar.height - 3},
+         cv::Scalar(220, 220, 220),
+         0.5);
   }
   int y = y0 + kBarTop + 4 * kBarPitch + 12;
   for (const std::string& line : MissingViews(c)) {
@@ -130,7 +139,8 @@ cv::Mat RenderLiveFrame(const LiveDetection& frame, const LiveState& state) {
   DrawEye(canvas, models::kRightEye, frame.right, frame.detection[models::kRightEye]);
   for (int e = 0; e < 2; ++e) DrawPanel(canvas, e, state.coverage[e]);
   cv::line(canvas, {kLiveEyeWidth, 0}, {kLiveEyeWidth, canvas.rows}, cv::Scalar(200, 200, 200), 1);
-  if (!state.status.empty()) Text(canvas, state.status, {kLiveEyeWidth - 300, kLiveEyeHeight - 10}, cv::Scalar(255, 255, 255), 0.5);
+  if (!state.status.empty())
+    Text(canvas, state.status, {kLiveEyeWidth - 300, kLiveEyeHeight - 10}, cv::Scalar(255, 255, 255), 0.5);
   return canvas;
 }
 

@@ -40,9 +40,9 @@ inline constexpr int kLivePanelHeight = 230;
 
 // One frame the runner detected the protocol's target in (or tried to), per eye.
 struct LiveDetection {
-  cv::Mat left, right;                            // 8-bit BGR eye images
+  cv::Mat left, right;                              // 8-bit BGR eye images
   std::array<calib::TargetDetection, 2> detection;  // per eye (models::kLeftEye, kRightEye)
-  std::array<bool, 2> has_view{};                 // per eye: view params computed
+  std::array<bool, 2> has_view{};                   // per eye: view params computed
   std::array<ViewParams, 2> view{};
   std::string step_name;
 };
@@ -70,7 +70,7 @@ cv::Mat RenderLiveFrame(const LiveDetection& frame, const LiveState& state);
 
 struct LiveFeedbackOptions {
   std::string bind_address = "127.0.0.1";
-  int port = 0;            // 0 = any free port (Port() tells)
+  int port = 0;  // 0 = any free port (Port() tells)
   int jpeg_quality = 85;
   bool Check(std::string* why) const;
 };

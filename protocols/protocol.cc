@@ -58,9 +58,9 @@ std::optional<PwmExpr> ParsePwmExpr(const std::string& text_in) {
   };
   PwmExpr e;
   static const std::pair<const char*, PwmExpr::Base> kBases[] = {{"centre", PwmExpr::Base::kCentre},
-                                                                  {"center", PwmExpr::Base::kCentre},
-                                                                  {"min", PwmExpr::Base::kMin},
-                                                                  {"max", PwmExpr::Base::kMax}};
+                                                                 {"center", PwmExpr::Base::kCentre},
+                                                                 {"min", PwmExpr::Base::kMin},
+                                                                 {"max", PwmExpr::Base::kMax}};
   for (const auto& [name, base] : kBases) {
     const std::string n = name;
     if (text.rfind(n, 0) == 0) {
@@ -89,19 +89,32 @@ models::PwmVector PoseSpec::Resolve(const models::RobotConfig& robot) const {
 
 const char* StepKindName(StepKind kind) {
   switch (kind) {
-    case StepKind::kMoveTo: return "move-to";
-    case StepKind::kSweep: return "sweep";
-    case StepKind::kGrid: return "grid";
-    case StepKind::kPlaceTarget: return "place-target";
-    case StepKind::kCapture: return "capture";
-    case StepKind::kFixate: return "fixate";
-    case StepKind::kStepResponse: return "step-response";
-    case StepKind::kLimits: return "limits";
-    case StepKind::kAlignment: return "alignment";
-    case StepKind::kLatency: return "latency";
-    case StepKind::kWait: return "wait";
-    case StepKind::kSaccade: return "saccade";
-    case StepKind::kVor: return "vor";
+    case StepKind::kMoveTo:
+      return "move-to";
+    case StepKind::kSweep:
+      return "sweep";
+    case StepKind::kGrid:
+      return "grid";
+    case StepKind::kPlaceTarget:
+      return "place-target";
+    case StepKind::kCapture:
+      return "capture";
+    case StepKind::kFixate:
+      return "fixate";
+    case StepKind::kStepResponse:
+      return "step-response";
+    case StepKind::kLimits:
+      return "limits";
+    case StepKind::kAlignment:
+      return "alignment";
+    case StepKind::kLatency:
+      return "latency";
+    case StepKind::kWait:
+      return "wait";
+    case StepKind::kSaccade:
+      return "saccade";
+    case StepKind::kVor:
+      return "vor";
     case StepKind::kMainSequence:
       return "main-sequence";
     case StepKind::kCatchUp:
@@ -114,9 +127,12 @@ const char* StepKindName(StepKind kind) {
 
 const char* LocatorName(Locator locator) {
   switch (locator) {
-    case Locator::kFixation: return "fixation";
-    case Locator::kTemplate: return "template";
-    case Locator::kAprilTag: return "apriltag";
+    case Locator::kFixation:
+      return "fixation";
+    case Locator::kTemplate:
+      return "template";
+    case Locator::kAprilTag:
+      return "apriltag";
     case Locator::kLk:
       return "lk";
   }
@@ -289,7 +305,8 @@ class Fields {
     YAML::Node n = Get(key);
     if (!n.IsSequence() || n.size() == 0) Fail(key, "expected a non-empty list");
     std::vector<T> out;
-    if (n.size() > static_cast<size_t>(kMaxPlanSteps)) Fail(key, "more than " + std::to_string(kMaxPlanSteps) + " entries");
+    if (n.size() > static_cast<size_t>(kMaxPlanSteps))
+      Fail(key, "more than " + std::to_string(kMaxPlanSteps) + " entries");
     for (size_t i = 0; i < n.size(); ++i) {
       std::string why;
       const std::optional<T> v = Convert<T>(n[i], &why);
@@ -589,7 +606,8 @@ StepParams ParseStepParams(const std::string& kind, Fields& f, const std::string
     s.steps_deg = no_steps ? std::vector<double>{} : f.List<double>("steps_deg", s.steps_deg);
     for (double a : s.steps_deg)
       if (!(a > 0 && a <= 30)) f.Fail("steps_deg", std::to_string(a) + " must be in (0, 30]");
-    if (s.sines_hz.empty() && s.steps_deg.empty()) f.Fail("sines_hz", "no sine and no step (steps_deg): nothing to run");
+    if (s.sines_hz.empty() && s.steps_deg.empty())
+      f.Fail("sines_hz", "no sine and no step (steps_deg): nothing to run");
     s.hold_ms = f.PositiveInt("hold_ms", s.hold_ms, 200);
     s.range_m = f.PositiveDouble("range_m", s.range_m);
     s.max_neck_deg_per_s = f.PositiveDouble("max_neck_deg_per_s", s.max_neck_deg_per_s);
@@ -699,11 +717,12 @@ int64_t CountSteps(const YAML::Node& list, const std::string& source, int depth)
   int64_t n = 0;
   for (size_t i = 0; i < list.size() && n <= kMaxPlanSteps; ++i) {
     const YAML::Node item = list[i];
-    if (item.IsMap() && item.size() == 1 && item.begin()->first.IsScalar() && item.begin()->first.Scalar() == "repeat" &&
-        item.begin()->second.IsMap()) {
+    if (item.IsMap() && item.size() == 1 && item.begin()->first.IsScalar() &&
+        item.begin()->first.Scalar() == "repeat" && item.begin()->second.IsMap()) {
       const YAML::Node body = item.begin()->second;
       int times = 1;
-      if (body["times"] && body["times"].IsScalar() && !io::CheckInt(body["times"].Scalar(), 1, kMaxPlanInt, &times).empty())
+      if (body["times"] && body["times"].IsScalar() &&
+          !io::CheckInt(body["times"].Scalar(), 1, kMaxPlanInt, &times).empty())
         times = 1;  // ParseSteps names the bad value
       n += std::min<int64_t>(kMaxPlanSteps + 1, times * CountSteps(body["steps"], source, depth + 1));
     } else {
@@ -736,8 +755,9 @@ void ParseSteps(const YAML::Node& list, const std::string& source, const std::st
       // nested repeats of 1000, ended in std::bad_alloc).
       const int64_t each = CountSteps(inner, source, depth + 1);
       if (each * times > kMaxPlanSteps - static_cast<int64_t>(p->steps.size()))
-        f.Fail("times", std::to_string(times) + " x " + std::to_string(each) + " steps would make the protocol longer than " +
-                            std::to_string(kMaxPlanSteps) + " steps");
+        f.Fail("times",
+               std::to_string(times) + " x " + std::to_string(each) + " steps would make the protocol longer than " +
+                   std::to_string(kMaxPlanSteps) + " steps");
       for (int k = 0; k < times; ++k) {
         const size_t before = p->steps.size();
         ParseSteps(inner, source, prefix + std::to_string(i) + ".", p, depth + 1);
@@ -819,7 +839,8 @@ std::string StandardProtocolDir() {
 }
 
 std::vector<std::string> StandardProtocolNames() {
-  return {"limits", "alignment", "intrinsics", "stereo", "servo_sweep", "vergence", "step_response", "latency", "saccade"};
+  return {
+      "limits", "alignment", "intrinsics", "stereo", "servo_sweep", "vergence", "step_response", "latency", "saccade"};
 }
 
 std::string CheckStepForRobot(const Step& s, const models::RobotConfig& robot) {
@@ -897,7 +918,8 @@ std::string ResolveProtocolPath(const std::string& name_or_path) {
   if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".yaml") stem = stem.substr(0, stem.size() - 5);
   const std::string p = StandardProtocolDir() + "/" + stem + ".yaml";
   if (fs::exists(p)) return p;
-  throw ProtocolError(name_or_path + ": no such protocol file, and not a standard protocol in " + StandardProtocolDir());
+  throw ProtocolError(name_or_path + ": no such protocol file, and not a standard protocol in " +
+                      StandardProtocolDir());
 }
 
 }  // namespace owlcal::protocols

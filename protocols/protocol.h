@@ -125,11 +125,11 @@ struct PoseSpec {
 struct SettleRule {
   enum class Mode { kImage, kTime };
   Mode mode = Mode::kImage;
-  int time_ms = 300;     // kTime: fixed wait
-  int min_ms = 150;      // kImage: never less (covers the stream latency)
-  int max_ms = 2000;     // kImage: give up (reported in events.log)
-  double still_px = 0.5; // kImage: image shift counted as "not moving" [px]
-  int still_frames = 2;  // kImage: consecutive still frame pairs needed
+  int time_ms = 300;      // kTime: fixed wait
+  int min_ms = 150;       // kImage: never less (covers the stream latency)
+  int max_ms = 2000;      // kImage: give up (reported in events.log)
+  double still_px = 0.5;  // kImage: image shift counted as "not moving" [px]
+  int still_frames = 2;   // kImage: consecutive still frame pairs needed
 };
 
 // The step kinds, in the order of the alternatives of StepParams.
@@ -286,7 +286,7 @@ struct SaccadeStep {
   Axis axis = Axis::kPan;
   std::vector<double> amplitudes_deg{10};
   int trials = 3;
-  int frames = 20;            // frames logged per trial from the saccade's first frame
+  int frames = 20;  // frames logged per trial from the saccade's first frame
   Locator locator = Locator::kFixation;
   double range_m = 1.0;       // the target's assumed distance (the camera sits ahead of the eye's axis)
   double tolerance_px = 1.0;  // no correction when the target is this close to the centre

@@ -111,7 +111,8 @@ void RunContext::Detect(const robot::StereoFrame& f, int64_t index) {
   std::vector<calib::TargetDefinition> grids;
   if (cur_step_->DetectsTags())
     for (const std::string& name : cur_protocol_->tag_targets)
-      if (const auto t = cur_protocol_->targets.find(name); t != cur_protocol_->targets.end()) grids.push_back(t->second);
+      if (const auto t = cur_protocol_->targets.find(name); t != cur_protocol_->targets.end())
+        grids.push_back(t->second);
   std::vector<calib::TargetDetection> tags[2];
   // The two eyes are detected at once (the detector has no shared state), then used in eye order.
   cv::parallel_for_(cv::Range(0, 2), [&](const cv::Range& eyes) {

@@ -149,10 +149,13 @@ RunSummary Runner::Run() {
         }
       }
     }
-    writer_->Event(robot_.NowNs(), "resume", "resuming at step " + std::to_string(first_step) + " with " +
-                                                 std::to_string(writer_->NumFrames()) + " frames recorded");
-    if (o_.progress) *o_.progress << "resuming " << o_.out_dir << " at step " << (first_step + 1) << "/" << steps_.size()
-                                  << " (" << writer_->NumFrames() << " frames kept)\n";
+    writer_->Event(robot_.NowNs(),
+                   "resume",
+                   "resuming at step " + std::to_string(first_step) + " with " + std::to_string(writer_->NumFrames()) +
+                       " frames recorded");
+    if (o_.progress)
+      *o_.progress << "resuming " << o_.out_dir << " at step " << (first_step + 1) << "/" << steps_.size() << " ("
+                   << writer_->NumFrames() << " frames kept)\n";
   } else {
     writer_ = DatasetWriter::Create(o_.out_dir, NewRunManifest(*protocols_, robot_, o_));
   }
@@ -254,7 +257,9 @@ bool RunOptions::Check(std::string* why) const {
   return true;
 }
 
-RunSummary RunProtocols(const std::vector<Protocol>& protocols, robot::RobotInterface& robot, const RunOptions& options) {
+RunSummary RunProtocols(const std::vector<Protocol>& protocols,
+                        robot::RobotInterface& robot,
+                        const RunOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw std::invalid_argument(why);
   CheckProtocolsForRobot(protocols, robot.Config());

@@ -40,12 +40,11 @@
 //                      image_px_per_us,beyond_rim_us,beyond_rim_reason,status,message
 //                      (protocols/limits_search.h; image_px_per_us: the signed image shift per +1 us
 //                      along the servo's image axis; beyond_rim_*: at a rim end, what the search
-//                      found past the rim with the rim ignored: end-stop, configured or unknown; reason: end-stop = the image stopped
-//                      following the command; rim = the fraction of the 8 px border band darker than
-//                      grey 20 grew by more than rim_fraction over the centre pose (protocols/
-//                      image_motion.h RimFraction); configured = the robot file's limit reached with
-//                      neither. status failed, measured_us empty: a black, constant or motionless
-//                      image; the step then fails with a message)
+//                      found past the rim with the rim ignored: end-stop, configured or unknown; reason: end-stop = the
+//                      image stopped following the command; rim = the fraction of the 8 px border band darker than grey
+//                      20 grew by more than rim_fraction over the centre pose (protocols/ image_motion.h RimFraction);
+//                      configured = the robot file's limit reached with neither. status failed, measured_us empty: a
+//                      black, constant or motionless image; the step then fails with a message)
 //   resolution.csv     step_index,servo,sample,command_us,position_px,response,status,reason (the limits
 //                      step's fine sweep at the centre, resolution_span_us > 0: the fixation target's
 //                      position along the servo's axis relative to the first sample [px]; response
@@ -94,28 +93,28 @@ struct LiveDetection;  // protocols/live_feedback.h
 // fills it from its own fit before it records the saccade protocol.
 struct CalibratedMaps {
   models::HeadModel head;
-  std::string source;                                  // recorded in events.log and the trial rows
+  std::string source;                                      // recorded in events.log and the trial rows
   std::array<double, models::kNumServos> slew_us_per_s{};  // 0: not measured
   std::array<double, models::kNumServos> lag_s{};
-  double exposure_delay_s = 0;                         // 0: not measured
+  double exposure_delay_s = 0;                             // 0: not measured
   std::array<double, models::kNumServos> resolution_us{};  // PWM step or dead band, whichever is larger; 0 unknown
 };
 
 struct RunOptions {
-  std::string out_dir;                 // the dataset folder (required unless dry_run)
+  std::string out_dir;  // the dataset folder (required unless dry_run)
   bool dry_run = false;
   bool resume = false;
-  bool interactive = false;            // real robot: prompt a person for placements on `input`
-  std::istream* input = nullptr;       // answers to prompts (default std::cin)
-  std::ostream* progress = nullptr;    // progress lines (nullptr: silent)
-  double progress_every_s = 2.0;       // wall-clock seconds between progress lines within a step
+  bool interactive = false;                // real robot: prompt a person for placements on `input`
+  std::istream* input = nullptr;           // answers to prompts (default std::cin)
+  std::ostream* progress = nullptr;        // progress lines (nullptr: silent)
+  double progress_every_s = 2.0;           // wall-clock seconds between progress lines within a step
   std::atomic<bool>* stop_flag = nullptr;  // set to stop: park, close the dataset as "aborted"
   int64_t frame_timeout_ns = 3'000'000'000;
   // Recorded in the manifest.
-  std::string robot_spec;              // "sim" or HOST[:PORT]
-  std::string robot_file;              // path of the robot file ("" = built-in default)
+  std::string robot_spec;  // "sim" or HOST[:PORT]
+  std::string robot_file;  // path of the robot file ("" = built-in default)
   std::string robot_file_text;
-  nlohmann::json sim;                  // {"seed", "truth_file"} for the virtual Owl, else null
+  nlohmann::json sim;  // {"seed", "truth_file"} for the virtual Owl, else null
   // Called after each recorded frame (tests, progress).
   std::function<void(int64_t frame_index)> on_frame;
   // Called after the detection of every recorded frame of a `detect: true` step (live capture
@@ -130,24 +129,27 @@ struct RunOptions {
 struct RunSummary {
   int num_steps = 0;
   int steps_done = 0;
-  int64_t num_frames = 0;            // frames in the dataset at the end
-  int64_t num_clamped = 0;           // commands the limits guard changed
+  int64_t num_frames = 0;   // frames in the dataset at the end
+  int64_t num_clamped = 0;  // commands the limits guard changed
   std::vector<std::string> clamp_messages;
-  std::string status;                // complete | aborted | failed | dry-run
+  std::string status;  // complete | aborted | failed | dry-run
   std::string message;
-  std::vector<std::string> plan;     // dry-run: one line per planned command / step
-  double elapsed_s = 0;              // robot clock
+  std::vector<std::string> plan;  // dry-run: one line per planned command / step
+  double elapsed_s = 0;           // robot clock
 };
 
 // Executes the protocols (steps concatenated in order) on `robot`. Throws only for bad
 // options; failures during the run are reported in the summary (status failed) after the
 // head is parked and the dataset closed.
-RunSummary RunProtocols(const std::vector<Protocol>& protocols, robot::RobotInterface& robot, const RunOptions& options);
+RunSummary RunProtocols(const std::vector<Protocol>& protocols,
+                        robot::RobotInterface& robot,
+                        const RunOptions& options);
 
 // The dry-run plan: every command each step would send (closed-loop steps: the range their
 // commands are confined to), each line flagged "CLAMPED" when the limits guard would change
 // it. *num_clamped counts those lines.
-std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols, const models::RobotConfig& robot,
+std::vector<std::string> PlanRun(const std::vector<Protocol>& protocols,
+                                 const models::RobotConfig& robot,
                                  int64_t* num_clamped);
 
 // Installs a handler for SIGINT, SIGTERM and SIGHUP (Ctrl-C, `timeout`, kill, a closed SSH

@@ -97,10 +97,11 @@ std::string PlacementPrompt(const Protocol& p, const PlaceTargetStep& s) {
   std::string what = p.target_description.empty() ? s.target : p.target_description;
   o << "Place the " << what << " target " << std::lround(s.distance_m * 1000) << " mm in front of the neck axis";
   if (s.offset_m.norm() > 0)
-    o << ", centre offset " << std::lround(s.offset_m.x() * 1000) << " mm right and " << std::lround(s.offset_m.y() * 1000)
-      << " mm down";
+    o << ", centre offset " << std::lround(s.offset_m.x() * 1000) << " mm right and "
+      << std::lround(s.offset_m.y() * 1000) << " mm down";
   if (s.rpy_deg.norm() > 0)
-    o << ", turned roll " << s.rpy_deg.x() << " deg, pitch " << s.rpy_deg.y() << " deg, yaw " << s.rpy_deg.z() << " deg";
+    o << ", turned roll " << s.rpy_deg.x() << " deg, pitch " << s.rpy_deg.y() << " deg, yaw " << s.rpy_deg.z()
+      << " deg";
   o << ", then press Enter (or type the measured distance in mm)";
   return o.str();
 }

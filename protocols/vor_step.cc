@@ -129,8 +129,7 @@ class VorRun {
         }
         x_in_base_[e] = *x;
         if ((*px - Centre(frame)).norm() > kFixationTolerancePx) all_within = false;
-        const auto goal = models::SaccadePulses(
-            head_, models::Eye(e), a, *x, true, true, {0, 0}, Centre(frame));
+        const auto goal = models::SaccadePulses(head_, models::Eye(e), a, *x, true, true, {0, 0}, Centre(frame));
         if (!goal) {
           *why = std::string("the map cannot centre the target in the ") + models::kEyeNames[e] + " eye";
           return false;
@@ -154,7 +153,10 @@ class VorRun {
   }
 
   // One trial; fills `samples`. Returns "" or why it stopped early (a limit).
-  std::string Trial(const Profile& prof, bool vor, const std::vector<FrameSample>* still, std::vector<FrameSample>* out) {
+  std::string Trial(const Profile& prof,
+                    bool vor,
+                    const std::vector<FrameSample>* still,
+                    std::vector<FrameSample>* out) {
     out->clear();
     run_.Send(fixation_);
     run_.robot().SleepNs(kRestNs);
@@ -174,8 +176,7 @@ class VorRun {
         for (int e = 0; e < 2; ++e) {
           const int servo = models::kPanServo[e];
           // Solve for the pulse, then again with the approach of this move (backlash).
-          auto goal =
-              models::SaccadePulses(head_, models::Eye(e), a, x_in_base_[e], true, false, {0, 0}, fix_px_[e]);
+          auto goal = models::SaccadePulses(head_, models::Eye(e), a, x_in_base_[e], true, false, {0, 0}, fix_px_[e]);
           if (goal) {
             const double d = (*goal)[0] - run_.cmd()[servo];
             const int ap = std::abs(d) >= 0.5 ? (d > 0 ? 1 : -1) : run_.approach()[servo];
@@ -404,8 +405,8 @@ void RunVorStep(RunContext& run, const Protocol& p, const VorStep& s) {
         for (int e = 0; e < 2; ++e)
           if (found[e] < kFoundFraction * n) {
             status = calib::TrialStatus::kLostTarget;
-            reason += std::string(reason.empty() ? "" : "; ") + "target found in " + std::to_string(found[e]) +
-                      " of " + std::to_string(n) + " frames of the " + models::kEyeNames[e] + " eye";
+            reason += std::string(reason.empty() ? "" : "; ") + "target found in " + std::to_string(found[e]) + " of " +
+                      std::to_string(n) + " frames of the " + models::kEyeNames[e] + " eye";
           }
       }
       const std::string message = pr.Name() + " " + FixedText(pr.amplitude_deg, 1) + " deg" +

@@ -52,31 +52,41 @@ double Threshold(const std::vector<ViewStat>& views, int eye) {
 std::optional<Figure> ViewRmsFigure(const ReportData& d) {
   const std::vector<ViewStat> views = Views(d);
   if (views.empty()) return std::nullopt;
-  Figure f{"view_rms", "RMS reprojection error per calibration view", "view (in recording order)", "RMS error [px]", {},
+  Figure f{"view_rms",
+           "RMS reprojection error per calibration view",
+           "view (in recording order)",
+           "RMS error [px]",
+           {},
            {"set yrange [0:*]", "set style fill solid 0.7 noborder", "set bmargin 6", "set xtics out nomirror"},
            "outside bottom center horizontal"};
   f.width_px = 1100;
   const auto worst = WorstViews(d, 4);
   int x0 = 0;
   for (int e = 0; e < 2; ++e) {
-    Series bars{std::string(models::kEyeNames[e]) + " eye", std::string("boxes lc rgb '") + kEyeColour[e] + "'", "1:2",
-                {"view", "rms_px"}, {}};
+    Series bars{std::string(models::kEyeNames[e]) + " eye",
+                std::string("boxes lc rgb '") + kEyeColour[e] + "'",
+                "1:2",
+                {"view", "rms_px"},
+                {}};
     int n = 0;
     for (const auto& v : views)
       if (v.eye == e) bars.rows.push_back({double(x0 + n++), v.rms_px});
     if (bars.rows.empty()) continue;
     const double thr = Threshold(views, e);
     f.series.push_back(bars);
-    f.series.push_back({e == 0 ? "retake threshold (median + 3 MAD)" : "", "lines lw 2 dt 2 lc rgb '#333333'", "1:2",
-                        {"view", "threshold_px"}, {{x0 - 0.5, thr}, {x0 + n - 0.5, thr}}});
+    f.series.push_back({e == 0 ? "retake threshold (median + 3 MAD)" : "",
+                        "lines lw 2 dt 2 lc rgb '#333333'",
+                        "1:2",
+                        {"view", "threshold_px"},
+                        {{x0 - 0.5, thr}, {x0 + n - 0.5, thr}}});
     // Number the worst views on the plot (rank 1 = worst); the caption names them.
     n = 0;
     for (const auto& v : views) {
       if (v.eye != e) continue;
       for (size_t k = 0; k < worst.size(); ++k)
         if (worst[k].view.eye == e && worst[k].view.frame == v.frame)
-          f.settings.push_back("set label '" + std::to_string(k + 1) + "' at " + Fmt(x0 + n, 6) + "," + Fmt(v.rms_px, 6) +
-                               " center offset 0,0.7 font ',12' front");
+          f.settings.push_back("set label '" + std::to_string(k + 1) + "' at " + Fmt(x0 + n, 6) + "," +
+                               Fmt(v.rms_px, 6) + " center offset 0,0.7 font ',12' front");
       ++n;
     }
     x0 += n + 3;
@@ -87,7 +97,8 @@ std::optional<Figure> ViewRmsFigure(const ReportData& d) {
   f.settings.push_back("set offsets 0, 0, graph 0.1, 0");
   std::string names;
   for (size_t k = 0; k < worst.size(); ++k)
-    names += (k ? ", " : "") + std::to_string(k + 1) + " = " + models::kEyeNames[worst[k].view.eye] + " eye, " + worst[k].view.name + " (" + Fmt(worst[k].view.rms_px, 3) + " px)";
+    names += (k ? ", " : "") + std::to_string(k + 1) + " = " + models::kEyeNames[worst[k].view.eye] + " eye, " +
+             worst[k].view.name + " (" + Fmt(worst[k].view.rms_px, 3) + " px)";
   f.caption = "RMS reprojection error of each calibration view (left eye first, then the right). " +
               (worst.empty() ? std::string("No view stands out above its eye's threshold (median + 3 scaled MADs).")
                              : "Views above the threshold: " + names +
@@ -117,20 +128,39 @@ std::vector<Figure> ResidualFigures(const ReportData& d) {
     std::sort(mags.begin(), mags.end());
     const double p99 = std::max(1e-9, mags[size_t(0.99 * (mags.size() - 1))]);
     const double scale = 25.0 / p99;
-    Figure field{"residual_field_" + eye, eye + " eye: reprojection residuals over the image (arrows \u00d7" + Fmt(scale, 3) + ")",
-                 "x [px]", "y [px]", {}, {}, "off"};
-    field.settings = {"unset grid", "set size ratio -1", "set xrange [0:" + std::to_string(w - 1) + "]",
-                      "set yrange [" + std::to_string(h - 1) + ":0]", "set cblabel '|residual| [px]'",
-                      "set cbrange [0:" + Fmt(p99, 3) + "]", kViridis};
-    Series s{"", "vectors head size 4,20 filled lw 1.2 lc palette", "1:2:5:6:7", {"x_px", "y_px", "dx_px", "dy_px", "dx_plot", "dy_plot", "norm_px"}, {}};
+    Figure field{"residual_field_" + eye,
+                 eye + " eye: reprojection residuals over the image (arrows \u00d7" + Fmt(scale, 3) + ")",
+                 "x [px]",
+                 "y [px]",
+                 {},
+                 {},
+                 "off"};
+    field.settings = {"unset grid",
+                      "set size ratio -1",
+                      "set xrange [0:" + std::to_string(w - 1) + "]",
+                      "set yrange [" + std::to_string(h - 1) + ":0]",
+                      "set cblabel '|residual| [px]'",
+                      "set cbrange [0:" + Fmt(p99, 3) + "]",
+                      kViridis};
+    Series s{"",
+             "vectors head size 4,20 filled lw 1.2 lc palette",
+             "1:2:5:6:7",
+             {"x_px", "y_px", "dx_px", "dy_px", "dx_plot", "dy_plot", "norm_px"},
+             {}};
     for (const auto* p : pts)
-      s.rows.push_back({p->x, p->y, p->dx, p->dy, p->dx * scale, p->dy * scale, std::min(std::hypot(p->dx, p->dy), p99)});
+      s.rows.push_back(
+          {p->x, p->y, p->dx, p->dy, p->dx * scale, p->dy * scale, std::min(std::hypot(p->dx, p->dy), p99)});
     field.series.push_back(s);
     field.width_px = 900;
     field.height_px = 720;
-    field.caption = "Every calibration corner of the " + eye + " eye, with its residual (reprojected minus detected) "
-                    "as an arrow " + Fmt(scale, 3) + " times its length; colour = |residual| (capped at the 99th "
-                    "percentile, " + Fmt(p99, 3) + " px). Random directions mean the lens model fits; arrows that "
+    field.caption = "Every calibration corner of the " + eye +
+                    " eye, with its residual (reprojected minus detected) "
+                    "as an arrow " +
+                    Fmt(scale, 3) +
+                    " times its length; colour = |residual| (capped at the 99th "
+                    "percentile, " +
+                    Fmt(p99, 3) +
+                    " px). Random directions mean the lens model fits; arrows that "
                     "align (radially at the edges, or all one way in a region) mean a model or detection error there.";
     out.push_back(field);
 
@@ -142,16 +172,29 @@ std::vector<Figure> ResidualFigures(const ReportData& d) {
     int outside = 0;
     for (const auto* p : pts) {
       const int ix = int(std::floor((p->dx + lim) / bw)), iy = int(std::floor((p->dy + lim) / bw));
-      if (ix >= 0 && ix < bins) ++cx[ix]; else ++outside;
-      if (iy >= 0 && iy < bins) ++cy[iy]; else ++outside;
+      if (ix >= 0 && ix < bins)
+        ++cx[ix];
+      else
+        ++outside;
+      if (iy >= 0 && iy < bins)
+        ++cy[iy];
+      else
+        ++outside;
     }
-    Figure hist{"residual_hist_" + eye, eye + " eye: distribution of the residuals", "residual [px]",
-                "corners per bin", {}, {"set style fill transparent solid 0.45 noborder", "set bmargin 6"},
+    Figure hist{"residual_hist_" + eye,
+                eye + " eye: distribution of the residuals",
+                "residual [px]",
+                "corners per bin",
+                {},
+                {"set style fill transparent solid 0.45 noborder", "set bmargin 6"},
                 "outside bottom center horizontal"};
     Series hx{"x residuals", "boxes lc rgb '#1f77b4'", "1:2", {"residual_px", "count"}, {}};
     Series hy{"y residuals", "boxes lc rgb '#ff7f0e'", "1:2", {"residual_px", "count"}, {}};
-    Series gauss{"normal, \u03c3 = RMS = " + Fmt(rms_axis, 3) + " px", "lines lw 2.5 lc rgb 'black'", "1:2",
-                 {"residual_px", "count"}, {}};
+    Series gauss{"normal, \u03c3 = RMS = " + Fmt(rms_axis, 3) + " px",
+                 "lines lw 2.5 lc rgb 'black'",
+                 "1:2",
+                 {"residual_px", "count"},
+                 {}};
     for (int i = 0; i < bins; ++i) {
       const double c = -lim + (i + 0.5) * bw;
       hx.rows.push_back({c, cx[i]});
@@ -159,7 +202,8 @@ std::vector<Figure> ResidualFigures(const ReportData& d) {
     }
     for (int i = 0; i <= 200; ++i) {
       const double x = -lim + 2 * lim * i / 200.0;
-      gauss.rows.push_back({x, pts.size() * bw * std::exp(-0.5 * x * x / (rms_axis * rms_axis)) / (rms_axis * std::sqrt(2 * M_PI))});
+      gauss.rows.push_back(
+          {x, pts.size() * bw * std::exp(-0.5 * x * x / (rms_axis * rms_axis)) / (rms_axis * std::sqrt(2 * M_PI))});
     }
     hist.series = {hx, hy, gauss};
     hist.settings.push_back("set boxwidth " + Fmt(bw, 6));
@@ -193,22 +237,33 @@ std::vector<Figure> UncertaintyFigures(const ReportData& d) {
     const double sigma = res.empty() ? NAN : std::sqrt(s2 / (2.0 * res.size()));
     const fitting::ValidIntrinsicsRegion v = fitting::ComputeValidIntrinsicsRegion(*cam, cov, res, sigma);
     const fitting::UncertaintyGrid& g = v.uncertainty;
-    Figure f{"uncertainty_" + eye, eye + " eye: projection uncertainty at infinity (worst direction)", "x [px]", "y [px]",
-             {}, {}, "outside bottom center horizontal"};
+    Figure f{"uncertainty_" + eye,
+             eye + " eye: projection uncertainty at infinity (worst direction)",
+             "x [px]",
+             "y [px]",
+             {},
+             {},
+             "outside bottom center horizontal"};
     // Colour scale up to the 95th percentile (the extreme corners would wash out the rest).
     std::vector<double> finite;
     for (double x : g.sigma_px)
       if (std::isfinite(x)) finite.push_back(x);
     std::sort(finite.begin(), finite.end());
     const double smax = finite.empty() ? 1.0 : finite[size_t(0.95 * (finite.size() - 1))];
-    f.settings = {"set size ratio -1", "set xrange [-0.5:" + std::to_string(cam->width) + "]",
-                  "set yrange [" + std::to_string(cam->height) + ":-0.5]", "set cblabel '\u03c3 [px]'", kViridis,
-                  "set cbrange [0:" + Fmt(std::max(smax, 1e-9), 3) + "]", "set bmargin 6", "unset grid"};
+    f.settings = {"set size ratio -1",
+                  "set xrange [-0.5:" + std::to_string(cam->width) + "]",
+                  "set yrange [" + std::to_string(cam->height) + ":-0.5]",
+                  "set cblabel '\u03c3 [px]'",
+                  kViridis,
+                  "set cbrange [0:" + Fmt(std::max(smax, 1e-9), 3) + "]",
+                  "set bmargin 6",
+                  "unset grid"};
     Series img{"", "image", "1:2:3", {"x_px", "y_px", "sigma_px"}, {}};
     for (size_t k = 0; k < g.sigma_px.size(); ++k) img.rows.push_back({g.x_px[k], g.y_px[k], g.sigma_px[k]});
     f.series.push_back(img);
     if (!v.contour.empty()) {
-      Series c{"valid-intrinsics region (mrcal's definition)", "lines lw 3 lc rgb '#ff7f0e'", "1:2", {"x_px", "y_px"}, {}};
+      Series c{
+          "valid-intrinsics region (mrcal's definition)", "lines lw 3 lc rgb '#ff7f0e'", "1:2", {"x_px", "y_px"}, {}};
       for (const auto& p : v.contour) c.rows.push_back({p.x(), p.y()});
       f.series.push_back(c);
     }
@@ -272,28 +327,40 @@ std::optional<Figure> PoseFigure(const ReportData& d) {
     R = left_from_right.rotation.toRotationMatrix();
     t = left_from_right.translation;
   }
-  Figure f{"poses_3d", "Cameras and calibration board poses", "x [m]", "depth z [m]", {}, {}, "outside bottom center horizontal"};
+  Figure f{"poses_3d",
+           "Cameras and calibration board poses",
+           "x [m]",
+           "depth z [m]",
+           {},
+           {},
+           "outside bottom center horizontal"};
   double depth = 0;
   for (const auto& b : d.boards)
     for (const auto& c : b.corners_in_cam) depth = std::max(depth, c.z());
   const double fs = std::max(0.02, 0.08 * depth);  // frustum size
   for (int e = 0; e < 2; ++e) {
     Series boards{std::string("boards seen by the ") + models::kEyeNames[e] + " eye",
-                  std::string("vectors nohead lw 1.2 lc rgb '") + kEyeColour[e] + "'", "1:2:3:4:5:6",
-                  {"x_m", "z_m", "up_m", "dx_m", "dz_m", "dup_m"}, {}};
+                  std::string("vectors nohead lw 1.2 lc rgb '") + kEyeColour[e] + "'",
+                  "1:2:3:4:5:6",
+                  {"x_m", "z_m", "up_m", "dx_m", "dz_m", "dup_m"},
+                  {}};
     for (const auto& b : d.boards) {
       if (b.eye != e) continue;
       for (int k = 0; k < 4; ++k) {
         const Eigen::Vector3d a = e ? Eigen::Vector3d(R * b.corners_in_cam[k] + t) : b.corners_in_cam[k];
-        const Eigen::Vector3d c = e ? Eigen::Vector3d(R * b.corners_in_cam[(k + 1) % 4] + t) : b.corners_in_cam[(k + 1) % 4];
+        const Eigen::Vector3d c =
+            e ? Eigen::Vector3d(R * b.corners_in_cam[(k + 1) % 4] + t) : b.corners_in_cam[(k + 1) % 4];
         const auto pa = P(a), pc = P(c);
         boards.rows.push_back({pa[0], pa[1], pa[2], pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]});
       }
     }
     if (!boards.rows.empty()) f.series.push_back(boards);
     // The camera: a pyramid from its centre to an image-shaped rectangle at depth fs.
-    Series cam{std::string(models::kEyeNames[e]) + " camera", "vectors nohead lw 2.5 lc rgb 'black'", "1:2:3:4:5:6",
-               {"x_m", "z_m", "up_m", "dx_m", "dz_m", "dup_m"}, {}};
+    Series cam{std::string(models::kEyeNames[e]) + " camera",
+               "vectors nohead lw 2.5 lc rgb 'black'",
+               "1:2:3:4:5:6",
+               {"x_m", "z_m", "up_m", "dx_m", "dz_m", "dup_m"},
+               {}};
     const double a = 0.5 * fs, b = 0.375 * fs;
     const Eigen::Vector3d corners[4] = {{-a, -b, fs}, {a, -b, fs}, {a, b, fs}, {-a, b, fs}};
     auto W = [&](const Eigen::Vector3d& p) { return e ? Eigen::Vector3d(R * p + t) : p; };
@@ -309,13 +376,19 @@ std::optional<Figure> PoseFigure(const ReportData& d) {
   }
   f.splot = true;
   f.key = "top left";
-  f.settings = {"set zlabel 'up [m]' rotate parallel", "set view 62, 28, 1.25, 1.2", "set view equal xyz",
-                "set xyplane at " + Fmt(-depth * 0.3, 3), "set xtics 0.1", "set ytics 0.2", "set ztics 0.1"};
+  f.settings = {"set zlabel 'up [m]' rotate parallel",
+                "set view 62, 28, 1.25, 1.2",
+                "set view equal xyz",
+                "set xyplane at " + Fmt(-depth * 0.3, 3),
+                "set xtics 0.1",
+                "set ytics 0.2",
+                "set ztics 0.1"};
   f.width_px = 1000;
   f.height_px = 760;
-  f.caption = "The left camera at the origin, the right camera at its calibrated pose, and every board pose of the "
-              "calibration (the outline of its corner grid) relative to the camera that saw it. Good data has boards "
-              "at several distances and tilted in different directions, filling each camera's view.";
+  f.caption =
+      "The left camera at the origin, the right camera at its calibrated pose, and every board pose of the "
+      "calibration (the outline of its corner grid) relative to the camera that saw it. Good data has boards "
+      "at several distances and tilted in different directions, filling each camera's view.";
   return f;
 }
 

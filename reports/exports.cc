@@ -52,7 +52,8 @@ void RequireMetres(const fitting::CalibrationResult& r, const std::string& path)
 double ObservedSigma(const ReportData& d, int eye) {
   const auto& diag = d.result.diagnostics;
   const char* name = models::kEyeNames[eye];
-  if (diag.contains("stereo") && diag["stereo"].contains("corner_sigma_px") && diag["stereo"]["corner_sigma_px"].contains(name))
+  if (diag.contains("stereo") && diag["stereo"].contains("corner_sigma_px") &&
+      diag["stereo"]["corner_sigma_px"].contains(name))
     return diag["stereo"]["corner_sigma_px"][name].get<double>();
   double s = 0;
   int n = 0;
@@ -94,8 +95,9 @@ std::string WriteRosCameraInfo(const fitting::CalibrationResult& r, int eye, con
     const fitting::OpenCvStereoCalibration f = fitting::ToOpenCvCalibration(r, 0.0);
     Rr = eye == models::kLeftEye ? f.R1 : f.R2;
     P = eye == models::kLeftEye ? f.P1 : f.P2;
-    how = "stereo rectification: cv::stereoRectify, CALIB_ZERO_DISPARITY, alpha = 0 (as ROS camera_calibration's "
-          "StereoCalibrator; only valid pixels in the rectified image); P[0,3] = -fx' * baseline [m]";
+    how =
+        "stereo rectification: cv::stereoRectify, CALIB_ZERO_DISPARITY, alpha = 0 (as ROS camera_calibration's "
+        "StereoCalibrator; only valid pixels in the rectified image); P[0,3] = -fx' * baseline [m]";
   } else {
     // ROS's MonoCalibrator: P = getOptimalNewCameraMatrix(K, D, size, alpha 0), R = I.
     cv::getOptimalNewCameraMatrix(K, D, cv::Size(c.width, c.height), 0.0).copyTo(P(cv::Rect(0, 0, 3, 3)));
@@ -141,8 +143,8 @@ std::string WriteKalibrCamchain(const fitting::CalibrationResult& r, const std::
       o << "  # owlcal: radtan cannot represent the fitted k3" << (c.NumDistortion() > 5 ? " and k4..k6" : "")
         << "; k1 k2 p1 p2 refitted over the whole image (fx fy cx cy kept): max error " << Fmt(fit.max_error_px, 3)
         << " px, RMS " << Fmt(fit.rms_error_px, 3) << " px over " << fit.num_points << " image points\n";
-      note << (e ? "; " : "") << models::kEyeNames[e] << ": radtan4 refit, max " << Fmt(fit.max_error_px, 3) << " px, RMS "
-           << Fmt(fit.rms_error_px, 3) << " px";
+      note << (e ? "; " : "") << models::kEyeNames[e] << ": radtan4 refit, max " << Fmt(fit.max_error_px, 3)
+           << " px, RMS " << Fmt(fit.rms_error_px, 3) << " px";
     }
     o << "  camera_model: pinhole\n"
       << "  intrinsics: [" << Num(c.params[0]) << ", " << Num(c.params[1]) << ", " << Num(c.params[2]) << ", "
@@ -187,7 +189,8 @@ std::string WriteMrcalCameraModel(const ReportData& d, int eye, const std::strin
     region = v.contour;
     have_region = true;
     o << "# valid_intrinsics_region: mrcal's definition (mrcal-calibrate-cameras defaults 1 0.5 1.5 3 0): cells of a "
-      << v.uncertainty.nx << "x" << v.uncertainty.ny << " grid with projection uncertainty at infinity < 1 x the observed "
+      << v.uncertainty.nx << "x" << v.uncertainty.ny
+      << " grid with projection uncertainty at infinity < 1 x the observed "
       << "corner sigma (" << Fmt(sigma, 3) << " px), |mean residual| < 0.5 px, residual stdev < 1.5 x sigma and more "
       << "than 3 residuals; " << Fmt(100 * v.valid_fraction, 3) << " % of the cells are valid\n";
     note << "valid_intrinsics_region: " << Fmt(100 * v.valid_fraction, 3) << " % of the image";
@@ -195,7 +198,8 @@ std::string WriteMrcalCameraModel(const ReportData& d, int eye, const std::strin
     o << "# no valid_intrinsics_region: the calibration corners' residuals are not in this result\n";
     note << "no valid_intrinsics_region (no corner residuals)";
   }
-  o << HeldComment(r) << "{\n    'lensmodel':  '" << (c.NumDistortion() == 5 ? "LENSMODEL_OPENCV5" : "LENSMODEL_OPENCV8") << "',\n"
+  o << HeldComment(r) << "{\n    'lensmodel':  '"
+    << (c.NumDistortion() == 5 ? "LENSMODEL_OPENCV5" : "LENSMODEL_OPENCV8") << "',\n"
     << "    # intrinsics are fx,fy,cx,cy,distortion0,distortion1,.... (OpenCV order)\n    'intrinsics': [ ";
   for (size_t i = 0; i < c.params.size(); ++i) o << (i ? ", " : "") << Num(c.params[i]);
   o << " ],\n";
@@ -294,7 +298,9 @@ ExportSet WriteCalibrationFiles(const ReportData& d, const std::string& dir) {
   for (int e = 0; e < 2; ++e) {
     const std::string eye = models::kEyeNames[e];
     attempt("exports/ros_" + eye + ".yaml", "ROS", [&](const std::string& p) { return WriteRosCameraInfo(r, e, p); });
-    attempt("exports/" + eye + ".cameramodel", "mrcal", [&](const std::string& p) { return WriteMrcalCameraModel(d, e, p); });
+    attempt("exports/" + eye + ".cameramodel", "mrcal", [&](const std::string& p) {
+      return WriteMrcalCameraModel(d, e, p);
+    });
   }
   attempt("exports/kalibr_camchain.yaml", "Kalibr", [&](const std::string& p) { return WriteKalibrCamchain(r, p); });
   attempt("exports/owl-pwm.h", "C/C++", [&](const std::string& p) {

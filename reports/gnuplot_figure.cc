@@ -25,8 +25,10 @@ std::string Quote(const std::string& s) {
 std::string ShellQuote(const std::string& s) {
   std::string o = "'";
   for (char c : s) {
-    if (c == '\'') o += "'\\''";
-    else o += c;
+    if (c == '\'')
+      o += "'\\''";
+    else
+      o += c;
   }
   return o + "'";
 }
@@ -95,8 +97,10 @@ std::string FigureData(const Figure& f) {
     for (const auto& r : s.rows) {
       for (size_t c = 0; c < r.size(); ++c) {
         o << (c ? "," : "");
-        if (std::isfinite(r[c])) o << Fmt(r[c], 10);
-        else o << "NaN";
+        if (std::isfinite(r[c]))
+          o << Fmt(r[c], 10);
+        else
+          o << "NaN";
       }
       o << "\n";
     }
@@ -147,8 +151,10 @@ std::string GnuplotScript(const Figure& f, const std::string& png_terminal, bool
     << "set title " << Quote(f.title) << " noenhanced\n"
     << "set xlabel " << Quote(f.xlabel) << " noenhanced\nset ylabel " << Quote(f.ylabel) << " noenhanced\n"
     << "set grid lc rgb '#d0d0d0'\nset border lw 1.5\nset tics nomirror\n";
-  if (f.key == "off") o << "unset key\n";
-  else o << "set key " << f.key << " box opaque noenhanced\n";
+  if (f.key == "off")
+    o << "unset key\n";
+  else
+    o << "set key " << f.key << " box opaque noenhanced\n";
   for (const auto& s : f.settings) o << s << "\n";
   std::ostringstream plot;
   plot << (f.splot ? "splot " : "plot ");
@@ -200,8 +206,10 @@ FigureFiles WriteFigure(const Figure& f, const std::string& dir, bool draw) {
   out.svg = dir + "/" + f.name + ".svg";
   if (pdf) out.pdf = dir + "/" + f.name + ".pdf";
   out.drawn = st == 0 && std::filesystem::exists(out.png) && std::filesystem::exists(out.svg);
-  if (!out.drawn) out.message = "gnuplot failed on " + out.gp + ": " + msg;
-  else if (!msg.empty()) out.message = msg;  // warnings
+  if (!out.drawn)
+    out.message = "gnuplot failed on " + out.gp + ": " + msg;
+  else if (!msg.empty())
+    out.message = msg;  // warnings
   return out;
 }
 

@@ -31,15 +31,15 @@ struct Series {
 };
 
 struct Figure {
-  std::string name;                  // file stem, [a-z0-9_]
+  std::string name;  // file stem, [a-z0-9_]
   std::string title;
-  std::string xlabel, ylabel;        // with units, e.g. "pulse width [us]"
+  std::string xlabel, ylabel;  // with units, e.g. "pulse width [us]"
   std::vector<Series> series;
-  std::vector<std::string> settings; // extra gnuplot lines before plot ("set logscale x", labels ...)
-  std::string key = "top left";      // legend placement ("off" hides it)
+  std::vector<std::string> settings;  // extra gnuplot lines before plot ("set logscale x", labels ...)
+  std::string key = "top left";       // legend placement ("off" hides it)
   int width_px = 1000, height_px = 640;
-  std::string caption = "";          // for the report
-  bool splot = false;                // 3D (gnuplot splot) instead of plot
+  std::string caption = "";  // for the report
+  bool splot = false;        // 3D (gnuplot splot) instead of plot
 };
 
 // gnuplot palette lines for viridis (perceptually uniform, colour-blind safe).
@@ -48,7 +48,7 @@ extern const char* const kViridis;
 struct FigureFiles {
   std::string dat, csv, gp, png, svg, pdf;  // paths (png/svg/pdf exist only when drawn; pdf with pdfcairo)
   bool drawn = false;
-  std::string message;               // gnuplot's complaint when not drawn
+  std::string message;  // gnuplot's complaint when not drawn
 };
 
 // True when a gnuplot executable runs; `terminal` gets "pngcairo" or "png".
@@ -61,6 +61,6 @@ FigureFiles WriteFigure(const Figure& figure, const std::string& dir, bool draw 
 std::string GnuplotScript(const Figure& figure, const std::string& png_terminal, bool pdf = false);
 std::string FigureData(const Figure& figure);
 std::string GnuplotQuote(const std::string& text);  // a double-quoted gnuplot string  // the .dat (gnuplot blocks)
-std::string FigureCsv(const Figure& figure);   // the tidy .csv
+std::string FigureCsv(const Figure& figure);        // the tidy .csv
 
 }  // namespace owlcal::reports

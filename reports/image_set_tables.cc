@@ -34,7 +34,10 @@ std::string BowEffectMarkdown(const fitting::BoardWarpChoice& w) {
     const int k = static_cast<int>(i) - (e == 0 ? 0 : static_cast<int>(flat.cameras[0].params.size()));
     if (k < 0 || k >= static_cast<int>(flat.cameras[e].params.size())) continue;
     const double a = flat.cameras[e].params[k], b = bowed.cameras[e].params[k], sigma = flat.sigmas[i];
-    t.rows.push_back({n, FixedOrDash(a, 5), FixedOrDash(b, 5), FixedOrDash(b - a, 5),
+    t.rows.push_back({n,
+                      FixedOrDash(a, 5),
+                      FixedOrDash(b, 5),
+                      FixedOrDash(b - a, 5),
                       std::isfinite(sigma) && sigma > 0 ? FixedOrDash((b - a) / sigma, 2) : "-"});
   }
   md << ToMarkdown(t);
@@ -47,16 +50,21 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
   std::ostringstream md;
   md << "# Stereo calibration from images\n\n";
   md << SetVerdictMarkdown(c.set_verdict) << "\n";
-  md << "Pairs used: " << c.fit.paired_frames.size() << "; RMS left " << FixedOrDash(c.fit.rms_px[0], 3) << " px, right "
-     << FixedOrDash(c.fit.rms_px[1], 3) << " px, joint " << FixedOrDash(c.fit.rms_joint_px, 3) << " px; rectified |dy| mean "
-     << FixedOrDash(c.fit.rectified_dy_mean_px, 3) << " px, max " << FixedOrDash(c.fit.rectified_dy_max_px, 3) << " px.\n\n";
+  md << "Pairs used: " << c.fit.paired_frames.size() << "; RMS left " << FixedOrDash(c.fit.rms_px[0], 3)
+     << " px, right " << FixedOrDash(c.fit.rms_px[1], 3) << " px, joint " << FixedOrDash(c.fit.rms_joint_px, 3)
+     << " px; rectified |dy| mean " << FixedOrDash(c.fit.rectified_dy_mean_px, 3) << " px, max "
+     << FixedOrDash(c.fit.rectified_dy_max_px, 3) << " px.\n\n";
   if (c.lens_choice) {
     const fitting::LensModelChoice& l = *c.lens_choice;
     md << "## Lens model: " << l.chosen_name << "\n\n" << l.reason << ".\n\n";
     if (!l.scores.empty()) {
       Table t{"lens_model_choice",
               "",
-              {"model", "fit RMS (px)", "held-out RMS (px)", "held-out left / right (px)", "held-out corners",
+              {"model",
+               "fit RMS (px)",
+               "held-out RMS (px)",
+               "held-out left / right (px)",
+               "held-out corners",
                "per fold (px)"},
               {}};
       for (const auto& s : l.scores) {
@@ -81,7 +89,8 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
     const fitting::BoardWarpChoice& w = *c.warp_choice;
     md << "## Board: " << (w.bowed ? "bowed" : "flat") << "\n\n" << w.reason << ".\n\n";
     if (!w.scores.empty()) {
-      Table t{"board_warp_choice", "", {"board", "fit RMS (px)", "held-out RMS (px)", "held-out left / right (px)"}, {}};
+      Table t{
+          "board_warp_choice", "", {"board", "fit RMS (px)", "held-out RMS (px)", "held-out left / right (px)"}, {}};
       for (const auto& s : w.scores)
         t.rows.push_back({s.name + ((s.name == "bowed") == w.bowed ? " (chosen)" : ""),
                           FixedOrDash(s.fit_rms_px, 4),
@@ -104,9 +113,10 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
   const char* eye_name[2] = {"left", "right"};
   for (int e = 0; e < 2; ++e) {
     const fitting::EyeCoverage& cov = c.coverage[e];
-    md << "\n## " << eye_name[e] << " eye: coverage " << FixedOrDash(100 * cov.grid_fraction, 0) << " % of cells, radius "
-       << FixedOrDash(100 * cov.max_radius_fraction, 0) << " %, tilt up to " << FixedOrDash(cov.max_tilt_deg, 1)
-       << " deg, orientation spread " << FixedOrDash(cov.spread_deg, 1) << " deg\n\n";
+    md << "\n## " << eye_name[e] << " eye: coverage " << FixedOrDash(100 * cov.grid_fraction, 0)
+       << " % of cells, radius " << FixedOrDash(100 * cov.max_radius_fraction, 0) << " %, tilt up to "
+       << FixedOrDash(cov.max_tilt_deg, 1) << " deg, orientation spread " << FixedOrDash(cov.spread_deg, 1)
+       << " deg\n\n";
     Table views{std::string(eye_name[e]) + "_views", "", {"frame", "pair", "RMS (px)", "tilt (deg)"}, {}};
     const fitting::IntrinsicsFit& f = c.fit.per_eye[e];
     for (size_t i = 0; i < f.frame_indices.size(); ++i) {
@@ -123,8 +133,10 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
 
 std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
   std::ostringstream c;
-  c << "name,status,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_cov_cm,sigma_cv_cm,sigma_match_cm,z,"
-       "disparity_px,sigma_disparity_px,dy_px,ncc,second_ncc,peak_ratio,lr_error_px,contrast,block_spread_px,roi_x,roi_y,"
+  c << "name,status,true_cm,range_cm,error_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_cov_cm,sigma_cv_cm,sigma_match_"
+       "cm,z,"
+       "disparity_px,sigma_disparity_px,dy_px,ncc,second_ncc,peak_ratio,lr_error_px,contrast,block_spread_px,roi_x,roi_"
+       "y,"
        "roi_w,roi_h,ray_gap_mm,message\n";
   for (const auto& r : m) {
     const bool e = r.ok && r.has_truth();
@@ -134,45 +146,61 @@ std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
     c << r.name << "," << r.status << "," << (r.has_truth() ? FixedOrDash(r.true_m * 100, 2) : "") << ","
       << (r.ok ? FixedOrDash(r.range_m * 100, 3) : "") << "," << (e ? FixedOrDash(r.error_m() * 100, 3) : "") << ","
       << (e ? FixedOrDash(100 * r.error_m() / r.true_m, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_m * 100, 3) : "")
-      << "," << (r.ok ? FixedOrDash(r.sigma_calib_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_cov_m * 100, 3) : "")
-      << "," << (r.ok ? FixedOrDash(r.sigma_cv_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_match_m * 100, 3) : "")
-      << "," << (e ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "") << "," << FixedOrDash(r.match.disparity_px, 3)
+      << "," << (r.ok ? FixedOrDash(r.sigma_calib_m * 100, 3) : "") << ","
+      << (r.ok ? FixedOrDash(r.sigma_cov_m * 100, 3) : "") << "," << (r.ok ? FixedOrDash(r.sigma_cv_m * 100, 3) : "")
+      << "," << (r.ok ? FixedOrDash(r.sigma_match_m * 100, 3) : "") << ","
+      << (e ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "") << "," << FixedOrDash(r.match.disparity_px, 3)
       << "," << FixedOrDash(r.match.sigma_disparity_px, 3) << "," << FixedOrDash(r.match.dy_px, 2) << ","
-      << FixedOrDash(r.match.ncc, 3) << "," << FixedOrDash(r.match.second_ncc, 3) << "," << FixedOrDash(r.match.peak_ratio, 3)
-      << "," << FixedOrDash(r.match.lr_error_px, 2) << "," << FixedOrDash(r.match.contrast, 1) << ","
-      << FixedOrDash(r.match.block_spread_px, 2) << "," << roi.x << "," << roi.y << "," << roi.width << "," << roi.height
-      << "," << (r.ok ? FixedOrDash(r.ray_gap_m * 1000, 2) : "") << ",\"" << msg << "\"\n";
+      << FixedOrDash(r.match.ncc, 3) << "," << FixedOrDash(r.match.second_ncc, 3) << ","
+      << FixedOrDash(r.match.peak_ratio, 3) << "," << FixedOrDash(r.match.lr_error_px, 2) << ","
+      << FixedOrDash(r.match.contrast, 1) << "," << FixedOrDash(r.match.block_spread_px, 2) << "," << roi.x << ","
+      << roi.y << "," << roi.width << "," << roi.height << "," << (r.ok ? FixedOrDash(r.ray_gap_m * 1000, 2) : "")
+      << ",\"" << msg << "\"\n";
   }
   return c.str();
 }
 
-std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m, const fitting::RangeSummary& s, const std::string& title) {
+std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m,
+                               const fitting::RangeSummary& s,
+                               const std::string& title) {
   std::ostringstream md;
   md << "# " << title << "\n\n";
   Table t{"ranges",
           "",
-          {"pair", "status", "true (cm)", "range (cm)", "error (%)", "sigma (cm)", "sigma calib / match (cm)",
-           "truth sigma (cm)", "error/sigma", "disparity (px)", "NCC", "why not ok"},
+          {"pair",
+           "status",
+           "true (cm)",
+           "range (cm)",
+           "error (%)",
+           "sigma (cm)",
+           "sigma calib / match (cm)",
+           "truth sigma (cm)",
+           "error/sigma",
+           "disparity (px)",
+           "NCC",
+           "why not ok"},
           {}};
   for (const auto& r : m) {
     const bool e = r.ok && r.has_truth();
-    t.rows.push_back({r.name,
-                      r.status,
-                      r.has_truth() ? FixedOrDash(r.true_m * 100, 1) : "unknown",
-                      r.ok ? FixedOrDash(r.range_m * 100, 2) : "-",
-                      e ? FixedOrDash(100 * r.error_m() / r.true_m, 2) : "-",
-                      r.ok ? FixedOrDash(r.sigma_m * 100, 2) : "-",
-                      r.ok ? FixedOrDash(r.sigma_calib_m * 100, 2) + " / " + FixedOrDash(r.sigma_match_m * 100, 2) : "-",
-                      FixedOrDash(r.truth_sigma_m * 100, 2),
-                      e ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "-",
-                      FixedOrDash(r.match.disparity_px, 2),
-                      FixedOrDash(r.match.ncc, 3),
-                      r.status == "ok" ? "" : r.message});
+    t.rows.push_back(
+        {r.name,
+         r.status,
+         r.has_truth() ? FixedOrDash(r.true_m * 100, 1) : "unknown",
+         r.ok ? FixedOrDash(r.range_m * 100, 2) : "-",
+         e ? FixedOrDash(100 * r.error_m() / r.true_m, 2) : "-",
+         r.ok ? FixedOrDash(r.sigma_m * 100, 2) : "-",
+         r.ok ? FixedOrDash(r.sigma_calib_m * 100, 2) + " / " + FixedOrDash(r.sigma_match_m * 100, 2) : "-",
+         FixedOrDash(r.truth_sigma_m * 100, 2),
+         e ? FixedOrDash(r.error_m() / r.error_sigma_m(), 2) : "-",
+         FixedOrDash(r.match.disparity_px, 2),
+         FixedOrDash(r.match.ncc, 3),
+         r.status == "ok" ? "" : r.message});
   }
   md << ToMarkdown(t);
-  md << "\n" << s.num_ranged << " of " << s.num_rows << " rows with a truth ranged with confidence; "
-     << s.num_low_confidence << " low confidence, " << s.num_failed << " failed (both left out of the errors), "
-     << s.num_unknown << " of unknown distance. ";
+  md << "\n"
+     << s.num_ranged << " of " << s.num_rows << " rows with a truth ranged with confidence; " << s.num_low_confidence
+     << " low confidence, " << s.num_failed << " failed (both left out of the errors), " << s.num_unknown
+     << " of unknown distance. ";
   if (s.num_ranged > 0)
     md << "Mean |error| " << FixedOrDash(100 * s.mean_abs_rel, 2) << " %, max " << FixedOrDash(100 * s.max_abs_rel, 2)
        << " %; max |error|/sigma " << FixedOrDash(s.max_abs_z, 2) << "; " << s.num_outside_3sigma
@@ -190,18 +218,22 @@ std::string DatumFitMarkdown(const fitting::DatumFit& f) {
   }
   md << "range = a + b * truth over " << f.num_rows << " confident rows: a = " << FixedOrDash(100 * f.a_m, 2) << " +- "
      << FixedOrDash(100 * f.sigma_a_m, 2) << " cm, b = " << FixedOrDash(f.b, 4) << " +- " << FixedOrDash(f.sigma_b, 4)
-     << " (correlation " << FixedOrDash(f.correlation, 2) << "), chi2/dof " << FixedOrDash(f.chi2_per_dof, 2) << " (dof "
-     << f.dof << "). A negative a means the ranges read short by a constant: the true distances were measured from "
+     << " (correlation " << FixedOrDash(f.correlation, 2) << "), chi2/dof " << FixedOrDash(f.chi2_per_dof, 2)
+     << " (dof " << f.dof
+     << "). A negative a means the ranges read short by a constant: the true distances were measured from "
      << "about " << FixedOrDash(100 * std::abs(f.a_m), 1) << " cm " << (f.a_m < 0 ? "behind" : "in front of")
      << " the cameras' optical centres; b - 1 is a scale error (focal length x baseline).\n\n";
   const Table t{"datum_fit",
                 "",
                 {"", "mean abs error", "max abs error"},
-                {{"before the fit", FixedOrDash(100 * f.mean_abs_rel_before, 2) + " %",
+                {{"before the fit",
+                  FixedOrDash(100 * f.mean_abs_rel_before, 2) + " %",
                   FixedOrDash(100 * f.max_abs_rel_before, 2) + " %"},
-                 {"after the fit (in-sample)", FixedOrDash(100 * f.mean_abs_rel_after, 2) + " %",
+                 {"after the fit (in-sample)",
+                  FixedOrDash(100 * f.mean_abs_rel_after, 2) + " %",
                   FixedOrDash(100 * f.max_abs_rel_after, 2) + " %"},
-                 {"after, leave-one-out", FixedOrDash(100 * f.mean_abs_rel_loo, 2) + " %",
+                 {"after, leave-one-out",
+                  FixedOrDash(100 * f.mean_abs_rel_loo, 2) + " %",
                   FixedOrDash(100 * f.max_abs_rel_loo, 2) + " %"}}};
   md << ToMarkdown(t);
   return md.str();

@@ -32,7 +32,8 @@ std::string OwlPwmHeader(const fitting::CalibrationResult& r,
                          const fitting::LimitsEvaluation* limits) {
   bool any_map = false;
   for (int s = 0; s < models::kNumServos; ++s) any_map = any_map || Determined(r, s, "deg_per_us");
-  if (!r.head || !any_map) throw std::runtime_error("owl-pwm.h: no servo map was fitted (no servo sweep in this calibration)");
+  if (!r.head || !any_map)
+    throw std::runtime_error("owl-pwm.h: no servo map was fitted (no servo sweep in this calibration)");
   const models::HeadModel& h = *r.head;
   int lo[models::kNumServos], hi[models::kNumServos], centre[models::kNumServos];
   std::string centre_note[models::kNumServos], limit_note[models::kNumServos];
@@ -61,7 +62,9 @@ std::string OwlPwmHeader(const fitting::CalibrationResult& r,
     }
   }
   // The guide names ends by direction: R/L = the robot's right/left (pan), T/B = top/bottom.
-  auto end = [&](int s, bool positive_angle) { return (config.servos[s].direction > 0) == positive_angle ? hi[s] : lo[s]; };
+  auto end = [&](int s, bool positive_angle) {
+    return (config.servos[s].direction > 0) == positive_angle ? hi[s] : lo[s];
+  };
   using models::kLx;
   using models::kLy;
   using models::kNeck;
@@ -94,7 +97,8 @@ std::string OwlPwmHeader(const fitting::CalibrationResult& r,
     << "/* The ranges as the course computes them (written out: C needs constant initialisers). */\n"
     << "static const int RyRange = " << end(kRy, true) - end(kRy, false) << "; /* RyT - RyB */\n"
     << "static const int RxRange = " << end(kRx, true) - end(kRx, false) << "; /* RxR - RxL */\n"
-    << "static const int LyRange = " << end(kLy, true) - end(kLy, false) << "; /* LyT - LyB (reflected so negative) */\n"
+    << "static const int LyRange = " << end(kLy, true) - end(kLy, false)
+    << "; /* LyT - LyB (reflected so negative) */\n"
     << "static const int LxRange = " << end(kLx, true) - end(kLx, false) << "; /* LxR - LxL */\n"
     << "static const int NeckRange = " << end(kNeck, false) - end(kNeck, true) << "; /* NeckL - NeckR */\n\n";
   o << "/* The fitted map of each servo (owlcal models/servo_map.h). Angles in degrees, positive to the\n"
@@ -117,9 +121,9 @@ std::string OwlPwmHeader(const fitting::CalibrationResult& r,
     const double q = fitted ? p[2] : 0.0, cu = fitted ? p[3] : 0.0, hy = fitted ? p[4] : 0.0;
     const int dir = fitted ? h.directions[s] : config.servos[s].direction;
     o << "static const OwlServoMap Owl" << models::kServoNames[s] << " = {\"" << models::kServoNames[s] << "\", " << dir
-      << ", " << FloatLiteral(c) << ", " << FloatLiteral(k) << ", " << FloatLiteral(q) << ", " << FloatLiteral(cu) << ", "
-      << FloatLiteral(models::ServoMap::kNormUs) << ", " << FloatLiteral(hy) << ", " << lo[s] << ", " << hi[s] << ", "
-      << (fitted ? 1 : 0) << "};";
+      << ", " << FloatLiteral(c) << ", " << FloatLiteral(k) << ", " << FloatLiteral(q) << ", " << FloatLiteral(cu)
+      << ", " << FloatLiteral(models::ServoMap::kNormUs) << ", " << FloatLiteral(hy) << ", " << lo[s] << ", " << hi[s]
+      << ", " << (fitted ? 1 : 0) << "};";
     if (fitted && !models::ServoMap::IsMonotone(p.data(), dir, lo[s], hi[s]))
       o << " /* not monotone over its limits: OwlDegToPwm returns one of the solutions */";
     o << "\n";

@@ -27,7 +27,9 @@ int WritePointCloudPly(const std::string& path,
       const float d = z.at<float>(r, c);
       if (!std::isfinite(d) || d <= 0 || d > max_depth_m) continue;
       // Pinhole of the rectified left camera: X = (u - cx) Z / f, Y = (v - cy) Z / f.
-      v.push_back({float((c - maps.cx) * d / maps.focal_px), float((r - maps.cy) * d / maps.focal_px), d,
+      v.push_back({float((c - maps.cx) * d / maps.focal_px),
+                   float((r - maps.cy) * d / maps.focal_px),
+                   d,
                    maps.left_rect.empty() ? uint8_t(200) : maps.left_rect.at<uint8_t>(r, c)});
     }
   std::ostringstream out(std::ios::binary);
@@ -52,7 +54,8 @@ int WritePointCloudPly(const std::string& path,
     }
     out.write(buf.data(), std::streamsize(buf.size()));
   } else {
-    for (const Vertex& p : v) out << p.x << " " << p.y << " " << p.z << " " << int(p.grey) << " " << int(p.grey) << " " << int(p.grey) << "\n";
+    for (const Vertex& p : v)
+      out << p.x << " " << p.y << " " << p.z << " " << int(p.grey) << " " << int(p.grey) << " " << int(p.grey) << "\n";
   }
   io::WriteFileAtomic(path, out.str());
   return int(v.size());

@@ -13,7 +13,6 @@ namespace {
 std::string Pct(double rel, int sig = 3) { return std::isfinite(rel) ? Fmt(100 * rel, sig) : ""; }
 std::string Bool(bool b) { return b ? "yes" : "no"; }
 
-
 }  // namespace
 
 double SteadyStateError(const StepTrace& s) {
@@ -34,14 +33,19 @@ std::vector<Table> MakeTables(const ReportData& d) {
     return false;
   }();
   {
-    Table t{"parameters", "Fitted parameters with their standard deviation (1\u03c3)", {"name", "value", "\u03c3", "unit", "determined"}, {}};
+    Table t{"parameters",
+            "Fitted parameters with their standard deviation (1\u03c3)",
+            {"name", "value", "\u03c3", "unit", "determined"},
+            {}};
     if (any_truth) {
       t.header.push_back("truth");
       t.header.push_back("error");
       t.header.push_back("error / \u03c3");
     }
     for (const auto& p : d.result.parameters) {
-      std::vector<std::string> r = {p.name, FmtWithSigma(p.value, p.sigma), p.determined ? Fmt(p.sigma, 2) : "",
+      std::vector<std::string> r = {p.name,
+                                    FmtWithSigma(p.value, p.sigma),
+                                    p.determined ? Fmt(p.sigma, 2) : "",
                                     DisplayUnit(p.unit),
                                     p.held ? "held: " + p.note : (p.determined ? "yes" : "no: " + p.note)};
       if (any_truth) {
@@ -265,7 +269,10 @@ std::vector<Table> MakeTables(const ReportData& d) {
     for (int s = 0; s < models::kNumServos; ++s) c.header.push_back(std::string(models::kServoNames[s]) + " [µs]");
     const nlohmann::json classes = g.value("classes", nlohmann::json::object());
     for (const auto& [name, cls] : classes.items()) {
-      std::vector<std::string> r = {name, pair(cls, "views", 4), pair(cls, "corners", 6), pair(cls, "whitening_sigma_px", 3),
+      std::vector<std::string> r = {name,
+                                    pair(cls, "views", 4),
+                                    pair(cls, "corners", 6),
+                                    pair(cls, "whitening_sigma_px", 3),
                                     pair(cls, "measured_sigma_px", 3)};
       const nlohmann::json pwm = cls.value("pwm_us", nlohmann::json::object());
       for (int s = 0; s < models::kNumServos; ++s) {
@@ -299,10 +306,14 @@ std::vector<Table> MakeTables(const ReportData& d) {
       const bool both = x.contains("sigma_with_tags_deg") && x.contains("sigma_without_tags_deg") &&
                         x["sigma_with_tags_deg"].is_number() && x["sigma_without_tags_deg"].is_number() &&
                         x["sigma_with_tags_deg"].get<double>() > 0;
-      std::vector<std::string> r = {x.value("servo", std::string()), x.value("end", std::string()), num(x, "pwm_us", 4),
-                                    num(x, "sigma_with_tags_deg", 3), num(x, "sigma_without_tags_deg", 3),
-                                    both ? Fmt(x["sigma_without_tags_deg"].get<double>() / x["sigma_with_tags_deg"].get<double>(), 3)
-                                         : std::string()};
+      std::vector<std::string> r = {
+          x.value("servo", std::string()),
+          x.value("end", std::string()),
+          num(x, "pwm_us", 4),
+          num(x, "sigma_with_tags_deg", 3),
+          num(x, "sigma_without_tags_deg", 3),
+          both ? Fmt(x["sigma_without_tags_deg"].get<double>() / x["sigma_with_tags_deg"].get<double>(), 3)
+               : std::string()};
       if (truth) r.insert(r.end(), {num(x, "error_with_tags_deg", 3), num(x, "error_without_tags_deg", 3)});
       e.rows.push_back(r);
     }
@@ -371,14 +382,26 @@ std::vector<Table> MakeTables(const ReportData& d) {
     out.push_back(t);
   }
   if (!d.result.summaries.empty()) {
-    Table t{"solver", "Solver summaries", {"problem", "termination", "iterations", "RMS [px]", "residuals", "outliers", "time [s]", "usable"}, {}};
+    Table t{"solver",
+            "Solver summaries",
+            {"problem", "termination", "iterations", "RMS [px]", "residuals", "outliers", "time [s]", "usable"},
+            {}};
     for (const auto& s : d.result.summaries)
-      t.rows.push_back({s.problem, s.termination, std::to_string(s.iterations), Fmt(s.rms_px, 4),
-                        std::to_string(s.num_residuals), std::to_string(s.num_outliers), Fmt(s.time_s, 3), Bool(s.usable)});
+      t.rows.push_back({s.problem,
+                        s.termination,
+                        std::to_string(s.iterations),
+                        Fmt(s.rms_px, 4),
+                        std::to_string(s.num_residuals),
+                        std::to_string(s.num_outliers),
+                        Fmt(s.time_s, 3),
+                        Bool(s.usable)});
     out.push_back(t);
   }
   {
-    Table t{"undetermined", "Parameters the data could not determine, and warnings", {"parameter or warning", "reason"}, {}};
+    Table t{"undetermined",
+            "Parameters the data could not determine, and warnings",
+            {"parameter or warning", "reason"},
+            {}};
     for (const auto& p : d.result.parameters)
       if (!p.determined && !p.held) t.rows.push_back({p.name, p.note});
     for (const auto& w : d.result.warnings) t.rows.push_back({"warning", w});
@@ -389,38 +412,66 @@ std::vector<Table> MakeTables(const ReportData& d) {
     Table t{"truth_comparison",
             "Virtual Owl: fitted vs true values (" + std::to_string(c.num_with_sigma) + " with \u03c3, " +
                 Pct(c.fraction_within_2sigma, 3) + " % within \u00b12\u03c3, RMS z = " + Fmt(c.rms_z, 3) + ")",
-            {"name", "value", "truth", "error", "unit", "\u03c3", "error / \u03c3", "within \u00b12\u03c3"}, {}};
+            {"name", "value", "truth", "error", "unit", "\u03c3", "error / \u03c3", "within \u00b12\u03c3"},
+            {}};
     for (const auto& r : c.rows)
-      t.rows.push_back({r.name, Fmt(r.value, 7), Fmt(r.truth, 7), Fmt(r.error, 3), DisplayUnit(r.unit), Fmt(r.sigma, 2),
-                        Fmt(r.z, 3), std::isfinite(r.z) ? Bool(r.within_2sigma) : "n/a"});
+      t.rows.push_back({r.name,
+                        Fmt(r.value, 7),
+                        Fmt(r.truth, 7),
+                        Fmt(r.error, 3),
+                        DisplayUnit(r.unit),
+                        Fmt(r.sigma, 2),
+                        Fmt(r.z, 3),
+                        std::isfinite(r.z) ? Bool(r.within_2sigma) : "n/a"});
     out.push_back(t);
   }
   if (d.truth && d.result.head) {
     // Whole maps, not just their parameters: fitted minus true angle over the configured range.
-    Table t{"servo_map_truth", "Virtual Owl: fitted servo maps vs the truth over each servo's configured range",
-            {"servo", "range [\u00b5s]", "RMS [deg]", "max |error| [deg]", "mean error [deg]"}, {}};
+    Table t{"servo_map_truth",
+            "Virtual Owl: fitted servo maps vs the truth over each servo's configured range",
+            {"servo", "range [\u00b5s]", "RMS [deg]", "max |error| [deg]", "mean error [deg]"},
+            {}};
     for (int s = 0; s < models::kNumServos; ++s) {
       const fitting::Parameter* p = d.result.Find("servo." + std::string(models::kServoNames[s]) + ".deg_per_us");
       if (!p || !p->determined) continue;
       const models::ServoConfig& c = d.config.servos[s];
       const fitting::ServoMapError e = fitting::ServoMapErrorOverRange(*d.result.head, *d.truth, s, c.min_us, c.max_us);
-      t.rows.push_back({models::kServoNames[s], std::to_string(c.min_us) + "\u2013" + std::to_string(c.max_us),
-                        Fmt(e.rms_deg, 3), Fmt(e.max_abs_deg, 3), Fmt(e.mean_deg, 3)});
+      t.rows.push_back({models::kServoNames[s],
+                        std::to_string(c.min_us) + "\u2013" + std::to_string(c.max_us),
+                        Fmt(e.rms_deg, 3),
+                        Fmt(e.max_abs_deg, 3),
+                        Fmt(e.mean_deg, 3)});
     }
     if (!t.rows.empty()) out.push_back(t);
   }
   if (d.ranging) {
     const auto& r = *d.ranging;
-    Table t{"ranging", "Vergence ranging per fixation (every fixation the protocol tried; only status ok is ranged)",
-            {"fixation", "status", "true [m]", "calibrated [m]", "error [%]", "\u00b12\u03c3 [%]", "within \u00b12\u03c3",
-             "ray gap [mm]", "course nominal [m]", "nominal error [%]", "reason"}, {}};
+    Table t{"ranging",
+            "Vergence ranging per fixation (every fixation the protocol tried; only status ok is ranged)",
+            {"fixation",
+             "status",
+             "true [m]",
+             "calibrated [m]",
+             "error [%]",
+             "\u00b12\u03c3 [%]",
+             "within \u00b12\u03c3",
+             "ray gap [mm]",
+             "course nominal [m]",
+             "nominal error [%]",
+             "reason"},
+            {}};
     for (const auto& x : r.rows)
-      t.rows.push_back({std::to_string(x.index), calib::TrialStatusName(x.status), Fmt(x.true_m, 4),
-                        x.ok ? Fmt(x.range_m, 5) : "not ranged", x.ok ? Pct(x.rel_error) : "",
-                        x.ok ? Pct(2 * x.sigma_m / x.true_m) : "", x.ok ? Bool(std::abs(x.error_m) <= 2 * x.sigma_m) : "",
+      t.rows.push_back({std::to_string(x.index),
+                        calib::TrialStatusName(x.status),
+                        Fmt(x.true_m, 4),
+                        x.ok ? Fmt(x.range_m, 5) : "not ranged",
+                        x.ok ? Pct(x.rel_error) : "",
+                        x.ok ? Pct(2 * x.sigma_m / x.true_m) : "",
+                        x.ok ? Bool(std::abs(x.error_m) <= 2 * x.sigma_m) : "",
                         std::isfinite(x.gap_m) ? Fmt(1000 * x.gap_m, 3) : "",
                         x.ok ? (x.nominal_m ? Fmt(*x.nominal_m, 4) : "none: gaze rays diverge") : "",
-                        x.ok && x.nominal_m ? Pct(x.nominal_rel_error) : "", x.reason});
+                        x.ok && x.nominal_m ? Pct(x.nominal_rel_error) : "",
+                        x.reason});
     out.push_back(t);
     // Robust summary: the median and the count of failures, not an RMS one outlier dominates.
     std::vector<double> cal, nom;
@@ -430,8 +481,10 @@ std::vector<Table> MakeTables(const ReportData& d) {
       if (x.ok) {
         cal.push_back(std::abs(x.rel_error));
         within += std::abs(x.error_m) <= 2 * x.sigma_m;
-        if (x.nominal_m) nom.push_back(std::abs(x.nominal_rel_error));
-        else ++nominal_none;
+        if (x.nominal_m)
+          nom.push_back(std::abs(x.nominal_rel_error));
+        else
+          ++nominal_none;
       } else {
         ++by_status[calib::TrialStatusName(x.status)];
       }
@@ -445,14 +498,16 @@ std::vector<Table> MakeTables(const ReportData& d) {
       return v.empty() ? NAN : *std::max_element(v.begin(), v.end());
     };
     const std::string of_n = " of " + std::to_string(r.rows.size());
-    Table s{"ranging_summary", "Vergence ranging summary", {"quantity", "calibrated head", "course nominal method"}, {}};
+    Table s{
+        "ranging_summary", "Vergence ranging summary", {"quantity", "calibrated head", "course nominal method"}, {}};
     s.rows = {{"fixations ok and ranged", std::to_string(cal.size()) + of_n, std::to_string(nom.size()) + of_n}};
     for (const auto& [status, n] : by_status)
       s.rows.push_back({"fixations " + status + " (not ranged; reasons in the table)", std::to_string(n) + of_n, ""});
     s.rows.push_back({"ok but no nominal range", "", std::to_string(nominal_none) + " (gaze rays diverge)"});
     s.rows.push_back({"median |relative error| [%]", Pct(median(cal)), Pct(median(nom))});
     s.rows.push_back({"max |relative error| [%]", Pct(maxv(cal)), Pct(maxv(nom))});
-    s.rows.push_back({"within \u00b12\u03c3 of the truth", std::to_string(within) + " of " + std::to_string(cal.size()), ""});
+    s.rows.push_back(
+        {"within \u00b12\u03c3 of the truth", std::to_string(within) + " of " + std::to_string(cal.size()), ""});
     // What was (not) checked: the size check's reference, sigma without a covariance (the notes
     // per fixation are the table's reasons).
     for (const auto& n : r.notes)
@@ -466,23 +521,60 @@ std::vector<Table> MakeTables(const ReportData& d) {
         ++measured;
         ok += s.status == calib::TrialStatus::kOk;
       }
-    Table t{"step_metrics",
-            "Step-response metrics (MATLAB stepinfo with y_init = 0, y_final = 1 in fractions of the step); every trial "
-            "the protocol tried: " + std::to_string(ok) + " ok of " + std::to_string(measured),
-            {"gain", "step [deg]", "trial", "rise 10\u201390 % [s]", "settling 2 % [s]", "overshoot [%]",
-             "undershoot [%]", "peak [-]", "peak time [s]", "steady-state error [%]", "residual offset [px]", "source",
-             "status", "reason"}, {}};
+    Table t{
+        "step_metrics",
+        "Step-response metrics (MATLAB stepinfo with y_init = 0, y_final = 1 in fractions of the step); every trial "
+        "the protocol tried: " +
+            std::to_string(ok) + " ok of " + std::to_string(measured),
+        {"gain",
+         "step [deg]",
+         "trial",
+         "rise 10\u201390 % [s]",
+         "settling 2 % [s]",
+         "overshoot [%]",
+         "undershoot [%]",
+         "peak [-]",
+         "peak time [s]",
+         "steady-state error [%]",
+         "residual offset [px]",
+         "source",
+         "status",
+         "reason"},
+        {}};
     for (const auto& s : d.steps) {
-      const std::string source = s.simulated ? "model" : s.controller == "p-loop" ? "measured" : "measured, " + s.controller;
+      const std::string source = s.simulated                ? "model"
+                                 : s.controller == "p-loop" ? "measured"
+                                                            : "measured, " + s.controller;
       if (s.t_s.empty()) {
-        t.rows.push_back({Fmt(s.gain, 3), Fmt(s.amplitude_deg, 3), std::to_string(s.trial), "", "", "", "", "", "", "",
-                          "", source, calib::TrialStatusName(s.status), s.reason});
+        t.rows.push_back({Fmt(s.gain, 3),
+                          Fmt(s.amplitude_deg, 3),
+                          std::to_string(s.trial),
+                          "",
+                          "",
+                          "",
+                          "",
+                          "",
+                          "",
+                          "",
+                          "",
+                          source,
+                          calib::TrialStatusName(s.status),
+                          s.reason});
         continue;
       }
-      t.rows.push_back({Fmt(s.gain, 3), Fmt(s.amplitude_deg, 3), std::to_string(s.trial), Fmt(s.info.rise_time, 3),
-                        s.info.settled ? Fmt(s.info.settling_time, 3) : "not settled", Fmt(s.info.overshoot_pct, 3),
-                        Fmt(s.info.undershoot_pct, 3), Fmt(s.info.peak, 4), Fmt(s.info.peak_time, 3),
-                        Pct(SteadyStateError(s), 3), Fmt(s.residual_px, 3), source, calib::TrialStatusName(s.status),
+      t.rows.push_back({Fmt(s.gain, 3),
+                        Fmt(s.amplitude_deg, 3),
+                        std::to_string(s.trial),
+                        Fmt(s.info.rise_time, 3),
+                        s.info.settled ? Fmt(s.info.settling_time, 3) : "not settled",
+                        Fmt(s.info.overshoot_pct, 3),
+                        Fmt(s.info.undershoot_pct, 3),
+                        Fmt(s.info.peak, 4),
+                        Fmt(s.info.peak_time, 3),
+                        Pct(SteadyStateError(s), 3),
+                        Fmt(s.residual_px, 3),
+                        source,
+                        calib::TrialStatusName(s.status),
                         s.reason});
     }
     out.push_back(t);
@@ -495,27 +587,38 @@ std::vector<Table> MakeTables(const ReportData& d) {
     };
     int agree = 0;
     for (const auto& r : st.rows) agree += r.agreement.rfind("agrees", 0) == 0;
-    Table t{"settling_model",
-            "Settling: the loop model against the measured trials, per gain and step (" + std::to_string(agree) + " of " +
-                std::to_string(st.rows.size()) + " agree). Loop model: slew " + Fmt(st.model.slew_us_per_s, 4) +
-                " \u00b5s/s, lag " + Fmt(1000 * st.model.lag_s, 3) + " ms, exposure delay " +
-                Fmt(1000 * st.model.exposure_delay_s, 3) + " ms (fitted from the step frames), latency " +
-                Fmt(st.latency_ms, 4) + " ms, backlash " + Fmt(st.model.hysteresis_us, 3) + " \u00b5s; course model: " +
-                "ideal P loop with d = " + std::to_string(st.ideal_delay_frames) + " frames",
-            {"gain", "step [deg]", "band [%]", "trials run of N", "measured [s] median (min\u2013max)",
-             "loop model [s] median (range)", "course model [s]", "agreement", "why"},
-            {}};
+    Table t{
+        "settling_model",
+        "Settling: the loop model against the measured trials, per gain and step (" + std::to_string(agree) + " of " +
+            std::to_string(st.rows.size()) + " agree). Loop model: slew " + Fmt(st.model.slew_us_per_s, 4) +
+            " \u00b5s/s, lag " + Fmt(1000 * st.model.lag_s, 3) + " ms, exposure delay " +
+            Fmt(1000 * st.model.exposure_delay_s, 3) + " ms (fitted from the step frames), latency " +
+            Fmt(st.latency_ms, 4) + " ms, backlash " + Fmt(st.model.hysteresis_us, 3) +
+            " \u00b5s; course model: " + "ideal P loop with d = " + std::to_string(st.ideal_delay_frames) + " frames",
+        {"gain",
+         "step [deg]",
+         "band [%]",
+         "trials run of N",
+         "measured [s] median (min\u2013max)",
+         "loop model [s] median (range)",
+         "course model [s]",
+         "agreement",
+         "why"},
+        {}};
     for (const auto& r : st.rows)
-      t.rows.push_back({Fmt(r.gain, 3), Fmt(r.amplitude_deg, 3), Fmt(100 * r.band, 3),
-                        std::to_string(r.num_ok) + " of " + std::to_string(r.num_trials),
-                        r.num_ok ? range(r.measured_median_s, r.measured_lo_s, r.measured_hi_s) +
-                                       (r.num_settled < r.num_ok ? ", " + std::to_string(r.num_ok - r.num_settled) +
-                                                                       " not settled"
-                                                                 : "")
-                                 : "",
-                        range(r.predicted_median_s, r.predicted_lo_s, r.predicted_hi_s),
-                        r.ideal_stable ? (std::isfinite(r.ideal_s) ? Fmt(r.ideal_s, 3) : "not settled") : "unstable",
-                        r.agreement, r.why});
+      t.rows.push_back(
+          {Fmt(r.gain, 3),
+           Fmt(r.amplitude_deg, 3),
+           Fmt(100 * r.band, 3),
+           std::to_string(r.num_ok) + " of " + std::to_string(r.num_trials),
+           r.num_ok
+               ? range(r.measured_median_s, r.measured_lo_s, r.measured_hi_s) +
+                     (r.num_settled < r.num_ok ? ", " + std::to_string(r.num_ok - r.num_settled) + " not settled" : "")
+               : "",
+           range(r.predicted_median_s, r.predicted_lo_s, r.predicted_hi_s),
+           r.ideal_stable ? (std::isfinite(r.ideal_s) ? Fmt(r.ideal_s, 3) : "not settled") : "unstable",
+           r.agreement,
+           r.why});
     out.push_back(t);
   }
   if (d.saccade) {
@@ -523,28 +626,44 @@ std::vector<Table> MakeTables(const ReportData& d) {
     const auto& sa = *d.saccade;
     auto ms = [](double s) { return std::isfinite(s) ? Fmt(1000 * s, 4) : std::string("not settled"); };
     Table t{"saccade",
-            "Calibrated saccade, " + Fmt(sa.amplitude_deg, 3) + " deg steps: one saccade from the calibrated servo maps "
-            "and the target's pixel, then latency-aware corrections; 2 % settling against the physical bound (slew "
-            "time + exposure-to-arrival latency + one frame) and the course's P loop at K = " + Fmt(sa.ploop_gain, 3) +
-            " (same step). " + std::to_string(sa.num_ok) + " ok of " + std::to_string(sa.num_trials) + " trials",
-            {"controller", "trials ok of N", "settled", "2 % settling [ms] median (min–max)", "bound [ms]",
-             "ratio to bound", "speed-up vs P loop"},
+            "Calibrated saccade, " + Fmt(sa.amplitude_deg, 3) +
+                " deg steps: one saccade from the calibrated servo maps "
+                "and the target's pixel, then latency-aware corrections; 2 % settling against the physical bound (slew "
+                "time + exposure-to-arrival latency + one frame) and the course's P loop at K = " +
+                Fmt(sa.ploop_gain, 3) + " (same step). " + std::to_string(sa.num_ok) + " ok of " +
+                std::to_string(sa.num_trials) + " trials",
+            {"controller",
+             "trials ok of N",
+             "settled",
+             "2 % settling [ms] median (min–max)",
+             "bound [ms]",
+             "ratio to bound",
+             "speed-up vs P loop"},
             {}};
-    t.rows.push_back({"calibrated saccade", std::to_string(sa.num_ok) + " of " + std::to_string(sa.num_trials),
-                      std::to_string(sa.num_settled),
-                      std::isfinite(sa.median_s) ? ms(sa.median_s) + " (" + ms(sa.lo_s) + "–" + ms(sa.hi_s) + ")"
-                                                 : "not settled",
-                      ms(sa.bound_s), std::isfinite(sa.ratio_to_bound) ? Fmt(sa.ratio_to_bound, 3) : "",
-                      std::isfinite(sa.speedup_vs_ploop) ? Fmt(sa.speedup_vs_ploop, 3) : ""});
-    t.rows.push_back({"P loop, K = " + Fmt(sa.ploop_gain, 3), std::to_string(sa.ploop_trials) + " ok",
-                      std::to_string(sa.ploop_settled), ms(sa.ploop_median_s), ms(sa.bound_s),
-                      std::isfinite(sa.ploop_median_s / sa.bound_s) ? Fmt(sa.ploop_median_s / sa.bound_s, 3) : "", "1"});
+    t.rows.push_back(
+        {"calibrated saccade",
+         std::to_string(sa.num_ok) + " of " + std::to_string(sa.num_trials),
+         std::to_string(sa.num_settled),
+         std::isfinite(sa.median_s) ? ms(sa.median_s) + " (" + ms(sa.lo_s) + "–" + ms(sa.hi_s) + ")" : "not settled",
+         ms(sa.bound_s),
+         std::isfinite(sa.ratio_to_bound) ? Fmt(sa.ratio_to_bound, 3) : "",
+         std::isfinite(sa.speedup_vs_ploop) ? Fmt(sa.speedup_vs_ploop, 3) : ""});
+    t.rows.push_back({"P loop, K = " + Fmt(sa.ploop_gain, 3),
+                      std::to_string(sa.ploop_trials) + " ok",
+                      std::to_string(sa.ploop_settled),
+                      ms(sa.ploop_median_s),
+                      ms(sa.bound_s),
+                      std::isfinite(sa.ploop_median_s / sa.bound_s) ? Fmt(sa.ploop_median_s / sa.bound_s, 3) : "",
+                      "1"});
     for (const auto& n : sa.notes) t.rows.push_back({"note: " + n, "", "", "", "", "", ""});
     out.push_back(t);
   }
   if (d.gains) {
     const auto& g = *d.gains;
-    Table t{"gain_study", "Incremental P loop with latency (model): gain limits and the fastest stable gain", {"quantity", "value"}, {}};
+    Table t{"gain_study",
+            "Incremental P loop with latency (model): gain limits and the fastest stable gain",
+            {"quantity", "value"},
+            {}};
     t.rows = {{"delay [frames]", std::to_string(g.delay_frames)},
               {"frame rate [fps]", Fmt(g.fps, 3)},
               {"K_crit = 2 sin(pi / (2 (2d + 1)))", Fmt(g.critical_gain, 4)},
@@ -561,14 +680,32 @@ std::vector<Table> MakeTables(const ReportData& d) {
     out.push_back(t);
   }
   if (d.limits) {
-    Table t{"limits", "Servo limits: configured vs measured",
-            {"servo", "configured min [\u00b5s]", "configured max [\u00b5s]", "measured min [\u00b5s]", "low end", "measured max [\u00b5s]", "high end", "measured range [deg]", "recommended min [\u00b5s]", "recommended max [\u00b5s]"}, {}};
+    Table t{"limits",
+            "Servo limits: configured vs measured",
+            {"servo",
+             "configured min [\u00b5s]",
+             "configured max [\u00b5s]",
+             "measured min [\u00b5s]",
+             "low end",
+             "measured max [\u00b5s]",
+             "high end",
+             "measured range [deg]",
+             "recommended min [\u00b5s]",
+             "recommended max [\u00b5s]"},
+            {}};
     for (const auto& s : d.limits->servos)
-      t.rows.push_back({s.name, std::to_string(s.configured_min_us), std::to_string(s.configured_max_us),
-                        s.measured_min_us ? Fmt(*s.measured_min_us, 6) : "", s.measured_min_us ? fitting::LimitCauseName(s.min_cause) : "",
-                        s.measured_max_us ? Fmt(*s.measured_max_us, 6) : "", s.measured_max_us ? fitting::LimitCauseName(s.max_cause) : "",
-                        std::isfinite(s.measured_max_deg - s.measured_min_deg) ? Fmt(std::abs(s.measured_max_deg - s.measured_min_deg), 4) : "",
-                        std::to_string(s.recommended_min_us), std::to_string(s.recommended_max_us)});
+      t.rows.push_back({s.name,
+                        std::to_string(s.configured_min_us),
+                        std::to_string(s.configured_max_us),
+                        s.measured_min_us ? Fmt(*s.measured_min_us, 6) : "",
+                        s.measured_min_us ? fitting::LimitCauseName(s.min_cause) : "",
+                        s.measured_max_us ? Fmt(*s.measured_max_us, 6) : "",
+                        s.measured_max_us ? fitting::LimitCauseName(s.max_cause) : "",
+                        std::isfinite(s.measured_max_deg - s.measured_min_deg)
+                            ? Fmt(std::abs(s.measured_max_deg - s.measured_min_deg), 4)
+                            : "",
+                        std::to_string(s.recommended_min_us),
+                        std::to_string(s.recommended_max_us)});
     out.push_back(t);
   }
   return out;

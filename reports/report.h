@@ -23,15 +23,15 @@ std::vector<Table> MakeTables(const ReportData& d);
 double SteadyStateError(const StepTrace& s);
 
 struct ReportOptions {
-  bool draw = true;              // run gnuplot (false: write .csv/.gp only)
+  bool draw = true;  // run gnuplot (false: write .csv/.gp only)
   std::string title = "owlcal calibration report";
 };
 
 struct ReportOutput {
-  std::string index_html;               // path
-  std::vector<std::string> figures;     // names drawn or written
+  std::string index_html;            // path
+  std::vector<std::string> figures;  // names drawn or written
   std::vector<std::string> tables;
-  std::vector<std::string> warnings;    // gnuplot missing or failing, ...
+  std::vector<std::string> warnings;  // gnuplot missing or failing, ...
 };
 
 ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const ReportOptions& options = {});

@@ -38,10 +38,16 @@ json VecJson(const std::vector<double>& v) {
 }
 
 json StepInfoJson(const fitting::StepInfo& s) {
-  return {{"y_init", Num(s.y_init)},       {"y_final", Num(s.y_final)},         {"rise_time", Num(s.rise_time)},
-          {"settling_time", Num(s.settling_time)}, {"settling_index", s.settling_index}, {"settled", s.settled},
-          {"overshoot_pct", Num(s.overshoot_pct)}, {"undershoot_pct", Num(s.undershoot_pct)},
-          {"peak", Num(s.peak)},           {"peak_time", Num(s.peak_time)},
+  return {{"y_init", Num(s.y_init)},
+          {"y_final", Num(s.y_final)},
+          {"rise_time", Num(s.rise_time)},
+          {"settling_time", Num(s.settling_time)},
+          {"settling_index", s.settling_index},
+          {"settled", s.settled},
+          {"overshoot_pct", Num(s.overshoot_pct)},
+          {"undershoot_pct", Num(s.undershoot_pct)},
+          {"peak", Num(s.peak)},
+          {"peak_time", Num(s.peak_time)},
           {"steady_state_error", Num(s.steady_state_error)}};
 }
 fitting::StepInfo StepInfoFromJson(const json& j) {
@@ -61,8 +67,12 @@ fitting::StepInfo StepInfoFromJson(const json& j) {
 }
 
 json GainJson(const fitting::GainSettling& g) {
-  return {{"gain", g.gain}, {"stable", g.stable}, {"settled", g.settled}, {"settling_frames", g.settling_frames},
-          {"overshoot_pct", Num(g.overshoot_pct)}, {"settling_time_s", Num(g.settling_time_s)}};
+  return {{"gain", g.gain},
+          {"stable", g.stable},
+          {"settled", g.settled},
+          {"settling_frames", g.settling_frames},
+          {"overshoot_pct", Num(g.overshoot_pct)},
+          {"settling_time_s", Num(g.settling_time_s)}};
 }
 fitting::GainSettling GainFromJson(const json& j) {
   fitting::GainSettling g;
@@ -91,14 +101,22 @@ json EvaluationToJson(const ReportData& d) {
     const auto& r = *d.ranging;
     json rows = json::array();
     for (const auto& x : r.rows)
-      rows.push_back({{"index", x.index}, {"true_m", x.true_m}, {"ok", x.ok},
-                      {"status", calib::TrialStatusName(x.status)}, {"reason", x.reason}, {"range_m", Num(x.range_m)},
-                      {"error_m", Num(x.error_m)}, {"rel_error", Num(x.rel_error)}, {"sigma_m", Num(x.sigma_m)},
-                      {"gap_m", Num(x.gap_m)}, {"nominal_m", OptNum(x.nominal_m)},
+      rows.push_back({{"index", x.index},
+                      {"true_m", x.true_m},
+                      {"ok", x.ok},
+                      {"status", calib::TrialStatusName(x.status)},
+                      {"reason", x.reason},
+                      {"range_m", Num(x.range_m)},
+                      {"error_m", Num(x.error_m)},
+                      {"rel_error", Num(x.rel_error)},
+                      {"sigma_m", Num(x.sigma_m)},
+                      {"gap_m", Num(x.gap_m)},
+                      {"nominal_m", OptNum(x.nominal_m)},
                       {"nominal_rel_error", Num(x.nominal_rel_error)}});
     json theory = json::array();
     for (const auto& t : r.theory)
-      theory.push_back({{"distance_m", t.distance_m}, {"nominal_1us_rel", Num(t.nominal_1us_rel)},
+      theory.push_back({{"distance_m", t.distance_m},
+                        {"nominal_1us_rel", Num(t.nominal_1us_rel)},
                         {"nominal_half_px_rel", Num(t.nominal_half_px_rel)},
                         {"calibrated_sigma_rel", Num(t.calibrated_sigma_rel)}});
     j["ranging"] = {{"rows", rows},
@@ -136,10 +154,18 @@ json EvaluationToJson(const ReportData& d) {
   }
   json steps = json::array();
   for (const auto& s : d.steps)
-    steps.push_back({{"gain", s.gain}, {"amplitude_deg", s.amplitude_deg}, {"trial", s.trial},
-                     {"eye_axis", s.eye_axis}, {"t_s", VecJson(s.t_s)}, {"y", VecJson(s.y)},
-                     {"residual_px", Num(s.residual_px)}, {"info", StepInfoJson(s.info)}, {"simulated", s.simulated},
-                     {"status", calib::TrialStatusName(s.status)}, {"reason", s.reason}, {"controller", s.controller}});
+    steps.push_back({{"gain", s.gain},
+                     {"amplitude_deg", s.amplitude_deg},
+                     {"trial", s.trial},
+                     {"eye_axis", s.eye_axis},
+                     {"t_s", VecJson(s.t_s)},
+                     {"y", VecJson(s.y)},
+                     {"residual_px", Num(s.residual_px)},
+                     {"info", StepInfoJson(s.info)},
+                     {"simulated", s.simulated},
+                     {"status", calib::TrialStatusName(s.status)},
+                     {"reason", s.reason},
+                     {"controller", s.controller}});
   j["steps"] = steps;
   if (d.gains) {
     const auto& g = *d.gains;
@@ -159,35 +185,67 @@ json EvaluationToJson(const ReportData& d) {
     const auto& st = *d.settling;
     json rows = json::array(), curve = json::array();
     for (const auto& r : st.rows)
-      rows.push_back({{"gain", r.gain}, {"amplitude_deg", r.amplitude_deg}, {"num_trials", r.num_trials},
-                      {"num_ok", r.num_ok}, {"num_settled", r.num_settled},
-                      {"measured_median_s", Num(r.measured_median_s)}, {"measured_lo_s", Num(r.measured_lo_s)},
-                      {"measured_hi_s", Num(r.measured_hi_s)}, {"predicted_settled", r.predicted_settled},
-                      {"predicted_runs", r.predicted_runs}, {"predicted_median_s", Num(r.predicted_median_s)},
-                      {"predicted_lo_s", Num(r.predicted_lo_s)}, {"predicted_hi_s", Num(r.predicted_hi_s)},
-                      {"ideal_s", Num(r.ideal_s)}, {"ideal_stable", r.ideal_stable}, {"band", r.band},
-                      {"no_servo_dynamics_s", Num(r.no_servo_dynamics_s)}, {"no_dead_zone_s", Num(r.no_dead_zone_s)},
-                      {"agreement", r.agreement}, {"why", r.why}});
+      rows.push_back({{"gain", r.gain},
+                      {"amplitude_deg", r.amplitude_deg},
+                      {"num_trials", r.num_trials},
+                      {"num_ok", r.num_ok},
+                      {"num_settled", r.num_settled},
+                      {"measured_median_s", Num(r.measured_median_s)},
+                      {"measured_lo_s", Num(r.measured_lo_s)},
+                      {"measured_hi_s", Num(r.measured_hi_s)},
+                      {"predicted_settled", r.predicted_settled},
+                      {"predicted_runs", r.predicted_runs},
+                      {"predicted_median_s", Num(r.predicted_median_s)},
+                      {"predicted_lo_s", Num(r.predicted_lo_s)},
+                      {"predicted_hi_s", Num(r.predicted_hi_s)},
+                      {"ideal_s", Num(r.ideal_s)},
+                      {"ideal_stable", r.ideal_stable},
+                      {"band", r.band},
+                      {"no_servo_dynamics_s", Num(r.no_servo_dynamics_s)},
+                      {"no_dead_zone_s", Num(r.no_dead_zone_s)},
+                      {"agreement", r.agreement},
+                      {"why", r.why}});
     for (const auto& c : st.curve)
       curve.push_back({c.gain, c.amplitude_deg, Num(c.median_s), Num(c.lo_s), Num(c.hi_s), Num(c.ideal_s)});
-    j["settling"] = {{"model", {{"fps", st.model.fps}, {"exposure_delay_s", st.model.exposure_delay_s},
-                                {"slew_us_per_s", st.model.slew_us_per_s}, {"lag_s", st.model.lag_s},
-                                {"hysteresis_us", st.model.hysteresis_us}, {"px_per_us", st.model.px_per_us},
-                                {"nominal_px_per_us", st.model.nominal_px_per_us}, {"noise_px", st.model.noise_px},
-                                {"tolerance_px", st.model.tolerance_px}, {"max_step_us", st.model.max_step_us},
-                                {"latency_frames", st.model.latency_frames}}},
-                     {"latency_ms", Num(st.latency_ms)}, {"ideal_delay_frames", st.ideal_delay_frames},
-                     {"deg_per_us", st.deg_per_us}, {"servo", st.servo}, {"rows", rows}, {"curve", curve}, {"notes", st.notes}};
+    j["settling"] = {{"model",
+                      {{"fps", st.model.fps},
+                       {"exposure_delay_s", st.model.exposure_delay_s},
+                       {"slew_us_per_s", st.model.slew_us_per_s},
+                       {"lag_s", st.model.lag_s},
+                       {"hysteresis_us", st.model.hysteresis_us},
+                       {"px_per_us", st.model.px_per_us},
+                       {"nominal_px_per_us", st.model.nominal_px_per_us},
+                       {"noise_px", st.model.noise_px},
+                       {"tolerance_px", st.model.tolerance_px},
+                       {"max_step_us", st.model.max_step_us},
+                       {"latency_frames", st.model.latency_frames}}},
+                     {"latency_ms", Num(st.latency_ms)},
+                     {"ideal_delay_frames", st.ideal_delay_frames},
+                     {"deg_per_us", st.deg_per_us},
+                     {"servo", st.servo},
+                     {"rows", rows},
+                     {"curve", curve},
+                     {"notes", st.notes}};
   }
   if (d.saccade) {
     const auto& sa = *d.saccade;
-    j["saccade"] = {{"amplitude_deg", sa.amplitude_deg}, {"slew_deg_per_s", Num(sa.slew_deg_per_s)},
-                    {"exposure_delay_s", Num(sa.exposure_delay_s)}, {"fps", sa.fps}, {"bound_s", Num(sa.bound_s)},
-                    {"num_trials", sa.num_trials}, {"num_ok", sa.num_ok}, {"num_settled", sa.num_settled},
-                    {"median_s", Num(sa.median_s)}, {"lo_s", Num(sa.lo_s)}, {"hi_s", Num(sa.hi_s)},
-                    {"ratio_to_bound", Num(sa.ratio_to_bound)}, {"ploop_gain", sa.ploop_gain},
-                    {"ploop_trials", sa.ploop_trials}, {"ploop_settled", sa.ploop_settled},
-                    {"ploop_median_s", Num(sa.ploop_median_s)}, {"speedup_vs_ploop", Num(sa.speedup_vs_ploop)},
+    j["saccade"] = {{"amplitude_deg", sa.amplitude_deg},
+                    {"slew_deg_per_s", Num(sa.slew_deg_per_s)},
+                    {"exposure_delay_s", Num(sa.exposure_delay_s)},
+                    {"fps", sa.fps},
+                    {"bound_s", Num(sa.bound_s)},
+                    {"num_trials", sa.num_trials},
+                    {"num_ok", sa.num_ok},
+                    {"num_settled", sa.num_settled},
+                    {"median_s", Num(sa.median_s)},
+                    {"lo_s", Num(sa.lo_s)},
+                    {"hi_s", Num(sa.hi_s)},
+                    {"ratio_to_bound", Num(sa.ratio_to_bound)},
+                    {"ploop_gain", sa.ploop_gain},
+                    {"ploop_trials", sa.ploop_trials},
+                    {"ploop_settled", sa.ploop_settled},
+                    {"ploop_median_s", Num(sa.ploop_median_s)},
+                    {"speedup_vs_ploop", Num(sa.speedup_vs_ploop)},
                     {"notes", sa.notes}};
   }
   json res = json::array();
@@ -198,8 +256,12 @@ json EvaluationToJson(const ReportData& d) {
   j["coverage"] = cov;  // [eye, x, y]
   json views = json::array();
   for (const auto& v : d.views)
-    views.push_back({{"eye", v.eye}, {"frame", v.frame}, {"name", v.name}, {"rms_px", Num(v.rms_px)},
-                     {"corners", v.num_corners}, {"over_1px", v.num_over_1px}});
+    views.push_back({{"eye", v.eye},
+                     {"frame", v.frame},
+                     {"name", v.name},
+                     {"rms_px", Num(v.rms_px)},
+                     {"corners", v.num_corners},
+                     {"over_1px", v.num_over_1px}});
   j["views"] = views;
   json boards = json::array();
   for (const auto& b : d.boards) {
@@ -228,8 +290,9 @@ void EvaluationFromJson(const json& j, ReportData* d) {
       row.ok = x.value("ok", false);
       const std::string status = x.value("status", row.ok ? "ok" : "failed");
       const auto st = calib::TrialStatusFromName(status);
-      if (!st) throw std::runtime_error("evaluation.json: ranging row " + std::to_string(row.index) + ": unknown status '" +
-                                        status + "'");
+      if (!st)
+        throw std::runtime_error("evaluation.json: ranging row " + std::to_string(row.index) + ": unknown status '" +
+                                 status + "'");
       row.status = *st;
       row.reason = x.value("reason", std::string());
       row.range_m = Get(x, "range_m");
@@ -396,8 +459,12 @@ void EvaluationFromJson(const json& j, ReportData* d) {
   d->residuals.clear();
   if (j.contains("residuals"))
     for (const json& r : j.at("residuals"))
-      d->residuals.push_back({r.at(0).get<int>(), r.at(1).get<int>(), r.at(2).get<double>(), r.at(3).get<double>(),
-                              r.at(4).get<double>(), r.at(5).get<double>()});
+      d->residuals.push_back({r.at(0).get<int>(),
+                              r.at(1).get<int>(),
+                              r.at(2).get<double>(),
+                              r.at(3).get<double>(),
+                              r.at(4).get<double>(),
+                              r.at(5).get<double>()});
   d->coverage.clear();
   if (j.contains("coverage"))
     for (const json& c : j.at("coverage"))
@@ -405,8 +472,12 @@ void EvaluationFromJson(const json& j, ReportData* d) {
   d->views.clear();
   if (j.contains("views"))
     for (const json& v : j.at("views"))
-      d->views.push_back({v.at("eye").get<int>(), v.at("frame").get<int>(), v.value("name", std::string()),
-                          Get(v, "rms_px"), v.value("corners", 0), v.value("over_1px", 0)});
+      d->views.push_back({v.at("eye").get<int>(),
+                          v.at("frame").get<int>(),
+                          v.value("name", std::string()),
+                          Get(v, "rms_px"),
+                          v.value("corners", 0),
+                          v.value("over_1px", 0)});
   d->boards.clear();
   if (j.contains("boards"))
     for (const json& b : j.at("boards")) {

@@ -106,7 +106,9 @@ struct Page {
 };
 
 // A table of the parameters whose name starts with one of the prefixes.
-reports::Table ParameterSubset(const reports::Table& all, const std::string& name, const std::string& caption,
+reports::Table ParameterSubset(const reports::Table& all,
+                               const std::string& name,
+                               const std::string& caption,
                                const std::vector<std::string>& prefixes) {
   reports::Table t{name, caption, all.header, {}};
   for (const auto& r : all.rows)
@@ -150,7 +152,8 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   std::filesystem::create_directories(rep_dir);
   std::string gp_term, gp_version;
   const bool have_gp = GnuplotAvailable(&gp_term, &gp_version);
-  if (options.draw && !have_gp) out.warnings.push_back("gnuplot not found: figures written as .dat/.csv + .gp only (apt install gnuplot-nox)");
+  if (options.draw && !have_gp)
+    out.warnings.push_back("gnuplot not found: figures written as .dat/.csv + .gp only (apt install gnuplot-nox)");
 
   Page page;
   std::vector<std::string> order;
@@ -165,9 +168,10 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
       h << "<img src=\"data:image/png;base64," << Base64File(ff.png) << "\" alt=\"" << HtmlEscape(f.title) << "\">\n";
     else
       h << "<p class=\"warn\">not drawn: " << HtmlEscape(ff.message) << "</p>\n";
-    h << "<figcaption><b>" << HtmlEscape(f.title) << ".</b> " << HtmlEscape(f.caption) << " <span class=\"files\">[<a href=\"../figures/"
-      << f.name << ".svg\">SVG</a> | " << (ff.pdf.empty() ? "" : "<a href=\"../figures/" + f.name + ".pdf\">PDF</a> | ")
-      << "<a href=\"../figures/" << f.name << ".csv\">CSV</a> | <a href=\"../figures/" << f.name
+    h << "<figcaption><b>" << HtmlEscape(f.title) << ".</b> " << HtmlEscape(f.caption)
+      << " <span class=\"files\">[<a href=\"../figures/" << f.name << ".svg\">SVG</a> | "
+      << (ff.pdf.empty() ? "" : "<a href=\"../figures/" + f.name + ".pdf\">PDF</a> | ") << "<a href=\"../figures/"
+      << f.name << ".csv\">CSV</a> | <a href=\"../figures/" << f.name
       << ".gp\">gnuplot</a>]</span></figcaption>\n</figure>\n";
     page.figures[f.name] = h.str();
   }
@@ -179,7 +183,8 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   if (params) {
     const reports::Table all = *params;
     tables.push_back(ParameterSubset(all, "intrinsics", "Camera intrinsics (1\u03c3)", {"left.", "right."}));
-    tables.push_back(ParameterSubset(all, "stereo", "Stereo extrinsics: x_right = R x_left + T (1\u03c3)", {"stereo."}));
+    tables.push_back(
+        ParameterSubset(all, "stereo", "Stereo extrinsics: x_right = R x_left + T (1\u03c3)", {"stereo."}));
     tables.push_back(ParameterSubset(all, "servo_maps", "Servo maps and head geometry (1\u03c3)", {"servo.", "head."}));
     reports::Table other{"other_parameters", "Other fitted parameters (1\u03c3)", all.header, {}};
     for (const auto& r : all.rows)
@@ -194,7 +199,8 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
     if (t.name == "truth_comparison") {
       reports::Table worst{"truth_worst", t.caption + ": the ten largest |error / \u03c3|", t.header, t.rows};
       std::sort(worst.rows.begin(), worst.rows.end(), [](const auto& a, const auto& b) {
-        const double za = a[6].empty() ? 0 : std::abs(std::stod(a[6])), zb = b[6].empty() ? 0 : std::abs(std::stod(b[6]));
+        const double za = a[6].empty() ? 0 : std::abs(std::stod(a[6])),
+                     zb = b[6].empty() ? 0 : std::abs(std::stod(b[6]));
         return za > zb;
       });
       if (worst.rows.size() > 10) worst.rows.resize(10);
@@ -205,9 +211,9 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
     if (t.rows.empty() && t.name != "undetermined") continue;
     WriteTable(t, tab_dir);
     out.tables.push_back(t.name);
-    page.tables[t.name] = "<div class=\"scroll\">" + ToHtml(t) + "</div><p class=\"files\">[<a href=\"../tables/" + t.name +
-                          ".csv\">CSV</a> | <a href=\"../tables/" + t.name + ".md\">Markdown</a> | <a href=\"../tables/" +
-                          t.name + ".tex\">LaTeX</a>]</p>\n";
+    page.tables[t.name] = "<div class=\"scroll\">" + ToHtml(t) + "</div><p class=\"files\">[<a href=\"../tables/" +
+                          t.name + ".csv\">CSV</a> | <a href=\"../tables/" + t.name +
+                          ".md\">Markdown</a> | <a href=\"../tables/" + t.name + ".tex\">LaTeX</a>]</p>\n";
   }
 
   const Summary sum = MakeSummary(d);
@@ -220,8 +226,8 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   };
 
   // 1. Summary (one screen).
-  body << "<div class=\"summary\" id=\"summary\">\n<div class=\"verdict " << sum.level << "\">" << HtmlEscape(sum.verdict)
-       << "</div>\n";
+  body << "<div class=\"summary\" id=\"summary\">\n<div class=\"verdict " << sum.level << "\">"
+       << HtmlEscape(sum.verdict) << "</div>\n";
   if (!sum.reasons.empty()) {
     body << "<ul class=\"tight\">";
     for (const auto& r : sum.reasons) body << "<li>" << HtmlEscape(r) << "</li>";
@@ -236,7 +242,8 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
     }
   }
   body << "<div class=\"cols\"><div><b>Warnings</b>";
-  if (sum.warnings.empty()) body << "<p>None.</p>";
+  if (sum.warnings.empty())
+    body << "<p>None.</p>";
   else {
     body << "<ul class=\"tight\">";
     for (const auto& w : sum.warnings) body << "<li>" << HtmlEscape(w) << "</li>";
@@ -252,12 +259,14 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
     const std::string cmd = d.settings.value("command", std::string());
     body << "<p>";
     if (cmd.find("calibrate-images") != std::string::npos)
-      body << "Stereo calibration from a folder of image pairs (" << HtmlEscape(d.settings.value("images", std::string()))
-           << ") with the target " << HtmlEscape(d.settings.value("target", std::string()))
+      body << "Stereo calibration from a folder of image pairs ("
+           << HtmlEscape(d.settings.value("images", std::string())) << ") with the target "
+           << HtmlEscape(d.settings.value("target", std::string()))
            << ": corners detected in each image, both cameras and the stereo extrinsics fitted jointly with Ceres "
               "(board poses marginalised in the covariance). No robot was involved.";
     else
-      body << "Robot <b>" << HtmlEscape(d.config.name) << "</b>. The standard protocols moved the eyes and the neck and "
+      body << "Robot <b>" << HtmlEscape(d.config.name)
+           << "</b>. The standard protocols moved the eyes and the neck and "
            << "recorded each dataset; the intrinsics and stereo extrinsics were fitted from the chessboard views, the "
               "servo maps, IPD and camera mounting from the servo sweep (one Ceres problem), and ranging, step "
               "responses and limits were evaluated from their datasets.";
@@ -289,11 +298,12 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
          << page.Pair("residual_hist_left", "residual_hist_right") << page.Pair("uncertainty_left", "uncertainty_right")
          << page.Pair("distortion_left", "distortion_right") << page.Figure("coverage");
   }
-  if (d.result.stereo) body << "<h3 id=\"stereo\">Stereo extrinsics</h3>\n" << page.Table("stereo") << page.Figure("poses_3d");
+  if (d.result.stereo)
+    body << "<h3 id=\"stereo\">Stereo extrinsics</h3>\n" << page.Table("stereo") << page.Figure("poses_3d");
   if (page.figures.count("servo_maps")) {
-    body << "<h3 id=\"servos\">Servo maps and head</h3>\n" << page.Table("servo_maps") << page.Figure("servo_maps")
-         << page.FiguresWith(order, "servo_") << page.Table("servo_map_truth")
-         << page.Table("tag_coverage") << page.Table("tag_servo_ends");
+    body << "<h3 id=\"servos\">Servo maps and head</h3>\n"
+         << page.Table("servo_maps") << page.Figure("servo_maps") << page.FiguresWith(order, "servo_")
+         << page.Table("servo_map_truth") << page.Table("tag_coverage") << page.Table("tag_servo_ends");
   }
   if (d.ranging) {
     body << "<h3 id=\"ranging\">Vergence ranging</h3>\n<p>Range = distance from the midpoint of the two eye rotation "
@@ -304,14 +314,15 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
          << page.Table("ranging_summary") << page.Figure("range_error") << page.Table("ranging");
   }
   if (!d.steps.empty() || d.gains) {
-    body << "<h3 id=\"control\">Step response and gain</h3>\n<p>Metrics as MATLAB stepinfo with y_init = 0 and y_final "
-            "= 1 (y in fractions of the step): rise time from 10 % to 90 %, settling time = the first sample after "
-            "which |y \u2212 1| \u2264 2 % for good, overshoot and undershoot in % of the step, peak and its time. "
-            "Steady-state error = 1 \u2212 the mean of y over the last 10 % of the trial: the part of the step not done "
-            "when the trial ended (non-zero for a trial that did not settle). Model: y(k+1) = y(k) + K (1 \u2212 y(k "
-            "\u2212 d)).</p>\n"
-         << page.Figure("step_responses") << page.Figure("settling_vs_gain") << page.Table("settling_model") << page.Table("saccade") << page.Table("gain_study")
-         << page.Table("step_metrics");
+    body
+        << "<h3 id=\"control\">Step response and gain</h3>\n<p>Metrics as MATLAB stepinfo with y_init = 0 and y_final "
+           "= 1 (y in fractions of the step): rise time from 10 % to 90 %, settling time = the first sample after "
+           "which |y \u2212 1| \u2264 2 % for good, overshoot and undershoot in % of the step, peak and its time. "
+           "Steady-state error = 1 \u2212 the mean of y over the last 10 % of the trial: the part of the step not done "
+           "when the trial ended (non-zero for a trial that did not settle). Model: y(k+1) = y(k) + K (1 \u2212 y(k "
+           "\u2212 d)).</p>\n"
+        << page.Figure("step_responses") << page.Figure("settling_vs_gain") << page.Table("settling_model")
+        << page.Table("saccade") << page.Table("gain_study") << page.Table("step_metrics");
   }
   if (d.limits) {
     body << "<h3 id=\"limits\">Servo limits</h3>\n" << page.Figure("limits") << page.Table("limits");
@@ -329,7 +340,8 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
          << page.Table("latency_check") << page.Table("alignment_check") << page.Table("field_of_view");
   if (page.tables.count("truth_comparison"))
     body << "<h3 id=\"truth\">Ground-truth comparison (virtual Owl)</h3>\n<p>Every parameter table above has a truth "
-            "column; the full comparison is <a href=\"../tables/truth_comparison.csv\">tables/truth_comparison.csv</a>.</p>\n"
+            "column; the full comparison is <a "
+            "href=\"../tables/truth_comparison.csv\">tables/truth_comparison.csv</a>.</p>\n"
          << page.Table("truth_worst");
   // Any figure not placed above (added by another part of owlcal) still appears.
   std::string rest;
@@ -347,7 +359,8 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   h2("appendix", "Appendix");
   body << "<h3>A. Other fitted parameters</h3>\n<p>The parameters not shown in the Results; every parameter is in "
           "<a href=\"../tables/parameters.csv\">tables/parameters.csv</a> and results.json.</p>\n"
-       << page.Table("other_parameters") << "<h3>B. Solver summaries</h3>\n" << page.Table("solver");
+       << page.Table("other_parameters") << "<h3>B. Solver summaries</h3>\n"
+       << page.Table("solver");
   body << "<h3>C. Files</h3>\n<ul class=\"tight\">"
        << "<li><a href=\"../results.json\">results.json</a>: every parameter with value, \u03c3, unit (and truth)</li>"
        << "<li><a href=\"../calibration.yaml\">calibration.yaml</a>: OpenCV, lengths in metres</li>"
@@ -359,8 +372,9 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
         d.result.cameras[e] ? &*d.result.cameras[e] : (d.result.head ? &d.result.head->intrinsics[e] : nullptr);
     if (!cam) continue;
     const auto fit = fitting::FitRadtan4(*cam);
-    if (fit.ok) body << (fit.exact ? std::string("; ") + models::kEyeNames[e] + " exact"
-                                   : std::string("; ") + models::kEyeNames[e] + " refit max " + Fmt(fit.max_error_px, 2) + " px");
+    if (fit.ok)
+      body << (fit.exact ? std::string("; ") + models::kEyeNames[e] + " exact"
+                         : std::string("; ") + models::kEyeNames[e] + " refit max " + Fmt(fit.max_error_px, 2) + " px");
   }
   body << "), mrcal .cameramodel with its valid-intrinsics region" << (d.result.head ? ", owl-pwm.h (C and C++)" : "")
        << "</li><li><a href=\"../figures/\">figures/</a>: PNG, SVG, PDF, tidy CSV, gnuplot data and script of each "
@@ -370,10 +384,13 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << HtmlEscape(options.title)
     << "</title>\n<style>" << kStyle << "</style></head><body>\n<h1>" << HtmlEscape(options.title) << "</h1>\n"
-    << "<p class=\"meta\">" << (d.settings.value("robot", std::string()) == "none" ? "No robot (images)" : "Robot: " + HtmlEscape(d.config.name))
+    << "<p class=\"meta\">"
+    << (d.settings.value("robot", std::string()) == "none" ? "No robot (images)"
+                                                           : "Robot: " + HtmlEscape(d.config.name))
     << ". Generated " << NowUtc() << " by owlcal "
-    << HtmlEscape(d.result.software_version.empty() ? OWLCAL_VERSION : d.result.software_version) << " (report by owlcal "
-    << OWLCAL_VERSION << "); figures by " << HtmlEscape(have_gp ? gp_version : "no gnuplot") << ".</p>\n"
+    << HtmlEscape(d.result.software_version.empty() ? OWLCAL_VERSION : d.result.software_version)
+    << " (report by owlcal " << OWLCAL_VERSION << "); figures by " << HtmlEscape(have_gp ? gp_version : "no gnuplot")
+    << ".</p>\n"
     << "<nav><a href=\"#summary\">Summary</a>" << nav.str() << "</nav>\n";
   for (const auto& w : out.warnings) h << "<p class=\"warn\">" << HtmlEscape(w) << "</p>\n";
   h << body.str() << "</body></html>\n";

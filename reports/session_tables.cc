@@ -37,7 +37,8 @@ std::string SessionComparisonMarkdown(const SessionComparison& c) {
         md << " absent |";
       } else {
         const int dec = Decimals(cell.sigma, cell.value);
-        md << " " << FixedOrDash(cell.value, dec) << " ± " << (cell.determined ? FixedOrDash(cell.sigma, dec) : "n/d") << " |";
+        md << " " << FixedOrDash(cell.value, dec) << " ± " << (cell.determined ? FixedOrDash(cell.sigma, dec) : "n/d")
+           << " |";
       }
     }
     for (const auto& p : c.pairs) {
@@ -49,10 +50,12 @@ std::string SessionComparisonMarkdown(const SessionComparison& c) {
   }
   md << "\n";
   if (c.changed.empty()) {
-    md << "No parameter differs by more than " << FixedOrDash(c.z_changed, 0) << " sigma between sessions: the differences are "
+    md << "No parameter differs by more than " << FixedOrDash(c.z_changed, 0)
+       << " sigma between sessions: the differences are "
        << "consistent with calibration noise.\n";
   } else {
-    md << "Differences beyond " << FixedOrDash(c.z_changed, 0) << " sigma (the robot or its set-up changed, or a sigma is "
+    md << "Differences beyond " << FixedOrDash(c.z_changed, 0)
+       << " sigma (the robot or its set-up changed, or a sigma is "
        << "too small):\n";
     for (const auto& s : c.changed) md << "- " << s << "\n";
   }

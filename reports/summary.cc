@@ -31,12 +31,15 @@ Summary MakeSummary(const ReportData& d) {
 
   // Headline numbers.
   auto add = [&](const std::string& q, const std::string& name, const std::string& note = "") {
-    if (const fitting::Parameter* p = r.Find(name)) s.headlines.push_back({q, PlusMinus(*p), DisplayUnit(p->unit), note});
+    if (const fitting::Parameter* p = r.Find(name))
+      s.headlines.push_back({q, PlusMinus(*p), DisplayUnit(p->unit), note});
   };
   if (diag.contains("stereo") && diag["stereo"].contains("rms_px")) {
     const auto& rms = diag["stereo"]["rms_px"];
-    s.headlines.push_back({"reprojection RMS, left / right", Fmt(rms.value("left", NAN), 3) + " / " + Fmt(rms.value("right", NAN), 3),
-                           "px", "per corner, joint stereo fit"});
+    s.headlines.push_back({"reprojection RMS, left / right",
+                           Fmt(rms.value("left", NAN), 3) + " / " + Fmt(rms.value("right", NAN), 3),
+                           "px",
+                           "per corner, joint stereo fit"});
   }
   for (const char* eye : {"left", "right"}) {
     add(std::string(eye) + " focal length fx", std::string(eye) + ".fx");
@@ -53,38 +56,52 @@ Summary MakeSummary(const ReportData& d) {
       ++fitted;
       scales += (scales.empty() ? "" : ", ") + std::string(models::kServoNames[k]) + " " + PlusMinus(*p);
     }
-    if (fitted) s.headlines.push_back({"servo scales (" + std::to_string(fitted) + " maps fitted)", scales, "deg/\u00b5s", ""});
+    if (fitted)
+      s.headlines.push_back({"servo scales (" + std::to_string(fitted) + " maps fitted)", scales, "deg/\u00b5s", ""});
   }
   if (d.ranging) {
     std::vector<double> e;
     int failed = 0;
     for (const auto& x : d.ranging->rows) {
-      if (x.ok) e.push_back(100 * std::abs(x.rel_error));
-      else ++failed;
+      if (x.ok)
+        e.push_back(100 * std::abs(x.rel_error));
+      else
+        ++failed;
     }
-    s.headlines.push_back({"vergence range error, median |error|", Fmt(Median(e), 3), "%",
+    s.headlines.push_back({"vergence range error, median |error|",
+                           Fmt(Median(e), 3),
+                           "%",
                            std::to_string(e.size()) + " fixations ranged, " + std::to_string(failed) + " failed"});
   }
   if (d.gains && d.gains->fastest)
     s.headlines.push_back({"fastest stable P gain (model, d = " + std::to_string(d.gains->delay_frames) + " frames)",
-                           Fmt(d.gains->fastest->gain, 3), "", "2 % settling " + Fmt(d.gains->fastest->settling_time_s, 3) + " s"});
+                           Fmt(d.gains->fastest->gain, 3),
+                           "",
+                           "2 % settling " + Fmt(d.gains->fastest->settling_time_s, 3) + " s"});
   if (std::any_of(r.parameters.begin(), r.parameters.end(), [](const auto& p) { return p.truth.has_value(); })) {
     const fitting::TruthComparison c = fitting::CompareWithTruth(r);
-    s.headlines.push_back({"virtual Owl: parameters within \u00b12\u03c3 of the truth", Fmt(100 * c.fraction_within_2sigma, 3), "%",
-                           std::to_string(c.num_with_sigma) + " compared, worst " + c.worst + " (z = " + Fmt(c.worst_z, 3) + ")"});
+    s.headlines.push_back(
+        {"virtual Owl: parameters within \u00b12\u03c3 of the truth",
+         Fmt(100 * c.fraction_within_2sigma, 3),
+         "%",
+         std::to_string(c.num_with_sigma) + " compared, worst " + c.worst + " (z = " + Fmt(c.worst_z, 3) + ")"});
   }
 
   // The bring-up (pipeline/bring_up.h): what the robot file got wrong, which the run corrected.
   if (diag.contains("bring_up") && diag["bring_up"].is_object()) {
     const nlohmann::json& b = diag["bring_up"];
     const size_t n = b.value("findings", nlohmann::json::array()).size();
-    s.headlines.push_back({"bring-up: differences from your robot file, applied to the run", std::to_string(n), "",
-                           Fmt(b.value("robot_time_s", 0.0), 3) + " s of robot time (the limits protocol); " +
-                               (n ? "robot_corrected.yaml is your robot file as measured" : "the robot file agrees with the robot")});
+    s.headlines.push_back(
+        {"bring-up: differences from your robot file, applied to the run",
+         std::to_string(n),
+         "",
+         Fmt(b.value("robot_time_s", 0.0), 3) + " s of robot time (the limits protocol); " +
+             (n ? "robot_corrected.yaml is your robot file as measured" : "the robot file agrees with the robot")});
     if (n)
-      s.next_steps.push_back("Compare robot_corrected.yaml (your robot file as measured: limits, directions, fitted "
-                             "centres, scales and IPD) with yours: the run used " + std::to_string(n) +
-                             " differences it measured (they lead the warnings).");
+      s.next_steps.push_back(
+          "Compare robot_corrected.yaml (your robot file as measured: limits, directions, fitted "
+          "centres, scales and IPD) with yours: the run used " +
+          std::to_string(n) + " differences it measured (they lead the warnings).");
   }
 
   // Verdict: one a fit wrote (diagnostics.verdict: a string, or {status, reasons}), else from
@@ -128,7 +145,8 @@ Summary MakeSummary(const ReportData& d) {
       return t;
     }();
     s.level = low.find("fail") != std::string::npos || low.find("not usable") != std::string::npos ? "bad"
-              : low.find("ok") == 0 || low.find("pass") == 0 || low.find("usable") == 0 ? "ok" : "warn";
+              : low.find("ok") == 0 || low.find("pass") == 0 || low.find("usable") == 0            ? "ok"
+                                                                                                   : "warn";
   } else if (failed) {
     s.verdict = "Not usable: a fit failed";
     s.level = "bad";
@@ -141,22 +159,25 @@ Summary MakeSummary(const ReportData& d) {
     s.level = r.warnings.empty() ? "ok" : "warn";
   }
   for (size_t i = 0; i < r.warnings.size() && i < 6; ++i) s.warnings.push_back(r.warnings[i]);
-  if (r.warnings.size() > 6) s.warnings.push_back(std::to_string(r.warnings.size() - 6) + " more in the Discussion section");
+  if (r.warnings.size() > 6)
+    s.warnings.push_back(std::to_string(r.warnings.size() - 6) + " more in the Discussion section");
 
   // What to do next.
   const auto worst = WorstViews(d, 5);
   if (!worst.empty()) {
     std::string names;
-    for (const auto& w : worst) names += (names.empty() ? "" : ", ") + std::string(models::kEyeNames[w.view.eye]) + " eye " + w.view.name;
+    for (const auto& w : worst)
+      names += (names.empty() ? "" : ", ") + std::string(models::kEyeNames[w.view.eye]) + " eye " + w.view.name;
     s.next_steps.push_back("Look at the worst calibration views (" + names +
                            "): retake or drop any with a blurred, moved or partly hidden board.");
   }
   if (has_set_verdict && set_verdict.contains("advice"))
     for (const auto& v : set_verdict.at("advice")) s.next_steps.push_back("Image set: " + v.get<std::string>() + ".");
   if (undetermined > 0 && !poor)
-    s.next_steps.push_back("Add views that determine the " + std::to_string(undetermined) +
-                           " undetermined parameters (listed in the Discussion): boards tilted by 30\u201345\u00b0, near "
-                           "the image corners and at several distances.");
+    s.next_steps.push_back(
+        "Add views that determine the " + std::to_string(undetermined) +
+        " undetermined parameters (listed in the Discussion): boards tilted by 30\u201345\u00b0, near "
+        "the image corners and at several distances.");
   for (int e = 0; e < 2; ++e) {
     std::vector<fitting::CornerResidual> res;
     double s2 = 0;
@@ -192,28 +213,32 @@ Summary MakeSummary(const ReportData& d) {
       continue;
     }
     if (!cam || res.empty()) continue;
-    const auto v = fitting::ComputeValidIntrinsicsRegion(*cam, fitting::IntrinsicsCovariance(r, e), res,
-                                                         std::sqrt(s2 / (2.0 * res.size())));
+    const auto v = fitting::ComputeValidIntrinsicsRegion(
+        *cam, fitting::IntrinsicsCovariance(r, e), res, std::sqrt(s2 / (2.0 * res.size())));
     if (v.valid_fraction < 0.6)
       s.next_steps.push_back(std::string("The ") + models::kEyeNames[e] + " model is trusted over " +
-                             Fmt(100 * v.valid_fraction, 2) + " % of the image only (valid-intrinsics region): add "
+                             Fmt(100 * v.valid_fraction, 2) +
+                             " % of the image only (valid-intrinsics region): add "
                              "views whose board reaches the edges and corners.");
   }
   if (d.limits)
     for (const auto& l : d.limits->servos)
       if (l.recommended_min_us != l.configured_min_us || l.recommended_max_us != l.configured_max_us)
-        s.next_steps.push_back("Update the robot file's " + l.name + " limits to " + std::to_string(l.recommended_min_us) +
-                               "\u2013" + std::to_string(l.recommended_max_us) + " \u00b5s (measured; configured " +
-                               std::to_string(l.configured_min_us) + "\u2013" + std::to_string(l.configured_max_us) + ").");
+        s.next_steps.push_back("Update the robot file's " + l.name + " limits to " +
+                               std::to_string(l.recommended_min_us) + "\u2013" + std::to_string(l.recommended_max_us) +
+                               " \u00b5s (measured; configured " + std::to_string(l.configured_min_us) + "\u2013" +
+                               std::to_string(l.configured_max_us) + ").");
   if (d.ranging) {
     int failed_r = 0;
     for (const auto& x : d.ranging->rows) failed_r += !x.ok;
-    if (failed_r) s.next_steps.push_back("Repeat the " + std::to_string(failed_r) + " fixations that could not be ranged.");
+    if (failed_r)
+      s.next_steps.push_back("Repeat the " + std::to_string(failed_r) + " fixations that could not be ranged.");
   }
   if (s.level != "bad")
-    s.next_steps.push_back("Use calibration.yaml (OpenCV, metres) or intrinsics.xml/extrinsics.xml (the course's files, "
-                           "mm) in your programs; exports/ holds ROS, Kalibr and mrcal files" +
-                           std::string(r.head ? " and owl-pwm.h for the servo maps." : "."));
+    s.next_steps.push_back(
+        "Use calibration.yaml (OpenCV, metres) or intrinsics.xml/extrinsics.xml (the course's files, "
+        "mm) in your programs; exports/ holds ROS, Kalibr and mrcal files" +
+        std::string(r.head ? " and owl-pwm.h for the servo maps." : "."));
   return s;
 }
 

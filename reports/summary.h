@@ -17,8 +17,8 @@ struct Headline {
 };
 
 struct Summary {
-  std::string verdict;        // one line
-  std::string level;          // "ok", "warn" or "bad"
+  std::string verdict;  // one line
+  std::string level;    // "ok", "warn" or "bad"
   std::vector<std::string> reasons;
   std::vector<Headline> headlines;
   std::vector<std::string> warnings;

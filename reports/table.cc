@@ -2,16 +2,16 @@
 #include "io/atomic_file.h"
 #include "io/number_text.h"
 
-#include <cmath>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <utility>
-#include <vector>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace owlcal::reports {
 
@@ -50,11 +50,20 @@ std::string HtmlEscape(const std::string& s) {
   std::string o;
   for (char c : s) {
     switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
+      case '&':
+        o += "&amp;";
+        break;
+      case '<':
+        o += "&lt;";
+        break;
+      case '>':
+        o += "&gt;";
+        break;
+      case '"':
+        o += "&quot;";
+        break;
+      default:
+        o += c;
     }
   }
   return o;
@@ -65,10 +74,15 @@ std::string LatexEscape(const std::string& s) {
   for (size_t i = 0; i < s.size(); ++i) {
     const char c = s[i];
     // UTF-8 symbols the report uses.
-    static const std::pair<const char*, const char*> kUtf8[] = {
-        {"\u00b5", "\\textmu{}"}, {"\u03c3", "$\\sigma$"}, {"\u00b1", "$\\pm$"},     {"\u00b0", "\\textdegree{}"},
-        {"\u2013", "--"},         {"\u2014", "---"},          {"\u2264", "$\\le$"}, {"\u2265", "$\\ge$"},
-        {"\u00d7", "$\\times$"}};
+    static const std::pair<const char*, const char*> kUtf8[] = {{"\u00b5", "\\textmu{}"},
+                                                                {"\u03c3", "$\\sigma$"},
+                                                                {"\u00b1", "$\\pm$"},
+                                                                {"\u00b0", "\\textdegree{}"},
+                                                                {"\u2013", "--"},
+                                                                {"\u2014", "---"},
+                                                                {"\u2264", "$\\le$"},
+                                                                {"\u2265", "$\\ge$"},
+                                                                {"\u00d7", "$\\times$"}};
     bool done = false;
     for (const auto& [u, l] : kUtf8) {
       const size_t n = std::char_traits<char>::length(u);
@@ -81,20 +95,47 @@ std::string LatexEscape(const std::string& s) {
     }
     if (done) continue;
     switch (c) {
-      case '_': o += "\\_"; break;
-      case '%': o += "\\%"; break;
-      case '&': o += "\\&"; break;
-      case '#': o += "\\#"; break;
-      case '$': o += "\\$"; break;
-      case '{': o += "\\{"; break;
-      case '}': o += "\\}"; break;
-      case '~': o += "\\textasciitilde{}"; break;
-      case '^': o += "\\textasciicircum{}"; break;
-      case '\\': o += "\\textbackslash{}"; break;
-      case '|': o += "\\textbar{}"; break;
-      case '<': o += "\\textless{}"; break;
-      case '>': o += "\\textgreater{}"; break;
-      default: o += c;
+      case '_':
+        o += "\\_";
+        break;
+      case '%':
+        o += "\\%";
+        break;
+      case '&':
+        o += "\\&";
+        break;
+      case '#':
+        o += "\\#";
+        break;
+      case '$':
+        o += "\\$";
+        break;
+      case '{':
+        o += "\\{";
+        break;
+      case '}':
+        o += "\\}";
+        break;
+      case '~':
+        o += "\\textasciitilde{}";
+        break;
+      case '^':
+        o += "\\textasciicircum{}";
+        break;
+      case '\\':
+        o += "\\textbackslash{}";
+        break;
+      case '|':
+        o += "\\textbar{}";
+        break;
+      case '<':
+        o += "\\textless{}";
+        break;
+      case '>':
+        o += "\\textgreater{}";
+        break;
+      default:
+        o += c;
     }
   }
   return o;
@@ -113,9 +154,12 @@ std::string CsvCell(const std::string& s) {
 std::string MdCell(const std::string& s) {
   std::string o;
   for (char c : s) {
-    if (c == '|') o += "\\|";
-    else if (c == '\n') o += ' ';
-    else o += c;
+    if (c == '|')
+      o += "\\|";
+    else if (c == '\n')
+      o += ' ';
+    else
+      o += c;
   }
   return o;
 }
@@ -225,7 +269,8 @@ std::string ToHtml(const Table& t) {
   o << "<table id=\"tab-" << HtmlEscape(t.name) << "\">\n";
   if (!t.caption.empty()) o << "<caption>" << HtmlEscape(t.caption) << "</caption>\n";
   o << "<thead><tr>";
-  for (size_t i = 0; i < t.header.size(); ++i) o << "<th" << (num[i] ? " class=\"num\"" : "") << ">" << HtmlEscape(t.header[i]) << "</th>";
+  for (size_t i = 0; i < t.header.size(); ++i)
+    o << "<th" << (num[i] ? " class=\"num\"" : "") << ">" << HtmlEscape(t.header[i]) << "</th>";
   o << "</tr></thead>\n<tbody>\n";
   for (const auto& r : t.rows) {
     o << "<tr>";

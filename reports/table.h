@@ -15,7 +15,7 @@
 namespace owlcal::reports {
 
 struct Table {
-  std::string name;     // file stem
+  std::string name;  // file stem
   std::string caption;
   std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;

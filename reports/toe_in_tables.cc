@@ -32,8 +32,9 @@ std::string ToeInMarkdown(const std::vector<fitting::ToeInSet>& sets, const fitt
     for (const auto& p : fit.parameters)
       md << "| " << p.name << " | " << FixedOrDash(p.value, 4) << " | " << FixedOrDash(p.sigma, 4) << " | " << p.unit
          << " | " << p.note << " |\n";
-    md << "\n" << fit.num_sets << " sets, " << (fit.per_eye ? "one scale per eye" : "one scale for both eyes")
-       << "; chi2/dof " << FixedOrDash(fit.chi2_per_dof, 2) << " (dof " << fit.dof << "), RMS residual "
+    md << "\n"
+       << fit.num_sets << " sets, " << (fit.per_eye ? "one scale per eye" : "one scale for both eyes") << "; chi2/dof "
+       << FixedOrDash(fit.chi2_per_dof, 2) << " (dof " << fit.dof << "), RMS residual "
        << FixedOrDash(fit.rms_residual_deg, 3) << " deg. The guide's nominal scale is 0.113 deg/us; Rx is "
        << FixedOrDash(100 * (fit.rx_deg_per_us / 0.113 - 1), 1) << " % from it, Lx "
        << FixedOrDash(100 * (fit.lx_deg_per_us / 0.113 - 1), 1) << " %.\n";

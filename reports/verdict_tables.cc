@@ -72,8 +72,9 @@ std::string SetVerdictMarkdown(const fitting::SetVerdict& v) {
   md << "\nTrusted: where the predicted projection uncertainty at " << range << " is below "
      << FixedOrDash(v.trust_threshold_noise, 1) << " x the eye's corner noise; working region: within "
      << FixedOrDash(100 * v.working_radius_fraction, 0) << " % of the half-diagonal from the centre.\n";
-  md << "\n" << v.num_pairs << " pairs; " << (v.split ? "halves calibrated alone and compared" : "not split: " + v.split_message)
-     << ".\n";
+  md << "\n"
+     << v.num_pairs << " pairs; "
+     << (v.split ? "halves calibrated alone and compared" : "not split: " + v.split_message) << ".\n";
   return md.str();
 }
 

@@ -15,8 +15,9 @@ std::string VergenceReportMarkdown(const std::vector<fitting::VergenceLogRow>& r
                                    const fitting::LooSummary& loo) {
   std::ostringstream md;
   md << "# Vergence log fit\n\n";
-  md << rows.size() << " rows, " << fit.runs.size() << " run(s); PWM residual sigma " << FixedOrDash(fit.residual_sigma_us, 2)
-     << " us; solver: " << fit.summary.termination << (fit.summary.usable ? "" : " (NOT usable)") << "\n\n";
+  md << rows.size() << " rows, " << fit.runs.size() << " run(s); PWM residual sigma "
+     << FixedOrDash(fit.residual_sigma_us, 2) << " us; solver: " << fit.summary.termination
+     << (fit.summary.usable ? "" : " (NOT usable)") << "\n\n";
   if (fit.summary.termination != "CONVERGENCE") {
     // A failed solve stops somewhere that is not a fit: no value is printed as if it were one.
     md << "The solver did not converge (" << fit.summary.message << "): no parameter is reported.\n";
@@ -24,8 +25,8 @@ std::string VergenceReportMarkdown(const std::vector<fitting::VergenceLogRow>& r
   }
   md << "| parameter | value | sigma | unit | note |\n|---|---|---|---|---|\n";
   for (const auto& p : fit.parameters)
-    md << "| " << p.name << " | " << FixedOrDash(p.value, 3) << " | " << (p.determined ? FixedOrDash(p.sigma, 3) : "not determined")
-       << " | " << p.unit << " | " << p.note << " |\n";
+    md << "| " << p.name << " | " << FixedOrDash(p.value, 3) << " | "
+       << (p.determined ? FixedOrDash(p.sigma, 3) : "not determined") << " | " << p.unit << " | " << p.note << " |\n";
   if (!fit.notes.empty()) {
     md << "\nNotes:\n";
     for (const auto& n : fit.notes) md << "- " << n << "\n";
@@ -41,8 +42,8 @@ std::string VergenceReportMarkdown(const std::vector<fitting::VergenceLogRow>& r
   for (size_t i = 0; i < std::min<size_t>(5, d.size()); ++i) {
     const auto& r = rows[d[i].row];
     md << "| " << d[i].row << " | " << r.run << " | " << FixedOrDash(r.true_distance_m * 100, 0) << " | "
-       << FixedOrDash(d[i].residual_rx, 2) << " | " << FixedOrDash(d[i].residual_lx, 2) << " | " << FixedOrDash(100 * d[i].chi2 / total, 1)
-       << " % | " << FixedOrDash(d[i].range_per_us_m * 100, 2) << " |\n";
+       << FixedOrDash(d[i].residual_rx, 2) << " | " << FixedOrDash(d[i].residual_lx, 2) << " | "
+       << FixedOrDash(100 * d[i].chi2 / total, 1) << " % | " << FixedOrDash(d[i].range_per_us_m * 100, 2) << " |\n";
   }
   if (loo.rows.empty()) {
     md << "\nNo leave-one-out comparison: the fit is not usable.\n";

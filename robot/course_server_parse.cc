@@ -84,8 +84,8 @@ PythonServerParse ParseLikePythonServer(std::string_view packet) {
   size_t start = 0;
   for (;;) {
     const size_t space = packet.find(' ', start);
-    const std::string_view field = packet.substr(start, space == std::string_view::npos ? std::string_view::npos
-                                                                                        : space - start);
+    const std::string_view field =
+        packet.substr(start, space == std::string_view::npos ? std::string_view::npos : space - start);
     std::string error;
     const std::optional<long long> v = PythonInt(field, &error);
     if (!v) {

@@ -35,8 +35,8 @@ struct PythonServerParse {
 PythonServerParse ParseLikePythonServer(std::string_view packet);
 
 struct CServerScan {
-  int num_fields = 0;   // what sscanf returns: fields assigned, 0..5 (EOF counts as 0)
-  long long data = 0;   // atoi(buffer)
+  int num_fields = 0;  // what sscanf returns: fields assigned, 0..5 (EOF counts as 0)
+  long long data = 0;  // atoi(buffer)
 };
 // Updates globals[0..num_fields) (wire order Rx Ry Lx Ly Neck) as sscanf would.
 CServerScan ScanLikeCServer(std::string_view bytes, models::PwmVector* globals);

@@ -4,8 +4,7 @@
 
 namespace owlcal::robot {
 
-LimitsGuard::LimitsGuard(models::RobotConfig config, LogSink log)
-    : config_(std::move(config)), log_(std::move(log)) {
+LimitsGuard::LimitsGuard(models::RobotConfig config, LogSink log) : config_(std::move(config)), log_(std::move(log)) {
   for (int i = 0; i < models::kNumServos; ++i) {
     const models::ServoConfig& s = config_.servos[i];
     if (s.min_us > s.max_us) {

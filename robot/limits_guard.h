@@ -24,10 +24,10 @@ namespace owlcal::robot {
 using LogSink = std::function<void(const std::string&)>;
 
 struct ClampResult {
-  models::PwmVector pwm_us{};                          // the value after clamping
-  std::array<bool, models::kNumServos> clamped{};      // per servo: value was changed
+  models::PwmVector pwm_us{};                      // the value after clamping
+  std::array<bool, models::kNumServos> clamped{};  // per servo: value was changed
   bool any_clamped = false;
-  std::string message;                                 // "" or one line naming every clamp
+  std::string message;  // "" or one line naming every clamp
 };
 
 class LimitsGuard {

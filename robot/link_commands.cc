@@ -85,12 +85,11 @@ GrabReport GrabOneFrame(const std::string& robot_host,
   const std::string url = "http://" + hp.host + ":" + std::to_string(http_port) + o.path;
   std::optional<MjpegFrame> f = client.Next(timeout);
   if (!f) {
-    throw std::runtime_error(url + ": no frame within " + std::to_string(timeout.count()) + " ms (" +
-                             std::to_string(client.Stats().num_corrupt) + " corrupt, " +
-                             std::to_string(client.Stats().num_wrong_size) + " of the wrong size, " +
-                             std::to_string(client.Stats().num_failures) + " failed connections" +
-                             (client.Stats().last_problem.empty() ? "" : "; last: " + client.Stats().last_problem) +
-                             ")");
+    throw std::runtime_error(
+        url + ": no frame within " + std::to_string(timeout.count()) + " ms (" +
+        std::to_string(client.Stats().num_corrupt) + " corrupt, " + std::to_string(client.Stats().num_wrong_size) +
+        " of the wrong size, " + std::to_string(client.Stats().num_failures) + " failed connections" +
+        (client.Stats().last_problem.empty() ? "" : "; last: " + client.Stats().last_problem) + ")");
   }
   std::filesystem::create_directories(out_dir);
   GrabReport r;

@@ -126,9 +126,9 @@ void MjpegClient::Close() {
 bool MjpegClient::Fill(Clock::time_point deadline) {
   const auto now = Clock::now();
   if (now >= deadline) return false;
-  const auto wait = std::min(options_.read_timeout,
-                             std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now) +
-                                 std::chrono::milliseconds(1));
+  const auto wait =
+      std::min(options_.read_timeout,
+               std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now) + std::chrono::milliseconds(1));
   char chunk[65536];
   const int64_t got = RecvSome(socket_.fd(), chunk, sizeof(chunk), wait);
   if (got <= 0) return false;
@@ -147,9 +147,9 @@ bool MjpegClient::Connect(Clock::time_point deadline) {
     stats_.last_problem = e.what();
     return false;
   }
-  const std::string request = "GET " + options_.path + " HTTP/1.1\r\nHost: " + options_.host + ":" +
-                              std::to_string(options_.port) +
-                              "\r\nUser-Agent: owlcal\r\nAccept: multipart/x-mixed-replace\r\nConnection: close\r\n\r\n";
+  const std::string request =
+      "GET " + options_.path + " HTTP/1.1\r\nHost: " + options_.host + ":" + std::to_string(options_.port) +
+      "\r\nUser-Agent: owlcal\r\nAccept: multipart/x-mixed-replace\r\nConnection: close\r\n\r\n";
   if (!SendAll(socket_.fd(), request)) return false;
   return ReadResponseHead(deadline);
 }
@@ -303,8 +303,8 @@ std::optional<MjpegFrame> MjpegClient::Next(std::chrono::milliseconds timeout) {
                        std::to_string(options_.expected_height);
     } else if (size->width < 2 || size->height < 1 ||
                static_cast<int64_t>(size->width) * size->height > options_.max_frame_pixels) {
-      size_problem = "declares " + std::to_string(size->width) + "x" + std::to_string(size->height) +
-                     " (at most " + std::to_string(options_.max_frame_pixels) + " pixels)";
+      size_problem = "declares " + std::to_string(size->width) + "x" + std::to_string(size->height) + " (at most " +
+                     std::to_string(options_.max_frame_pixels) + " pixels)";
     }
     if (!size_problem.empty()) {
       ++stats_.num_wrong_size;

@@ -50,17 +50,17 @@ struct MjpegClientOptions {
   int port = 8080;
   std::string path = "/stream/video.mjpeg";
   std::chrono::milliseconds connect_timeout{2000};
-  std::chrono::milliseconds read_timeout{2000};     // a stream silent this long is reconnected
+  std::chrono::milliseconds read_timeout{2000};         // a stream silent this long is reconnected
   std::chrono::milliseconds reconnect_delay{100};       // first back-off after a failure
   std::chrono::milliseconds max_reconnect_delay{2000};  // back-off doubles up to this
   bool swap_eyes = false;
   bool mirror_stream = false;
-  bool decode = true;                               // false: only the raw JPEG (no left/right)
-  bool reconnect = true;                            // false: Next gives up once the stream fails or ends
+  bool decode = true;     // false: only the raw JPEG (no left/right)
+  bool reconnect = true;  // false: Next gives up once the stream fails or ends
   size_t max_frame_bytes = 8u << 20;
-  int expected_width = 0;                           // side-by-side frame width; 0 = any
-  int expected_height = 0;                          // 0 = any
-  int64_t max_frame_pixels = 4096 * 4096;           // limit when no expected size is given
+  int expected_width = 0;                  // side-by-side frame width; 0 = any
+  int expected_height = 0;                 // 0 = any
+  int64_t max_frame_pixels = 4096 * 4096;  // limit when no expected size is given
   bool Check(std::string* why) const;
 };
 

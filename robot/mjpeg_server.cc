@@ -33,15 +33,24 @@ std::string Trim(const std::string& s) {
 
 const char* StatusText(int status) {
   switch (status) {
-    case 200: return "OK";
-    case 201: return "Created";
-    case 204: return "No Content";
-    case 400: return "Bad Request";
-    case 404: return "Not Found";
-    case 405: return "Method Not Allowed";
-    case 409: return "Conflict";
-    case 500: return "Internal Server Error";
-    default: return "Status";
+    case 200:
+      return "OK";
+    case 201:
+      return "Created";
+    case 204:
+      return "No Content";
+    case 400:
+      return "Bad Request";
+    case 404:
+      return "Not Found";
+    case 405:
+      return "Method Not Allowed";
+    case 409:
+      return "Conflict";
+    case 500:
+      return "Internal Server Error";
+    default:
+      return "Status";
   }
 }
 
@@ -337,8 +346,8 @@ void MjpegServer::SourceLoop() {
     if (next < now) next = now;  // fell behind: do not burst
     // Sleep in short steps so Stop() is prompt.
     while (!stop_ && std::chrono::steady_clock::now() < next) {
-      std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(next - std::chrono::steady_clock::now(),
-                                                                                 kPollStep));
+      std::this_thread::sleep_for(
+          std::min<std::chrono::steady_clock::duration>(next - std::chrono::steady_clock::now(), kPollStep));
     }
   }
 }
@@ -444,7 +453,10 @@ void MjpegServer::Stream(int fd) {
     std::string part;
     if (options_.send_content_length) part += "Content-Length: " + std::to_string(frame->size()) + "\r\n";
     char ts[64];
-    std::snprintf(ts, sizeof(ts), "X-Timestamp: %lld.%06lld\r\n\r\n", static_cast<long long>(stamp_us / 1000000),
+    std::snprintf(ts,
+                  sizeof(ts),
+                  "X-Timestamp: %lld.%06lld\r\n\r\n",
+                  static_cast<long long>(stamp_us / 1000000),
                   static_cast<long long>(stamp_us % 1000000));
     part += ts;
     part.append(reinterpret_cast<const char*>(frame->data()), frame->size());

@@ -75,12 +75,12 @@ struct HttpResponse {
 
 struct MjpegServerOptions {
   std::string bind_address = "127.0.0.1";
-  int port = 0;                                // 0 = ephemeral; Port() tells
+  int port = 0;  // 0 = ephemeral; Port() tells
   std::string stream_path = "/stream/video.mjpeg";
   std::string boundary = "boundarydonotcross";  // as mjpg-streamer
-  double fps = 30.0;                           // FrameSource polling rate [Hz]
+  double fps = 30.0;                            // FrameSource polling rate [Hz]
   bool send_content_length = true;
-  int send_buffer_bytes = 64 * 1024;           // SO_SNDBUF of a stream socket; 0 = kernel autotuning
+  int send_buffer_bytes = 64 * 1024;                // SO_SNDBUF of a stream socket; 0 = kernel autotuning
   std::chrono::milliseconds request_timeout{5000};  // idle timeout for the request (headers and body)
   LogSink log;
   bool Check(std::string* why) const;

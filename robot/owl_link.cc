@@ -10,7 +10,8 @@ bool OwlLinkOptions::Check(std::string* why) const {
     return false;
   };
   if (host.empty()) return fail("no robot host given (pass --robot HOST[:PORT]; 10.0.0.10 is never assumed)");
-  if (servo_port < 1 || servo_port > 65535) return fail("servo port " + std::to_string(servo_port) + " is not 1..65535");
+  if (servo_port < 1 || servo_port > 65535)
+    return fail("servo port " + std::to_string(servo_port) + " is not 1..65535");
   if (http_port < 1 || http_port > 65535) return fail("http port " + std::to_string(http_port) + " is not 1..65535");
   return true;
 }

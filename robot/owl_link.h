@@ -33,7 +33,7 @@ inline constexpr int kDefaultServoPort = 12345;
 inline constexpr int kDefaultHttpPort = 8080;
 
 struct OwlLinkOptions {
-  std::string host;                      // no default: never assume a robot
+  std::string host;  // no default: never assume a robot
   int servo_port = kDefaultServoPort;
   int http_port = kDefaultHttpPort;
   std::string stream_path = "/stream/video.mjpeg";
@@ -41,7 +41,7 @@ struct OwlLinkOptions {
   std::chrono::milliseconds connect_timeout{2000};
   std::chrono::milliseconds reply_timeout{1000};
   std::chrono::milliseconds command_timeout{0};  // > 0: one command, retries included, takes at most this
-  LogSink log;                           // clamps and link events
+  LogSink log;                                   // clamps and link events
   bool Check(std::string* why) const;
 };
 

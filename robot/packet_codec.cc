@@ -10,8 +10,8 @@ std::string EncodePacket(const models::PwmVector& pwm_us) {
   for (int i = 0; i < models::kNumServos; ++i) {
     const int v = pwm_us[i];
     if (v < 1000 || v > 9999) {
-      throw std::invalid_argument(std::string("servo packet: ") + models::kServoNames[i] + " = " +
-                                  std::to_string(v) + " us is not a four-digit pulse width");
+      throw std::invalid_argument(std::string("servo packet: ") + models::kServoNames[i] + " = " + std::to_string(v) +
+                                  " us is not a four-digit pulse width");
     }
     if (i) out.push_back(' ');
     out += std::to_string(v);

@@ -29,8 +29,8 @@ std::string ValidateRobotConfig(const models::RobotConfig& config) {
   for (int i = 0; i < models::kNumServos; ++i) {
     const models::ServoConfig& s = config.servos[i];
     const std::string f = std::string("servos.") + models::kServoNames[i] + ".";
-    for (auto [name, v] : {std::pair<const char*, int>{"min_us", s.min_us}, {"max_us", s.max_us},
-                           {"centre_us", s.centre_us}}) {
+    for (auto [name, v] :
+         {std::pair<const char*, int>{"min_us", s.min_us}, {"max_us", s.max_us}, {"centre_us", s.centre_us}}) {
       if (v < 1000 || v > 9999) {
         return f + name + " = " + std::to_string(v) + " is not a four-digit pulse width (1000..9999 us)";
       }
@@ -56,8 +56,8 @@ std::string ValidateRobotConfig(const models::RobotConfig& config) {
     return "ipd_mm = " + FormatDouble(config.ipd_m * 1000) + " is not in (0, 1000] mm";
   }
   if (config.image_width < kMinImageSide || config.image_width > kMaxImageSide) {
-    return "image.width = " + std::to_string(config.image_width) + " is not in " + std::to_string(kMinImageSide) + ".." +
-           std::to_string(kMaxImageSide) + " px";
+    return "image.width = " + std::to_string(config.image_width) + " is not in " + std::to_string(kMinImageSide) +
+           ".." + std::to_string(kMaxImageSide) + " px";
   }
   if (config.image_height < kMinImageSide || config.image_height > kMaxImageSide) {
     return "image.height = " + std::to_string(config.image_height) + " is not in " + std::to_string(kMinImageSide) +

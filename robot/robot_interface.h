@@ -27,17 +27,17 @@ namespace owlcal::robot {
 using models::PwmVector;
 
 struct StereoFrame {
-  int64_t seq = 0;               // stream sequence number (gaps = dropped frames)
-  int64_t stamp_ns = 0;          // receive time on the robot's clock (no hardware stamp exists)
-  std::vector<uint8_t> jpeg;     // the side-by-side frame as received (1280x480 MJPEG frame)
-  cv::Mat left, right;           // decoded 640x480 BGR halves, after the configured swap/mirror
+  int64_t seq = 0;            // stream sequence number (gaps = dropped frames)
+  int64_t stamp_ns = 0;       // receive time on the robot's clock (no hardware stamp exists)
+  std::vector<uint8_t> jpeg;  // the side-by-side frame as received (1280x480 MJPEG frame)
+  cv::Mat left, right;        // decoded 640x480 BGR halves, after the configured swap/mirror
 };
 
 struct ServoReply {
-  bool ok = false;               // a reply arrived before the timeout
-  std::string text;              // what the server answered ("ok", or the Rx value on a C server)
-  PwmVector sent{};              // what was put on the wire, after the limits guard
-  bool clamped = false;          // the guard changed at least one value
+  bool ok = false;       // a reply arrived before the timeout
+  std::string text;      // what the server answered ("ok", or the Rx value on a C server)
+  PwmVector sent{};      // what was put on the wire, after the limits guard
+  bool clamped = false;  // the guard changed at least one value
 };
 
 // Scene control: what a person does on a real robot (move a target), and the truth a

@@ -128,7 +128,8 @@ ServoClientReply ServoClient::SendBytes(std::string_view bytes) {
                                      : ": connection closed by the server");
     socket_.Close();
   }
-  if (reply.error.empty()) reply.error = where + ": no reply within " + std::to_string(options_.command_timeout.count()) + " ms";
+  if (reply.error.empty())
+    reply.error = where + ": no reply within " + std::to_string(options_.command_timeout.count()) + " ms";
   return reply;
 }
 

@@ -35,22 +35,22 @@
 namespace owlcal::robot {
 
 struct ServoClientOptions {
-  std::string host;                                  // no default: a robot is never assumed
+  std::string host;  // no default: a robot is never assumed
   int port = 12345;
   std::chrono::milliseconds connect_timeout{2000};
   std::chrono::milliseconds reply_timeout{1000};
-  int max_attempts = 2;                              // sends per command, reconnecting between
+  int max_attempts = 2;  // sends per command, reconnecting between
   std::chrono::milliseconds reconnect_delay{100};
-  std::chrono::milliseconds command_timeout{0};      // > 0: bound on one Send, retries included
+  std::chrono::milliseconds command_timeout{0};  // > 0: bound on one Send, retries included
   bool Check(std::string* why) const;
 };
 
 struct ServoClientReply {
-  bool ok = false;        // a valid reply arrived
-  std::string text;       // the reply ("ok", or a number from a C server), trailing CR/LF/NUL cut
-  bool bad_reply = false; // a reply arrived but was neither "ok" nor an Rx echo (see error)
-  int attempts = 0;       // sends it took
-  std::string error;      // why not ok (last failure)
+  bool ok = false;         // a valid reply arrived
+  std::string text;        // the reply ("ok", or a number from a C server), trailing CR/LF/NUL cut
+  bool bad_reply = false;  // a reply arrived but was neither "ok" nor an Rx echo (see error)
+  int attempts = 0;        // sends it took
+  std::string error;       // why not ok (last failure)
 };
 
 // True if `text` (trailing CR, LF and NUL already removed) is a reply a course server gives:

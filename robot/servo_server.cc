@@ -38,9 +38,12 @@ bool ServoServerOptions::Check(std::string* why) const {
 
 std::string ModeName(ServoServerOptions::Mode mode) {
   switch (mode) {
-    case ServoServerOptions::Mode::kPython: return "python";
-    case ServoServerOptions::Mode::kC: return "c";
-    case ServoServerOptions::Mode::kOwlcal: break;
+    case ServoServerOptions::Mode::kPython:
+      return "python";
+    case ServoServerOptions::Mode::kC:
+      return "c";
+    case ServoServerOptions::Mode::kOwlcal:
+      break;
   }
   return "owlcal";
 }
@@ -169,8 +172,9 @@ bool ServoServer::ServeC(Socket client) {
     if (got <= 0) {
       // read() gives 0 at the client's close; MRSsocket.c then sets the same servos again and
       // replies into the closed socket: SIGPIPE ends the process.
-      Exit("the client left; MRSsocket.c's next reply hits the closed socket and SIGPIPE (broken pipe) "
-           "kills it: one client per launch");
+      Exit(
+          "the client left; MRSsocket.c's next reply hits the closed socket and SIGPIPE (broken pipe) "
+          "kills it: one client per launch");
       return true;
     }
     const std::string bytes(buf, size_t(got));

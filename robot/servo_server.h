@@ -62,9 +62,9 @@ struct ServoServerOptions {
   int port = 0;                            // 0 = ephemeral; Port() tells the chosen one
   enum class ReplyStyle { kOk, kRxValue } reply_style = ReplyStyle::kOk;
   models::RobotConfig robot = models::DefaultRobotConfig();  // limits for the guard
-  std::chrono::milliseconds partial_timeout{1000};  // a half packet this old ends the session
-  std::chrono::milliseconds idle_timeout{5000};     // kOwlcal: silent this long while another waits
-  LogSink log;                                       // clamps, malformed packets, sessions
+  std::chrono::milliseconds partial_timeout{1000};           // a half packet this old ends the session
+  std::chrono::milliseconds idle_timeout{5000};              // kOwlcal: silent this long while another waits
+  LogSink log;                                               // clamps, malformed packets, sessions
   bool Check(std::string* why) const;
 };
 
@@ -74,12 +74,12 @@ std::string ModeName(ServoServerOptions::Mode mode);
 ServoServerOptions::Mode ParseServerMode(const std::string& text);
 
 struct ServoServerStats {
-  int64_t num_sessions = 0;    // clients accepted
-  int64_t num_packets = 0;     // valid packets (on_packet calls)
-  int64_t num_malformed = 0;   // 24-byte packets DecodePacket rejected
-  int64_t num_clamped = 0;     // valid packets the guard changed
-  int64_t num_short = 0;       // sessions that ended with a non-empty short packet
-  int64_t num_idle_closed = 0; // kOwlcal sessions closed by the idle timeout
+  int64_t num_sessions = 0;     // clients accepted
+  int64_t num_packets = 0;      // valid packets (on_packet calls)
+  int64_t num_malformed = 0;    // 24-byte packets DecodePacket rejected
+  int64_t num_clamped = 0;      // valid packets the guard changed
+  int64_t num_short = 0;        // sessions that ended with a non-empty short packet
+  int64_t num_idle_closed = 0;  // kOwlcal sessions closed by the idle timeout
 };
 
 class ServoServer {
@@ -123,7 +123,7 @@ class ServoServer {
   std::atomic<bool> running_{false};
   std::atomic<bool> stop_{false};
   std::atomic<bool> exited_{false};
-  std::string exit_reason_;    // guarded by mutex_
+  std::string exit_reason_;        // guarded by mutex_
   models::PwmVector c_globals_{};  // kC: MRSsocket.c's freq_* globals (zero at start)
   std::thread thread_;
   mutable std::mutex mutex_;  // guards stats_

@@ -25,10 +25,10 @@ namespace owlcal::robot {
 
 struct ShellCommand {
   enum class Kind { kMove, kCentre, kWait, kQuit } kind = Kind::kMove;
-  PwmVector pwm_us{};     // kMove
-  double seconds = 0;     // kWait
-  int line = 0;           // 1-based line in the source
-  std::string text;       // the line as written (trimmed, without comment)
+  PwmVector pwm_us{};  // kMove
+  double seconds = 0;  // kWait
+  int line = 0;        // 1-based line in the source
+  std::string text;    // the line as written (trimmed, without comment)
 };
 
 // Parses one line; nullopt for a blank or comment line. Throws std::invalid_argument
@@ -38,10 +38,10 @@ std::optional<ShellCommand> ParseShellLine(const std::string& line, int line_num
 std::vector<ShellCommand> ParseShellScript(const std::string& text, const std::string& source);
 
 struct ShellResult {
-  int num_moves = 0;      // servo packets sent (move + centre)
-  int num_clamped = 0;    // of them, changed by the limits guard
+  int num_moves = 0;    // servo packets sent (move + centre)
+  int num_clamped = 0;  // of them, changed by the limits guard
   double waited_s = 0;
-  bool quit = false;      // ended by a quit command
+  bool quit = false;  // ended by a quit command
 };
 
 // Runs the commands on `robot` in order, printing one line per command to `out`: what was

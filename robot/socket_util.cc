@@ -1,16 +1,16 @@
 #include "robot/socket_util.h"
 
 #include <arpa/inet.h>
-#include <cerrno>
-#include <cstring>
 #include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
-#include <stdexcept>
 #include <sys/socket.h>
 #include <unistd.h>
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
 
 namespace owlcal::robot {
 namespace {
@@ -170,8 +170,7 @@ HostPort ParseHostPort(const std::string& text, int default_port) {
   if (colon != std::string::npos) {
     const std::string port_text = text.substr(colon + 1);
     int port = -1;
-    if (!port_text.empty() && port_text.size() <= 5 &&
-        port_text.find_first_not_of("0123456789") == std::string::npos) {
+    if (!port_text.empty() && port_text.size() <= 5 && port_text.find_first_not_of("0123456789") == std::string::npos) {
       port = std::stoi(port_text);
     }
     if (port < 1 || port > 65535) {

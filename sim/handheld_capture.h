@@ -36,12 +36,12 @@ struct HandHeldCaptureOptions {
   double tilt_sigma_deg = 15;
   double roll_max_deg = 12;
   double margin_px = 4;
-  bool hand_held = true;              // the board moves while it is held (TargetMotion)
+  bool hand_held = true;  // the board moves while it is held (TargetMotion)
   // RMS speeds of the held board, chosen so that the eyes' disagreement (pose jitter, stereo
   // RMS over per-eye RMS) matches the real sets (bench/sim_real_bench.cc).
   double held_speed_m_s = 0.06;
   double held_angular_speed_deg_s = 8.0;
-  double settle_ms = 400;             // between placing the board and grabbing the pair
+  double settle_ms = 400;  // between placing the board and grabbing the pair
   int jpeg_quality = 95;
   uint64_t seed = 1;
 

@@ -65,10 +65,11 @@ void ApplyDefocus(const cv::Mat& sigma, cv::Mat* grey) {
 }  // namespace
 
 MipTexture::MipTexture(const cv::Mat& level0, bool wrap) : width_(level0.cols), height_(level0.rows), wrap_(wrap) {
-  if (level0.type() != CV_32F || level0.empty()) throw std::invalid_argument("MipTexture: level 0 must be a non-empty CV_32F image");
+  if (level0.type() != CV_32F || level0.empty())
+    throw std::invalid_argument("MipTexture: level 0 must be a non-empty CV_32F image");
   if (wrap && ((width_ & (width_ - 1)) || (height_ & (height_ - 1)))) {
-    throw std::invalid_argument("MipTexture: a wrapping texture needs power-of-two sizes, got " + std::to_string(width_) + "x" +
-                                std::to_string(height_));
+    throw std::invalid_argument("MipTexture: a wrapping texture needs power-of-two sizes, got " +
+                                std::to_string(width_) + "x" + std::to_string(height_));
   }
   Level l0{width_, height_, {}};
   l0.texels.assign(size_t(width_) * height_, 0.f);
@@ -153,7 +154,8 @@ TargetTexture MakeTargetTexture(const calib::TargetDefinition& def) {
       break;
     }
     case calib::TargetKind::kAprilGrid: {
-      if (def.family != "tag36h11") throw std::invalid_argument("MakeTargetTexture: family '" + def.family + "' (only tag36h11)");
+      if (def.family != "tag36h11")
+        throw std::invalid_argument("MakeTargetTexture: family '" + def.family + "' (only tag36h11)");
       // Texels per bit: m * 2^k with 8 m (1 + spacing) an integer, so every tag corner lies
       // on a texel boundary; >= 16 texels per bit.
       int m = 1;
@@ -272,7 +274,8 @@ EyeRenderer::EyeRenderer(const models::CameraIntrinsics& k, const StreamTruth& s
   inv_norm_.resize(n);
   gain_.resize(n);
   const double cx = k.params[2], cy = k.params[3];
-  const double r_corner2 = std::pow(std::max(cx, width_ - 1 - cx) / fx_, 2) + std::pow(std::max(cy, height_ - 1 - cy) / fy_, 2);
+  const double r_corner2 =
+      std::pow(std::max(cx, width_ - 1 - cx) / fx_, 2) + std::pow(std::max(cy, height_ - 1 - cy) / fy_, 2);
   // Unproject pixel by pixel, warm-starting is not needed: Gauss-Newton converges in a few steps.
   for (int y = 0; y < height_; ++y)
     for (int x = 0; x < width_; ++x) {
@@ -315,9 +318,9 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
                          cv::Mat* depth_z_m,
                          const RowTiming& timing) const {
   struct Plane {
-    float m[9];                  // ray (x, y, 1) -> (u q2, v q2, q2) in level-0 texels
-    float x0, x1, y0, y1;        // bounding box in normalised ray coordinates
-    float w, h;                  // texture size (level-0 texels)
+    float m[9];            // ray (x, y, 1) -> (u q2, v q2, q2) in level-0 texels
+    float x0, x1, y0, y1;  // bounding box in normalised ray coordinates
+    float w, h;            // texture size (level-0 texels)
     float lod;
     bool wrap;
     const MipTexture* tex;
@@ -328,8 +331,11 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
     float uc, vc, hu, hv, kx, ky;
   };
   std::vector<Plane> planes;
-  auto add_plane = [&](const Eigen::Isometry3d& base_from_target, const TargetTexture& tt, bool wrap,
-                       const Eigen::Vector4d* extent, const SceneTarget* target = nullptr) {
+  auto add_plane = [&](const Eigen::Isometry3d& base_from_target,
+                       const TargetTexture& tt,
+                       bool wrap,
+                       const Eigen::Vector4d* extent,
+                       const SceneTarget* target = nullptr) {
     // cam_from_target = [R | t]; a target point (a, b, 0) is on ray lambda * (x, y, 1) with
     // (x, y, 1) ~ G (a, b, 1), G = [r1 r2 t]. Texture coords (u, v) = s * ((a, b) - origin).
     const Eigen::Matrix4d ct = cam_from_base.Matrix() * base_from_target.matrix();
@@ -424,8 +430,10 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
     const SceneTarget& t = scene.targets[i];
     if (!t.visible || !textures[i]) continue;
     const TargetTexture& tt = *textures[i];
-    const Eigen::Vector4d extent(tt.origin_m.x(), tt.origin_m.x() + tt.texture.width() / tt.texels_per_m,
-                                 tt.origin_m.y(), tt.origin_m.y() + tt.texture.height() / tt.texels_per_m);
+    const Eigen::Vector4d extent(tt.origin_m.x(),
+                                 tt.origin_m.x() + tt.texture.width() / tt.texels_per_m,
+                                 tt.origin_m.y(),
+                                 tt.origin_m.y() + tt.texture.height() / tt.texels_per_m);
     if (t.motion.Still()) {
       add_plane(t.base_from_target, tt, false, &extent, &t);
     } else {
@@ -449,10 +457,14 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
   bool rim_active = false;
   for (int i = 0; i < 2 * (width_ + height_) && !rim_active; i += 4) {
     int x, y;
-    if (i < width_) x = i, y = 0;
-    else if (i < 2 * width_) x = i - width_, y = height_ - 1;
-    else if (i < 2 * width_ + height_) x = 0, y = i - 2 * width_;
-    else x = width_ - 1, y = i - 2 * width_ - height_;
+    if (i < width_)
+      x = i, y = 0;
+    else if (i < 2 * width_)
+      x = i - width_, y = height_ - 1;
+    else if (i < 2 * width_ + height_)
+      x = 0, y = i - 2 * width_;
+    else
+      x = width_ - 1, y = i - 2 * width_ - height_;
     const size_t k = size_t(y) * width_ + x;
     const float c = (rax * ray_x_[k] + ray_ * ray_y_[k] + raz) * inv_norm_[k];
     rim_active = c < cos_start + 0.02f;
@@ -502,7 +514,8 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
         bv = v;
       }
       // The hit point is lambda * (rx, ry, 1) with lambda = 1 / q2: its camera z is 1 / q2.
-      if (depth_out) depth_out[x] = best >= 0 && inv_norm_[k] > 0 ? 1.f / best_q2 : std::numeric_limits<float>::quiet_NaN();
+      if (depth_out)
+        depth_out[x] = best >= 0 && inv_norm_[k] > 0 ? 1.f / best_q2 : std::numeric_limits<float>::quiet_NaN();
       if (defocus)
         defocus_sigma.at<float>(y, x) =
             best >= 0 && inv_norm_[k] > 0 ? float(DefocusSigmaPx(stream_, fx_, 1.0 / best_q2)) : 0.f;

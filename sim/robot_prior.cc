@@ -45,12 +45,13 @@ DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name) {
 
   const double ipd = uni(0.0625, 0.0655);
   const double z = uni(0.028, 0.032);
-  t.geometry.centre_in_head[models::kLeftEye] = Eigen::Vector3d(-ipd / 2 + uni(-2e-4, 2e-4), uni(-5e-4, 5e-4), z + uni(-5e-4, 5e-4));
+  t.geometry.centre_in_head[models::kLeftEye] =
+      Eigen::Vector3d(-ipd / 2 + uni(-2e-4, 2e-4), uni(-5e-4, 5e-4), z + uni(-5e-4, 5e-4));
   t.geometry.centre_in_head[models::kRightEye] =
       t.geometry.centre_in_head[models::kLeftEye] + Eigen::Vector3d(ipd, uni(-5e-4, 5e-4), uni(-1e-3, 1e-3));
   for (int e = 0; e < 2; ++e) {
     t.geometry.cam_from_eye[e] = CamFromEyeMounting({uni(-0.002, 0.002), uni(-0.002, 0.002), uni(0.013, 0.018)},
-                                                   {uni(-1.5, 1.5), uni(-1.5, 1.5), uni(-1.5, 1.5)});
+                                                    {uni(-1.5, 1.5), uni(-1.5, 1.5), uni(-1.5, 1.5)});
     const double fx = uni(480, 620);
     models::CameraIntrinsics& k = t.intrinsics[e];
     k.model = models::DistortionModel::kOpenCv5;
@@ -80,7 +81,8 @@ DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name) {
   st.rolling_shutter_ms = uni(20, 33);
 
   out.scene = DefaultScene();
-  if (SceneTarget* board = out.scene.Find("chessboard")) board->warp_m = Eigen::Vector2d(uni(0, 1.2e-3), uni(-3e-4, 3e-4));
+  if (SceneTarget* board = out.scene.Find("chessboard"))
+    board->warp_m = Eigen::Vector2d(uni(0, 1.2e-3), uni(-3e-4, 3e-4));
   t.Validate("drawn robot " + name);
   return out;
 }

@@ -16,8 +16,8 @@ namespace owlcal::sim {
 namespace {
 
 using models::kLeftEye;
-using models::kRightEye;
 using models::kNumServos;
+using models::kRightEye;
 using models::kServoNames;
 
 constexpr double kDeg = M_PI / 180.0;
@@ -65,7 +65,8 @@ void RobotTruth::Validate(const std::string& origin) const {
   };
   // The robot section is a robot file in another spelling: the same checks.
   const std::string robot_why = robot::ValidateRobotConfig(robot);
-  if (!robot_why.empty()) throw std::invalid_argument(origin + ": robot section (checked as a robot file): " + robot_why);
+  if (!robot_why.empty())
+    throw std::invalid_argument(origin + ": robot section (checked as a robot file): " + robot_why);
   for (int i = 0; i < kNumServos; ++i) {
     const ServoTruth& s = servos[i];
     const std::string f = std::string("servos.") + kServoNames[i];
@@ -97,12 +98,14 @@ void RobotTruth::Validate(const std::string& origin) const {
   }
   if (!(stream.fps > 0 && stream.fps <= 240)) fail("stream.fps", stream.fps, "must be in (0, 240]");
   if (stream.latency_ms < 0) fail("stream.latency_ms", stream.latency_ms, "must be >= 0");
-  if (stream.jpeg_quality < 1 || stream.jpeg_quality > 100) fail("stream.jpeg_quality", stream.jpeg_quality, "must be 1..100");
+  if (stream.jpeg_quality < 1 || stream.jpeg_quality > 100)
+    fail("stream.jpeg_quality", stream.jpeg_quality, "must be 1..100");
   if (stream.noise_sigma < 0) fail("stream.noise_sigma", stream.noise_sigma, "must be >= 0");
   if (stream.drop_probability < 0 || stream.drop_probability >= 1) {
     fail("stream.drop_probability", stream.drop_probability, "must be in [0, 1)");
   }
-  if (std::abs(stream.eye_offset_ms) * 1e-3 * stream.fps >= 1) fail("stream.eye_offset_ms", stream.eye_offset_ms, "must be below one frame period");
+  if (std::abs(stream.eye_offset_ms) * 1e-3 * stream.fps >= 1)
+    fail("stream.eye_offset_ms", stream.eye_offset_ms, "must be below one frame period");
   if (!(stream.blur_px >= 1 && stream.blur_px <= 8)) fail("stream.blur_px", stream.blur_px, "must be in [1, 8]");
   if (!(stream.black_level >= 0 && stream.black_level < stream.white_level && stream.white_level <= 255)) {
     fail("stream.white_level", stream.white_level, "must satisfy 0 <= black_level < white_level <= 255");
@@ -234,16 +237,24 @@ RobotTruth LoadRobotTruth(const std::string& path) {
       io::YamlFields k = cameras.Map(models::kEyeNames[e]);
       models::CameraIntrinsics& c = t.intrinsics[e];
       const std::string model = k.String("model");
-      if (model == "opencv5") c.model = models::DistortionModel::kOpenCv5;
-      else if (model == "opencv8") c.model = models::DistortionModel::kOpenCv8;
-      else k.Fail("model", "= '" + io::Printable(model) + "' is not opencv5 or opencv8");
+      if (model == "opencv5")
+        c.model = models::DistortionModel::kOpenCv5;
+      else if (model == "opencv8")
+        c.model = models::DistortionModel::kOpenCv8;
+      else
+        k.Fail("model", "= '" + io::Printable(model) + "' is not opencv5 or opencv8");
       c.width = k.Int("width", robot::kMinImageSide, robot::kMaxImageSide);
       c.height = k.Int("height", robot::kMinImageSide, robot::kMaxImageSide);
       c.params = k.Numbers("params", 4 + c.NumDistortion(), -1e5, 1e5);
       for (int j = 0; j < 2; ++j)
-        if (!(c.params[j] > 0)) k.Fail("params", "[" + std::to_string(j) + "] (focal length) = " + io::FormatNumber(c.params[j]) + " must be > 0");
+        if (!(c.params[j] > 0))
+          k.Fail("params",
+                 "[" + std::to_string(j) + "] (focal length) = " + io::FormatNumber(c.params[j]) + " must be > 0");
       for (int j = 4; j < static_cast<int>(c.params.size()); ++j)
-        if (std::abs(c.params[j]) > 1e3) k.Fail("params", "[" + std::to_string(j) + "] (distortion) = " + io::FormatNumber(c.params[j]) + " is outside [-1000, 1000]");
+        if (std::abs(c.params[j]) > 1e3)
+          k.Fail("params",
+                 "[" + std::to_string(j) + "] (distortion) = " + io::FormatNumber(c.params[j]) +
+                     " is outside [-1000, 1000]");
       k.RejectUnknown();
     }
     cameras.RejectUnknown();
@@ -301,7 +312,8 @@ std::string RobotTruthYaml(const RobotTruth& t) {
     const models::ServoConfig& c = t.robot.servos[i];
     y << YAML::Key << kServoNames[i] << YAML::Value << YAML::Flow << YAML::BeginMap;
     y << YAML::Key << "min_us" << YAML::Value << c.min_us << YAML::Key << "max_us" << YAML::Value << c.max_us;
-    y << YAML::Key << "centre_us" << YAML::Value << c.centre_us << YAML::Key << "direction" << YAML::Value << c.direction;
+    y << YAML::Key << "centre_us" << YAML::Value << c.centre_us << YAML::Key << "direction" << YAML::Value
+      << c.direction;
     y << YAML::Key << "nominal_deg_per_us" << YAML::Value << c.nominal_deg_per_us << YAML::EndMap;
   }
   y << YAML::EndMap << YAML::EndMap;
@@ -385,18 +397,29 @@ nlohmann::json RobotTruthJson(const RobotTruth& t) {
   r["mirror_stream"] = t.robot.mirror_stream;
   for (int i = 0; i < kNumServos; ++i) {
     const models::ServoConfig& c = t.robot.servos[i];
-    r["servos"][kServoNames[i]] = {{"min_us", c.min_us}, {"max_us", c.max_us}, {"centre_us", c.centre_us},
-                                   {"direction", c.direction}, {"nominal_deg_per_us", c.nominal_deg_per_us}};
+    r["servos"][kServoNames[i]] = {{"min_us", c.min_us},
+                                   {"max_us", c.max_us},
+                                   {"centre_us", c.centre_us},
+                                   {"direction", c.direction},
+                                   {"nominal_deg_per_us", c.nominal_deg_per_us}};
   }
   j["robot"] = r;
   for (int i = 0; i < kNumServos; ++i) {
     const ServoTruth& s = t.servos[i];
-    j["servos"][kServoNames[i]] = {
-        {"direction", s.direction},       {"centre_us", s.centre_us},         {"deg_per_us", s.deg_per_us},
-        {"quad_deg", s.quad_deg},         {"cubic_deg", s.cubic_deg},         {"hysteresis_us", s.hysteresis_us},
-        {"dead_band_us", s.dead_band_us}, {"quantum_us", s.quantum_us},       {"slew_deg_per_s", s.slew_deg_per_s},
-        {"lag_s", s.lag_s},               {"endstop_lo_us", s.endstop_lo_us}, {"endstop_hi_us", s.endstop_hi_us},
-        {"stop_lo_deg", s.StopLoRad() / kDeg}, {"stop_hi_deg", s.StopHiRad() / kDeg}};
+    j["servos"][kServoNames[i]] = {{"direction", s.direction},
+                                   {"centre_us", s.centre_us},
+                                   {"deg_per_us", s.deg_per_us},
+                                   {"quad_deg", s.quad_deg},
+                                   {"cubic_deg", s.cubic_deg},
+                                   {"hysteresis_us", s.hysteresis_us},
+                                   {"dead_band_us", s.dead_band_us},
+                                   {"quantum_us", s.quantum_us},
+                                   {"slew_deg_per_s", s.slew_deg_per_s},
+                                   {"lag_s", s.lag_s},
+                                   {"endstop_lo_us", s.endstop_lo_us},
+                                   {"endstop_hi_us", s.endstop_hi_us},
+                                   {"stop_lo_deg", s.StopLoRad() / kDeg},
+                                   {"stop_hi_deg", s.StopHiRad() / kDeg}};
   }
   for (int e = 0; e < 2; ++e) {
     const Eigen::Vector3d& c = t.geometry.centre_in_head[e];

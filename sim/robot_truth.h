@@ -81,17 +81,17 @@ struct SocketTruth {
 // Stream and image formation.
 struct StreamTruth {
   double fps = 30;
-  double latency_ms = 100;         // exposure -> frame received by the host
-  double eye_offset_ms = 4;        // right eye exposes this much after the left
+  double latency_ms = 100;   // exposure -> frame received by the host
+  double eye_offset_ms = 4;  // right eye exposes this much after the left
   int jpeg_quality = 85;
-  double noise_sigma = 1.5;        // Gaussian sensor noise before JPEG [grey levels of 255]
+  double noise_sigma = 1.5;  // Gaussian sensor noise before JPEG [grey levels of 255]
   double drop_probability = 0;
-  double servo_reply_ms = 1;       // round trip of one servo packet ("ok")
-  double lens_shading = 0.2;       // relative brightness loss at the image corner
-  double blur_px = 1.8;            // optical blur: footprint of the texture filter [px], >= 1
-  double white_level = 215;        // grey level of white paper at the image centre (exposure)
-  double black_level = 25;         // grey level of black ink
-  double rolling_shutter_ms = 0;   // readout time from the top row to the bottom row
+  double servo_reply_ms = 1;      // round trip of one servo packet ("ok")
+  double lens_shading = 0.2;      // relative brightness loss at the image corner
+  double blur_px = 1.8;           // optical blur: footprint of the texture filter [px], >= 1
+  double white_level = 215;       // grey level of white paper at the image centre (exposure)
+  double black_level = 25;        // grey level of black ink
+  double rolling_shutter_ms = 0;  // readout time from the top row to the bottom row
   // Defocus of the fixed-focus lens (thin lens, sim/renderer.h DefocusSigmaPx): a point at
   // depth z is spread over a disc of diameter aperture_mm * fx * |1/z - 1/focus_m| (fx in
   // this stream's pixels), on top of blur_px. The course notes (Annex 3a): f = 3.6 mm at
@@ -103,10 +103,10 @@ struct StreamTruth {
 
 struct RobotTruth {
   std::string name = "owl-default";
-  models::RobotConfig robot;                        // configured limits/centres (server clamp)
+  models::RobotConfig robot;  // configured limits/centres (server clamp)
   std::array<ServoTruth, models::kNumServos> servos;
   models::HeadGeometry geometry;
-  models::CameraIntrinsics intrinsics[2];           // [kLeftEye], [kRightEye]
+  models::CameraIntrinsics intrinsics[2];  // [kLeftEye], [kRightEye]
   SocketTruth socket;
   StreamTruth stream;
 

@@ -27,9 +27,12 @@ Eigen::Matrix3d Rpy(double roll_deg, double pitch_deg, double yaw_deg) {
 
 const char* KindName(calib::TargetKind k) {
   switch (k) {
-    case calib::TargetKind::kChessboard: return "chessboard";
-    case calib::TargetKind::kAprilGrid: return "aprilgrid";
-    case calib::TargetKind::kFixation: return "fixation";
+    case calib::TargetKind::kChessboard:
+      return "chessboard";
+    case calib::TargetKind::kAprilGrid:
+      return "aprilgrid";
+    case calib::TargetKind::kFixation:
+      return "fixation";
   }
   return "?";
 }
@@ -60,7 +63,8 @@ Eigen::Isometry3d TargetMotion::Offset(int64_t t_ns) const {
       p[axis] += speed_m_s * a * std::sin(w * t + phase());
       r[axis] += angular_speed_deg_s * kDeg * a * std::sin(w * t + phase());
     }
-  m.linear() = (r.norm() > 0 ? Eigen::AngleAxisd(r.norm(), r.normalized()) : Eigen::AngleAxisd::Identity()).toRotationMatrix();
+  m.linear() =
+      (r.norm() > 0 ? Eigen::AngleAxisd(r.norm(), r.normalized()) : Eigen::AngleAxisd::Identity()).toRotationMatrix();
   m.translation() = p;
   return m;
 }
@@ -197,16 +201,19 @@ nlohmann::json PoseJson(const Eigen::Isometry3d& pose) {
 }
 
 Eigen::Isometry3d PoseFromJson(const nlohmann::json& j) {
-  if (!j.is_object()) throw std::invalid_argument("pose: expected an object with t_m and q_xyzw or rpy_deg, got " + j.dump());
+  if (!j.is_object())
+    throw std::invalid_argument("pose: expected an object with t_m and q_xyzw or rpy_deg, got " + j.dump());
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   auto vec = [&](const char* key, size_t n) {
     const nlohmann::json& v = j.at(key);
     if (!v.is_array() || v.size() != n) {
-      throw std::invalid_argument(std::string("pose.") + key + ": expected " + std::to_string(n) + " numbers, got " + v.dump());
+      throw std::invalid_argument(std::string("pose.") + key + ": expected " + std::to_string(n) + " numbers, got " +
+                                  v.dump());
     }
     std::vector<double> out;
     for (const auto& x : v) {
-      if (!x.is_number()) throw std::invalid_argument(std::string("pose.") + key + ": '" + x.dump() + "' is not a number");
+      if (!x.is_number())
+        throw std::invalid_argument(std::string("pose.") + key + ": '" + x.dump() + "' is not a number");
       out.push_back(x.get<double>());
     }
     return out;
@@ -231,13 +238,16 @@ Eigen::Isometry3d PoseFromJson(const nlohmann::json& j) {
 nlohmann::json SceneJson(const SceneDescription& scene) {
   nlohmann::json j;
   const Background& b = scene.background;
-  j["background"] = {{"distance_m", b.distance_m}, {"texel_m", b.texel_m}, {"contrast", b.contrast},
-                     {"grey", b.grey}, {"seed", b.seed}};
+  j["background"] = {{"distance_m", b.distance_m},
+                     {"texel_m", b.texel_m},
+                     {"contrast", b.contrast},
+                     {"grey", b.grey},
+                     {"seed", b.seed}};
   j["targets"] = nlohmann::json::array();
   for (const SceneTarget& t : scene.targets) {
     const calib::TargetDefinition& d = t.definition;
-    nlohmann::json o = {{"name", d.id}, {"kind", KindName(d.kind)}, {"visible", t.visible},
-                        {"pose", PoseJson(t.base_from_target)}};
+    nlohmann::json o = {
+        {"name", d.id}, {"kind", KindName(d.kind)}, {"visible", t.visible}, {"pose", PoseJson(t.base_from_target)}};
     if (t.warp_m.x() != 0 || t.warp_m.y() != 0) o["warp_m"] = {t.warp_m.x(), t.warp_m.y()};
     if (!t.motion.Still()) {
       o["motion"] = {{"speed_m_s", t.motion.speed_m_s},
@@ -284,12 +294,17 @@ SceneDescription LoadScene(const std::string& path) {
     SceneTarget t;
     calib::TargetDefinition& d = t.definition;
     d.id = n.String("name");
-    if (d.id.empty() || !names.insert(d.id).second) n.Fail("name", "= '" + io::Printable(d.id) + "' is empty or not unique");
+    if (d.id.empty() || !names.insert(d.id).second)
+      n.Fail("name", "= '" + io::Printable(d.id) + "' is empty or not unique");
     const std::string kind = n.String("kind", "chessboard");
-    if (kind == "chessboard") d.kind = calib::TargetKind::kChessboard;
-    else if (kind == "aprilgrid") d.kind = calib::TargetKind::kAprilGrid;
-    else if (kind == "fixation") d.kind = calib::TargetKind::kFixation;
-    else n.Fail("kind", "= '" + io::Printable(kind) + "' is not chessboard, aprilgrid or fixation");
+    if (kind == "chessboard")
+      d.kind = calib::TargetKind::kChessboard;
+    else if (kind == "aprilgrid")
+      d.kind = calib::TargetKind::kAprilGrid;
+    else if (kind == "fixation")
+      d.kind = calib::TargetKind::kFixation;
+    else
+      n.Fail("kind", "= '" + io::Printable(kind) + "' is not chessboard, aprilgrid or fixation");
     d.cols = n.Int("cols", d.cols, 2, 100);
     d.rows = n.Int("rows", d.rows, 2, 100);
     d.square_m = n.Number("square_m", d.square_m, 1e-4, 10);
@@ -299,7 +314,8 @@ SceneDescription LoadScene(const std::string& path) {
     d.tag_spacing = n.Number("tag_spacing", d.tag_spacing, 0.125, 10);
     d.first_id = n.Int("first_id", d.first_id, 0, 100000);
     d.family = n.String("family", d.family);
-    if (d.family != "tag36h11") n.Fail("family", "= '" + io::Printable(d.family) + "' is not supported (only tag36h11)");
+    if (d.family != "tag36h11")
+      n.Fail("family", "= '" + io::Printable(d.family) + "' is not supported (only tag36h11)");
     d.fixation_radius_m = n.Number("fixation_radius_m", d.fixation_radius_m, 1e-4, 10);
     t.visible = n.Bool("visible", t.visible);
     if (n.Has("warp_m")) {

@@ -49,7 +49,7 @@ struct TargetMotion {
 };
 
 struct SceneTarget {
-  calib::TargetDefinition definition;      // definition.id is the target's name
+  calib::TargetDefinition definition;                                  // definition.id is the target's name
   Eigen::Isometry3d base_from_target = Eigen::Isometry3d::Identity();  // placed (nominal) pose
   bool visible = true;
   TargetMotion motion;
@@ -68,10 +68,10 @@ struct SceneTarget {
 };
 
 struct Background {
-  double distance_m = 3.0;   // a wall facing the robot at z = distance_m in the base frame
-  double texel_m = 0.004;    // texel size of its random texture
+  double distance_m = 3.0;  // a wall facing the robot at z = distance_m in the base frame
+  double texel_m = 0.004;   // texel size of its random texture
   double contrast = 0.35;
-  double grey = 0.55;        // mean brightness (0 black .. 1 white)
+  double grey = 0.55;  // mean brightness (0 black .. 1 white)
   uint64_t seed = 7;
 };
 

@@ -25,8 +25,8 @@ double ServoDynamics::CommandedAngle(int u_us, int approach) const {
 
 bool ServoDynamics::Command(int u_us, int64_t t_ns) {
   if (t_ns < segments_.back().t0_ns) {
-    throw std::invalid_argument("ServoDynamics::Command: time " + std::to_string(t_ns) + " ns is before the last command at " +
-                                std::to_string(segments_.back().t0_ns) + " ns");
+    throw std::invalid_argument("ServoDynamics::Command: time " + std::to_string(t_ns) +
+                                " ns is before the last command at " + std::to_string(segments_.back().t0_ns) + " ns");
   }
   const int q = std::max(1, truth_.quantum_us);
   const int u = int(std::lround(double(u_us) / q)) * q;
@@ -45,8 +45,8 @@ bool ServoDynamics::Command(int u_us, int64_t t_ns) {
 
 const ServoDynamics::Segment& ServoDynamics::SegmentAt(int64_t t_ns) const {
   // Last segment starting at or before t_ns (the first one if t_ns is older than history).
-  auto it = std::upper_bound(segments_.begin(), segments_.end(), t_ns,
-                             [](int64_t t, const Segment& s) { return t < s.t0_ns; });
+  auto it = std::upper_bound(
+      segments_.begin(), segments_.end(), t_ns, [](int64_t t, const Segment& s) { return t < s.t0_ns; });
   if (it == segments_.begin()) return segments_.front();
   return *(it - 1);
 }

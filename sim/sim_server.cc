@@ -50,13 +50,15 @@ void SimServer::Start() {
   so.log = options_.log;
   so.mode = options_.servo_mode;
   so.idle_timeout = options_.idle_timeout;
-  servo_server_ = std::make_unique<robot::ServoServer>(so, [this](const models::PwmVector& pwm) { owl_->SendServos(pwm); });
+  servo_server_ =
+      std::make_unique<robot::ServoServer>(so, [this](const models::PwmVector& pwm) { owl_->SendServos(pwm); });
   robot::MjpegServerOptions ho;
   ho.bind_address = options_.bind_address;
   ho.port = options_.http_port;
   ho.fps = owl_->Truth().stream.fps;
   ho.log = options_.log;
-  http_server_ = std::make_unique<robot::MjpegServer>(ho, nullptr, [this](const robot::HttpRequest& r) { return Route(r); });
+  http_server_ =
+      std::make_unique<robot::MjpegServer>(ho, nullptr, [this](const robot::HttpRequest& r) { return Route(r); });
   servo_server_->Start();
   http_server_->Start();
   stop_ = false;
@@ -75,7 +77,9 @@ void SimServer::Stop() {
 
 int SimServer::ServoPort() const { return servo_server_ ? servo_server_->Port() : 0; }
 int SimServer::HttpPort() const { return http_server_ ? http_server_->Port() : 0; }
-robot::ServoServerStats SimServer::ServoStats() const { return servo_server_ ? servo_server_->Stats() : robot::ServoServerStats{}; }
+robot::ServoServerStats SimServer::ServoStats() const {
+  return servo_server_ ? servo_server_->Stats() : robot::ServoServerStats{};
+}
 int64_t SimServer::NumFramesPublished() const { return http_server_ ? http_server_->NumFramesPublished() : 0; }
 
 bool SimServer::SleepUntil(int64_t t_ns) {

@@ -41,11 +41,11 @@ namespace owlcal::sim {
 struct SimServerOptions {
   VirtualOwlOptions owl;
   std::string bind_address = "127.0.0.1";
-  int servo_port = 12345;   // 0 = ephemeral
-  int http_port = 8080;     // 0 = ephemeral
+  int servo_port = 12345;  // 0 = ephemeral
+  int http_port = 8080;    // 0 = ephemeral
   robot::ServoServerOptions::Mode servo_mode = robot::ServoServerOptions::Mode::kOwlcal;
   std::chrono::milliseconds idle_timeout{5000};  // owlcal mode; see robot/servo_server.h
-  robot::LogSink log;       // session / clamp / malformed-packet messages
+  robot::LogSink log;                            // session / clamp / malformed-packet messages
   bool Check(std::string* why) const;
 };
 

@@ -35,14 +35,19 @@ bool VirtualOwlOptions::Check(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (latency_ms && !(*latency_ms >= 0 && *latency_ms < 10000)) return fail("latency_ms = " + std::to_string(*latency_ms) + " must be in [0, 10000)");
-  if (noise_sigma && !(*noise_sigma >= 0 && *noise_sigma < 100)) return fail("noise_sigma = " + std::to_string(*noise_sigma) + " must be in [0, 100)");
+  if (latency_ms && !(*latency_ms >= 0 && *latency_ms < 10000))
+    return fail("latency_ms = " + std::to_string(*latency_ms) + " must be in [0, 10000)");
+  if (noise_sigma && !(*noise_sigma >= 0 && *noise_sigma < 100))
+    return fail("noise_sigma = " + std::to_string(*noise_sigma) + " must be in [0, 100)");
   if (drop_probability && !(*drop_probability >= 0 && *drop_probability < 1)) {
     return fail("drop_probability = " + std::to_string(*drop_probability) + " must be in [0, 1)");
   }
-  if (jpeg_quality && (*jpeg_quality < 1 || *jpeg_quality > 100)) return fail("jpeg_quality = " + std::to_string(*jpeg_quality) + " must be 1..100");
-  if (quantum_us && (*quantum_us < 1 || *quantum_us > 50)) return fail("quantum_us = " + std::to_string(*quantum_us) + " must be 1..50");
-  if (eye_offset_ms && std::abs(*eye_offset_ms) > 30) return fail("eye_offset_ms = " + std::to_string(*eye_offset_ms) + " must be within +-30");
+  if (jpeg_quality && (*jpeg_quality < 1 || *jpeg_quality > 100))
+    return fail("jpeg_quality = " + std::to_string(*jpeg_quality) + " must be 1..100");
+  if (quantum_us && (*quantum_us < 1 || *quantum_us > 50))
+    return fail("quantum_us = " + std::to_string(*quantum_us) + " must be 1..50");
+  if (eye_offset_ms && std::abs(*eye_offset_ms) > 30)
+    return fail("eye_offset_ms = " + std::to_string(*eye_offset_ms) + " must be within +-30");
   return true;
 }
 
@@ -64,9 +69,10 @@ VirtualOwl::VirtualOwl(const VirtualOwlOptions& options)
     for (ServoTruth& s : truth_.servos) s.quantum_us = *options.quantum_us;
   truth_.Validate(options.truth_file.empty() ? "built-in robot truth" : options.truth_file);
   head_ = truth_.HeadModel();
-  scene_ = options.scene ? *options.scene
-                         : (options.scene_file.empty() ? DefaultScene() : LoadScene(options.scene_file));
-  for (const SceneTarget& t : scene_.targets) textures_.push_back(std::make_unique<TargetTexture>(MakeTargetTexture(t.definition)));
+  scene_ =
+      options.scene ? *options.scene : (options.scene_file.empty() ? DefaultScene() : LoadScene(options.scene_file));
+  for (const SceneTarget& t : scene_.targets)
+    textures_.push_back(std::make_unique<TargetTexture>(MakeTargetTexture(t.definition)));
   background_ = MakeBackgroundTexture(scene_.background);
   for (int e = 0; e < 2; ++e) renderers_[e] = std::make_unique<EyeRenderer>(truth_.intrinsics[e], truth_.stream);
   // Power on: every servo at rest at the robot file's centre.
@@ -263,7 +269,8 @@ robot::StereoFrame VirtualOwl::Compose(int64_t seq, const FrameTruth& ft, const 
     cv::imencode(".jpg", side, f.jpeg, {cv::IMWRITE_JPEG_QUALITY, truth_.stream.jpeg_quality});
     if (!decode_frames_) return f;
     received = cv::imdecode(f.jpeg, cv::IMREAD_COLOR);
-    if (received.empty()) throw std::runtime_error("virtual Owl: JPEG round trip of frame " + std::to_string(seq) + " failed");
+    if (received.empty())
+      throw std::runtime_error("virtual Owl: JPEG round trip of frame " + std::to_string(seq) + " failed");
   }
   // What a client does with the stream: undo the configured mirror/swap, split.
   if (truth_.robot.mirror_stream) cv::flip(received, received, 1);
@@ -289,8 +296,14 @@ cv::Mat VirtualOwl::RenderEyeGrey(models::Eye eye, const models::JointAngles& an
   const models::Rigid3d cam_from_base = CamFromBase(eye, angles);
   const models::Rigid3d cam_from_head = cam_from_base * models::HeadFromBase(angles.neck_rad).Inverse();
   cv::Mat grey;
-  renderers_[eye]->Render(cam_from_base, cam_from_head.rotation * Eigen::Vector3d::UnitZ(), truth_.socket, scene, tex,
-                          background_, &grey, depth_z_m);
+  renderers_[eye]->Render(cam_from_base,
+                          cam_from_head.rotation * Eigen::Vector3d::UnitZ(),
+                          truth_.socket,
+                          scene,
+                          tex,
+                          background_,
+                          &grey,
+                          depth_z_m);
   return grey;
 }
 
@@ -306,7 +319,8 @@ void VirtualOwl::SetTargetPose(const std::string& name, const Eigen::Isometry3d&
   if (!t) throw std::invalid_argument("virtual Owl: no scene target named '" + name + "'");
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c)
-      if (!std::isfinite(base_from_target.matrix()(r, c))) throw std::invalid_argument("virtual Owl: pose of '" + name + "' is not finite");
+      if (!std::isfinite(base_from_target.matrix()(r, c)))
+        throw std::invalid_argument("virtual Owl: pose of '" + name + "' is not finite");
   const Eigen::Vector3d at = base_from_target.translation();
   if (at.cwiseAbs().maxCoeff() > kMaxTargetOffset_m) {
     throw std::invalid_argument("virtual Owl: pose of '" + name + "' at t_m = [" + io::SignificantText(at.x(), 6) +
@@ -322,7 +336,8 @@ void VirtualOwl::SetTargetMotion(const std::string& name, const TargetMotion& mo
   std::lock_guard<std::mutex> lock(mutex_);
   SceneTarget* t = scene_.Find(name);
   if (!t) throw std::invalid_argument("virtual Owl: no scene target named '" + name + "'");
-  if (!(motion.speed_m_s >= 0 && motion.speed_m_s < 2 && motion.angular_speed_deg_s >= 0 && motion.angular_speed_deg_s < 360))
+  if (!(motion.speed_m_s >= 0 && motion.speed_m_s < 2 && motion.angular_speed_deg_s >= 0 &&
+        motion.angular_speed_deg_s < 360))
     throw std::invalid_argument("virtual Owl: motion of '" + name + "' out of range");
   t->motion = motion;
   cached_frame_.reset();

@@ -48,22 +48,22 @@
 namespace owlcal::sim {
 
 struct VirtualOwlOptions {
-  std::string truth_file;   // empty = built-in default robot truth (data/sim/owl_default_truth.yaml)
-  std::string scene_file;   // empty = built-in default scene
+  std::string truth_file;  // empty = built-in default robot truth (data/sim/owl_default_truth.yaml)
+  std::string scene_file;  // empty = built-in default scene
   uint64_t seed = 1;
   // Used instead of the files when set.
   std::optional<RobotTruth> truth;
   std::optional<SceneDescription> scene;
   // Overrides of the truth file's stream/servo settings.
   std::optional<double> latency_ms;
-  std::optional<double> noise_sigma;        // grey levels; 0 = no noise
+  std::optional<double> noise_sigma;  // grey levels; 0 = no noise
   std::optional<double> drop_probability;
   std::optional<double> eye_offset_ms;
   std::optional<int> jpeg_quality;
-  std::optional<int> quantum_us;            // all five servos (1, or 5 as pigpio)
-  bool encode_jpeg = true;   // false: StereoFrame.jpeg stays empty, halves are the raw render
-  bool decode_frames = true; // false: StereoFrame.left/right stay empty (served mode)
-  bool real_time = false;    // served mode: the host's clock
+  std::optional<int> quantum_us;  // all five servos (1, or 5 as pigpio)
+  bool encode_jpeg = true;        // false: StereoFrame.jpeg stays empty, halves are the raw render
+  bool decode_frames = true;      // false: StereoFrame.left/right stay empty (served mode)
+  bool real_time = false;         // served mode: the host's clock
   bool Check(std::string* why) const;
 };
 
@@ -71,8 +71,8 @@ struct VirtualOwlOptions {
 struct FrameTruth {
   int64_t seq = 0;
   int64_t stamp_ns = 0;
-  int64_t exposure_ns[2] = {0, 0};            // [kLeftEye], [kRightEye]
-  models::JointAngles angles[2];              // the joint angles at each eye's exposure
+  int64_t exposure_ns[2] = {0, 0};  // [kLeftEye], [kRightEye]
+  models::JointAngles angles[2];    // the joint angles at each eye's exposure
   models::Rigid3d cam_from_base[2];
 };
 

@@ -44,9 +44,9 @@ TEST_F(CheckCalibrationCliTest, OwnCalibrationStillValidAndAMovedPrincipalPointI
   const RunResult cal = RunOwlcal("calibrate-images '" + (dir_ / "new").string() + "' --target '" + target_ +
                                   "' --out '" + (dir_ / "cal").string() + "'");
   ASSERT_TRUE(fs::exists(dir_ / "cal" / "results.json")) << cal.output;
-  const RunResult ok = RunOwlcal("check-calibration '" + (dir_ / "new").string() + "' --calib '" +
-                                 (dir_ / "cal").string() + "' --target '" + target_ + "' --out '" +
-                                 (dir_ / "ok").string() + "'");
+  const RunResult ok =
+      RunOwlcal("check-calibration '" + (dir_ / "new").string() + "' --calib '" + (dir_ / "cal").string() +
+                "' --target '" + target_ + "' --out '" + (dir_ / "ok").string() + "'");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
   EXPECT_NE(ok.output.find("Verdict: still valid"), std::string::npos) << ok.output;
   std::ifstream in(dir_ / "ok" / "check.json");

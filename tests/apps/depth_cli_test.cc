@@ -42,8 +42,8 @@ TEST_F(DepthCliTest, KitDistanceSetDepthAtTheTargetAgreesWithTheTape) {
                        << "left30cm.jpg,right30cm.jpg,30,352,216,64,48\n"
                        << "left80cm.jpg,right80cm.jpg,80,352,216,64,48\n"
                        << "left150cm.jpg,right150cm.jpg,150,352,216,64,48\n";
-  const RunResult r = RunOwlcal("depth '" + kit_ + "' --calib '" + calib_ + "' --truth '" + truth.string() + "' --out '" +
-                                (dir_ / "set").string() + "' --no-ply");
+  const RunResult r = RunOwlcal("depth '" + kit_ + "' --calib '" + calib_ + "' --truth '" + truth.string() +
+                                "' --out '" + (dir_ / "set").string() + "' --no-ply");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("disp16 x distance = K"), std::string::npos) << r.output;
   std::ifstream in(dir_ / "set" / "depth.json");
@@ -85,7 +85,8 @@ TEST_F(DepthCliTest, OnePairWritesAPointCloudAndRefusesABadOption) {
   const auto pos = ply.tellg();
   ply.seekg(0, std::ios::end);
   EXPECT_EQ(int64_t(ply.tellg() - pos), int64_t(vertices) * 15) << "3 floats + 3 bytes per vertex";
-  for (const char* f : {"disparity.png", "disparity16.png", "depth.png", "left_rect.png", "right_rect.png", "depth.json"})
+  for (const char* f :
+       {"disparity.png", "disparity16.png", "depth.png", "left_rect.png", "right_rect.png", "depth.json"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   const RunResult bad = RunOwlcal("depth '" + kit_ + "/left60cm.jpg' '" + kit_ + "/right60cm.jpg' --calib '" + calib_ +
                                   "' --num-disparities 100 --out '" + out.string() + "'");

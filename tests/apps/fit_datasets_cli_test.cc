@@ -77,8 +77,9 @@ TEST(FitDatasetsCli, ARefitOfACalibrateFolderReproducesEveryValueAndSigma) {
 
   // detect re-detects a dataset's recorded frames, each corner keeping its frame's command.
   const fs::path stereo = root / "cal" / "datasets" / "stereo";
-  const auto det = RunOwlcal("detect '" + stereo.string() + "' --target '" + std::string(OWLCAL_SOURCE_DIR) +
-                             "/data/targets/owl-kit-chessboard.yaml' --out '" + (root / "redetected.csv").string() + "'");
+  const auto det =
+      RunOwlcal("detect '" + stereo.string() + "' --target '" + std::string(OWLCAL_SOURCE_DIR) +
+                "/data/targets/owl-kit-chessboard.yaml' --out '" + (root / "redetected.csv").string() + "'");
   ASSERT_EQ(det.exit_code, 0) << det.output;
   const auto recorded = calib::ReadObservationsCsv((stereo / "observations.csv").string());
   const auto redetected = calib::ReadObservationsCsv((root / "redetected.csv").string());
@@ -102,8 +103,8 @@ TEST(FitDatasetsCli, ARefitOfACalibrateFolderReproducesEveryValueAndSigma) {
   const auto pc = Parameters(c);
   EXPECT_NE(pc.at("head.ipd_mm").at("sigma"), pa.at("head.ipd_mm").at("sigma"));
   // The output folder is never overwritten.
-  const auto again = RunOwlcal("fit-datasets '" + (root / "cal").string() + "' --quiet --out '" +
-                               (root / "refit").string() + "'");
+  const auto again =
+      RunOwlcal("fit-datasets '" + (root / "cal").string() + "' --quiet --out '" + (root / "refit").string() + "'");
   EXPECT_EQ(again.exit_code, 2) << again.output;
   fs::remove_all(root);
 }

@@ -82,7 +82,16 @@ TEST(OwlcalJog, KeysThroughAPtyWidenConfirmWriteAndRevalidate) {
   const pid_t pid = ::forkpty(&master, nullptr, nullptr, nullptr);
   ASSERT_GE(pid, 0);
   if (pid == 0) {
-    ::execl(OWLCAL_BINARY, OWLCAL_BINARY, "jog", "--robot", "sim", "--out", out.c_str(), "--revalidate-servos", "Neck", "Rx",
+    ::execl(OWLCAL_BINARY,
+            OWLCAL_BINARY,
+            "jog",
+            "--robot",
+            "sim",
+            "--out",
+            out.c_str(),
+            "--revalidate-servos",
+            "Neck",
+            "Rx",
             static_cast<char*>(nullptr));
     std::_Exit(127);
   }
@@ -105,7 +114,7 @@ TEST(OwlcalJog, KeysThroughAPtyWidenConfirmWriteAndRevalidate) {
   send("]", "Rx -> its max limit 1890 us");
   send("a", "servo there");  // the socket rim already shows at 1890: narrowed to where it goes
   send("[", "Rx -> its min limit 1200 us");
-  send("a", "servo there");  // and at 1200
+  send("a", "servo there");         // and at 1200
   send("s", "/revalidation.csv)");  // the final line (either outcome)
   std::string rest;
   ReadUntil(master, &rest, "", 30);
@@ -132,15 +141,14 @@ TEST(OwlcalJog, KeysThroughAPtyWidenConfirmWriteAndRevalidate) {
   const int neck_max = got.servos[models::kNeck].max_us;
   // The stop (1960 us at the middle of the backlash band) is met at +half the band when it is
   // approached from below, as a widening does.
-  const double neck_stop =
-      truth.servos[models::kNeck].endstop_hi_us + truth.servos[models::kNeck].hysteresis_us / 2;
-  EXPECT_GT(neck_max, 1950);                // widened
-  EXPECT_LE(neck_max, neck_stop);           // within the true stop
-  EXPECT_GE(neck_max, neck_stop - 8);       // and found near it
+  const double neck_stop = truth.servos[models::kNeck].endstop_hi_us + truth.servos[models::kNeck].hysteresis_us / 2;
+  EXPECT_GT(neck_max, 1950);                          // widened
+  EXPECT_LE(neck_max, neck_stop);                     // within the true stop
+  EXPECT_GE(neck_max, neck_stop - 8);                 // and found near it
   EXPECT_EQ(got.servos[models::kNeck].min_us, 1095);  // confirmed
   EXPECT_GE(got.servos[models::kNeck].min_us, truth.servos[models::kNeck].endstop_lo_us);
   const int rx_max = got.servos[models::kRx].max_us;
-  EXPECT_LT(rx_max, 1890);                  // narrowed to the rim
+  EXPECT_LT(rx_max, 1890);  // narrowed to the rim
   EXPECT_GT(rx_max, file.servos[models::kRx].centre_us + 150);
   for (int s : {models::kRy, models::kLx, models::kLy}) {
     EXPECT_EQ(got.servos[s].min_us, file.servos[s].min_us) << models::kServoNames[s];
@@ -181,7 +189,8 @@ TEST(OwlcalJog, KeysThroughAPtyWidenConfirmWriteAndRevalidate) {
   // The re-validation ran the limits protocol on the new file: both servos pass.
   const calib::CsvTable rv = calib::CsvTable::Read(out + "/revalidation.csv");
   ASSERT_EQ(rv.NumRows(), 2u);
-  for (size_t r = 0; r < 2; ++r) EXPECT_EQ(rv.Text(r, "result"), "pass") << rv.Text(r, "servo") << ": " << rv.Text(r, "message") << "\n" << log;
+  for (size_t r = 0; r < 2; ++r)
+    EXPECT_EQ(rv.Text(r, "result"), "pass") << rv.Text(r, "servo") << ": " << rv.Text(r, "message") << "\n" << log;
   EXPECT_EQ(rv.Text(0, "servo"), "Neck");
   EXPECT_EQ(rv.Int(0, "max_us", 1000, 9999), neck_max);
   EXPECT_TRUE(fs::exists(out + "/revalidation/limits.csv"));

@@ -31,7 +31,8 @@ TEST(LostTargetCli, ALostFixationIsARowCountedAndNamedInTheReport) {
   const fs::path out = fs::temp_directory_path() / ("owlcal_lost_target_" + std::to_string(::getpid()));
   fs::remove_all(out);
   const std::string protocol = std::string(OWLCAL_SOURCE_DIR) + "/tests/data/protocols/vergence_lost_target.yaml";
-  const auto r = RunOwlcal("calibrate --quiet --no-figures --protocols '" + protocol + "' --out '" + out.string() + "'");
+  const auto r =
+      RunOwlcal("calibrate --quiet --no-figures --protocols '" + protocol + "' --out '" + out.string() + "'");
   ASSERT_EQ(r.exit_code, 0) << r.output;
 
   // The dataset: one row per fixation, the second lost.

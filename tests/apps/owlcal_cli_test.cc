@@ -50,7 +50,8 @@ struct RunResult {
 
 RunResult RunOwlcal(const std::string& args) {
   RunResult r;
-  std::string cmd = OwlcalBinary();  // appended in place: GCC 12 warns (-Wrestrict, false positive) on a literal + string
+  std::string cmd =
+      OwlcalBinary();  // appended in place: GCC 12 warns (-Wrestrict, false positive) on a literal + string
   cmd.insert(cmd.begin(), '\'');
   cmd.append("' ").append(args).append(" 2>&1");
   FILE* pipe = popen(cmd.c_str(), "r");
@@ -199,9 +200,17 @@ TEST_F(OwlcalCliTest, CalibrateImagesWritesTheCourseFilesInMillimetresAndEveryEx
   const RunResult r = RunOwlcal("calibrate-images '" + images + "' --target '" + target +
                                 "' --board-warp flat --out '" + dir.string() + "'");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  for (const char* f : {"results.json", "evaluation.json", "calibration.yaml", "intrinsics.xml", "extrinsics.xml",
-                        "exports/ros_left.yaml", "exports/ros_right.yaml", "exports/kalibr_camchain.yaml",
-                        "exports/left.cameramodel", "exports/right.cameramodel", "report/index.html"})
+  for (const char* f : {"results.json",
+                        "evaluation.json",
+                        "calibration.yaml",
+                        "intrinsics.xml",
+                        "extrinsics.xml",
+                        "exports/ros_left.yaml",
+                        "exports/ros_right.yaml",
+                        "exports/kalibr_camchain.yaml",
+                        "exports/left.cameramodel",
+                        "exports/right.cameramodel",
+                        "report/index.html"})
     EXPECT_TRUE(fs::exists(dir / f)) << f << "\n" << r.output;
   EXPECT_FALSE(fs::exists(dir / "report" / "report")) << "the report belongs in OUT/report/index.html";
   {
@@ -232,8 +241,13 @@ TEST_F(OwlcalCliTest, CalibrateImagesWritesTheCourseFilesInMillimetresAndEveryEx
   };
   EXPECT_EQ(std::string(oe["length_unit"]), "mm");
   const cv::Mat t_ref = mat(re, "T"), t = mat(oe, "T");
-  std::printf("kit2020 T [mm]: owlcal %.2f %.2f %.2f, course %.2f %.2f %.2f\n", t.at<double>(0), t.at<double>(1),
-              t.at<double>(2), t_ref.at<double>(0), t_ref.at<double>(1), t_ref.at<double>(2));
+  std::printf("kit2020 T [mm]: owlcal %.2f %.2f %.2f, course %.2f %.2f %.2f\n",
+              t.at<double>(0),
+              t.at<double>(1),
+              t.at<double>(2),
+              t_ref.at<double>(0),
+              t_ref.at<double>(1),
+              t_ref.at<double>(2));
   EXPECT_NEAR(cv::norm(t - t_ref), 0.0, 1.0);  // mm, not m: a unit slip would be 64 mm off
   EXPECT_NEAR(mat(oe, "Q").at<double>(3, 2) / mat(re, "Q").at<double>(3, 2), 1.0, 0.01);
   EXPECT_NEAR(mat(oi, "M1").at<double>(0, 0) / mat(ri, "M1").at<double>(0, 0), 1.0, 0.015);

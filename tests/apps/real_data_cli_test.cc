@@ -11,9 +11,9 @@
 
 #include "calib/observation_io.h"
 #include "fitting/result.h"
+#include "owlcal_version.h"
 #include "tests/apps/run_owlcal.h"
 #include "tests/fitting/toe_in_synthetic.h"
-#include "owlcal_version.h"
 #include "tests/shared_data.h"
 
 extern "C" {
@@ -130,8 +130,8 @@ TEST_F(RealDataCliTest, CalibrateImagesRefusesAMirroredSetAndNamesTheFlag) {
   const std::string data = test_data::SharedData();
   const fs::path out = dir_ / "mirrored";
   const auto r = RunOwlcal("calibrate-images '" + data + "/owl-real/darvill2019-chessboard/session3' --target '" +
-                           std::string(OWLCAL_SOURCE_DIR) + "/data/targets/owl-kit-chessboard.yaml' --no-report --out '" +
-                           out.string() + "'");
+                           std::string(OWLCAL_SOURCE_DIR) +
+                           "/data/targets/owl-kit-chessboard.yaml' --no-report --out '" + out.string() + "'");
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("--mirror"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("verdict: unusable"), std::string::npos) << r.output;

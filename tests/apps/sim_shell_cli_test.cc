@@ -62,7 +62,8 @@ TEST_F(SimShellCliTest, ShellMovesWaitsAndCentresOverOneConnectionToACServer) {
   EXPECT_NE(r.output.find("3 servo commands (1 clamped)"), std::string::npos) << r.output;
   EXPECT_EQ(server.ServoStats().num_sessions, 1);
   EXPECT_EQ(server.ServoStats().num_packets, 3);
-  for (int i = 0; i < 300 && !server.ServoServerExited(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 300 && !server.ServoServerExited(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_TRUE(server.ServoServerExited());
   // The C server is gone: a second run is refused, naming the address.
   const auto again = RunOwlcal("centre --robot 127.0.0.1:" + std::to_string(server.ServoPort()) + " --timeout-ms 500");

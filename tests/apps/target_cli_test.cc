@@ -51,9 +51,10 @@ TEST_F(TargetCliTest, SampleBoardInSquaresNeedsATrueSizeThenPrintsAndDetectsAtIt
   EXPECT_EQ(tf.target.rows, 6);
   EXPECT_NEAR(tf.target.square_m, 0.018, 1e-12);
 
-  ASSERT_EQ(std::system(("pdftoppm -r 150 -gray -png -singlefile '" + pdf.string() + "' '" + (dir_ / "page").string() +
-                         "'").c_str()),
-            0)
+  ASSERT_EQ(
+      std::system(
+          ("pdftoppm -r 150 -gray -png -singlefile '" + pdf.string() + "' '" + (dir_ / "page").string() + "'").c_str()),
+      0)
       << "pdftoppm failed or is missing (scripts/install-deps.sh installs poppler-utils)";
   const cv::Mat page = cv::imread((dir_ / "page.png").string(), cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(page.empty());

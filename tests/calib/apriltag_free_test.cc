@@ -88,16 +88,30 @@ Eigen::Vector2d Expected(const cv::Matx33d& H, double u, double v) {
 // Cell -> image: `cell_px` pixels per cell, rotated, mild perspective, tag centre at (cx, cy).
 cv::Matx33d TagHomography(double cell_px, double angle_deg, double cx, double cy, double persp, int total_width) {
   const double a = angle_deg * M_PI / 180, h = total_width / 2.0;
-  const cv::Matx33d R(cell_px * std::cos(a), -cell_px * std::sin(a), 0, cell_px * std::sin(a), cell_px * std::cos(a),
-                      0, persp, 0.3 * persp, 1);
+  const cv::Matx33d R(cell_px * std::cos(a),
+                      -cell_px * std::sin(a),
+                      0,
+                      cell_px * std::sin(a),
+                      cell_px * std::cos(a),
+                      0,
+                      persp,
+                      0.3 * persp,
+                      1);
   return cv::Matx33d(1, 0, cx, 0, 1, cy, 0, 0, 1) * R * cv::Matx33d(1, 0, -h, 0, 1, -h, 0, 0, 1);
 }
 
 TEST(AprilTagFree, EveryShippedFamilyIsOffered) {
   const auto names = AprilTagFamilyNames();
   EXPECT_EQ(names.size(), 9u);
-  for (const char* f : {"tag36h11", "tag36h10", "tag25h9", "tag16h5", "tagCircle21h7", "tagCircle49h12",
-                        "tagCustom48h12", "tagStandard41h12", "tagStandard52h13"}) {
+  for (const char* f : {"tag36h11",
+                        "tag36h10",
+                        "tag25h9",
+                        "tag16h5",
+                        "tagCircle21h7",
+                        "tagCircle49h12",
+                        "tagCustom48h12",
+                        "tagStandard41h12",
+                        "tagStandard52h13"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), f), names.end()) << f;
     double a, b;
     int w;
@@ -148,35 +162,35 @@ TEST(AprilTagFree, CornersWithinATenthOfAPixelOnRenderedTags) {
     for (double angle : {0.0, 17.0, -33.0}) {
       for (double persp : {0.0, 0.0005}) {
         for (double blur : {0.0, 0.8}) {
-        const cv::Matx33d H = TagHomography(12, angle, 163.3, 118.7, persp, total);
-        cv::Mat img(240, 320, CV_8U, cv::Scalar(255));
-        DrawTag(cells, H, &img);
-        if (blur > 0) cv::GaussianBlur(img, img, cv::Size(0, 0), blur);
-        for (double decimate : {1.0, 2.0}) {
-          AprilTagOptions o;
-          o.families = {family};
-          o.quad_decimate = decimate;
-          const auto tags = DetectAprilTags(img, o);
-          ASSERT_EQ(tags.size(), 1u) << family << " angle " << angle;
-          EXPECT_EQ(tags[0].family, family);
-          EXPECT_EQ(tags[0].id, id);
-          EXPECT_EQ(tags[0].hamming, 0);
-          EXPECT_GT(tags[0].decision_margin, 50);
-          EXPECT_FALSE(tags[0].repeated_id);
-          const Eigen::Vector2d expect[4] = {Expected(H, first, first), Expected(H, last, first),
-                                             Expected(H, last, last), Expected(H, first, last)};
-          EXPECT_TRUE(tags[0].corners_refined);
-          for (int k = 0; k < 4; ++k) {
-            const double e = (tags[0].corners[k] - expect[k]).norm();
-            worst = std::max(worst, e);
-            worst_library = std::max(worst_library, (tags[0].library_corners[k] - expect[k]).norm());
-            EXPECT_LE(e, 0.1) << family << " corner " << k << " angle " << angle << " persp " << persp << " blur "
-                              << blur << " decimate " << decimate << ": got " << tags[0].corners[k].transpose()
-                              << ", expected " << expect[k].transpose();
+          const cv::Matx33d H = TagHomography(12, angle, 163.3, 118.7, persp, total);
+          cv::Mat img(240, 320, CV_8U, cv::Scalar(255));
+          DrawTag(cells, H, &img);
+          if (blur > 0) cv::GaussianBlur(img, img, cv::Size(0, 0), blur);
+          for (double decimate : {1.0, 2.0}) {
+            AprilTagOptions o;
+            o.families = {family};
+            o.quad_decimate = decimate;
+            const auto tags = DetectAprilTags(img, o);
+            ASSERT_EQ(tags.size(), 1u) << family << " angle " << angle;
+            EXPECT_EQ(tags[0].family, family);
+            EXPECT_EQ(tags[0].id, id);
+            EXPECT_EQ(tags[0].hamming, 0);
+            EXPECT_GT(tags[0].decision_margin, 50);
+            EXPECT_FALSE(tags[0].repeated_id);
+            const Eigen::Vector2d expect[4] = {
+                Expected(H, first, first), Expected(H, last, first), Expected(H, last, last), Expected(H, first, last)};
+            EXPECT_TRUE(tags[0].corners_refined);
+            for (int k = 0; k < 4; ++k) {
+              const double e = (tags[0].corners[k] - expect[k]).norm();
+              worst = std::max(worst, e);
+              worst_library = std::max(worst_library, (tags[0].library_corners[k] - expect[k]).norm());
+              EXPECT_LE(e, 0.1) << family << " corner " << k << " angle " << angle << " persp " << persp << " blur "
+                                << blur << " decimate " << decimate << ": got " << tags[0].corners[k].transpose()
+                                << ", expected " << expect[k].transpose();
+            }
+            const Eigen::Vector2d centre = Expected(H, total / 2.0, total / 2.0);
+            EXPECT_LE((tags[0].centre - centre).norm(), 0.1);
           }
-          const Eigen::Vector2d centre = Expected(H, total / 2.0, total / 2.0);
-          EXPECT_LE((tags[0].centre - centre).norm(), 0.1);
-        }
         }
       }
     }
@@ -199,8 +213,10 @@ TEST(AprilTagFree, MatchesTheRawLibraryOnAPhotoAndKeepsRepeatedIds) {
     double cell_px, angle, cx, cy, persp;
   };
   const std::vector<Placement> placements = {
-      {"tag36h11", 5, 7, 10, 80, 80, 0.001},    {"tag36h11", 5, 5, -20, 560, 90, -0.0008},
-      {"tag36h11", 5, 6, 40, 300, 420, 0.0005}, {"tag36h11", 23, 4.5, 5, 540, 400, 0.0},
+      {"tag36h11", 5, 7, 10, 80, 80, 0.001},
+      {"tag36h11", 5, 5, -20, 560, 90, -0.0008},
+      {"tag36h11", 5, 6, 40, 300, 420, 0.0005},
+      {"tag36h11", 23, 4.5, 5, 540, 400, 0.0},
       {"tag25h9", 3, 8, -12, 120, 380, 0.0006},
   };
   for (const auto& p : placements) {
@@ -211,7 +227,8 @@ TEST(AprilTagFree, MatchesTheRawLibraryOnAPhotoAndKeepsRepeatedIds) {
   std::mt19937 rng(13);
   std::normal_distribution<double> noise(0, 2.0);
   for (int y = 0; y < img.rows; ++y)
-    for (int x = 0; x < img.cols; ++x) img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(img.at<uint8_t>(y, x) + noise(rng));
+    for (int x = 0; x < img.cols; ++x)
+      img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(img.at<uint8_t>(y, x) + noise(rng));
   std::vector<uint8_t> jpeg;
   cv::imencode(".jpg", img, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
   img = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
@@ -232,7 +249,8 @@ TEST(AprilTagFree, MatchesTheRawLibraryOnAPhotoAndKeepsRepeatedIds) {
   for (size_t i = 1; i < tags.size(); ++i) {
     const auto& a = tags[i - 1];
     const auto& b = tags[i];
-    EXPECT_TRUE(a.family < b.family || (a.family == b.family && (a.id < b.id || (a.id == b.id && a.centre.y() <= b.centre.y()))));
+    EXPECT_TRUE(a.family < b.family ||
+                (a.family == b.family && (a.id < b.id || (a.id == b.id && a.centre.y() <= b.centre.y()))));
   }
 
   // The raw library, called directly with the same settings.
@@ -307,7 +325,8 @@ TEST(AprilTagFree, RefinedCornersBeatTheLibraryUnderNoiseAndJpeg) {
       DrawTag(cells, H, &img, 6);
       cv::GaussianBlur(img, img, cv::Size(0, 0), 0.6);
       for (int y = 0; y < img.rows; ++y)
-        for (int x = 0; x < img.cols; ++x) img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(img.at<uint8_t>(y, x) + noise(rng));
+        for (int x = 0; x < img.cols; ++x)
+          img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(img.at<uint8_t>(y, x) + noise(rng));
       std::vector<uint8_t> jpeg;
       cv::imencode(".jpg", img, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
       img = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);

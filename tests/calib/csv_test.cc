@@ -60,8 +60,11 @@ TEST(Csv, NumberErrorsNameWhereAndField) {
 }
 
 TEST(Csv, TableFindsColumnsByNameAndNamesLines) {
-  const CsvTable t = CsvTable::Parse("\xEF\xBB\xBF" "distance_cm, Rx ,Lx\r\n\r\n30, 1500,1600\r\n\"45\",1490,1610\n", "log.csv",
-                                     {.trim = true});
+  const CsvTable t = CsvTable::Parse(
+      "\xEF\xBB\xBF"
+      "distance_cm, Rx ,Lx\r\n\r\n30, 1500,1600\r\n\"45\",1490,1610\n",
+      "log.csv",
+      {.trim = true});
   ASSERT_EQ(t.NumRows(), 2u);
   EXPECT_EQ(t.Header(), (std::vector<std::string>{"distance_cm", "Rx", "Lx"}));
   EXPECT_EQ(t.Where(1), "log.csv:4");
@@ -112,7 +115,12 @@ TEST(Csv, AnAppendedLogDropsAnyRecordWithoutItsLineBreak) {
   EXPECT_EQ(c.NumRows(), 1u);
   EXPECT_EQ(c.CompleteBytes(), 8u);
   // A byte-order mark counts in the complete length.
-  EXPECT_EQ(CsvTable::Parse("\xEF\xBB\xBF" "a\n1\n", "bom.csv", log).CompleteBytes(), 7u);
+  EXPECT_EQ(CsvTable::Parse("\xEF\xBB\xBF"
+                            "a\n1\n",
+                            "bom.csv",
+                            log)
+                .CompleteBytes(),
+            7u);
   // Nothing complete, not even the header: empty only when allowed.
   EXPECT_EQ(ErrorOf([&] { CsvTable::Parse("a,", "h.csv", log); }), "h.csv:1: empty CSV file (no header row)");
   CsvOptions empty_ok = log;

@@ -20,11 +20,16 @@ namespace {
 // pixel's CORNER. Supersampled by `s`, then INTER_AREA downsampled, so edges are exact.
 cv::Mat Render(const cv::Mat& cells, const cv::Matx33d& H, int width, int height, int s = 8) {
   const cv::Matx33d A(1.0 / s, 0, 0.5 / s, 0, 1.0 / s, 0.5 / s, 0, 0, 1);  // hi-res centre -> corner conv
-  const cv::Matx33d B(1, 0, -0.5, 0, 1, -0.5, 0, 0, 1);                   // cell corner -> centre conv
+  const cv::Matx33d B(1, 0, -0.5, 0, 1, -0.5, 0, 0, 1);                    // cell corner -> centre conv
   const cv::Matx33d M = B * H.inv() * A;
   cv::Mat hi;
-  cv::warpPerspective(cells, hi, cv::Mat(M), cv::Size(width * s, height * s), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, cv::Scalar(255));
+  cv::warpPerspective(cells,
+                      hi,
+                      cv::Mat(M),
+                      cv::Size(width * s, height * s),
+                      cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT,
+                      cv::Scalar(255));
   cv::Mat out;
   cv::resize(hi, out, cv::Size(width, height), 0, 0, cv::INTER_AREA);
   return out;
@@ -38,8 +43,15 @@ Eigen::Vector2d Expected(const cv::Matx33d& H, double u, double v) {
 
 cv::Matx33d TiltedHomography(double scale, double angle_deg, double cx, double cy, double persp) {
   const double a = angle_deg * M_PI / 180;
-  return cv::Matx33d(scale * std::cos(a), -scale * std::sin(a), cx, scale * std::sin(a), scale * std::cos(a), cy,
-                     persp, 0.3 * persp, 1);
+  return cv::Matx33d(scale * std::cos(a),
+                     -scale * std::sin(a),
+                     cx,
+                     scale * std::sin(a),
+                     scale * std::cos(a),
+                     cy,
+                     persp,
+                     0.3 * persp,
+                     1);
 }
 
 TEST(DetectorAprilTag, CornerOrderMatchesRenderedTag) {
@@ -70,7 +82,8 @@ TEST(DetectorAprilTag, CornerOrderMatchesRenderedTag) {
       ASSERT_TRUE(d.found) << d.message << " angle " << angle;
       ASSERT_EQ(d.corner_ids.size(), 4u);
       // Black border spans cells 1..9: TL (1,1), TR (9,1), BR (9,9), BL (1,9).
-      const Eigen::Vector2d expect[4] = {Expected(Hc, 1, 1), Expected(Hc, 9, 1), Expected(Hc, 9, 9), Expected(Hc, 1, 9)};
+      const Eigen::Vector2d expect[4] = {
+          Expected(Hc, 1, 1), Expected(Hc, 9, 1), Expected(Hc, 9, 9), Expected(Hc, 1, 9)};
       for (int k = 0; k < 4; ++k) {
         EXPECT_EQ(d.corner_ids[k], 4 * 7 + k);
         EXPECT_LT((d.pixels[k] - expect[k]).norm(), 0.25)

@@ -50,10 +50,10 @@ TEST(ImagePairs, SideBySideMirrorAndSwapFollowTheDocumentedConventions) {
   cv::Mat l, r;
   LoadImagePair(list.pairs[0], o, &l, &r);
   ASSERT_EQ(l.cols, 64);
-  EXPECT_LT(cv::mean(l)[0], 50);   // left = columns 0-63 (dark)
+  EXPECT_LT(cv::mean(l)[0], 50);  // left = columns 0-63 (dark)
   EXPECT_GT(cv::mean(r)[0], 150);
   EXPECT_GT(l.at<cv::Vec3b>(24, 5)[0], 200);  // dot not flipped
-  o.mirror = true;  // whole frame flipped: left = former right half (bright)
+  o.mirror = true;                            // whole frame flipped: left = former right half (bright)
   LoadImagePair(list.pairs[0], o, &l, &r);
   EXPECT_GT(cv::mean(l)[0], 150);
   EXPECT_LT(cv::mean(r)[0], 50);

@@ -12,7 +12,8 @@ namespace owlcal::calib {
 namespace {
 
 std::string TempPath(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("owlcal_obsio_" + std::to_string(::getpid()) + "_" + name)).string();
+  return (std::filesystem::temp_directory_path() / ("owlcal_obsio_" + std::to_string(::getpid()) + "_" + name))
+      .string();
 }
 
 std::vector<CornerObservation> Sample() {
@@ -130,9 +131,17 @@ TEST(ObservationCsv, RejectsNonFiniteHugeAndHexNumbers) {
     const char* value;
     const char* column;
   };
-  for (const Case& c : {Case{4, "nan", "u_px"}, Case{4, "inf", "u_px"}, Case{5, "1e300", "v_px"}, Case{5, "-nan", "v_px"},
-                        Case{6, "0x10", "x_m"}, Case{8, "", "z_m"}, Case{9, "1e3", "Rx_us"}, Case{13, "99999", "Neck_us"},
-                        Case{14, "2", "approach_Rx"}, Case{0, "-1", "frame_index"}, Case{3, "4294967296", "corner_id"},
+  for (const Case& c : {Case{4, "nan", "u_px"},
+                        Case{4, "inf", "u_px"},
+                        Case{5, "1e300", "v_px"},
+                        Case{5, "-nan", "v_px"},
+                        Case{6, "0x10", "x_m"},
+                        Case{8, "", "z_m"},
+                        Case{9, "1e3", "Rx_us"},
+                        Case{13, "99999", "Neck_us"},
+                        Case{14, "2", "approach_Rx"},
+                        Case{0, "-1", "frame_index"},
+                        Case{3, "4294967296", "corner_id"},
                         Case{19, "1.5", "stamp_ns"}}) {
     std::vector<std::string> cells = SplitCsvLine(good);
     cells[c.field] = c.value;

@@ -84,7 +84,8 @@ TEST(StereoMatch, FlatImageIsNotFoundAndRoiIsHonoured) {
 TEST(StereoMatch, RepeatedTextureIsAmbiguousNeverOk) {
   cv::Mat left(480, 640, CV_8U);
   for (int y = 0; y < 480; ++y)
-    for (int x = 0; x < 640; ++x) left.at<uint8_t>(y, x) = static_cast<uint8_t>(128 + 90 * std::sin(2 * M_PI * x / 24.0));
+    for (int x = 0; x < 640; ++x)
+      left.at<uint8_t>(y, x) = static_cast<uint8_t>(128 + 90 * std::sin(2 * M_PI * x / 24.0));
   const StereoMatch m = MatchAlongRow(left, Shift(left, 30.4, 0), StereoMatchOptions());
   EXPECT_NE(m.confidence, MatchConfidence::kOk) << m.message;
   EXPECT_GT(m.peak_ratio, 0.85);

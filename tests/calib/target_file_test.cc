@@ -62,7 +62,8 @@ TEST(TargetFile, ErrorsNameKeyAndValue) {
             std::string::npos);
   EXPECT_NE(msg("target_type: aprilgrid\ntagCols: 6\ntagRows: 6\ntagSize: x\ntagSpacing: 0.3\n").find("tagSize"),
             std::string::npos);
-  EXPECT_NE(msg("target_type: chessboard\ncols: 9\nrows: 6\nsquare_size_m: 0.02\n").find("no error"), std::string::npos);
+  EXPECT_NE(msg("target_type: chessboard\ncols: 9\nrows: 6\nsquare_size_m: 0.02\n").find("no error"),
+            std::string::npos);
   EXPECT_THROW(LoadTargetFile("/nonexistent/t.yaml"), std::runtime_error);
 }
 

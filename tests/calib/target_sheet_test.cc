@@ -42,10 +42,9 @@ cv::Mat Rasterise(const fs::path& dir, const std::string& text, bool pdf, int dp
     return {};
   }
   const std::string d = std::to_string(dpi);
-  const std::string cmd = pdf ? "pdftoppm -r " + d + " -gray -png -singlefile '" + in.string() + "' '" +
-                                    (dir / "sheet").string() + "'"
-                              : "rsvg-convert -d " + d + " -p " + d + " -b white -o '" + png.string() + "' '" +
-                                    in.string() + "'";
+  const std::string cmd =
+      pdf ? "pdftoppm -r " + d + " -gray -png -singlefile '" + in.string() + "' '" + (dir / "sheet").string() + "'"
+          : "rsvg-convert -d " + d + " -p " + d + " -b white -o '" + png.string() + "' '" + in.string() + "'";
   EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
   cv::Mat img = cv::imread(png.string(), cv::IMREAD_GRAYSCALE);
   EXPECT_FALSE(img.empty()) << "no image from: " << cmd;
@@ -92,7 +91,9 @@ int LongestDarkRun(const cv::Mat& grey, int y) {
   return best;
 }
 
-TargetDefinition KitBoard() { return LoadTargetFile(std::string(OWLCAL_DATA_DIR) + "/targets/owl-kit-chessboard.yaml"); }
+TargetDefinition KitBoard() {
+  return LoadTargetFile(std::string(OWLCAL_DATA_DIR) + "/targets/owl-kit-chessboard.yaml");
+}
 TargetDefinition Grid() { return LoadTargetFile(std::string(OWLCAL_DATA_DIR) + "/targets/aprilgrid-6x6.yaml"); }
 
 TEST(TargetSheet, KitBoardNeedsA3AndRefusesA4WithTheSizes) {
@@ -161,8 +162,8 @@ TEST(TargetSheet, AprilGridSvgAndPdfMeasureTrueScaleWhenRasterised) {
     SCOPED_TRACE(pdf ? "pdf" : "svg");
     const int dpi = 100;
     const double px_per_mm = dpi / 25.4;
-    const cv::Mat img = Rasterise(TestDir(pdf ? "grid_pdf" : "grid_svg"), pdf ? TargetSheetPdf(s) : TargetSheetSvg(s),
-                                  pdf, dpi);
+    const cv::Mat img =
+        Rasterise(TestDir(pdf ? "grid_pdf" : "grid_svg"), pdf ? TargetSheetPdf(s) : TargetSheetSvg(s), pdf, dpi);
     ASSERT_FALSE(img.empty());
     DetectorOptions o;
     o.apriltag_decimate = 1;

@@ -8,8 +8,8 @@
 #include "fitting/calibration_check.h"
 
 #include <cmath>
-#include <iostream>
 #include <functional>
+#include <iostream>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -31,9 +31,9 @@ Rig TruthRig() {
   Rig r;
   r.cam[0].params = {585.0, 584.0, 320.0, 238.0, -0.12, 0.08, 0.0, 0.0, 0.0};
   r.cam[1].params = {580.0, 579.5, 317.0, 242.0, -0.10, 0.05, 0.0, 0.0, 0.0};
-  r.right_from_left = models::Rigid3d(
-      Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
-      Eigen::Vector3d(-0.0645, 0.0008, 0.0012));
+  r.right_from_left =
+      models::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
+                      Eigen::Vector3d(-0.0645, 0.0008, 0.0012));
   return r;
 }
 
@@ -153,7 +153,8 @@ struct KitSplit {
 const KitSplit& Kit() {
   static const KitSplit s = [] {
     const std::string dir = test_data::SharedData() + "/owl-real/kit2020-chessboard";
-    const calib::TargetDefinition board = calib::LoadTargetFile(test_data::SharedData() + "/targets/owl-kit-chessboard.yaml");
+    const calib::TargetDefinition board =
+        calib::LoadTargetFile(test_data::SharedData() + "/targets/owl-kit-chessboard.yaml");
     const auto set = calib::DetectImagePairs(calib::ListImagePairs(dir, {}), {}, board, {});
     KitSplit out;
     for (const auto& o : set.observations)

@@ -53,8 +53,11 @@ int ExpectAccurate(const HeadFit& fit, const models::HeadModel& truth_canonical,
   EXPECT_NEAR(ipd->value, truth_canonical.geometry.Ipd() * 1000, 0.5);
   for (int i = 0; i < kNumServos; ++i) {
     if (!IsDetermined(r, std::string("servo.") + models::kServoNames[i] + ".deg_per_us")) continue;
-    const double rms = ServoMapRmsDeg(fit.head.servo_params[i].data(), truth_canonical.servo_params[i].data(),
-                                      robot.servos[i].direction, robot.servos[i].min_us, robot.servos[i].max_us);
+    const double rms = ServoMapRmsDeg(fit.head.servo_params[i].data(),
+                                      truth_canonical.servo_params[i].data(),
+                                      robot.servos[i].direction,
+                                      robot.servos[i].min_us,
+                                      robot.servos[i].max_us);
     EXPECT_LT(rms, 0.1) << models::kServoNames[i];
   }
   int compared = 0, within3 = 0;
@@ -136,8 +139,8 @@ TEST(FitHead, RecoversServoMapsMountsAndIpdFromSweepWithNeck) {
   const int compared = ExpectAccurate(fit, truth, robot);
   EXPECT_GE(compared, 40);
   std::cout << "timing " << fit.result.diagnostics["head"]["timing"].dump() << " reciprocal condition "
-            << fit.result.diagnostics["head"]["reciprocal_condition"] << " views " << fit.num_views_used
-            << " corners " << fit.num_corners_used << "\n";
+            << fit.result.diagnostics["head"]["reciprocal_condition"] << " views " << fit.num_views_used << " corners "
+            << fit.num_corners_used << "\n";
 }
 
 // HeadFitOptions::pan_zero_sigma_factor widens the pan zero (both pan maps' mean angle at the
@@ -171,8 +174,10 @@ TEST(FitHead, PanZeroFactorWidensOnlyThePanZero) {
         lo[k] -= h;
         const int dir = robot.servos[servo].direction;
         const double u0 = robot.servos[servo].centre_us;
-        a(it - fit.param_names.begin()) = 0.5 * (models::ServoMap::JointAngle(hi.data(), dir, u0, 0) -
-                                                 models::ServoMap::JointAngle(lo.data(), dir, u0, 0)) / (2 * h);
+        a(it - fit.param_names.begin()) = 0.5 *
+                                          (models::ServoMap::JointAngle(hi.data(), dir, u0, 0) -
+                                           models::ServoMap::JointAngle(lo.data(), dir, u0, 0)) /
+                                          (2 * h);
       }
     }
     return std::sqrt(a.dot(fit.covariance * a));
@@ -335,8 +340,11 @@ TEST(FitHead, NeckNeverMovedNamesTheNeckAndStillGivesIpd) {
   EXPECT_NEAR(fit.result.Find("head.ipd_mm")->value, truth.geometry.Ipd() * 1000, 0.5);
   EXPECT_FALSE(fit.result.Find("head.left.centre_x_mm")->determined);  // base origin gauge
   for (int s : {models::kRx, models::kRy, models::kLx, models::kLy})
-    EXPECT_LT(ServoMapRmsDeg(fit.head.servo_params[s].data(), truth.servo_params[s].data(), robot.servos[s].direction,
-                             robot.servos[s].min_us, robot.servos[s].max_us),
+    EXPECT_LT(ServoMapRmsDeg(fit.head.servo_params[s].data(),
+                             truth.servo_params[s].data(),
+                             robot.servos[s].direction,
+                             robot.servos[s].min_us,
+                             robot.servos[s].max_us),
               0.1)
         << models::kServoNames[s];
 }

@@ -162,7 +162,8 @@ TEST(ShiftServoMapAngle, SubtractsAConstantAngleExactly) {
       for (double u = 1100; u <= 2000; u += 37) {
         for (int approach : {-1, 0, 1}) {
           EXPECT_NEAR(models::ServoMap::JointAngle(q.data(), dir, u, approach),
-                      models::ServoMap::JointAngle(p.data(), dir, u, approach) - delta_deg * M_PI / 180, 1e-12)
+                      models::ServoMap::JointAngle(p.data(), dir, u, approach) - delta_deg * M_PI / 180,
+                      1e-12)
               << "u=" << u << " dir=" << dir;
         }
       }
@@ -196,8 +197,8 @@ TEST(CanonicalHead, ProjectsLikeTheOriginalUpToABaseFrameMotion) {
   };
   const models::PwmVector p0 = robot.Centre();
   const models::Rigid3d g = cam_from_base(canon, 0, p0).Inverse() * cam_from_base(head, 0, p0);
-  for (const models::PwmVector& p : {models::PwmVector{1400, 1700, 1600, 1300, 1500},
-                                     models::PwmVector{1700, 1300, 1450, 1800, 1800}}) {
+  for (const models::PwmVector& p :
+       {models::PwmVector{1400, 1700, 1600, 1300, 1500}, models::PwmVector{1700, 1300, 1450, 1800, 1800}}) {
     for (int eye : {0, 1}) {
       const models::Rigid3d diff = cam_from_base(canon, eye, p) * g * cam_from_base(head, eye, p).Inverse();
       EXPECT_NEAR(diff.translation.norm(), 0.0, 1e-9) << "eye " << eye;

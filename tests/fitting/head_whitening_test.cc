@@ -36,8 +36,8 @@ TEST(HeadWhitening, MeasuredPerEyeNoiseGivesHonestSigmaOnPriorRobots) {
       for (Eigen::Vector2d& p : v.pixels) p += kNoisePx[v.eye] * Eigen::Vector2d(unit(rng), unit(rng));
     models::HeadModel init = models::NominalHeadModel(robot);
     for (int e = 0; e < 2; ++e) init.intrinsics[e] = truth.intrinsics[e];
-    const models::HeadModel canon =
-        CanonicalHead(truth, robot.servos[models::kNeck].centre_us, true, init.geometry.centre_in_head[models::kLeftEye]);
+    const models::HeadModel canon = CanonicalHead(
+        truth, robot.servos[models::kNeck].centre_us, true, init.geometry.centre_in_head[models::kLeftEye]);
 
     HeadFitOptions o;
     o.estimate_corner_sigma = true;

@@ -11,9 +11,9 @@ TEST(LimitsEval, ComparesConfiguredAndMeasuredEnds) {
   const models::RobotConfig cfg = models::DefaultRobotConfig();
   const models::HeadModel head = models::NominalHeadModel(cfg);
   std::vector<LimitMeasurement> m = {
-      {models::kRx, false, 1230, LimitCause::kEndStop},     // stop 30 us inside min 1200
-      {models::kRx, true, 1890, LimitCause::kConfigured},   // reached the configured max
-      {models::kLx, true, 1800, LimitCause::kSocketRim},    // rim 50 us inside max 1850
+      {models::kRx, false, 1230, LimitCause::kEndStop},    // stop 30 us inside min 1200
+      {models::kRx, true, 1890, LimitCause::kConfigured},  // reached the configured max
+      {models::kLx, true, 1800, LimitCause::kSocketRim},   // rim 50 us inside max 1850
   };
   const LimitsEvaluation ev = EvaluateLimits(cfg, m, &head, 10, 0);
   ASSERT_EQ(ev.servos.size(), 5u);
@@ -32,7 +32,8 @@ TEST(LimitsEval, ComparesConfiguredAndMeasuredEnds) {
   EXPECT_FALSE(ev.servos[models::kNeck].measured_min_us);
   EXPECT_TRUE(std::isnan(ev.servos[models::kNeck].measured_min_deg));
   bool noted = false;
-  for (const auto& n : ev.notes) noted |= n.find("Lx high end: socket rim at 1800 us, 50 us inside") != std::string::npos;
+  for (const auto& n : ev.notes)
+    noted |= n.find("Lx high end: socket rim at 1800 us, 50 us inside") != std::string::npos;
   EXPECT_TRUE(noted);
   EXPECT_EQ(LimitCauseFromName("rim"), LimitCause::kSocketRim);
   EXPECT_STREQ(LimitCauseName(LimitCauseFromName("endstop")), "end-stop");
@@ -44,10 +45,10 @@ TEST(LimitsEval, ComparesConfiguredAndMeasuredEnds) {
 // may truly be at 1225 us, so 1245 us keeps the 10 us margin from it.
 TEST(LimitsEval, RecommendedLimitsAllowForTheStopsMeasurementError) {
   const models::RobotConfig cfg = models::DefaultRobotConfig();
-  const LimitsEvaluation ev = EvaluateLimits(cfg,
-                                             {{models::kRx, false, 1230, LimitCause::kEndStop},
-                                              {models::kNeck, true, 1939, LimitCause::kEndStop}},
-                                             nullptr);
+  const LimitsEvaluation ev = EvaluateLimits(
+      cfg,
+      {{models::kRx, false, 1230, LimitCause::kEndStop}, {models::kNeck, true, 1939, LimitCause::kEndStop}},
+      nullptr);
   EXPECT_EQ(ev.servos[models::kRx].recommended_min_us, 1245);
   EXPECT_EQ(ev.servos[models::kNeck].recommended_max_us, 1924);
 }

@@ -79,10 +79,13 @@ TEST(Observability, LocalBlocksAreEliminatedFromAProblem) {
   ceres::Problem problem;
   for (int k = 0; k < 3; ++k)
     for (int i = 0; i < 5; ++i)
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<LineResidual, 1, 2, 1>(new LineResidual{double(i), 1.0, 0.1}),
-                               nullptr, g, l[k]);
-  const Observability o = AnalyseObservability(&problem, {g}, {l[0], l[1], l[2]}, {"line.offset", "line.slope"},
-                                               kDefaultRankTolerance);
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<LineResidual, 1, 2, 1>(new LineResidual{double(i), 1.0, 0.1}),
+          nullptr,
+          g,
+          l[k]);
+  const Observability o =
+      AnalyseObservability(&problem, {g}, {l[0], l[1], l[2]}, {"line.offset", "line.slope"}, kDefaultRankTolerance);
   ASSERT_TRUE(o.ok) << o.message;
   EXPECT_FALSE(o.determined[0]);
   EXPECT_NE(o.reasons[0].find("cannot separate it from the board poses"), std::string::npos) << o.reasons[0];

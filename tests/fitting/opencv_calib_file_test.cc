@@ -63,7 +63,8 @@ TEST(OpenCvCalibFile, SplitFilesAreInMillimetresAndReadBackInMetres) {
   fs["Q"] >> Q;
   EXPECT_DOUBLE_EQ(T.at<double>(0), -64.0);
   EXPECT_NEAR(Q.at<double>(3, 2), c.Q.at<double>(3, 2) / 1000, 1e-15);
-  const OpenCvStereoCalibration b = ReadOpenCvSplitFiles((dir / "intrinsics.xml").string(), (dir / "extrinsics.xml").string());
+  const OpenCvStereoCalibration b =
+      ReadOpenCvSplitFiles((dir / "intrinsics.xml").string(), (dir / "extrinsics.xml").string());
   EXPECT_EQ(b.length_unit, "mm");
   const OpenCvStereoCalibration m = WithLengthUnit(b, "m");
   EXPECT_NEAR(cv::norm(m.T - c.T), 0, 1e-15);
@@ -122,12 +123,14 @@ TEST(OpenCvCalibFile, RefusesNonFiniteValuesBadCameraMatricesAndSizes) {
     }
     return std::string();
   };
-  const std::string m_ok = "M1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [500., 0., 320., 0., 500., 240., 0., 0., 1.]\n";
+  const std::string m_ok =
+      "M1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [500., 0., 320., 0., 500., 240., 0., 0., 1.]\n";
   EXPECT_EQ(error_of(m_ok), "");
   std::string e = error_of(
       "M1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [0., 0., 320., 0., 500., 240., 0., 0., 1.]\n");
   EXPECT_NE(e.find("bad.yml: field M1 is not a camera matrix"), std::string::npos) << e;
-  e = error_of("M1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [.nan, 0., 320., 0., 500., 240., 0., 0., 1.]\n");
+  e = error_of(
+      "M1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [.nan, 0., 320., 0., 500., 240., 0., 0., 1.]\n");
   EXPECT_NE(e.find("bad.yml: field M1 holds a NaN or infinite value"), std::string::npos) << e;
   e = error_of("R: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [2., 0., 0., 0., 1., 0., 0., 0., 1.]\n");
   EXPECT_NE(e.find("field R is not a rotation"), std::string::npos) << e;
@@ -151,9 +154,11 @@ TEST(OpenCvCalibFile, NulBytesAreRefusedBeforeOpenCvParses) {
     ParseOpenCvCalibration(text, "nul.xml");
     ADD_FAILURE() << "no error";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("nul.xml: not a text file (NUL byte at offset 14)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nul.xml: not a text file (NUL byte at offset 14)"), std::string::npos)
+        << e.what();
   }
-  const std::string p = (std::filesystem::temp_directory_path() / ("owlcal_nul_" + std::to_string(::getpid()) + ".xml")).string();
+  const std::string p =
+      (std::filesystem::temp_directory_path() / ("owlcal_nul_" + std::to_string(::getpid()) + ".xml")).string();
   std::ofstream(p, std::ios::binary) << text;
   EXPECT_THROW(ReadOpenCvCalibration(p), std::runtime_error);
   std::filesystem::remove(p);
@@ -188,13 +193,13 @@ TEST(OpenCvCalibFile, MalformedXmlIsRefusedBeforeOpenCvParses) {
 // OpenCV allocate 64 GB before anything was checked.
 TEST(OpenCvCalibFile, DeclaredMatrixShapeIsCheckedBeforeAllocating) {
   auto xml = [](const std::string& rows, const std::string& cols, const std::string& data) {
-    return "<?xml version=\"1.0\"?>\n<opencv_storage>\n<P1 type_id=\"opencv-matrix\"><rows>" + rows + "</rows><cols>" + cols +
-           "</cols><dt>d</dt><data>" + data + "</data></P1>\n</opencv_storage>\n";
+    return "<?xml version=\"1.0\"?>\n<opencv_storage>\n<P1 type_id=\"opencv-matrix\"><rows>" + rows + "</rows><cols>" +
+           cols + "</cols><dt>d</dt><data>" + data + "</data></P1>\n</opencv_storage>\n";
   };
   const std::string twelve = "1. 0. 2. 0. 0. 1. 2. 0. 0. 0. 1. 0.";
   EXPECT_FALSE(ParseOpenCvCalibration(xml("3", "4", twelve), "x.xml").P1.empty());
-  for (const auto& [rows, cols] : {std::pair<std::string, std::string>{"4", "-"}, {"4", "-1"}, {"100000", "100000"},
-                                   {"3", "5"}, {"0", "4"}}) {
+  for (const auto& [rows, cols] :
+       {std::pair<std::string, std::string>{"4", "-"}, {"4", "-1"}, {"100000", "100000"}, {"3", "5"}, {"0", "4"}}) {
     try {
       ParseOpenCvCalibration(xml(rows, cols, twelve), "x.xml");
       ADD_FAILURE() << rows << "x" << cols << ": no error";

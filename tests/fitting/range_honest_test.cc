@@ -128,7 +128,8 @@ TEST(RangeHonest, DatumFitOnKit2020DistanceTargetAndHonestSigma) {
     ms.push_back(m);
   }
   const RangeSummary s = SummariseRanges(ms);
-  std::cout << reports::RangeTableMarkdown(ms, s, "kit2020-distance-target1, owlcal's kit2020 calibration with its halves");
+  std::cout << reports::RangeTableMarkdown(
+      ms, s, "kit2020-distance-target1, owlcal's kit2020 calibration with its halves");
   const DatumFit f = FitDatum(rows);
   std::cout << reports::DatumFitMarkdown(f);
   ASSERT_TRUE(f.ok) << f.message;
@@ -142,7 +143,8 @@ TEST(RangeHonest, DatumFitOnKit2020DistanceTargetAndHonestSigma) {
   EXPECT_LT(f.mean_abs_rel_loo, f.mean_abs_rel_before);
   // After the datum fit the residuals are what the predicted sigma says (no truth sigma needed).
   int within = 0;
-  for (size_t k = 0; k < rows.size(); ++k) within += std::abs(f.after_m[k] - rows[k].truth_m) * f.b <= 3 * rows[k].sigma_m;
+  for (size_t k = 0; k < rows.size(); ++k)
+    within += std::abs(f.after_m[k] - rows[k].truth_m) * f.b <= 3 * rows[k].sigma_m;
   std::cout << within << " of " << rows.size() << " rows within 3 sigma after the datum fit\n";
   EXPECT_GE(within, static_cast<int>(rows.size()) - 1);
 }
@@ -155,7 +157,8 @@ TEST(RangeHonest, UnknownDistancesAreRangedWithSigma) {
     std::ofstream f(csv);
     f << "left,right,distance_cm,roi_x,roi_y,roi_w,roi_h\n";
     for (const auto& t : Truth())
-      f << t.left << "," << t.right << ",," << t.roi.x << "," << t.roi.y << "," << t.roi.width << "," << t.roi.height << "\n";
+      f << t.left << "," << t.right << ",," << t.roi.x << "," << t.roi.y << "," << t.roi.width << "," << t.roi.height
+        << "\n";
   }
   const auto unknown = ReadRangeTruthCsv(csv);
   const auto truth = Truth();

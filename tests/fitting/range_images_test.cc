@@ -155,14 +155,16 @@ TEST(RangeImages, TruthRefusesNanNegativeDistancesAndRoisOutsideTheImage) {
     return std::string();
   };
   const std::string head = "left,right,distance_cm,roi_x,roi_y,roi_w,roi_h\n";
-  EXPECT_EQ(error(head + "l.jpg,r.jpg,nan,,,,\n"), path + ":2: column distance_cm = 'nan' is not a finite decimal number");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,nan,,,,\n"),
+            path + ":2: column distance_cm = 'nan' is not a finite decimal number");
   EXPECT_EQ(error(head + "l.jpg,r.jpg,-30,,,,\n"), path + ":2: column distance_cm = -30 is not positive");
   EXPECT_EQ(error(head + "l.jpg,r.jpg,30,10,20,,\n"), path + ":2: column roi_w = '' is not an integer");
   EXPECT_EQ(error(head + "l.jpg,r.jpg,30,-5,20,30,40\n"), path + ":2: column roi_x = -5 is outside [0, 100000]");
   EXPECT_EQ(error(head + "l.jpg,r.jpg,30,10,20,3,40\n"), path + ":2: column roi_w = 3 is outside [5, 100000]");
   EXPECT_EQ(error(head + "l.jpg,r.jpg,30,620,20,30,40\n"),
             path + ":2: roi 620 20 30 40 is not inside the 640x480 rectified image (refused, not clipped)");
-  EXPECT_EQ(error(head + "l.jpg,r.jpg,30,2147483640,20,30,40\n"), path + ":2: column roi_x = 2147483640 is outside [0, 100000]");
+  EXPECT_EQ(error(head + "l.jpg,r.jpg,30,2147483640,20,30,40\n"),
+            path + ":2: column roi_x = 2147483640 is outside [0, 100000]");
   EXPECT_EQ(error("left,right,distance_cm,roi_x\nl.jpg,r.jpg,30,5\n"),
             path + ":1: give all four of roi_x, roi_y, roi_w, roi_h or none");
   EXPECT_EQ(error("left,right,distance_cm,distance_mm\nl.jpg,r.jpg,30,300\n"),

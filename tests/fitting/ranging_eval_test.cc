@@ -112,8 +112,7 @@ TEST(RangingEval, PredictedSigmaMatchesMonteCarloScatter) {
 
 TEST(RangingEval, TheoryCurveMatchesTheErrorBudget) {
   const models::HeadModel nominal = models::NominalHeadModel(models::DefaultRobotConfig());
-  const RangingEvaluation ev =
-      EvaluateRanging(nominal, Cov(), models::DefaultRobotConfig(), {}, {}, {1.0, 3.0});
+  const RangingEvaluation ev = EvaluateRanging(nominal, Cov(), models::DefaultRobotConfig(), {}, {}, {1.0, 3.0});
   ASSERT_EQ(ev.theory.size(), 2u);
   // docs/conventions.md, Facts: 1 us on one eye: 3.1 % at 1 m, 10 % at 3 m; 0.5 px both eyes: 2.7 % at 1 m.
   EXPECT_NEAR(ev.theory[0].nominal_1us_rel, 0.031, 0.002);

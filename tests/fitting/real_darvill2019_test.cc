@@ -45,19 +45,31 @@ TEST(RealDarvill2019, ThreeSessionsComparedInOneTable) {
     EXPECT_NEAR(c.fit.right_from_left.translation.x() * 1000, -63.7, 1.5) << "session " << s;
     sessions.push_back({"session" + std::to_string(s), c.result});
   }
-  const SessionComparison cmp = CompareSessions(
-      sessions, {"left.fx", "left.fy", "left.cx", "left.cy", "right.fx", "right.fy", "right.cx", "right.cy",
-                 "stereo.baseline_mm", "stereo.tx", "stereo.ty", "stereo.tz", "stereo.rx_deg", "stereo.ry_deg",
-                 "stereo.rz_deg"});
+  const SessionComparison cmp = CompareSessions(sessions,
+                                                {"left.fx",
+                                                 "left.fy",
+                                                 "left.cx",
+                                                 "left.cy",
+                                                 "right.fx",
+                                                 "right.fy",
+                                                 "right.cx",
+                                                 "right.cy",
+                                                 "stereo.baseline_mm",
+                                                 "stereo.tx",
+                                                 "stereo.ty",
+                                                 "stereo.tz",
+                                                 "stereo.rx_deg",
+                                                 "stereo.ry_deg",
+                                                 "stereo.rz_deg"});
   std::cout << reports::SessionComparisonMarkdown(cmp);
   ASSERT_EQ(cmp.pairs.size(), 3u);
   // Session 1 is parallel, sessions 2 and 3 toed in by about 3.7 deg (README): the rotation
   // about y must move by many sigma from session 1 to 2, and stay within noise from 2 to 3.
   const int ry = 13;
   ASSERT_EQ(cmp.parameters[ry], "stereo.ry_deg");
-  EXPECT_GT(std::abs(cmp.pairs[0].z[ry]), 5.0);       // s1 -> s2
+  EXPECT_GT(std::abs(cmp.pairs[0].z[ry]), 5.0);  // s1 -> s2
   EXPECT_NEAR(std::abs(cmp.pairs[0].diff[ry]), 3.5, 1.0);
-  EXPECT_LT(std::abs(cmp.pairs[2].diff[ry]), 0.5);    // s2 -> s3
+  EXPECT_LT(std::abs(cmp.pairs[2].diff[ry]), 0.5);  // s2 -> s3
   for (size_t i = 0; i < cmp.parameters.size(); ++i)
     for (const auto& cell : cmp.cells[i]) EXPECT_TRUE(cell.present) << cmp.parameters[i];
 }

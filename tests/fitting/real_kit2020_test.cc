@@ -90,15 +90,28 @@ TEST(RealKit2020, StereoRmsBeatsOpenCvOnSameCornersAndTheStudents) {
   cv::Mat K1, D1, K2, D2, R, T, E, F, rv, tv;
   cv::calibrateCamera(io, il, size, K1, D1, rv, tv);
   cv::calibrateCamera(io, ir, size, K2, D2, rv, tv);
-  const double cv_rms = cv::stereoCalibrate(io, il, ir, K1, D1, K2, D2, size, R, T, E, F, cv::CALIB_USE_INTRINSIC_GUESS,
-                                            cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-10));
-  std::cout << "kit2020-chessboard, " << il.size() << " pairs: owlcal joint RMS " << c.fit.rms_joint_px
-            << " px (left " << c.fit.rms_px[0] << ", right " << c.fit.rms_px[1] << "), cv::stereoCalibrate RMS "
-            << cv_rms << " px; students 0.826912 px\n"
+  const double cv_rms =
+      cv::stereoCalibrate(io,
+                          il,
+                          ir,
+                          K1,
+                          D1,
+                          K2,
+                          D2,
+                          size,
+                          R,
+                          T,
+                          E,
+                          F,
+                          cv::CALIB_USE_INTRINSIC_GUESS,
+                          cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-10));
+  std::cout << "kit2020-chessboard, " << il.size() << " pairs: owlcal joint RMS " << c.fit.rms_joint_px << " px (left "
+            << c.fit.rms_px[0] << ", right " << c.fit.rms_px[1] << "), cv::stereoCalibrate RMS " << cv_rms
+            << " px; students 0.826912 px\n"
             << "rectified |dy| mean " << c.fit.rectified_dy_mean_px << " px, max " << c.fit.rectified_dy_max_px
             << " px; students' average epipolar error 1.24223 px\n"
-            << "owlcal T = " << c.fit.right_from_left.translation.transpose() * 1000 << " mm; OpenCV T = " << T.t() * 1000
-            << " mm\n";
+            << "owlcal T = " << c.fit.right_from_left.translation.transpose() * 1000
+            << " mm; OpenCV T = " << T.t() * 1000 << " mm\n";
   EXPECT_LE(c.fit.rms_joint_px, cv_rms + 1e-3);
   EXPECT_LT(c.fit.rms_joint_px, 0.826912);
   EXPECT_LT(c.fit.rectified_dy_mean_px, 1.24223);
@@ -225,7 +238,8 @@ TEST(RealKit2020, DistanceTargetRangedWithin3PercentAndThreeSigma) {
     ms.push_back(m);
   }
   const RangeSummary s = SummariseRanges(ms, 0.30, 1.50);
-  std::cout << reports::RangeTableMarkdown(ms, s, "kit2020-distance-target1 ranged with owlcal's kit2020-chessboard calibration");
+  std::cout << reports::RangeTableMarkdown(
+      ms, s, "kit2020-distance-target1 ranged with owlcal's kit2020-chessboard calibration");
   EXPECT_EQ(s.num_ranged, 13);
   EXPECT_LE(s.mean_abs_rel, 0.03);
   EXPECT_EQ(s.num_outside_3sigma, 0);

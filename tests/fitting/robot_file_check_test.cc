@@ -22,8 +22,8 @@ CalibrationResult AgreeingFit(const models::RobotConfig& robot) {
   for (int i = 0; i < models::kNumServos; ++i) {
     const auto& sc = robot.servos[i];
     const std::string n = std::string("servo.") + models::kServoNames[i];
-    r.Set(P(n + ".centre_us", sc.centre_us + 4, 0.3));                  // 13 sigma but within 10 us
-    r.Set(P(n + ".deg_per_us", sc.nominal_deg_per_us * 1.01, 2e-5));    // 1 % off: within 3 %
+    r.Set(P(n + ".centre_us", sc.centre_us + 4, 0.3));                // 13 sigma but within 10 us
+    r.Set(P(n + ".deg_per_us", sc.nominal_deg_per_us * 1.01, 2e-5));  // 1 % off: within 3 %
   }
   return r;
 }
@@ -37,10 +37,10 @@ TEST(RobotFileCheck, AFitWithinTheTolerancesIsQuietEvenWhenManySigmaAway) {
 TEST(RobotFileCheck, NamesTheIpdCentreScaleAndDirectionThatDisagree) {
   models::RobotConfig robot = models::DefaultRobotConfig();
   CalibrationResult r = AgreeingFit(robot);
-  r.Set(P("head.ipd_mm", 67.05, 0.12));                                        // file 65.0
-  r.Set(P("servo.Ry.centre_us", robot.servos[1].centre_us - 27.4, 0.3));       // 3 deg off
-  r.Set(P("servo.Neck.deg_per_us", 0.1056, 2e-5));                             // -6.5 %
-  r.Set(P("servo.Ly.deg_per_us", -0.121, 3e-5));                               // file direction wrong
+  r.Set(P("head.ipd_mm", 67.05, 0.12));                                   // file 65.0
+  r.Set(P("servo.Ry.centre_us", robot.servos[1].centre_us - 27.4, 0.3));  // 3 deg off
+  r.Set(P("servo.Neck.deg_per_us", 0.1056, 2e-5));                        // -6.5 %
+  r.Set(P("servo.Ly.deg_per_us", -0.121, 3e-5));                          // file direction wrong
   const auto d = CompareWithRobotFile(r, robot);
   ASSERT_EQ(d.size(), 4u);
   EXPECT_EQ(d[0].what, "IPD");
@@ -53,9 +53,11 @@ TEST(RobotFileCheck, NamesTheIpdCentreScaleAndDirectionThatDisagree) {
 
   const auto w = RobotFileWarnings(d);
   ASSERT_EQ(w.size(), 3u);  // IPD; centres; scales and directions
-  EXPECT_NE(w[0].find("robot file disagrees with the fit (the IPD; update ipd_mm): IPD 67.05"), std::string::npos) << w[0];
+  EXPECT_NE(w[0].find("robot file disagrees with the fit (the IPD; update ipd_mm): IPD 67.05"), std::string::npos)
+      << w[0];
   EXPECT_NE(w[2].find("Ly turns the other way"), std::string::npos) << w[2];
-  EXPECT_NE(w[2].find("Neck 0.1056 \u00b1 2e-05 deg/\u00b5s, file 0.113 deg/\u00b5s (-6.5 %"), std::string::npos) << w[2];
+  EXPECT_NE(w[2].find("Neck 0.1056 \u00b1 2e-05 deg/\u00b5s, file 0.113 deg/\u00b5s (-6.5 %"), std::string::npos)
+      << w[2];
 }
 
 TEST(RobotFileCheck, ALargeButUncertainDifferenceIsNotADisagreement) {

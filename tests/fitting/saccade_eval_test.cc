@@ -10,7 +10,11 @@
 namespace owlcal::fitting {
 namespace {
 
-StepTrace Trace(const std::string& controller, double gain, double amp, int trial, double settle_s,
+StepTrace Trace(const std::string& controller,
+                double gain,
+                double amp,
+                int trial,
+                double settle_s,
                 calib::TrialStatus status = calib::TrialStatus::kOk) {
   StepTrace s;
   s.controller = controller;
@@ -26,10 +30,13 @@ StepTrace Trace(const std::string& controller, double gain, double amp, int tria
 
 TEST(SaccadeEval, MediansRatioAndSpeedUpFromOkTrialsOnly) {
   std::vector<StepTrace> t = {
-      Trace("saccade", 0, 10, 0, 0.20), Trace("saccade", 0, -10, 1, 0.24), Trace("saccade", 0, 10, 2, 0.22),
+      Trace("saccade", 0, 10, 0, 0.20),
+      Trace("saccade", 0, -10, 1, 0.24),
+      Trace("saccade", 0, 10, 2, 0.22),
       Trace("saccade", 0, 10, 3, 0.1, calib::TrialStatus::kLostTarget),  // failed: named, not counted
       Trace("saccade", 0, 5, 4, 0.15),                                   // other amplitude: ignored
-      Trace("p-loop", 0.1, 10, 0, 0.70), Trace("p-loop", 0.1, -10, 1, 0.90),
+      Trace("p-loop", 0.1, 10, 0, 0.70),
+      Trace("p-loop", 0.1, -10, 1, 0.90),
       Trace("p-loop", 0.2, 10, 2, 0.30),  // other gain: ignored
   };
   const SaccadeEvaluation ev = EvaluateSaccades(t, 10, 400, 0.1, 30);

@@ -17,14 +17,17 @@ TEST(ServoMapErrorOverRange, AConstantAngleOffsetIsItsRmsMaxAndMean) {
   const int s = models::kRx;
   // Shift the fitted Rx map by -0.05 deg everywhere (fitted - truth = -0.05 deg).
   fitted.servo_params[s] = ShiftServoMapAngle(truth.servo_params[s], truth.directions[s], 0.05 * M_PI / 180);
-  const ServoMapError e =
-      ServoMapErrorOverRange(fitted, truth, s, robot.servos[s].min_us, robot.servos[s].max_us);
+  const ServoMapError e = ServoMapErrorOverRange(fitted, truth, s, robot.servos[s].min_us, robot.servos[s].max_us);
   EXPECT_NEAR(e.rms_deg, 0.05, 1e-9);
   EXPECT_NEAR(e.max_abs_deg, 0.05, 1e-9);
   EXPECT_NEAR(e.mean_deg, -0.05, 1e-9);
-  EXPECT_NEAR(ServoMapRmsDeg(fitted.servo_params[s].data(), truth.servo_params[s].data(), truth.directions[s],
-                             robot.servos[s].min_us, robot.servos[s].max_us),
-              0.05, 1e-9);
+  EXPECT_NEAR(ServoMapRmsDeg(fitted.servo_params[s].data(),
+                             truth.servo_params[s].data(),
+                             truth.directions[s],
+                             robot.servos[s].min_us,
+                             robot.servos[s].max_us),
+              0.05,
+              1e-9);
 }
 
 TEST(SampleServoMap, SigmaOfALinearMapFollowsItsCentreAndScale) {

@@ -10,8 +10,12 @@ namespace {
 
 // A fine sweep of a servo with resolution `truth`, backlash `hyst_us`, `px_per_us` image motion
 // and Gaussian position noise.
-std::vector<ResolutionSample> Sweep(const models::ServoResolution& truth, double hyst_us, double px_per_us,
-                                    double noise_px, int start_us, uint32_t seed) {
+std::vector<ResolutionSample> Sweep(const models::ServoResolution& truth,
+                                    double hyst_us,
+                                    double px_per_us,
+                                    double noise_px,
+                                    int start_us,
+                                    uint32_t seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> n(0, noise_px);
   std::vector<ResolutionSample> out;
@@ -52,7 +56,8 @@ TEST(ServoResolutionFit, RecoversStepAndDeadBandOfManyServos) {
           models::ServoState t{truth.Stepped(samples.front().command_us - 10), 1};
           std::vector<int> applied;
           for (const auto& x : samples) applied.push_back((t = truth.Next(t, x.command_us)).applied_us);
-          for (size_t i = 0; i < samples.size(); ++i) EXPECT_EQ(f.applied_us[i] - f.applied_us[0], applied[i] - applied[0]);
+          for (size_t i = 0; i < samples.size(); ++i)
+            EXPECT_EQ(f.applied_us[i] - f.applied_us[0], applied[i] - applied[0]);
         }
       }
     }

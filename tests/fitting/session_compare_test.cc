@@ -29,9 +29,8 @@ CalibrationResult Make(double fx, double fx_sigma, double base, double base_sigm
 }
 
 TEST(SessionCompare, DifferencesInSigmaUnitsFlagOnlyRealChanges) {
-  const auto c = CompareSessions({{"s1", Make(590, 1.0, 63.5, 0.1)},
-                                  {"s2", Make(591, 1.0, 64.5, 0.1)},
-                                  {"s3", Make(590.5, 0.5, 63.6, 0.2)}});
+  const auto c = CompareSessions(
+      {{"s1", Make(590, 1.0, 63.5, 0.1)}, {"s2", Make(591, 1.0, 64.5, 0.1)}, {"s3", Make(590.5, 0.5, 63.6, 0.2)}});
   ASSERT_EQ(c.parameters.size(), 3u);
   ASSERT_EQ(c.pairs.size(), 3u);
   // s1 -> s2: fx 1 px over sqrt(2) px: noise; baseline 1 mm over 0.141 mm: changed.

@@ -159,9 +159,7 @@ void CheckSet(const RealSet& s, int min_pairs, bool expect_poor = true) {
   EXPECT_EQ(p.result.verdict.at("status"), p.set_verdict.status);
 }
 
-TEST(SetVerdictReal, Kit2020IsGoodAndItsFlatCentralViewsArePoor) {
-  CheckSet({"owl-real/kit2020-chessboard"}, 27);
-}
+TEST(SetVerdictReal, Kit2020IsGoodAndItsFlatCentralViewsArePoor) { CheckSet({"owl-real/kit2020-chessboard"}, 27); }
 
 TEST(SetVerdictReal, Darvill2019Session1IsGoodAndItsFlatCentralViewsArePoor) {
   CheckSet({"owl-real/darvill2019-chessboard/session1", true}, 10);

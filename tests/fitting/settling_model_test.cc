@@ -41,8 +41,8 @@ TEST(SettlingModel, AModelOfTheRobotAgreesWithItsTrials) {
   for (const SettlingRow& r : st.rows) {
     EXPECT_EQ(r.num_trials, 2);
     EXPECT_EQ(r.num_ok, 2);
-    EXPECT_TRUE(r.agreement.rfind("agrees", 0) == 0) << r.gain << " " << r.amplitude_deg << ": " << r.agreement << " "
-                                                       << r.why;
+    EXPECT_TRUE(r.agreement.rfind("agrees", 0) == 0)
+        << r.gain << " " << r.amplitude_deg << ": " << r.agreement << " " << r.why;
     EXPECT_FALSE(r.why.empty());
     EXPECT_TRUE(r.ideal_stable);  // K_crit(3) = 0.445
   }

@@ -16,8 +16,8 @@
 // bows (sim::kCourseBoardWarpM): the per-eye fit, which models a flat board, is judged against
 // the flat fit of the exact bowed corners (see that test).
 #include <cmath>
-#include <map>
 #include <cstdio>
+#include <map>
 #include <random>
 #include <string>
 
@@ -50,9 +50,12 @@ struct ErrorStats {
 // numbering (as given, or reversed) with the smaller total error. AprilGrid ids are unique.
 // The corners are where they are on the scene's target: the default chessboard bows
 // (sim::kCourseBoardWarpM), so `target`'s WarpedPoint, not the flat definition.
-void AccumulateErrors(const calib::TargetDetection& d, const sim::SceneTarget& target,
-                      const Eigen::Isometry3d& base_from_target, const models::Rigid3d& cam_from_base,
-                      const models::CameraIntrinsics& truth, ErrorStats* stats) {
+void AccumulateErrors(const calib::TargetDetection& d,
+                      const sim::SceneTarget& target,
+                      const Eigen::Isometry3d& base_from_target,
+                      const models::Rigid3d& cam_from_base,
+                      const models::CameraIntrinsics& truth,
+                      ErrorStats* stats) {
   const calib::TargetDefinition& def = target.definition;
   std::map<int, Eigen::Vector3d> corners;
   for (const auto& [id, x] : def.Corners()) corners[id] = target.WarpedPoint(x);
@@ -86,8 +89,14 @@ void AccumulateErrors(const calib::TargetDetection& d, const sim::SceneTarget& t
 
 // Renders `views` poses of target `name` in front of `eye`, detects it and returns the error
 // statistics. noise_sigma = 0: noise-free render.
-ErrorStats MeasureTarget(const std::string& name, models::Eye eye, double distance_m, double spread_m,
-                         double max_angle_deg, double noise_sigma, int views, uint32_t seed) {
+ErrorStats MeasureTarget(const std::string& name,
+                         models::Eye eye,
+                         double distance_m,
+                         double spread_m,
+                         double max_angle_deg,
+                         double noise_sigma,
+                         int views,
+                         uint32_t seed) {
   sim::VirtualOwl owl(sim::VirtualOwlOptions{});
   for (const std::string& n : owl.TargetNames())
     if (n != name) owl.SetTargetVisible(n, false);
@@ -122,8 +131,14 @@ ErrorStats MeasureTarget(const std::string& name, models::Eye eye, double distan
 
 TEST(SimDetectionTest, ChessboardCornersWithinTenthPixelNoiseFree) {
   const ErrorStats s = MeasureTarget("chessboard", models::kLeftEye, 0.45, 0.06, 30, 0.0, 8, 3);
-  std::printf("chessboard, left eye, noise-free: found %d/%d, %d corners, RMS %.4f px, scale about (cx, cy) "
-              "1%+.2e\n", s.found, s.tried, s.corners, s.Rms(), s.Scale() - 1);
+  std::printf(
+      "chessboard, left eye, noise-free: found %d/%d, %d corners, RMS %.4f px, scale about (cx, cy) "
+      "1%+.2e\n",
+      s.found,
+      s.tried,
+      s.corners,
+      s.Rms(),
+      s.Scale() - 1);
   EXPECT_GE(s.found, 6);
   EXPECT_LE(s.Rms(), 0.1);
   // A radial scale bias of the rendered+detected corners would bias fx, fy directly; keep it
@@ -135,7 +150,11 @@ TEST(SimDetectionTest, ChessboardCornersWithinTenthPixelWithNoise) {
   for (models::Eye eye : {models::kLeftEye, models::kRightEye}) {
     const ErrorStats s = MeasureTarget("chessboard", eye, 0.45, 0.06, 30, 2.0, 8, 5);
     std::printf("chessboard, %s eye, noise 2 grey levels: found %d/%d, %d corners, RMS %.4f px\n",
-                eye == models::kLeftEye ? "left" : "right", s.found, s.tried, s.corners, s.Rms());
+                eye == models::kLeftEye ? "left" : "right",
+                s.found,
+                s.tried,
+                s.corners,
+                s.Rms());
     EXPECT_GE(s.found, 6);
     EXPECT_LE(s.Rms(), 0.1);
   }
@@ -145,7 +164,12 @@ TEST(SimDetectionTest, AprilGridCornersWithinFifthPixel) {
   for (double noise : {0.0, 2.0}) {
     const ErrorStats s = MeasureTarget("aprilgrid", models::kLeftEye, 0.38, 0.04, 25, noise, 6, 7);
     std::printf("aprilgrid, left eye, noise %.1f grey levels: found %d/%d, %d corners, RMS %.4f px, scale 1%+.2e\n",
-                noise, s.found, s.tried, s.corners, s.Rms(), s.Scale() - 1);
+                noise,
+                s.found,
+                s.tried,
+                s.corners,
+                s.Rms(),
+                s.Scale() - 1);
     EXPECT_GE(s.found, 4);
     EXPECT_GE(s.corners, 4 * 4 * 36 / 2);  // most of the 144 tag corners per found view
     EXPECT_LE(s.Rms(), 0.2);
@@ -197,11 +221,16 @@ TEST(SimDetectionTest, ChessboardInGrabbedStreamFrame) {
   const calib::TargetDetection d = calib::DetectTarget(frame->left, def, {});
   ASSERT_TRUE(d.found) << d.message;
   ErrorStats s;
-  AccumulateErrors(d, *owl.SceneState().Find("chessboard"), pose, ft.cam_from_base[models::kLeftEye],
+  AccumulateErrors(d,
+                   *owl.SceneState().Find("chessboard"),
+                   pose,
+                   ft.cam_from_base[models::kLeftEye],
                    owl.TruthHeadModel().intrinsics[models::kLeftEye],
                    &s);
-  std::printf("chessboard, grabbed JPEG frame %lld: %d corners, RMS %.4f px\n", static_cast<long long>(frame->seq),
-              s.corners, s.Rms());
+  std::printf("chessboard, grabbed JPEG frame %lld: %d corners, RMS %.4f px\n",
+              static_cast<long long>(frame->seq),
+              s.corners,
+              s.Rms());
   EXPECT_EQ(s.corners, 54);
   EXPECT_LE(s.Rms(), 0.2);
 }
@@ -217,9 +246,13 @@ const char* EyeName(int eye) { return eye == models::kLeftEye ? "left" : "right"
 // observations with the given frame index. Returns how many eyes saw the board. With `exact`,
 // also appends the same corners at their exact pixels: the true corner on the (bowed) board,
 // `board`, projected through the frame's true cam_from_base and the true intrinsics.
-int CaptureBothEyes(sim::VirtualOwl* owl, const robot::PwmVector& pwm, const calib::TargetDefinition& def,
-                    int frame_index, std::vector<calib::CornerObservation>* obs,
-                    const sim::SceneTarget* board = nullptr, std::vector<calib::CornerObservation>* exact = nullptr) {
+int CaptureBothEyes(sim::VirtualOwl* owl,
+                    const robot::PwmVector& pwm,
+                    const calib::TargetDefinition& def,
+                    int frame_index,
+                    std::vector<calib::CornerObservation>* obs,
+                    const sim::SceneTarget* board = nullptr,
+                    std::vector<calib::CornerObservation>* exact = nullptr) {
   owl->SendServos(pwm);
   owl->SleepNs(1'000'000'000);  // settle (slew + lag + stream latency)
   const auto frame = owl->GrabFrame(owl->NowNs(), 1'000'000'000);
@@ -242,7 +275,8 @@ int CaptureBothEyes(sim::VirtualOwl* owl, const robot::PwmVector& pwm, const cal
     for (int flip = 0; flip < 2; ++flip)
       for (calib::CornerObservation c : o) {
         const int id = flip ? int(corners.size()) - 1 - c.corner_id : c.corner_id;
-        const Eigen::Vector3d p_cam = ft.cam_from_base[eye] * (board->base_from_target * board->WarpedPoint(corners.at(id)));
+        const Eigen::Vector3d p_cam =
+            ft.cam_from_base[eye] * (board->base_from_target * board->WarpedPoint(corners.at(id)));
         double px[2];
         if (!truth.Project(p_cam.data(), px)) continue;
         total[flip] += (Eigen::Vector2d(px[0], px[1]) - c.pixel).squaredNorm();
@@ -256,15 +290,25 @@ int CaptureBothEyes(sim::VirtualOwl* owl, const robot::PwmVector& pwm, const cal
 }
 
 // Prints and checks one eye's fit against the truth.
-void CheckAgainstTruth(const models::CameraIntrinsics& fitted, const std::vector<std::string>& names,
-                       const std::vector<double>& sigmas, const std::vector<bool>& determined, size_t offset,
-                       const models::CameraIntrinsics& truth, const std::string& label) {
+void CheckAgainstTruth(const models::CameraIntrinsics& fitted,
+                       const std::vector<std::string>& names,
+                       const std::vector<double>& sigmas,
+                       const std::vector<bool>& determined,
+                       size_t offset,
+                       const models::CameraIntrinsics& truth,
+                       const std::string& label) {
   ASSERT_EQ(fitted.params.size(), truth.params.size()) << label << ": distortion model differs from the truth's";
   for (size_t i = 0; i < truth.params.size(); ++i) {
     const double err = fitted.params[i] - truth.params[i];
     const double sigma = sigmas[offset + i];
-    std::printf("  %s %-8s = %11.5f +- %.5f  truth %11.5f  error %+.5f (%+.2f sigma%s)\n", label.c_str(),
-                names[offset + i].c_str(), fitted.params[i], sigma, truth.params[i], err, err / sigma,
+    std::printf("  %s %-8s = %11.5f +- %.5f  truth %11.5f  error %+.5f (%+.2f sigma%s)\n",
+                label.c_str(),
+                names[offset + i].c_str(),
+                fitted.params[i],
+                sigma,
+                truth.params[i],
+                err,
+                err / sigma,
                 determined[offset + i] ? "" : ", undetermined");
     if (i < 2) {
       EXPECT_LE(std::abs(err) / truth.params[i], 0.002) << label << " " << names[offset + i];
@@ -327,16 +371,31 @@ TEST(SimCalibrationTest, IntrinsicsPerEyeFromMovingEyesMatchTruth) {
     ref_fx[eye] = ref.camera.params[0];
     for (int i = 0; i < 2; ++i) {
       const double bias = ref.camera.params[i] / truth.params[i] - 1;
-      std::printf("%s eye, flat fit of the exact bowed corners: %s %.3f vs truth %.3f (%+.2f %%, the bow's bias), RMS %.4f px\n",
-                  EyeName(eye), ref.param_names[i].c_str(), ref.camera.params[i], truth.params[i], 100 * bias, ref.rms_px);
+      std::printf(
+          "%s eye, flat fit of the exact bowed corners: %s %.3f vs truth %.3f (%+.2f %%, the bow's bias), RMS %.4f "
+          "px\n",
+          EyeName(eye),
+          ref.param_names[i].c_str(),
+          ref.camera.params[i],
+          truth.params[i],
+          100 * bias,
+          ref.rms_px);
       EXPECT_LT(bias, -0.005) << EyeName(eye) << " " << ref.param_names[i] << ": a 0.9 mm bow should shorten it";
       EXPECT_GT(bias, -0.04) << EyeName(eye) << " " << ref.param_names[i];
     }
     const fitting::IntrinsicsFit fit = fitting::FitIntrinsics(ev, truth.width, truth.height, {});
     ASSERT_TRUE(fit.ok) << EyeName(eye) << ": " << fit.message;
-    std::printf("%s eye: %zu views, RMS %.4f px, corner sigma %.4f px\n", EyeName(eye), ev.size(), fit.rms_px,
+    std::printf("%s eye: %zu views, RMS %.4f px, corner sigma %.4f px\n",
+                EyeName(eye),
+                ev.size(),
+                fit.rms_px,
                 fit.corner_sigma_px);
-    CheckAgainstTruth(fit.camera, fit.param_names, fit.sigmas, fit.determined, 0, ref.camera,
+    CheckAgainstTruth(fit.camera,
+                      fit.param_names,
+                      fit.sigmas,
+                      fit.determined,
+                      0,
+                      ref.camera,
                       std::string(EyeName(eye)) + " vs flat-fit reference");
   }
   // The 0.2 % bound can fail: it tells one eye's reference fx from the other's (0.8 % apart).
@@ -385,29 +444,43 @@ TEST(SimCalibrationTest, StereoAtFixedEyePoseMatchesTruth) {
   EXPECT_GE(fit.paired_frames.size(), 12u);
   const Eigen::Vector2d true_warp = owl.SceneState().Find("chessboard")->warp_m;
   for (int j = 0; j < 2; ++j) {
-    std::printf("  board warp %c = %.3f +- %.3f mm, truth %.3f mm\n", "xy"[j], 1e3 * fit.board_warp[j],
-                1e3 * fit.board_warp_sigma[j], 1e3 * true_warp[j]);
-    EXPECT_LE(std::abs(fit.board_warp[j] - true_warp[j]), 3 * fit.board_warp_sigma[j]) << "board warp " << "xy"[j];
+    std::printf("  board warp %c = %.3f +- %.3f mm, truth %.3f mm\n",
+                "xy"[j],
+                1e3 * fit.board_warp[j],
+                1e3 * fit.board_warp_sigma[j],
+                1e3 * true_warp[j]);
+    EXPECT_LE(std::abs(fit.board_warp[j] - true_warp[j]), 3 * fit.board_warp_sigma[j]) << "board warp "
+                                                                                       << "xy"[j];
   }
   const size_t n = fit.cameras[0].params.size();
   for (int eye = 0; eye < 2; ++eye)
-    CheckAgainstTruth(fit.cameras[eye], fit.param_names, fit.sigmas, fit.determined, eye * n,
-                      owl.TruthHeadModel().intrinsics[eye], std::string("stereo ") + EyeName(eye));
+    CheckAgainstTruth(fit.cameras[eye],
+                      fit.param_names,
+                      fit.sigmas,
+                      fit.determined,
+                      eye * n,
+                      owl.TruthHeadModel().intrinsics[eye],
+                      std::string("stereo ") + EyeName(eye));
   // Truth: x_right = cam_R_from_base * base_from_cam_L * x_left (the eyes hold still).
   const models::Rigid3d truth_rl =
       last_truth.cam_from_base[models::kRightEye] * last_truth.cam_from_base[models::kLeftEye].Inverse();
   const Eigen::AngleAxisd aa(fit.right_from_left.rotation * truth_rl.rotation.conjugate());
   const Eigen::Vector3d dt_mm = 1e3 * (fit.right_from_left.translation - truth_rl.translation);
   std::printf("stereo: T = [%.3f %.3f %.3f] mm, truth [%.3f %.3f %.3f] mm, error %.3f mm; rotation error %.4f deg\n",
-              1e3 * fit.right_from_left.translation.x(), 1e3 * fit.right_from_left.translation.y(),
-              1e3 * fit.right_from_left.translation.z(), 1e3 * truth_rl.translation.x(),
-              1e3 * truth_rl.translation.y(), 1e3 * truth_rl.translation.z(), dt_mm.norm(),
+              1e3 * fit.right_from_left.translation.x(),
+              1e3 * fit.right_from_left.translation.y(),
+              1e3 * fit.right_from_left.translation.z(),
+              1e3 * truth_rl.translation.x(),
+              1e3 * truth_rl.translation.y(),
+              1e3 * truth_rl.translation.z(),
+              dt_mm.norm(),
               aa.angle() * 180 / M_PI);
   const size_t t0 = 2 * n + 3;  // stereo.tx index (m)
   for (int a = 0; a < 3; ++a) {
     const double sigma_mm = 1e3 * fit.sigmas[t0 + a];
     std::printf("  stereo t%c error %+.3f mm (%+.2f sigma)\n", "xyz"[a], dt_mm[a], dt_mm[a] / sigma_mm);
-    EXPECT_LE(std::abs(dt_mm[a]), std::max(3 * sigma_mm, 0.5)) << "stereo t" << "xyz"[a];
+    EXPECT_LE(std::abs(dt_mm[a]), std::max(3 * sigma_mm, 0.5)) << "stereo t"
+                                                               << "xyz"[a];
   }
   EXPECT_LE(aa.angle() * 180 / M_PI, 0.1);
 }

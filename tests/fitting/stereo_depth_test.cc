@@ -46,12 +46,19 @@ double MedianOf(std::vector<double> v) {
 }
 
 TEST(StereoDepth, SgbmWithinTwoPercentOfRendererTruthOnTexturedTargets) {
-  const std::vector<Case> cases = {{0.3, false}, {0.5, false}, {0.8, false}, {1.1, false}, {1.5, false},
-                                   {0.3, true},  {0.5, true},  {0.8, true},  {1.1, true},  {1.5, true}};
+  const std::vector<Case> cases = {{0.3, false},
+                                   {0.5, false},
+                                   {0.8, false},
+                                   {1.1, false},
+                                   {1.5, false},
+                                   {0.3, true},
+                                   {0.5, true},
+                                   {0.8, true},
+                                   {1.1, true},
+                                   {1.5, true}};
   const models::JointAngles a;  // eyes and neck at zero: looking ahead
   // The left camera's centre sits a few cm ahead of the neck axis (the base frame's origin).
-  const double cam_z_in_base =
-      sim::VirtualOwl({}).CamFromBase(models::kLeftEye, a).Inverse().translation.z();
+  const double cam_z_in_base = sim::VirtualOwl({}).CamFromBase(models::kLeftEye, a).Inverse().translation.z();
   for (const Case& c : cases) {
     SCOPED_TRACE(std::string(c.board ? "AprilGrid at " : "textured wall at ") + std::to_string(c.depth_m) + " m");
     const double distance_m = c.depth_m + cam_z_in_base;
@@ -87,7 +94,8 @@ TEST(StereoDepth, SgbmWithinTwoPercentOfRendererTruthOnTexturedTargets) {
           scene.targets[0].base_from_target * Eigen::Vector3d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0);
       const Eigen::Vector3d in_cam = owl.CamFromBase(models::kLeftEye, a) * centre_in_base;
       const cv::Vec3d in_rect = rect.R1 * cv::Vec3d(in_cam.x(), in_cam.y(), in_cam.z());
-      centre = {rect.P1(0, 0) * in_rect[0] / in_rect[2] + rect.P1(0, 2), rect.P1(1, 1) * in_rect[1] / in_rect[2] + rect.P1(1, 2)};
+      centre = {rect.P1(0, 0) * in_rect[0] / in_rect[2] + rect.P1(0, 2),
+                rect.P1(1, 1) * in_rect[1] / in_rect[2] + rect.P1(1, 2)};
     }
     const cv::Rect roi(int(centre.x) - 20, int(centre.y) - 15, 40, 30);
     const RoiDepth d = DepthAtRoi(maps, roi, rig, rect, opt);
@@ -109,7 +117,12 @@ TEST(StereoDepth, SgbmWithinTwoPercentOfRendererTruthOnTexturedTargets) {
     const double err = (d.depth_m - true_z) / true_z;
     EXPECT_LT(std::abs(err), 0.02) << "depth " << d.depth_m << " m, truth " << true_z << " m";
     std::printf("%-9s %.2f m: truth %.4f m, SGBM %.4f +- %.4f m (%+.2f %%), %.0f %% of ROI pixels within 2 %%\n",
-                c.board ? "AprilGrid" : "wall", c.depth_m, true_z, d.depth_m, d.sigma_m, 100 * err,
+                c.board ? "AprilGrid" : "wall",
+                c.depth_m,
+                true_z,
+                d.depth_m,
+                d.sigma_m,
+                100 * err,
                 100.0 * within / valid);
     EXPECT_GT(d.valid_fraction(), 0.9);
     EXPECT_GT(double(within) / valid, 0.9) << "pixels within 2 %: " << within << " of " << valid;

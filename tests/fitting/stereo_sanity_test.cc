@@ -4,8 +4,8 @@
 
 #include <iostream>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "calib/image_pairs.h"
 #include "fitting/range_images_calib.h"
@@ -128,8 +128,8 @@ void CheckNamed(const Case& k) {
   StereoFitOptions o;
   const ImageSetCalibration c = CalibrateImageSet(set.observations, o);
   ASSERT_TRUE(c.fit.ok) << c.fit.message;
-  std::cout << k.dir << (k.swap ? " swapped" : " as stored (mirrored)") << ": T = "
-            << c.fit.right_from_left.translation.transpose() * 1000 << " mm\n"
+  std::cout << k.dir << (k.swap ? " swapped" : " as stored (mirrored)")
+            << ": T = " << c.fit.right_from_left.translation.transpose() * 1000 << " mm\n"
             << reports::SetVerdictMarkdown(c.set_verdict);
   EXPECT_GT(c.fit.right_from_left.translation.x(), 0.05);
   EXPECT_EQ(c.set_verdict.status, "unusable");

@@ -33,7 +33,8 @@ std::vector<calib::View> Views(const std::string& prefix, int eye) {
     std::snprintf(name, sizeof(name), "/%s%02d.jpg", prefix.c_str(), i);
     const cv::Mat img = cv::imread(SharedData() + "/opencv-stereo-chessboard" + name, cv::IMREAD_GRAYSCALE);
     if (img.empty()) continue;
-    const auto o = calib::DetectionToObservations(calib::DetectTarget(img, OpenCvBoard(), TestDetector()), OpenCvBoard(), i, eye);
+    const auto o =
+        calib::DetectionToObservations(calib::DetectTarget(img, OpenCvBoard(), TestDetector()), OpenCvBoard(), i, eye);
     obs.insert(obs.end(), o.begin(), o.end());
   }
   return calib::GroupIntoViews(obs);
@@ -131,8 +132,9 @@ TEST(FitStereoSynthetic, BaselineInMillimetresWithinSigma) {
   models::CameraIntrinsics cam[2];
   cam[0].params = {585.0, 584.0, 320.0, 238.0, -0.12, 0.08, 0.0, 0.0, 0.0};
   cam[1].params = {580.0, 579.5, 317.0, 242.0, -0.10, 0.05, 0.0, 0.0, 0.0};
-  const models::Rigid3d right_from_left(Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
-                                        Eigen::Vector3d(-0.0645, 0.0008, 0.0012));
+  const models::Rigid3d right_from_left(
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
+      Eigen::Vector3d(-0.0645, 0.0008, 0.0012));
   calib::TargetDefinition board;  // 9x6, 26 mm
   std::mt19937 rng(21);
   BoardPoseSpread spread;

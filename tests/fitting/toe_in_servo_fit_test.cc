@@ -7,8 +7,8 @@
 #include <iostream>
 #include <random>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "fitting/range_images_calib.h"
 #include "reports/toe_in_tables.h"

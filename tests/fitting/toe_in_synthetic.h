@@ -18,12 +18,15 @@ constexpr double kDeg = M_PI / 180;
 struct Truth {
   double rx_centre = 1545, lx_centre = 1545;
   double rx_deg_per_us = 0.1, lx_deg_per_us = 0.09;  // different on purpose
-  double mount_yaw_deg = 0.8;                         // left eye's mounting yaw
-  double repeatability_deg = 0.25;                    // per set, per eye
+  double mount_yaw_deg = 0.8;                        // left eye's mounting yaw
+  double repeatability_deg = 0.25;                   // per set, per eye
 };
 
 // Observations of one set: 14 board poses seen by both eyes, corner noise 0.15 px.
-inline std::vector<calib::CornerObservation> SynthesiseSet(const Truth& t, double rx_us, double lx_us, std::mt19937* rng) {
+inline std::vector<calib::CornerObservation> SynthesiseSet(const Truth& t,
+                                                           double rx_us,
+                                                           double lx_us,
+                                                           std::mt19937* rng) {
   std::normal_distribution<double> rep(0, t.repeatability_deg * kDeg), px(0, 0.15);
   const double th[2] = {t.lx_deg_per_us * (lx_us - t.lx_centre) * kDeg + t.mount_yaw_deg * kDeg + rep(*rng),
                         t.rx_deg_per_us * (rx_us - t.rx_centre) * kDeg + rep(*rng)};
@@ -81,7 +84,7 @@ struct Setting {
 
 // Toe-in settings 0/18/36/54 us on both eyes, one eye alone at two settings, and the parallel
 // setting repeated: 8 sets, as the real experiment in docs/conventions.md, Facts, with the eyes separable.
-inline const std::vector<Setting> kSettings = {{1545, 1545}, {1527, 1563}, {1509, 1581}, {1491, 1599},
-                                        {1545, 1581}, {1509, 1545}, {1545, 1545}, {1500, 1545}};
+inline const std::vector<Setting> kSettings = {
+    {1545, 1545}, {1527, 1563}, {1509, 1581}, {1491, 1599}, {1545, 1581}, {1509, 1545}, {1545, 1545}, {1500, 1545}};
 
 }  // namespace owlcal::test_toe_in

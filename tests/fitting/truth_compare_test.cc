@@ -21,9 +21,9 @@ Parameter P(const std::string& name, double value, double sigma, bool determined
 
 TEST(TruthCompare, FillsTruthAndCountsSigmas) {
   CalibrationResult r;
-  r.Set(P("left.fx", 581.0, 0.5));   // z = +2
-  r.Set(P("left.fy", 579.0, 0.5));   // z = -2 (within)
-  r.Set(P("left.cx", 330.0, 1.0));   // z = +10
+  r.Set(P("left.fx", 581.0, 0.5));  // z = +2
+  r.Set(P("left.fy", 579.0, 0.5));  // z = -2 (within)
+  r.Set(P("left.cx", 330.0, 1.0));  // z = +10
   r.Set(P("left.k3", 0.0, NAN, false));
   r.Set(P("head.extra", 1.0, 0.1));  // no truth
   const int n = FillTruth({{"left.fx", 580}, {"left.fy", 580}, {"left.cx", 320}, {"left.k3", 0.1}}, &r);

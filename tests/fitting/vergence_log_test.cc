@@ -120,12 +120,14 @@ std::string ErrorOf(const std::string& path, const VergenceColumnRequest& column
 // true distance. Without --distance-column it is refused, naming all three and the option;
 // named, the true distance is read and the other two are listed as ignored.
 TEST(VergenceLogColumns, SeveralDistanceColumnsAreRefusedUnlessOneIsNamed) {
-  const std::string path = WriteTemp("trap_vergence.csv",
-                                     "run,sheet_calc_distance_mm,program_reported_distance_mm,actual_distance_mm,Rx,Lx\n"
-                                     "1,101,98,100,1310,1595\n1,195,210,200,1355,1520\n");
+  const std::string path =
+      WriteTemp("trap_vergence.csv",
+                "run,sheet_calc_distance_mm,program_reported_distance_mm,actual_distance_mm,Rx,Lx\n"
+                "1,101,98,100,1310,1595\n1,195,210,200,1355,1520\n");
   const std::string e = ErrorOf(path);
   EXPECT_NE(e.find(path), std::string::npos) << e;
-  for (const char* c : {"sheet_calc_distance_mm", "program_reported_distance_mm", "actual_distance_mm", "--distance-column"})
+  for (const char* c :
+       {"sheet_calc_distance_mm", "program_reported_distance_mm", "actual_distance_mm", "--distance-column"})
     EXPECT_NE(e.find(c), std::string::npos) << c << " not in: " << e;
   VergenceColumnRequest req;
   req.distance = "actual_distance_mm";
@@ -210,7 +212,8 @@ std::string ReaderError(const std::string& text) {
 TEST(VergenceLogFit, ReaderRefusesNanNegativeAndHugeValues) {
   const std::string path = ::testing::TempDir() + "/hostile_vergence.csv";
   const std::string head = "run,distance_cm,Rx,Lx\n1,10,1310,1595\n";
-  EXPECT_EQ(ReaderError(head + "1,nan,1355,1520\n"), path + ":3: column distance_cm = 'nan' is not a finite decimal number");
+  EXPECT_EQ(ReaderError(head + "1,nan,1355,1520\n"),
+            path + ":3: column distance_cm = 'nan' is not a finite decimal number");
   EXPECT_EQ(ReaderError(head + "1,-20,1355,1520\n"), path + ":3: column distance_cm = -20 is not positive");
   EXPECT_EQ(ReaderError(head + "1,0,1355,1520\n"), path + ":3: column distance_cm = 0 is not positive");
   EXPECT_EQ(ReaderError(head + "1,20,inf,1520\n"), path + ":3: column Rx = 'inf' is not a finite decimal number");

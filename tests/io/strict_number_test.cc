@@ -15,9 +15,9 @@ TEST(StrictNumber, AcceptsPlainDecimalNumbers) {
 }
 
 TEST(StrictNumber, RejectsNanInfHexSpacesAndTrailingText) {
-  for (const char* text : {"", " ", "nan", "NaN", "-nan", "inf", "-inf", "infinity", ".inf", ".nan", "0x10", "0X1p3",
-                           "1e", "e5", ".", "-", "+", " 1", "1 ", "4x0", "1,5", "1e999", "-1e400", "1..2", "--1",
-                           "1e+", "\x01"}) {
+  for (const char* text :
+       {"",  " ", "nan", "NaN", "-nan", "inf", "-inf", "infinity", ".inf",   ".nan", "0x10", "0X1p3", "1e",  "e5",
+        ".", "-", "+",   " 1",  "1 ",   "4x0", "1,5",  "1e999",    "-1e400", "1..2", "--1",  "1e+",   "\x01"}) {
     EXPECT_FALSE(ParseFiniteDouble(text).has_value()) << "'" << text << "'";
   }
 }

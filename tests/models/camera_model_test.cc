@@ -23,8 +23,8 @@ std::vector<double> RandomParams(std::mt19937& rng) {
   std::uniform_real_distribution<double> f(560, 700), c(-20, 20), k1(-0.15, 0.05), k2(-0.01, 0.08), p(-2e-3, 2e-3),
       k3(-0.01, 0.01), rat(-0.02, 0.02);
   const double fx = f(rng);
-  std::vector<double> v = {fx, fx * (1 + 0.01 * c(rng) / 20), 319.5 + c(rng), 239.5 + c(rng),
-                           k1(rng), k2(rng), p(rng), p(rng), k3(rng)};
+  std::vector<double> v = {
+      fx, fx * (1 + 0.01 * c(rng) / 20), 319.5 + c(rng), 239.5 + c(rng), k1(rng), k2(rng), p(rng), p(rng), k3(rng)};
   if constexpr (Camera::kNumDistortion == 8) {
     // Rational model: k4..k6 with k4 close to k1 as in real fits, so the ratio stays tame.
     v.push_back(v[4] + rat(rng));
@@ -100,7 +100,6 @@ TYPED_TEST(CameraModelTest, ProjectThenUnprojectRecoversTheRay) {
   }
 }
 
-
 template <typename Camera>
 struct ProjectCost {
   template <typename T>
@@ -111,8 +110,7 @@ struct ProjectCost {
 
 TYPED_TEST(CameraModelTest, AutodiffJacobiansMatchNumeric) {
   std::mt19937 rng(4);
-  ceres::AutoDiffCostFunction<ProjectCost<TypeParam>, 2, TypeParam::kNumParams, 3> cost(
-      new ProjectCost<TypeParam>);
+  ceres::AutoDiffCostFunction<ProjectCost<TypeParam>, 2, TypeParam::kNumParams, 3> cost(new ProjectCost<TypeParam>);
   for (int trial = 0; trial < 30; ++trial) {
     const std::vector<double> p = RandomParams<TypeParam>(rng);
     const Eigen::Vector3d x = RandomPoint(rng);

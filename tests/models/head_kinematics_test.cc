@@ -53,8 +53,8 @@ namespace {
 // Blocks: camera params (9), cam_from_eye (7), centre_in_head (3), [pan, tilt, neck] (3), point (3).
 struct EyePixelCost {
   template <typename T>
-  bool operator()(const T* camera, const T* cam_from_eye, const T* centre, const T* joints, const T* point,
-                  T* pixel) const {
+  bool operator()(
+      const T* camera, const T* cam_from_eye, const T* centre, const T* joints, const T* point, T* pixel) const {
     const Eigen::Matrix<T, 3, 1> x(point[0], point[1], point[2]);
     const Eigen::Matrix<T, 3, 1> p = PointInCam(cam_from_eye, centre, joints[0], joints[1], joints[2], x);
     return Camera5::Project(camera, p.data(), pixel);

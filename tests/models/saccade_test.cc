@@ -9,7 +9,8 @@ HeadModel Head() {
   HeadModel h = NominalHeadModel(DefaultRobotConfig());
   h.servo_params[kRx] = {1560, 0.108, 0.6, -1.2, 2};
   h.servo_params[kRy] = {1500, 0.118, -0.5, 0.8, 1.5};
-  h.geometry.cam_from_eye[kRightEye] = Rigid3d::Map(std::array<double, 7>{0.004, -0.003, 0.005, 1, 0.001, -0.001, -0.015}.data());
+  h.geometry.cam_from_eye[kRightEye] =
+      Rigid3d::Map(std::array<double, 7>{0.004, -0.003, 0.005, 1, 0.001, -0.001, -0.015}.data());
   h.intrinsics[kRightEye].params = {587, 586, 317, 243, -0.1, 0.07, 0, 0, -0.016};
   return h;
 }
@@ -48,7 +49,7 @@ TEST(Saccade, ShapedStepSettlesSoonerThanAPlainStep) {
   const SaccadeShape plain = ShapeSaccade(a, slew, 1e-9, band);
   EXPECT_GT(s.overdrive_us, 0);
   EXPECT_GT(s.switch_s, 0);
-  EXPECT_LT(s.settle_s, 0.06);   // a plain step needs ~0.112 s with this lag
+  EXPECT_LT(s.settle_s, 0.06);  // a plain step needs ~0.112 s with this lag
   EXPECT_LT(plain.settle_s, 0.03);
   // The joint really is inside the band from settle_s on.
   double r1 = 0;

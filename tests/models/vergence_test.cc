@@ -20,9 +20,7 @@ void InwardAngles(double x, double z, double* theta_left, double* theta_right) {
 
 // Gaze ray of one eye in the plane of the baseline: eye at (+-IPD/2, 0, 0), pan about y
 // (pan > 0 looks right, models/head_kinematics.h), via the kinematics' own rotation.
-Eigen::Vector3d GazeDirection(double pan_rad) {
-  return RotY(pan_rad) * Eigen::Vector3d(0, 0, 1);
-}
+Eigen::Vector3d GazeDirection(double pan_rad) { return RotY(pan_rad) * Eigen::Vector3d(0, 0, 1); }
 
 TEST(Vergence, SymmetricFormsAgree) {
   for (double z : {0.2, 0.5, 1.0, 2.0, 5.0}) {
@@ -35,8 +33,8 @@ TEST(Vergence, SymmetricFormsAgree) {
     EXPECT_NEAR(fix.depth, z, 1e-9 * z);
     EXPECT_NEAR(fix.lateral, 0, 1e-9);
     EXPECT_NEAR(fix.range, z, 1e-9 * z);
-    const auto rays = ClosestPointOfRays(Eigen::Vector3d(-kIpd / 2, 0, 0), GazeDirection(tl),
-                                         Eigen::Vector3d(kIpd / 2, 0, 0), GazeDirection(-tr));
+    const auto rays = ClosestPointOfRays(
+        Eigen::Vector3d(-kIpd / 2, 0, 0), GazeDirection(tl), Eigen::Vector3d(kIpd / 2, 0, 0), GazeDirection(-tr));
     ASSERT_TRUE(rays);
     EXPECT_NEAR(rays->point.z(), z, 1e-9 * z);
     EXPECT_NEAR(rays->point.x(), 0, 1e-9);
@@ -58,8 +56,8 @@ TEST(Vergence, AsymmetricFormsAgreeOnRandomTargets) {
     EXPECT_NEAR(fix.lateral, x, tol);
     EXPECT_NEAR(fix.range, std::hypot(x, z), tol);
     EXPECT_NEAR(SineRuleLeftDistance(kIpd, tl, tr), std::hypot(x + kIpd / 2, z), tol);
-    const auto rays = ClosestPointOfRays(Eigen::Vector3d(-kIpd / 2, 0, 0), GazeDirection(tl),
-                                         Eigen::Vector3d(kIpd / 2, 0, 0), GazeDirection(-tr));
+    const auto rays = ClosestPointOfRays(
+        Eigen::Vector3d(-kIpd / 2, 0, 0), GazeDirection(tl), Eigen::Vector3d(kIpd / 2, 0, 0), GazeDirection(-tr));
     ASSERT_TRUE(rays);
     EXPECT_NEAR(rays->point.x(), x, tol);
     EXPECT_NEAR(rays->point.z(), z, tol);
@@ -71,14 +69,16 @@ TEST(Vergence, AsymmetricFormsAgreeOnRandomTargets) {
 TEST(Vergence, ClosestPointOfSkewRaysIsTheMidpoint) {
   // Rays along x at y = -1 and along z at y = +1 (through (2, 1, 0)): the shortest segment
   // joins (2, -1, 0) and (2, 1, 0), so the midpoint is (2, 0, 0) and the gap 2.
-  const auto f = ClosestPointOfRays(Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(3, 0, 0),
-                                    Eigen::Vector3d(2, 1, -5), Eigen::Vector3d(0, 0, 0.5));
+  const auto f = ClosestPointOfRays(
+      Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(3, 0, 0), Eigen::Vector3d(2, 1, -5), Eigen::Vector3d(0, 0, 0.5));
   ASSERT_TRUE(f);
   EXPECT_NEAR((f->point - Eigen::Vector3d(2, 0, 0)).norm(), 0, 1e-12);
   EXPECT_NEAR(f->gap, 2, 1e-12);
   EXPECT_NEAR(f->s1, 2.0 / 3.0, 1e-12);
   EXPECT_NEAR(f->s2, 10, 1e-12);
-  EXPECT_FALSE(ClosestPointOfRays(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(1, 0, 0),
+  EXPECT_FALSE(ClosestPointOfRays(Eigen::Vector3d(0, 0, 0),
+                                  Eigen::Vector3d(0, 0, 1),
+                                  Eigen::Vector3d(1, 0, 0),
                                   Eigen::Vector3d(0, 0, 2)));  // parallel: no fix
 }
 

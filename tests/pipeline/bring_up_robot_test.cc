@@ -57,7 +57,8 @@ TEST(BringUpRobot, AReassembledRobotIsMeasuredThenDrivenOnWhatWasLearned) {
   fs::remove_all(root);
   pipeline::CalibrateOptions co;
   co.out = root.string();
-  co.protocols = {"limits", protocols + "mc_stereo.yaml", protocols + "mc_servo_sweep.yaml", protocols + "vergence_short.yaml"};
+  co.protocols = {
+      "limits", protocols + "mc_stereo.yaml", protocols + "mc_servo_sweep.yaml", protocols + "vergence_short.yaml"};
   co.truth = truth;
   co.robot.sim = {{"seed", 5}, {"truth_file", truth_file}};
   // Armed once the first protocol after the limits protocol starts.
@@ -69,7 +70,8 @@ TEST(BringUpRobot, AReassembledRobotIsMeasuredThenDrivenOnWhatWasLearned) {
   ASSERT_TRUE(run.result.diagnostics.contains("bring_up"));
   const nlohmann::json& b = run.result.diagnostics["bring_up"];
   bool reversed = false;
-  for (const auto& f : b.at("findings")) reversed |= f.get<std::string>().find("for Ly; the robot turns +1") != std::string::npos;
+  for (const auto& f : b.at("findings"))
+    reversed |= f.get<std::string>().find("for Ly; the robot turns +1") != std::string::npos;
   EXPECT_TRUE(reversed) << b.dump(1);
   EXPECT_EQ(run.config.servos[models::kLy].direction, +1);
   for (int s = 0; s < models::kNumServos; ++s) {

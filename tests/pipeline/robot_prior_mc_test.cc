@@ -87,7 +87,8 @@ TEST(RobotPriorMonteCarlo, SigmasCoverTheErrorsOnRobotsOfThePrior) {
     // The standard protocols that fit parameters, calibrated as `owlcal calibrate` does (the short
     // ones, which the ranging test below uses, put the servo maps 89 % within 1 sigma: their 8
     // stereo views make the stereo fit's intrinsics floor noise-limited).
-    const fitting::CalibrationRun run = CalibrateRobot(robot, uint64_t(i), root, {"intrinsics", "stereo", "servo_sweep"});
+    const fitting::CalibrationRun run =
+        CalibrateRobot(robot, uint64_t(i), root, {"intrinsics", "stereo", "servo_sweep"});
     int scored = 0;
     for (const auto& p : run.result.parameters) {
       if (!(p.determined && p.truth && p.sigma > 0)) continue;
@@ -148,29 +149,42 @@ TEST(RobotPriorMonteCarlo, RangingWithinOnePercentWithDeadBandsAndPwmSteps) {
       robot.truth.servos[s].quantum_us = seed % 2 ? 5 : 1;
       if (s != models::kNeck) robot.truth.servos[s].dead_band_us = dead_band(rng);
     }
-    const fitting::CalibrationRun run = CalibrateRobot(
-        robot,
-        seed,
-        root,
-        {kProtocols + "mc_stereo.yaml", kProtocols + "mc_servo_sweep.yaml", kProtocols + "resolution_probe.yaml",
-         kProtocols + "vergence_short.yaml"});
+    const fitting::CalibrationRun run = CalibrateRobot(robot,
+                                                       seed,
+                                                       root,
+                                                       {kProtocols + "mc_stereo.yaml",
+                                                        kProtocols + "mc_servo_sweep.yaml",
+                                                        kProtocols + "resolution_probe.yaml",
+                                                        kProtocols + "vergence_short.yaml"});
     ASSERT_TRUE(run.ranging) << robot.truth.name;
     int n = 0, in = 0;
     for (const auto& row : run.ranging->rows) {
       if (!row.ok) {
-        std::printf("  %s: %.2f m not ranged: %s: %s\n", robot.truth.name.c_str(), row.true_m,
-                    calib::TrialStatusName(row.status), row.reason.c_str());
+        std::printf("  %s: %.2f m not ranged: %s: %s\n",
+                    robot.truth.name.c_str(),
+                    row.true_m,
+                    calib::TrialStatusName(row.status),
+                    row.reason.c_str());
         EXPECT_FALSE(row.reason.empty()) << robot.truth.name;
         continue;
       }
       ++n;
       in += std::abs(row.error_m) <= 2 * row.sigma_m;
     }
-    std::printf("%s: step %d us, dead bands %.0f/%.0f/%.0f/%.0f us: %d ok of %zu, RMS %.3f %%, max %.3f %%, %d within 2 sigma\n",
-                robot.truth.name.c_str(), robot.truth.servos[0].quantum_us, robot.truth.servos[0].dead_band_us,
-                robot.truth.servos[1].dead_band_us, robot.truth.servos[2].dead_band_us,
-                robot.truth.servos[3].dead_band_us, run.ranging->num_ok, run.ranging->rows.size(),
-                100 * run.ranging->rms_rel_error, 100 * run.ranging->max_abs_rel_error, in);
+    std::printf(
+        "%s: step %d us, dead bands %.0f/%.0f/%.0f/%.0f us: %d ok of %zu, RMS %.3f %%, max %.3f %%, %d within 2 "
+        "sigma\n",
+        robot.truth.name.c_str(),
+        robot.truth.servos[0].quantum_us,
+        robot.truth.servos[0].dead_band_us,
+        robot.truth.servos[1].dead_band_us,
+        robot.truth.servos[2].dead_band_us,
+        robot.truth.servos[3].dead_band_us,
+        run.ranging->num_ok,
+        run.ranging->rows.size(),
+        100 * run.ranging->rms_rel_error,
+        100 * run.ranging->max_abs_rel_error,
+        in);
     EXPECT_GE(run.ranging->num_ok, 4) << robot.truth.name;  // an unranged fixation is a row with its reason
     EXPECT_LE(run.ranging->rms_rel_error, 0.01) << robot.truth.name;
     pooled += n;

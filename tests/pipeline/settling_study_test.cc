@@ -17,7 +17,8 @@ namespace owlcal::pipeline {
 namespace {
 namespace fs = std::filesystem;
 
-const char* kResponseHeader = "step_index,gain,amplitude_deg,trial,k,t_s,offset_px,offset_y_px,pwm_us,found,frame_index";
+const char* kResponseHeader =
+    "step_index,gain,amplitude_deg,trial,k,t_s,offset_px,offset_y_px,pwm_us,found,frame_index";
 const char* kTrialsHeader =
     "step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,final_offset_px,"
     "message,status,reason";
@@ -39,14 +40,37 @@ std::vector<fitting::StepTrace> Record(const fs::path& dir, const fitting::LoopM
         const double amp_us = amp / deg_per_us * (trial ? -1 : 1);
         const fitting::LoopTrial t = fitting::SimulateLoopStep(robot, gain, amp_us, 75, seed++);
         for (size_t k = 0; k < t.t_s.size(); ++k)
-          w->AppendRow("step_response.csv", kResponseHeader,
-                       {"1", S(gain), S(amp), std::to_string(trial), std::to_string(k), S(t.t_s[k]), S(t.offset_px[k]),
-                        "0", std::to_string(1500 + t.command_us[k]), "1", "-1"});
+          w->AppendRow("step_response.csv",
+                       kResponseHeader,
+                       {"1",
+                        S(gain),
+                        S(amp),
+                        std::to_string(trial),
+                        std::to_string(k),
+                        S(t.t_s[k]),
+                        S(t.offset_px[k]),
+                        "0",
+                        std::to_string(1500 + t.command_us[k]),
+                        "1",
+                        "-1"});
         const std::string status = t.info.settled ? "ok" : "not_settled";
-        w->AppendRow("step_trials.csv", kTrialsHeader,
-                     {"1", S(gain), S(amp), std::to_string(trial), "right", "pan", "Rx",
-                      std::to_string(1500 + t.command_us.front()), "1500", t.info.settled ? "converged" : "not-settled",
-                      "75", S(t.offset_px.back()), "", status, t.info.settled ? "" : "not converged"});
+        w->AppendRow("step_trials.csv",
+                     kTrialsHeader,
+                     {"1",
+                      S(gain),
+                      S(amp),
+                      std::to_string(trial),
+                      "right",
+                      "pan",
+                      "Rx",
+                      std::to_string(1500 + t.command_us.front()),
+                      "1500",
+                      t.info.settled ? "converged" : "not-settled",
+                      "75",
+                      S(t.offset_px.back()),
+                      "",
+                      status,
+                      t.info.settled ? "" : "not converged"});
         fitting::StepTrace s;
         s.gain = gain;
         s.amplitude_deg = amp;
@@ -78,8 +102,8 @@ TEST(SettlingStudy, ARobotThatIsTheLoopModelAgreesWithTheModelFittedFromItsSteps
   const fs::path dir = TempDir("agree");
   const auto steps = Record(dir, robot, 0.113);
   std::vector<std::string> warnings;
-  const auto st = StudySettling(dir.string(), steps, models::DefaultRobotConfig(), fitting::CalibrationResult{}, 133.0, 4,
-                                30.0, &warnings);
+  const auto st = StudySettling(
+      dir.string(), steps, models::DefaultRobotConfig(), fitting::CalibrationResult{}, 133.0, 4, 30.0, &warnings);
   ASSERT_TRUE(st.has_value()) << (warnings.empty() ? "" : warnings[0]);
   EXPECT_TRUE(warnings.empty());
   // The fitted motion is the robot's.
@@ -98,10 +122,11 @@ TEST(SettlingStudy, ARobotThatIsTheLoopModelAgreesWithTheModelFittedFromItsSteps
 
 TEST(SettlingStudy, NothingToFitIsANamedWarningNotAModel) {
   const fs::path dir = TempDir("empty");
-  protocols::DatasetWriter::Create(dir.string(), {{"protocols", {{{"name", "step_response"}}}}})->Finish("complete", "");
+  protocols::DatasetWriter::Create(dir.string(), {{"protocols", {{{"name", "step_response"}}}}})
+      ->Finish("complete", "");
   std::vector<std::string> warnings;
-  const auto st = StudySettling(dir.string(), {}, models::DefaultRobotConfig(), fitting::CalibrationResult{},
-                                std::nullopt, 3, 30.0, &warnings);
+  const auto st = StudySettling(
+      dir.string(), {}, models::DefaultRobotConfig(), fitting::CalibrationResult{}, std::nullopt, 3, 30.0, &warnings);
   EXPECT_FALSE(st.has_value());
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_NE(warnings[0].find("settling model vs measurement not made"), std::string::npos) << warnings[0];

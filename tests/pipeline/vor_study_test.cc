@@ -41,8 +41,9 @@ protocols::CalibratedMaps FromTruth(const sim::RobotTruth& t) {
 
 // Two sines and a step: the standard protocol's 0.5 and 1 Hz, fewer cycles.
 // (Short: each frame is rendered, and the suite shares two cores.)
-std::string VorProtocol(const std::string& vor = "{sines_hz: [0.5, 1.0], amplitude_deg: 10, cycles: 1, "
-                                                 "steps_deg: [8], hold_ms: 600, range_m: 1.0}") {
+std::string VorProtocol(const std::string& vor =
+                            "{sines_hz: [0.5, 1.0], amplitude_deg: 10, cycles: 1, "
+                            "steps_deg: [8], hold_ms: 600, range_m: 1.0}") {
   return "name: vor-test\ntarget: fixation\nsteps:\n"
          "  - move-to: {pose: {}, settle: {mode: time, time_ms: 300}}\n"
          "  - place-target: {target: fixation, distance_m: 1.0}\n"
@@ -134,8 +135,13 @@ TEST(Vor, DefaultRobotCalibratedMapsCounterRotateAndTheGainMatchesTruth) {
   }
   const std::string page = WriteVorStudy(r.study, r.dir + "/out", false);
   EXPECT_TRUE(fs::exists(page));
-  for (const char* f : {"tables/vor_results.csv", "tables/vor_summary.csv", "tables/vor_frames.csv",
-                        "figures/vor_traces.csv", "figures/vor_slip.csv", "figures/vor_gain.csv", "vor.json"})
+  for (const char* f : {"tables/vor_results.csv",
+                        "tables/vor_summary.csv",
+                        "tables/vor_frames.csv",
+                        "figures/vor_traces.csv",
+                        "figures/vor_slip.csv",
+                        "figures/vor_gain.csv",
+                        "vor.json"})
     EXPECT_TRUE(fs::exists(r.dir + "/out/" + f)) << f;
 }
 

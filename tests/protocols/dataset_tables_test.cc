@@ -45,14 +45,20 @@ TEST(DatasetTables, FixationsWrittenByTheWriterReadBackExactly) {
   const std::string dir = TempDir("fix");
   {
     auto w = DatasetWriter::Create(dir, {});
-    w->AppendRow("fixations.csv", kFixationsHeader,
-                 {"2", "near, left", "0", "disc", "0.600000", "both", "0.3000", "converged", "17", "1480", "1510", "1620",
-                  "1505", "1530", "1", "0.250", "-0.125", "1", "-0.500", "0.750", "123456789", "1", "-1", "0", "1", "0",
-                  "ok", ""});
-    w->AppendRow("fixations.csv", kFixationsHeader,
-                 {"2", "far", "1", "disc", "", "both", "0.3000", "target-lost", "40", "1480", "1510", "1620", "1505",
-                  "1530", "1", "0.000", "0.000", "0", "nan", "nan", "223456789", "0", "0", "0", "0", "0", "lost target",
-                  "right eye: \"disc\" left the image,\nafter 12 frames"});
+    w->AppendRow("fixations.csv", kFixationsHeader, {"2",      "near, left", "0",         "disc",  "0.600000", "both",
+                                                     "0.3000", "converged",  "17",        "1480",  "1510",     "1620",
+                                                     "1505",   "1530",       "1",         "0.250", "-0.125",   "1",
+                                                     "-0.500", "0.750",      "123456789", "1",     "-1",       "0",
+                                                     "1",      "0",          "ok",        ""});
+    w->AppendRow("fixations.csv",
+                 kFixationsHeader,
+                 {"2",         "far",  "1",           "disc",
+                  "",          "both", "0.3000",      "target-lost",
+                  "40",        "1480", "1510",        "1620",
+                  "1505",      "1530", "1",           "0.000",
+                  "0.000",     "0",    "nan",         "nan",
+                  "223456789", "0",    "0",           "0",
+                  "0",         "0",    "lost target", "right eye: \"disc\" left the image,\nafter 12 frames"});
   }
   const std::vector<FixationRow> rows = ReadFixationsCsv(dir);
   ASSERT_EQ(rows.size(), 2u);
@@ -87,9 +93,11 @@ TEST(DatasetTables, BadCellsAreErrorsNamingPathLineAndColumn) {
   EXPECT_EQ(ErrorOf([&] { ReadLatencyCsv(dir); }),
             latency + ":3: column latency_ms = '12O' is not a finite decimal number");
   Write(latency, header + "0,0,Rx,40,inf,5,3.2\n");
-  EXPECT_EQ(ErrorOf([&] { ReadLatencyCsv(dir); }), latency + ":2: column latency_ms = 'inf' is not a finite decimal number");
+  EXPECT_EQ(ErrorOf([&] { ReadLatencyCsv(dir); }),
+            latency + ":2: column latency_ms = 'inf' is not a finite decimal number");
   Write(latency, header + "0,0,Rx,40,-3,5,3.2\n");
-  EXPECT_NE(ErrorOf([&] { ReadLatencyCsv(dir); }).find(latency + ":2: column latency_ms = -3 is outside"), std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ReadLatencyCsv(dir); }).find(latency + ":2: column latency_ms = -3 is outside"),
+            std::string::npos);
   Write(latency, "step_index,trial,servo,amplitude_us,frames_waited,shift_px\n0,0,Rx,40,5,3.2\n");
   EXPECT_NE(ErrorOf([&] { ReadLatencyCsv(dir); }).find(latency + ":1: missing column 'latency_ms'"), std::string::npos);
   Write(latency, header + "0,0,Rx,40,120.5,5\n");
@@ -100,16 +108,18 @@ TEST(DatasetTables, BadCellsAreErrorsNamingPathLineAndColumn) {
         "step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening,status,message\n"
         "1,Rx,max,1900,1870,end-stop,0.100,0.0000,fine,\n");
   EXPECT_EQ(ErrorOf([&] { ReadLimitsCsv(dir); }),
-            limits + ":2: column status = 'fine' is not a trial status (ok, not settled, lost target, off target, "
-                     "timed out, skipped, failed)");
+            limits +
+                ":2: column status = 'fine' is not a trial status (ok, not settled, lost target, off target, "
+                "timed out, skipped, failed)");
 }
 
 TEST(DatasetTables, OlderDatasetsWithoutStatusColumnsStillRead) {
   const std::string dir = TempDir("old");
-  Write(dir + "/step_trials.csv",
-        "step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,final_offset_px\n"
-        "3,0.1000,5.000,0,left,pan,Lx,1600,1556,converged,40,0.412\n"
-        "3,0.1000,5.000,1,left,pan,Lx,1512,1556,max-iterations,40,nan\n");
+  Write(
+      dir + "/step_trials.csv",
+      "step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,final_offset_px\n"
+      "3,0.1000,5.000,0,left,pan,Lx,1600,1556,converged,40,0.412\n"
+      "3,0.1000,5.000,1,left,pan,Lx,1512,1556,max-iterations,40,nan\n");
   const std::vector<StepTrialRow> t = ReadStepTrialsCsv(dir);
   ASSERT_EQ(t.size(), 2u);
   EXPECT_FALSE(t[0].status);

@@ -84,7 +84,8 @@ TEST(Fixation, ConvergesAtTheCourseGain) {
       EXPECT_LT(std::abs(r.residual_px[e].y()), 3.2) << "distance " << distance;
     }
     std::cout << "distance " << distance << ": " << OutcomeName(r.outcome) << " in " << r.iterations
-              << " frames, residual L " << r.residual_px[0].transpose() << " R " << r.residual_px[1].transpose() << "\n";
+              << " frames, residual L " << r.residual_px[0].transpose() << " R " << r.residual_px[1].transpose()
+              << "\n";
   }
 }
 
@@ -124,7 +125,8 @@ TEST(Fixation, ConvergesOnFiveMicrosecondPwmSteps) {
     for (int e = 0; e < 2; ++e) {
       for (int servo : {models::kPanServo[e], models::kTiltServo[e]}) {
         EXPECT_EQ(r.final_pwm_us[servo] % 5, 0) << models::kServoNames[servo];
-        const int approach = rig.sent.size() >= 2 && rig.sent[rig.sent.size() - 2][servo] > r.final_pwm_us[servo] ? -1 : 1;
+        const int approach =
+            rig.sent.size() >= 2 && rig.sent[rig.sent.size() - 2][servo] > r.final_pwm_us[servo] ? -1 : 1;
         const double want = truth.ServoAngle(servo, r.final_pwm_us[servo], approach);
         const double got = servo == models::kPanServo[e] ? ft.angles[e].pan_rad[e] : ft.angles[e].tilt_rad[e];
         EXPECT_NEAR(got, want, 1e-4) << models::kServoNames[servo] << " distance " << distance;
@@ -266,8 +268,8 @@ TEST(Fixation, ConvergesOnTheAprilGridCentre) {
     ASSERT_TRUE(rig.owl.TruthHeadModel().Project(models::Eye(e), t.angles[e], Eigen::Vector3d(0.04, 0.02, 0.7), &px));
     const models::CameraIntrinsics& k = rig.owl.Truth().intrinsics[e];
     const Eigen::Vector2d centre((k.width - 1) / 2.0, (k.height - 1) / 2.0);
-    std::cout << models::kEyeNames[e] << " board centre at " << px.transpose() << ", image centre " << centre.transpose()
-              << "\n";
+    std::cout << models::kEyeNames[e] << " board centre at " << px.transpose() << ", image centre "
+              << centre.transpose() << "\n";
     EXPECT_LT((px - centre).norm(), 4.5) << models::kEyeNames[e];  // seated: half a 5 us grid step per axis
   }
 }

@@ -33,14 +33,14 @@
 #include "calib/observation.h"
 #include "calib/observation_io.h"
 #include "fitting/head_fit.h"
+#include "fitting/head_gauge.h"
 #include "fitting/servo_map_eval.h"
 #include "fitting/tag_edge_corner.h"
-#include "fitting/head_gauge.h"
+#include "models/servo_map.h"
 #include "protocols/dataset.h"
 #include "protocols/placement_views.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
-#include "models/servo_map.h"
 #include "sim/virtual_owl.h"
 
 namespace owlcal {
@@ -90,7 +90,8 @@ class HeadSimConsistency : public ::testing::Test {
     summary_ = new protocols::RunSummary(protocols::RunProtocols(
         {protocols::LoadProtocolFile(protocols::ResolveProtocolPath(
             std::getenv("OWLCAL_SERVO_SWEEP_PROTOCOL") ? std::getenv("OWLCAL_SERVO_SWEEP_PROTOCOL") : "servo_sweep"))},
-        *owl_, o));
+        *owl_,
+        o));
   }
   static void TearDownTestSuite() {
     std::filesystem::remove_all(dir_);
@@ -208,9 +209,12 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
         border_sum_sq_mm += mm * mm;
         ++border_n;
         const auto edge = fitting::TagEdgeCornerPixel(
-            truth_pixel, fitting::TagCornersOf(v.points_in_target[k], v.corner_ids[k], board->definition.tag_size_m), corner);
+            truth_pixel,
+            fitting::TagCornersOf(v.points_in_target[k], v.corner_ids[k], board->definition.tag_size_m),
+            corner);
         ASSERT_TRUE(edge.has_value());
-        const Eigen::Vector2d from_pp = px_truth - Eigen::Vector2d(head.intrinsics[e].params[2], head.intrinsics[e].params[3]);
+        const Eigen::Vector2d from_pp =
+            px_truth - Eigen::Vector2d(head.intrinsics[e].params[2], head.intrinsics[e].params[3]);
         const Eigen::Vector2d radial = from_pp.norm() > 1 ? from_pp.normalized() : Eigen::Vector2d::Zero();
         radial_sum_px += (v.pixels[k] - px_truth).dot(radial);
         radial_edge_sum_px += (v.pixels[k] - *edge).dot(radial);
@@ -219,9 +223,16 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
   }
   for (int e = 0; e < 2; ++e)
     for (const auto& [kind, r] : render[e])
-      std::printf("%s eye, %s: %d corners, detected vs sim truth RMS %.4f px (max %.3f); vs truth model at recorded command "
-                  "RMS %.4f px (max %.3f)\n",
-                  models::kEyeNames[e], kind.c_str(), r.n, r.Value(), r.max, model[e][kind].Value(), model[e][kind].max);
+      std::printf(
+          "%s eye, %s: %d corners, detected vs sim truth RMS %.4f px (max %.3f); vs truth model at recorded command "
+          "RMS %.4f px (max %.3f)\n",
+          models::kEyeNames[e],
+          kind.c_str(),
+          r.n,
+          r.Value(),
+          r.max,
+          model[e][kind].Value(),
+          model[e][kind].max);
   ASSERT_GT(border_n, 1000) << "too few tag corners within 0.3 px of the truth";
   {
     const double mean = border_sum_mm / border_n;
@@ -230,11 +241,18 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
     const double median = tag_err[tag_err.size() / 2];
     std::string far;
     for (const auto& [id, n] : tag_far) far += " " + std::to_string(id) + ":" + std::to_string(n);
-    std::printf("tag corners: median error %.4f px; border offset (detected minus true along the tag's diagonal, on the "
-                "sheet) %+.4f mm, sd %.4f mm over %d corners within 0.3 px (standard error %.4f mm); %zu of %zu corners "
-                "farther (tag id:corners):%s\n",
-                median, mean, sd, border_n, sd / std::sqrt(double(border_n)), tag_err.size() - border_n, tag_err.size(),
-                far.c_str());
+    std::printf(
+        "tag corners: median error %.4f px; border offset (detected minus true along the tag's diagonal, on the "
+        "sheet) %+.4f mm, sd %.4f mm over %d corners within 0.3 px (standard error %.4f mm); %zu of %zu corners "
+        "farther (tag id:corners):%s\n",
+        median,
+        mean,
+        sd,
+        border_n,
+        sd / std::sqrt(double(border_n)),
+        tag_err.size() - border_n,
+        tag_err.size(),
+        far.c_str());
     // The tag model and the rendered tags agree: seed 1, +0.0020 mm (standard error 0.0002 mm,
     // +0.003 px); a border drawn one texel (0.35 mm) or a quarter bit wider or narrower than the
     // model shows 0.35 mm or more. Median 0.026 px.
@@ -244,18 +262,26 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
     // the corners lie farther from the principal point than their projections (seed 1:
     // +0.0148 px), not than the straight-edge corners (-0.0006 px).
     const double radial = radial_sum_px / border_n, radial_edge = radial_edge_sum_px / border_n;
-    std::printf("tag corners away from the principal point: %+.4f px from their projections, %+.4f px from the "
-                "straight-edge corners\n",
-                radial, radial_edge);
+    std::printf(
+        "tag corners away from the principal point: %+.4f px from their projections, %+.4f px from the "
+        "straight-edge corners\n",
+        radial,
+        radial_edge);
     EXPECT_GT(radial, 0.008);
     EXPECT_LT(std::abs(radial_edge), 0.004);
   }
   for (int s = 0; s < models::kNumServos; ++s)
     std::printf("servo %s: model(recorded cmd) - true angle at exposure: RMS %.4f deg, max %.4f deg\n",
-                models::kServoNames[s], angle_err[s].Value(), angle_err[s].max);
+                models::kServoNames[s],
+                angle_err[s].Value(),
+                angle_err[s].max);
   for (const auto& [step, r] : by_step)
-    std::printf("  step %s: model RMS %.4f px (max %.3f), joint angle error RMS %.4f deg (max %.4f)\n", step.c_str(),
-                r.Value(), r.max, by_step_angle[step].Value(), by_step_angle[step].max);
+    std::printf("  step %s: model RMS %.4f px (max %.3f), joint angle error RMS %.4f deg (max %.4f)\n",
+                step.c_str(),
+                r.Value(),
+                r.max,
+                by_step_angle[step].Value(),
+                by_step_angle[step].max);
   for (int e = 0; e < 2; ++e) {
     // Both kinds seen by both eyes (the tag sheets on the wide tilt and neck sweeps).
     EXPECT_EQ(render[e].size(), 2u) << models::kEyeNames[e];
@@ -273,20 +299,28 @@ TEST_F(HeadSimConsistency, DetectedCornersMatchTruthAndRecordedCommands) {
 // acceptance has it: every servo's map within 0.1 deg RMS over the robot file's WHOLE range (the
 // pans' ranges are swept to their limits from the +-25 deg placements) and every determined
 // parameter within 3 sigma. Returns the fit.
-fitting::HeadFit FitAndCompare(const char* label, const std::vector<calib::View>& views, const models::RobotConfig& config,
-                               const models::HeadModel& truth, const models::HeadModel& initial,
+fitting::HeadFit FitAndCompare(const char* label,
+                               const std::vector<calib::View>& views,
+                               const models::RobotConfig& config,
+                               const models::HeadModel& truth,
+                               const models::HeadModel& initial,
                                const fitting::HeadFitOptions& ho) {
   bool neck_moved = false;
   for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
   const fitting::HeadFit fit = fitting::FitHead(views, config, initial, ho);
   EXPECT_TRUE(fit.ok) << label << ": " << fit.message;
   if (!fit.ok) return fit;
-  const models::HeadModel canonical = fitting::CanonicalHead(truth, config.servos[models::kNeck].centre_us, neck_moved,
-                                                             initial.geometry.centre_in_head[models::kLeftEye]);
+  const models::HeadModel canonical = fitting::CanonicalHead(
+      truth, config.servos[models::kNeck].centre_us, neck_moved, initial.geometry.centre_in_head[models::kLeftEye]);
   const double rms = fit.result.summaries.back().rms_px;
   const double ipd_err_mm = 1000 * (fit.head.geometry.Ipd() - truth.geometry.Ipd());
-  std::printf("[%s] head fit: RMS %.4f px, IPD %.3f mm (truth %.3f, error %.3f mm), %d views, %.1f s\n", label, rms,
-              1000 * fit.head.geometry.Ipd(), 1000 * truth.geometry.Ipd(), ipd_err_mm, fit.num_views_used,
+  std::printf("[%s] head fit: RMS %.4f px, IPD %.3f mm (truth %.3f, error %.3f mm), %d views, %.1f s\n",
+              label,
+              rms,
+              1000 * fit.head.geometry.Ipd(),
+              1000 * truth.geometry.Ipd(),
+              ipd_err_mm,
+              fit.num_views_used,
               fit.result.summaries.back().time_s);
   auto sigma_of = [&](const std::string& name) {
     const fitting::Parameter* p = fit.result.Find(name);
@@ -302,7 +336,8 @@ fitting::HeadFit FitAndCompare(const char* label, const std::vector<calib::View>
     double mean = 0, sum_sq = 0, max_abs = 0;
     for (int i = 0; i <= 200; ++i) {
       const double u = lim.min_us + (lim.max_us - lim.min_us) * i / 200.0;
-      const double diff = (models::ServoMap::JointAngle(f, dir, u, 0) - models::ServoMap::JointAngle(t, dir, u, 0)) * 180 / M_PI;
+      const double diff =
+          (models::ServoMap::JointAngle(f, dir, u, 0) - models::ServoMap::JointAngle(t, dir, u, 0)) * 180 / M_PI;
       mean += diff / 201;
       sum_sq += diff * diff / 201;
       max_abs = std::max(max_abs, std::abs(diff));
@@ -310,10 +345,26 @@ fitting::HeadFit FitAndCompare(const char* label, const std::vector<calib::View>
     const double rest = std::sqrt(std::max(0.0, sum_sq - mean * mean));
     const double d = fitting::ServoMapRmsDeg(f, t, dir, lim.min_us, lim.max_us);
     const std::string name = std::string("servo.") + models::kServoNames[s] + ".";
-    std::printf("[%s] servo %s: centre %.2f us (truth %.2f, err %+.2f, sigma %.2f), scale %.5f (truth %.5f), cubic %.3f "
-                "(truth %.3f, sigma %.3f); map over %d..%d us: RMS %.4f deg = offset %+.4f (+) rest %.4f, max %.4f\n",
-                label, models::kServoNames[s], f[0], t[0], f[0] - t[0], sigma_of(name + "centre_us"), f[1], t[1], f[3], t[3],
-                sigma_of(name + "cubic_deg"), lim.min_us, lim.max_us, d, mean, rest, max_abs);
+    std::printf(
+        "[%s] servo %s: centre %.2f us (truth %.2f, err %+.2f, sigma %.2f), scale %.5f (truth %.5f), cubic %.3f "
+        "(truth %.3f, sigma %.3f); map over %d..%d us: RMS %.4f deg = offset %+.4f (+) rest %.4f, max %.4f\n",
+        label,
+        models::kServoNames[s],
+        f[0],
+        t[0],
+        f[0] - t[0],
+        sigma_of(name + "centre_us"),
+        f[1],
+        t[1],
+        f[3],
+        t[3],
+        sigma_of(name + "cubic_deg"),
+        lim.min_us,
+        lim.max_us,
+        d,
+        mean,
+        rest,
+        max_abs);
     EXPECT_LT(d, 0.1) << label << ": " << models::kServoNames[s] << " map over the robot file's range";
   }
   const auto tp = fitting::HeadParameters(canonical, /*with_intrinsics=*/true);
@@ -332,10 +383,15 @@ fitting::HeadFit FitAndCompare(const char* label, const std::vector<calib::View>
       EXPECT_LE(std::abs(z), 3.3) << label << ": " << p.name << " fit " << p.value << " truth " << t.value << " sigma "
                                   << p.sigma;
       if (std::getenv("OWLCAL_HEAD_SIM_VERBOSE"))
-        std::printf("  %-32s fit %12.5f  truth %12.5f  sigma %.5f  z %+.2f\n", p.name.c_str(), p.value, t.value, p.sigma, z);
+        std::printf(
+            "  %-32s fit %12.5f  truth %12.5f  sigma %.5f  z %+.2f\n", p.name.c_str(), p.value, t.value, p.sigma, z);
     }
   }
-  std::printf("[%s] parameters vs truth: %d with sigma, %d within 1 sigma, %d within 2, %d within 3\n", label, n, in1, in2,
+  std::printf("[%s] parameters vs truth: %d with sigma, %d within 1 sigma, %d within 2, %d within 3\n",
+              label,
+              n,
+              in1,
+              in2,
               in3);
   // The set as a whole (honest sigmas: 68 / 95 / 99.7 %). Measured on the default robot, seed 1:
   // 28 of 40 within 1 sigma held, 39 of 58 refined; all within 3. The bounds allow about
@@ -384,9 +440,16 @@ TEST_F(HeadSimConsistency, HeadFitRecoversTheTruth) {
   ASSERT_EQ(summary_->status, "complete") << summary_->message;
   std::set<std::string> boards;
   for (const auto& v : protocols::ReadViewsByPlacement(dir_)) boards.insert(v.target_id);
-  EXPECT_EQ(boards, (std::set<std::string>{"chessboard@placement4", "chessboard@placement5", "chessboard@placement6",
-                                           "chessboard@placement7", "chessboard@placement8", "tags_left_down",
-                                           "tags_left_up", "tags_right_down", "tags_right_up"}));
+  EXPECT_EQ(boards,
+            (std::set<std::string>{"chessboard@placement4",
+                                   "chessboard@placement5",
+                                   "chessboard@placement6",
+                                   "chessboard@placement7",
+                                   "chessboard@placement8",
+                                   "tags_left_down",
+                                   "tags_left_up",
+                                   "tags_right_down",
+                                   "tags_right_up"}));
   const auto views = ChessboardViews(dir_);
   const models::RobotConfig& config = owl_->Config();
   const models::HeadModel truth = owl_->TruthHeadModel();
@@ -432,7 +495,6 @@ TEST_F(HeadSimConsistency, HeadFitRefinesStereoIntrinsics) {
   FitAndCompare("stereo intrinsics refined", views, config, truth, initial, ho);
 }
 
-
 // The sweep's views of the chessboard AND the four tag sheets in one fit, as owlcal calibrate's
 // fused fit (pipeline/calibrate_pipeline.cc): each kind whitened by its own measured noise, the
 // stereo-like intrinsics refined with the prior, and each tag corner compared with where the
@@ -468,9 +530,14 @@ TEST_F(HeadSimConsistency, HeadFitFusesTheTagSheets) {
   const fitting::HeadFit fit = FitAndCompare("fused with the tags", views, config, truth, initial, ho);
   ASSERT_TRUE(fit.ok);
   for (const auto& [name, c] : fit.noise_classes)
-    std::printf("[fused with the tags] %s: %d / %d corners, measured sigma %.4f / %.4f px\n", name.c_str(), c.num_corners[0],
-                c.num_corners[1], c.measured_sigma_px[0], c.measured_sigma_px[1]);
-  std::printf("[fused with the tags] tag edge correction: %d corners, RMS %.4f px\n", fit.num_tag_edge_corrected,
+    std::printf("[fused with the tags] %s: %d / %d corners, measured sigma %.4f / %.4f px\n",
+                name.c_str(),
+                c.num_corners[0],
+                c.num_corners[1],
+                c.measured_sigma_px[0],
+                c.measured_sigma_px[1]);
+  std::printf("[fused with the tags] tag edge correction: %d corners, RMS %.4f px\n",
+              fit.num_tag_edge_corrected,
               fit.tag_edge_offset_rms_px);
   // Each servo map at both ends of the robot file's range: fitted minus true angle in units of
   // the fit's own sigma there (first-order propagation of the map parameters' covariance).
@@ -479,19 +546,24 @@ TEST_F(HeadSimConsistency, HeadFitFusesTheTagSheets) {
   nlohmann::json m = nlohmann::json::array();
   for (int i = 0; i < fit.covariance.rows(); ++i) {
     std::vector<double> row(fit.covariance.cols());
-    for (int j = 0; j < fit.covariance.cols(); ++j) row[j] = std::isfinite(fit.covariance(i, j)) ? fit.covariance(i, j) : 0.0;
+    for (int j = 0; j < fit.covariance.cols(); ++j)
+      row[j] = std::isfinite(fit.covariance(i, j)) ? fit.covariance(i, j) : 0.0;
     m.push_back(row);
   }
   result.diagnostics["covariance"] = {{"names", fit.param_names}, {"matrix", m}};
   bool neck_moved = false;
   for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
-  const models::HeadModel canonical = fitting::CanonicalHead(truth, config.servos[models::kNeck].centre_us, neck_moved,
-                                                             initial.geometry.centre_in_head[models::kLeftEye]);
+  const models::HeadModel canonical = fitting::CanonicalHead(
+      truth, config.servos[models::kNeck].centre_us, neck_moved, initial.geometry.centre_in_head[models::kLeftEye]);
   for (int s = 0; s < models::kNumServos; ++s) {
     for (const auto& e : fitting::SampleServoMap(result, config.servos[s], s, &canonical, 1)) {
       const double err = e.angle_deg - e.truth_deg;
       std::printf("[fused with the tags] servo %s at %.0f us: error %+.4f deg, sigma %.4f deg, z %+.2f\n",
-                  models::kServoNames[s], e.pwm_us, err, e.sigma_deg, err / e.sigma_deg);
+                  models::kServoNames[s],
+                  e.pwm_us,
+                  err,
+                  e.sigma_deg,
+                  err / e.sigma_deg);
       ASSERT_GT(e.sigma_deg, 0) << models::kServoNames[s];
       EXPECT_LE(std::abs(err / e.sigma_deg), 3.0) << models::kServoNames[s] << " at " << e.pwm_us << " us";
     }

@@ -9,8 +9,8 @@
 
 #include "protocols/jog.h"
 #include "protocols/limits_revalidation.h"
-#include "sim/virtual_owl.h"
 #include "sim/robot_truth.h"
+#include "sim/virtual_owl.h"
 
 namespace owlcal::protocols {
 namespace {

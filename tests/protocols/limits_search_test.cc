@@ -40,7 +40,9 @@ class SyntheticEye {
     cv::cvtColor(out, bgr, cv::COLOR_GRAY2BGR);
     return bgr;
   }
-  LimitSearchIo Io() { return {[this](int u) { Move(u); }, [this] { return Image(); }}; }
+  LimitSearchIo Io() {
+    return {[this](int u) { Move(u); }, [this] { return Image(); }};
+  }
   bool black = false, frozen = false;
 
  private:
@@ -68,17 +70,24 @@ struct Case {
 TEST(LimitSearch, FindsStopsWithin5usWhateverThePwmStep) {
   const int centre = 1500;
   const Case cases[] = {
-      {1, 1, 1637, 1700}, {1, 3, 1689, 1700},  // inside the last coarse step
-      {2, 2, 1651, 1700}, {5, 2, 1637, 1700}, {5, 5, 1663, 1700}, {5, 3, 1696, 1700},
-      {5, 4, 1692, 1700}, {5, 5, 1612, 1700},  // just inside the limit; early
-      {10, 1, 1648, 1700}, {1, 1, 1800, 1700}, {5, 5, 1750, 1700},  // beyond the limit: configured
+      {1, 1, 1637, 1700},
+      {1, 3, 1689, 1700},  // inside the last coarse step
+      {2, 2, 1651, 1700},
+      {5, 2, 1637, 1700},
+      {5, 5, 1663, 1700},
+      {5, 3, 1696, 1700},
+      {5, 4, 1692, 1700},
+      {5, 5, 1612, 1700},  // just inside the limit; early
+      {10, 1, 1648, 1700},
+      {1, 1, 1800, 1700},
+      {5, 5, 1750, 1700},  // beyond the limit: configured
   };
   for (const Case& c : cases) {
     SyntheticEye eye(models::ServoResolution::Rounding(c.step, c.dead_band), centre, 1000, c.stop);
     const LimitSearchResult r = SearchLimit(centre, c.limit, 0, kPxPerUs, Options(), eye.Io());
     const std::string what = "step " + std::to_string(c.step) + " us, dead band " + std::to_string(c.dead_band) +
-                             " us, stop " + std::to_string(int(c.stop)) + ": measured " + std::to_string(r.measured_us) +
-                             " (" + r.cause + ") " + r.message;
+                             " us, stop " + std::to_string(int(c.stop)) + ": measured " +
+                             std::to_string(r.measured_us) + " (" + r.cause + ") " + r.message;
     std::cout << what << "\n";
     ASSERT_EQ(r.status, calib::TrialStatus::kOk) << what;
     if (c.stop >= c.limit) {

@@ -10,12 +10,12 @@
 
 #include "fitting/limits_eval.h"
 #include "owlcal_version.h"
-#include "robot/robot_interface.h"
 #include "protocols/dataset.h"
 #include "protocols/dataset_tables.h"
 #include "protocols/image_motion.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "robot/robot_interface.h"
 #include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 
@@ -94,10 +94,14 @@ int TruthEnd(const sim::VirtualOwl& owl, int servo, int d, double rim_fraction, 
 
 // max_error_us bounds end-stops and configured ends; a rim end (where the socket rim darkens the
 // border, a soft threshold) is allowed rim_error_us. With check_recommended, the recommended
-// limits (fitting/limits_eval.h, 10 us margin + 5 us for the search's error) must keep >= 10 us from every true end-stop that
-// lies inside the configured range.
-void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, const std::vector<int>& servos = {},
-                 int max_error_us = 10, int rim_error_us = 10, bool check_recommended = false) {
+// limits (fitting/limits_eval.h, 10 us margin + 5 us for the search's error) must keep >= 10 us from every true
+// end-stop that lies inside the configured range.
+void CheckLimits(const sim::VirtualOwlOptions& vo,
+                 const std::string& name,
+                 const std::vector<int>& servos = {},
+                 int max_error_us = 10,
+                 int rim_error_us = 10,
+                 bool check_recommended = false) {
   sim::VirtualOwl owl(vo);
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
   ASSERT_TRUE(p.steps[1].As<LimitsStep>().search_ends);
@@ -149,9 +153,7 @@ void CheckLimits(const sim::VirtualOwlOptions& vo, const std::string& name, cons
   fs::remove_all(o.out_dir);
 }
 
-TEST(Limits, FindsTheTrueUsableRangeWithin10usOnTheDefaultRobot) {
-  CheckLimits(sim::VirtualOwlOptions{}, "default");
-}
+TEST(Limits, FindsTheTrueUsableRangeWithin10usOnTheDefaultRobot) { CheckLimits(sim::VirtualOwlOptions{}, "default"); }
 
 TEST(Limits, FindsEndStopsInsideTheConfiguredRange) {
   sim::VirtualOwlOptions vo;

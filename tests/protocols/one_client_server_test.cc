@@ -113,8 +113,13 @@ TEST(OneClientServer, AShellSessionMovesWaitsAndCentresOverOneConnection) {
 
 TEST(OneClientServer, ShellScriptErrorsNameTheLineBeforeAnythingMoves) {
   EXPECT_THROW(robot::ParseShellScript("move 1545 1530 1545 1580\n", "s.owl"), std::invalid_argument);
-  for (const char* bad : {"move 1545 1530 1545 1580 0x600", "move 1545 1530 1545 1580 ''", "wait -1", "wait nan",
-                          "wait 1e9", "fly 3", "centre now"}) {
+  for (const char* bad : {"move 1545 1530 1545 1580 0x600",
+                          "move 1545 1530 1545 1580 ''",
+                          "wait -1",
+                          "wait nan",
+                          "wait 1e9",
+                          "fly 3",
+                          "centre now"}) {
     try {
       robot::ParseShellScript(std::string("centre\n") + bad + "\n", "s.owl");
       ADD_FAILURE() << bad;

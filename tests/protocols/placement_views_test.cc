@@ -38,8 +38,11 @@ TEST(PlacementViews, FixedTagSheetStaysOneBoardWhileTheChessboardIsPlacedAgain) 
   views.push_back(ViewOf(9, "chessboard"));  // a frame frames.csv does not list keeps its id
 
   const std::vector<calib::View> by_target = SplitViewsByPlacement(views, frames, &placements);
-  const char* expect_chess[5] = {"chessboard@placement0", "chessboard@placement0", "chessboard@placement0",
-                                 "chessboard@placement2", "chessboard@placement2"};
+  const char* expect_chess[5] = {"chessboard@placement0",
+                                 "chessboard@placement0",
+                                 "chessboard@placement0",
+                                 "chessboard@placement2",
+                                 "chessboard@placement2"};
   for (int f = 0; f < 5; ++f) {
     EXPECT_EQ(by_target[2 * f].target_id, expect_chess[f]) << "frame " << f;
     EXPECT_EQ(by_target[2 * f + 1].target_id, "tags_right_up") << "frame " << f;

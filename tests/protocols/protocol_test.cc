@@ -181,7 +181,8 @@ TEST(Protocol, EveryStandardProtocolLoads) {
 }
 
 TEST(StepPlan, SweepPreApproachesAndReturns) {
-  const Protocol p = ParseProtocolYaml("name: s\nsteps:\n  - sweep: {servo: Rx, from: 1500, to: 1560, step_us: 30}\n", "s");
+  const Protocol p =
+      ParseProtocolYaml("name: s\nsteps:\n  - sweep: {servo: Rx, from: 1500, to: 1560, step_us: 30}\n", "s");
   const auto poses = PlanPoses(p.steps[0].As<SweepStep>(), models::DefaultRobotConfig());
   std::vector<int> rx;
   std::vector<bool> cap;

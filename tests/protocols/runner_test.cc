@@ -250,7 +250,8 @@ steps:
   o.input = &answers;
   o.progress = &out;
   EXPECT_EQ(RunProtocols({p}, robot, o).status, "complete");
-  EXPECT_NE(out.str().find("Place the AprilTag target 600 mm in front of the neck axis"), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("Place the AprilTag target 600 mm in front of the neck axis"), std::string::npos)
+      << out.str();
   const auto pl = ReadPlacementsCsv(o.out_dir);
   ASSERT_EQ(pl.size(), 2u);
   EXPECT_EQ(pl[0].source, "prompt");

@@ -126,7 +126,8 @@ void ExpectVergenceWithinOnePercent(const char* file) {
       const Eigen::Vector3d mid = models::HeadFromBase(neck).Inverse() *
                                   (0.5 * (head.geometry.centre_in_head[0] + head.geometry.centre_in_head[1]));
       for (const auto& pl : placements)
-        if (pl.placement_index == row.placement_index) f.true_distance_m = (pl.base_from_target.translation() - mid).norm();
+        if (pl.placement_index == row.placement_index)
+          f.true_distance_m = (pl.base_from_target.translation() - mid).norm();
       fixations.push_back(f);
     }
     ASSERT_EQ(fixations.size(), 5u) << file;
@@ -152,8 +153,12 @@ TEST(ResolutionRobots, FixationSettlesOnAPulseTheServoAppliesStep5) { ExpectFixa
 TEST(ResolutionRobots, FixationSettlesOnAPulseTheServoAppliesDeadBand) { ExpectFixationOnAppliedPulses(kDeadBand); }
 TEST(ResolutionRobots, FixationSettlesOnAPulseTheServoAppliesVariantA) { ExpectFixationOnAppliedPulses(kVariantA); }
 TEST(ResolutionRobots, VergenceRangesWithinOnePercentWithTheTrueHeadStep5) { ExpectVergenceWithinOnePercent(kStep5); }
-TEST(ResolutionRobots, VergenceRangesWithinOnePercentWithTheTrueHeadDeadBand) { ExpectVergenceWithinOnePercent(kDeadBand); }
-TEST(ResolutionRobots, VergenceRangesWithinOnePercentWithTheTrueHeadVariantA) { ExpectVergenceWithinOnePercent(kVariantA); }
+TEST(ResolutionRobots, VergenceRangesWithinOnePercentWithTheTrueHeadDeadBand) {
+  ExpectVergenceWithinOnePercent(kDeadBand);
+}
+TEST(ResolutionRobots, VergenceRangesWithinOnePercentWithTheTrueHeadVariantA) {
+  ExpectVergenceWithinOnePercent(kVariantA);
+}
 
 }  // namespace
 }  // namespace owlcal::protocols

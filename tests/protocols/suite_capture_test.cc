@@ -11,8 +11,8 @@
 namespace owlcal::protocols {
 namespace {
 using testing::ExpectCleanDataset;
-using testing::ReadTableRows;
 using testing::Ran;
+using testing::ReadTableRows;
 using testing::RunStandard;
 
 TEST(StandardSuite, ServoSweepRecordsBothApproachDirections) {

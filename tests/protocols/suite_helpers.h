@@ -17,7 +17,8 @@
 namespace owlcal::protocols::testing {
 
 inline std::string TempDir(const std::string& name) {
-  const std::filesystem::path p = std::filesystem::temp_directory_path() / ("owlcal_protocols_" + name + "_" + std::to_string(::getpid()));
+  const std::filesystem::path p =
+      std::filesystem::temp_directory_path() / ("owlcal_protocols_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(p);
   return p.string();
 }

@@ -8,8 +8,8 @@
 namespace owlcal::protocols {
 namespace {
 using testing::ExpectCleanDataset;
-using testing::ReadTableRows;
 using testing::Ran;
+using testing::ReadTableRows;
 using testing::RunStandard;
 
 TEST(StandardSuite, StepResponseLogsEveryGain) {
@@ -19,7 +19,8 @@ TEST(StandardSuite, StepResponseLogsEveryGain) {
   EXPECT_EQ(trials.size(), 6u);
   const auto rows = ReadTableRows(r.dir + "/step_response.csv");
   EXPECT_GE(rows.size(), 6u * 40);
-  // step_trials: step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,final_offset_px
+  // step_trials:
+  // step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,final_offset_px
   for (const auto& t : trials) {
     EXPECT_TRUE(t[9] == "converged" || t[9] == "max-iterations") << t[9];
     if (std::stod(t[1]) == 0.1) {
@@ -40,7 +41,8 @@ TEST(StandardSuite, StepResponseLogsEveryGain) {
   // seated on the 5 us grid (protocols/fixation.h): up to 2.9 px of tilt offset to start with.
   for (const auto& row : rows) {
     if (row[9] == "1") {
-      EXPECT_LT(std::abs(std::stod(row[7])), 6.0) << "gain " << row[1] << " amplitude " << row[2] << " frame " << row[4];
+      EXPECT_LT(std::abs(std::stod(row[7])), 6.0)
+          << "gain " << row[1] << " amplitude " << row[2] << " frame " << row[4];
     }
   }
 }

@@ -44,14 +44,16 @@ struct End {
   int servo = 0;
   double pwm_us = 0, error_deg = 0, sigma_deg = 0;
 };
-std::vector<End> EndsAgainstTruth(const fitting::HeadFit& fit, const models::RobotConfig& config,
+std::vector<End> EndsAgainstTruth(const fitting::HeadFit& fit,
+                                  const models::RobotConfig& config,
                                   const models::HeadModel& canonical) {
   fitting::CalibrationResult result = fit.result;
   result.head = fit.head;
   nlohmann::json m = nlohmann::json::array();
   for (int i = 0; i < fit.covariance.rows(); ++i) {
     std::vector<double> row(fit.covariance.cols());
-    for (int j = 0; j < fit.covariance.cols(); ++j) row[j] = std::isfinite(fit.covariance(i, j)) ? fit.covariance(i, j) : 0.0;
+    for (int j = 0; j < fit.covariance.cols(); ++j)
+      row[j] = std::isfinite(fit.covariance(i, j)) ? fit.covariance(i, j) : 0.0;
     m.push_back(row);
   }
   result.diagnostics["covariance"] = {{"names", fit.param_names}, {"matrix", m}};
@@ -70,8 +72,8 @@ std::vector<calib::View> RecordSweep(sim::VirtualOwl& owl) {
   protocols::RunOptions o;
   o.out_dir = dir;
   o.robot_spec = "sim";
-  const protocols::RunSummary run = protocols::RunProtocols(
-      {protocols::LoadProtocolFile(protocols::ResolveProtocolPath("servo_sweep"))}, owl, o);
+  const protocols::RunSummary run =
+      protocols::RunProtocols({protocols::LoadProtocolFile(protocols::ResolveProtocolPath("servo_sweep"))}, owl, o);
   EXPECT_EQ(run.status, "complete") << run.message;
   std::vector<calib::View> views = protocols::ReadViewsByPlacement(dir);
   std::filesystem::remove_all(dir);
@@ -107,8 +109,14 @@ TEST(TagRimRobot, FusedFitHoldsWhereTheRimHidesTheChessboard) {
     const auto& lim = config.servos[s];
     ASSERT_TRUE(seen[e].count("chessboard") && seen[e].count("tags")) << models::kServoNames[s];
     const auto chess = seen[e]["chessboard"], tags = seen[e]["tags"];
-    std::printf("%s (limits %d..%d us): chessboard seen %d..%d us, tags %d..%d us\n", models::kServoNames[s], lim.min_us,
-                lim.max_us, chess[0], chess[1], tags[0], tags[1]);
+    std::printf("%s (limits %d..%d us): chessboard seen %d..%d us, tags %d..%d us\n",
+                models::kServoNames[s],
+                lim.min_us,
+                lim.max_us,
+                chess[0],
+                chess[1],
+                tags[0],
+                tags[1]);
     // The rim hides the chessboard over the last 100 us or more of both ends (seed 7: Rx 225 /
     // 205 us, Lx 245 / 185 us); the tags are seen beyond it at every end, and to the sweep's
     // end (15 us inside the limit) at three of the four: at Rx's low end the right eye turns away
@@ -167,18 +175,25 @@ void ExpectFusedEndsWithinThreeSigma(const sim::VirtualOwl& owl, const std::vect
   std::printf("fused: %s\nchessboard only: %s\n", fused.message.c_str(), chess.message.c_str());
   bool neck_moved = false;
   for (const auto& v : views) neck_moved |= v.pwm_us[models::kNeck] != config.servos[models::kNeck].centre_us;
-  const models::HeadModel canonical = fitting::CanonicalHead(truth, config.servos[models::kNeck].centre_us, neck_moved,
-                                                             initial.geometry.centre_in_head[models::kLeftEye]);
+  const models::HeadModel canonical = fitting::CanonicalHead(
+      truth, config.servos[models::kNeck].centre_us, neck_moved, initial.geometry.centre_in_head[models::kLeftEye]);
   const std::vector<End> with = EndsAgainstTruth(fused, config, canonical);
   const std::vector<End> without = EndsAgainstTruth(chess, config, canonical);
   ASSERT_EQ(with.size(), without.size());
   for (size_t k = 0; k < with.size(); ++k) {
     const End& a = with[k];
     const End& b = without[k];
-    std::printf("%-4s at %4.0f us: with tags error %+.4f deg, sigma %.4f (z %+.2f); chessboard only error %+.4f deg, "
-                "sigma %.4f (z %+.2f)\n",
-                models::kServoNames[a.servo], a.pwm_us, a.error_deg, a.sigma_deg, a.error_deg / a.sigma_deg, b.error_deg,
-                b.sigma_deg, b.error_deg / b.sigma_deg);
+    std::printf(
+        "%-4s at %4.0f us: with tags error %+.4f deg, sigma %.4f (z %+.2f); chessboard only error %+.4f deg, "
+        "sigma %.4f (z %+.2f)\n",
+        models::kServoNames[a.servo],
+        a.pwm_us,
+        a.error_deg,
+        a.sigma_deg,
+        a.error_deg / a.sigma_deg,
+        b.error_deg,
+        b.sigma_deg,
+        b.error_deg / b.sigma_deg);
     ASSERT_GT(a.sigma_deg, 0);
     EXPECT_LE(std::abs(a.error_deg / a.sigma_deg), 3.0) << models::kServoNames[a.servo] << " at " << a.pwm_us << " us";
   }

@@ -13,11 +13,11 @@
 #include <sstream>
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgproc.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
-#include <yaml-cpp/yaml.h>
+#include <opencv2/imgproc.hpp>
 
 #include "fitting/radtan_refit.h"
 #include "models/head_model.h"
@@ -86,7 +86,8 @@ ReportData StereoData() {
   const char* names[] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"};
   const double sig[] = {0.05, 0.05, 0.05, 0.05, 1e-4, 1e-4, 1e-5, 1e-5, 1e-4};
   for (int e = 0; e < 2; ++e)
-    for (int i = 0; i < 9; ++i) r.Set({std::string(e ? "right." : "left.") + names[i], r.cameras[e]->params[i], sig[i], "", {}, true, ""});
+    for (int i = 0; i < 9; ++i)
+      r.Set({std::string(e ? "right." : "left.") + names[i], r.cameras[e]->params[i], sig[i], "", {}, true, ""});
   unsigned seed = 7;
   auto noise = [&] {
     seed = seed * 1103515245u + 12345u;
@@ -107,7 +108,8 @@ TEST(Exports, OpenCvYamlInMetresAndCourseXmlInMillimetres) {
   ASSERT_TRUE(fs.isOpened());
   const cv::Mat M1 = ReadMat(fs, "M1"), D1 = ReadMat(fs, "D1"), M2 = ReadMat(fs, "M2"), D2 = ReadMat(fs, "D2");
   const cv::Mat R = ReadMat(fs, "R"), T = ReadMat(fs, "T"), R1 = ReadMat(fs, "R1"), R2 = ReadMat(fs, "R2");
-  const cv::Mat P1 = ReadMat(fs, "P1"), P2 = ReadMat(fs, "P2"), Q = ReadMat(fs, "Q"), E = ReadMat(fs, "E"), F = ReadMat(fs, "F");
+  const cv::Mat P1 = ReadMat(fs, "P1"), P2 = ReadMat(fs, "P2"), Q = ReadMat(fs, "Q"), E = ReadMat(fs, "E"),
+                F = ReadMat(fs, "F");
   EXPECT_EQ(int(fs["image_width"]), 640);
   EXPECT_EQ(std::string(fs["length_unit"]), "m");
   EXPECT_DOUBLE_EQ(M1.at<double>(0, 0), 582.0);
@@ -124,7 +126,8 @@ TEST(Exports, OpenCvYamlInMetresAndCourseXmlInMillimetres) {
     std::vector<cv::Point2d> pl, pr, ul, ur;
     cv::Mat rvec;
     cv::Rodrigues(R, rvec);
-    cv::projectPoints(std::vector<cv::Point3d>{X}, cv::Mat::zeros(3, 1, CV_64F), cv::Mat::zeros(3, 1, CV_64F), M1, D1, pl);
+    cv::projectPoints(
+        std::vector<cv::Point3d>{X}, cv::Mat::zeros(3, 1, CV_64F), cv::Mat::zeros(3, 1, CV_64F), M1, D1, pl);
     cv::projectPoints(std::vector<cv::Point3d>{X}, rvec, T, M2, D2, pr);
     cv::undistortPoints(pl, ul, M1, D1, R1, P1);
     cv::undistortPoints(pr, ur, M2, D2, R2, P2);
@@ -138,7 +141,8 @@ TEST(Exports, OpenCvYamlInMetresAndCourseXmlInMillimetres) {
   }
 
   // The course's files: the same calibration in millimetres, saying so.
-  cv::FileStorage fi(dir + "/intrinsics.xml", cv::FileStorage::READ), fe(dir + "/extrinsics.xml", cv::FileStorage::READ);
+  cv::FileStorage fi(dir + "/intrinsics.xml", cv::FileStorage::READ),
+      fe(dir + "/extrinsics.xml", cv::FileStorage::READ);
   ASSERT_TRUE(fi.isOpened());
   ASSERT_TRUE(fe.isOpened());
   EXPECT_EQ(cv::norm(ReadMat(fi, "M1") - M1), 0);
@@ -185,11 +189,13 @@ TEST(Exports, RosCameraInfoUsesRosAlphaZeroAndSaysSo) {
   const std::string dir = TempDir("ros");
   const ExportSet ex = WriteCalibrationFiles(d, dir);
   const fitting::CalibrationResult& r = d.result;
-  cv::Mat K1 = (cv::Mat_<double>(3, 3) << 582, 0, 322, 0, 581, 238, 0, 0, 1), K2 = (cv::Mat_<double>(3, 3) << 579, 0, 317, 0, 580, 243, 0, 0, 1);
+  cv::Mat K1 = (cv::Mat_<double>(3, 3) << 582, 0, 322, 0, 581, 238, 0, 0, 1),
+          K2 = (cv::Mat_<double>(3, 3) << 579, 0, 317, 0, 580, 243, 0, 0, 1);
   cv::Mat D1(r.cameras[0]->Distortion(), true), D2(r.cameras[1]->Distortion(), true), Rm, Tm, R1, R2, P1, P2, Q;
   cv::eigen2cv(Eigen::Matrix3d(r.stereo->right_from_left.rotation.toRotationMatrix()), Rm);
   cv::eigen2cv(Eigen::Vector3d(r.stereo->right_from_left.translation), Tm);
-  cv::stereoRectify(K1, D1.t(), K2, D2.t(), cv::Size(640, 480), Rm, Tm, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0);
+  cv::stereoRectify(
+      K1, D1.t(), K2, D2.t(), cv::Size(640, 480), Rm, Tm, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0);
   for (int e = 0; e < 2; ++e) {
     const std::string path = dir + "/exports/ros_" + std::string(e ? "right" : "left") + ".yaml";
     const std::string text = Slurp(path);
@@ -239,7 +245,8 @@ TEST(Exports, KalibrCamchainRefitsRadtanAndReportsItsError) {
       // k3 = -0.01: not representable, refitted, and the file says how well.
       EXPECT_GT(fit.max_error_px, 0.0);
       EXPECT_NE(Slurp(path).find("max error " + Fmt(fit.max_error_px, 3) + " px"), std::string::npos) << Slurp(path);
-      std::printf("radtan4 refit of k3 = -0.01: max %.3f px, RMS %.3f px (dropping k3: see below)\n", fit.max_error_px,
+      std::printf("radtan4 refit of k3 = -0.01: max %.3f px, RMS %.3f px (dropping k3: see below)\n",
+                  fit.max_error_px,
                   fit.rms_error_px);
     } else {
       EXPECT_TRUE(fit.exact);  // k3 = 0: radtan holds it exactly
@@ -291,10 +298,13 @@ TEST(Exports, MrcalModelHasAValidIntrinsicsRegionAndLoadsInMrcal) {
       break;
     }
   }
-  if (py.empty()) GTEST_SKIP() << "python3-mrcal not importable: mrcal projection check skipped (apt install python3-mrcal)";
+  if (py.empty())
+    GTEST_SKIP() << "python3-mrcal not importable: mrcal projection check skipped (apt install python3-mrcal)";
   const std::string script = dir + "/check.py";
   std::ofstream(script) << "import mrcal, numpy as np\n"
-                           "m = mrcal.cameramodel('" << path << "')\n"
+                           "m = mrcal.cameramodel('"
+                        << path
+                        << "')\n"
                            "p = np.array([[0.1, -0.05, 1.0], [-0.3, 0.2, 0.9], [0.25, 0.18, 0.5]])\n"
                            "q = mrcal.project(p, *m.intrinsics())\n"
                            "print(m.intrinsics()[0])\n"
@@ -338,8 +348,11 @@ TEST(Exports, OwlPwmHeaderCompilesAsCAndCppFromTwoFilesAndInvertsWithClamping) {
     d.result.Set({n + ".deg_per_us", h.servo_params[s][1], 1e-4, "deg/us", {}, true, ""});
     if (s == models::kRx) d.result.Set({n + ".centre_us", 1538.6, 0.4, "us", {}, true, ""});
   }
-  d.limits = fitting::EvaluateLimits(cfg, {{models::kRx, false, 1230, fitting::LimitCause::kEndStop},
-                                           {models::kLy, true, 1950, fitting::LimitCause::kSocketRim}}, nullptr, 10);
+  d.limits = fitting::EvaluateLimits(cfg,
+                                     {{models::kRx, false, 1230, fitting::LimitCause::kEndStop},
+                                      {models::kLy, true, 1950, fitting::LimitCause::kSocketRim}},
+                                     nullptr,
+                                     10);
   const std::string dir = TempDir("owlpwm");
   const ExportSet ex = WriteCalibrationFiles(d, dir);
   ASSERT_TRUE(std::filesystem::exists(dir + "/exports/owl-pwm.h"));
@@ -369,19 +382,21 @@ TEST(Exports, OwlPwmHeaderCompilesAsCAndCppFromTwoFilesAndInvertsWithClamping) {
   std::ofstream(dir + "/other.cpp") << other;
   std::ofstream(dir + "/main.cpp") << main_src;
   const std::string c = FindProgram({"cc", "gcc", "clang"}), cxx = FindProgram({"c++", "g++", "clang++"});
-  if (c.empty() && cxx.empty()) GTEST_SKIP() << "no C or C++ compiler on PATH (cc, gcc, clang, c++, g++, clang++): owl-pwm.h not compiled";
+  if (c.empty() && cxx.empty())
+    GTEST_SKIP() << "no C or C++ compiler on PATH (cc, gcc, clang, c++, g++, clang++): owl-pwm.h not compiled";
   std::vector<std::string> outputs;
   for (const auto& [compiler, flags, ext] : {std::tuple{c, std::string("-std=c99"), std::string(".c")},
-                                              std::tuple{cxx, std::string("-std=c++11"), std::string(".cpp")}}) {
+                                             std::tuple{cxx, std::string("-std=c++11"), std::string(".cpp")}}) {
     if (compiler.empty()) {
       std::printf("no %s compiler found: owl-pwm.h not compiled as %s\n", ext == ".c" ? "C" : "C++", ext.c_str());
       continue;
     }
     int st = 0;
     const std::string exe = dir + "/prog" + (ext == ".c" ? "_c" : "_cpp");
-    const std::string log = Shell("cd " + dir + " && " + compiler + " " + flags + " -Wall -Wextra -pedantic -Werror -o " + exe +
-                                      " main" + ext + " other" + ext + " 2>&1",
-                                  &st);
+    const std::string log =
+        Shell("cd " + dir + " && " + compiler + " " + flags + " -Wall -Wextra -pedantic -Werror -o " + exe + " main" +
+                  ext + " other" + ext + " 2>&1",
+              &st);
     ASSERT_EQ(st, 0) << compiler << " " << flags << ":\n" << log << "\n" << Slurp(dir + "/owl-pwm.h");
     outputs.push_back(Shell(exe, &st));
     ASSERT_EQ(st, 0);
@@ -438,8 +453,12 @@ TEST(Exports, WhatCannotBeWrittenIsSkippedWithAReason) {
   EXPECT_NE(Slurp(ex.written[0]).find("monocular"), std::string::npos);
   std::string all;
   for (const auto& s : ex.skipped) all += s + "\n";
-  for (const char* f : {"calibration.yaml: ", "intrinsics.xml: ", "ros_right.yaml: ", "right.cameramodel: ",
-                        "kalibr_camchain.yaml: ", "owl-pwm.h: "})
+  for (const char* f : {"calibration.yaml: ",
+                        "intrinsics.xml: ",
+                        "ros_right.yaml: ",
+                        "right.cameramodel: ",
+                        "kalibr_camchain.yaml: ",
+                        "owl-pwm.h: "})
     EXPECT_NE(all.find(f), std::string::npos) << f << " not skipped:\n" << all;
   EXPECT_NE(all.find("no right camera"), std::string::npos) << all;
   EXPECT_NE(all.find("no servo map was fitted"), std::string::npos) << all;

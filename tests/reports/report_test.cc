@@ -134,12 +134,14 @@ ReportData DemoData() {
   // Views with names and board outlines (the 3D pose view); one view much worse than the rest.
   for (int e = 0; e < 2; ++e)
     for (int k = 0; k < 12; ++k) {
-      d.views.push_back({e, k, "intrinsics frame " + std::to_string(k), (e == 0 && k == 7) ? 0.9 : 0.12 + 0.01 * (k % 3), 54, 0});
+      d.views.push_back(
+          {e, k, "intrinsics frame " + std::to_string(k), (e == 0 && k == 7) ? 0.9 : 0.12 + 0.01 * (k % 3), 54, 0});
       BoardOutline b;
       b.eye = e;
       b.frame = k;
       const Eigen::Vector3d c(-0.1 + 0.02 * k, -0.05, 0.4 + 0.05 * k);
-      b.corners_in_cam = {c, c + Eigen::Vector3d(0.2, 0, 0.02), c + Eigen::Vector3d(0.2, 0.13, 0.02), c + Eigen::Vector3d(0, 0.13, 0)};
+      b.corners_in_cam = {
+          c, c + Eigen::Vector3d(0.2, 0, 0.02), c + Eigen::Vector3d(0.2, 0.13, 0.02), c + Eigen::Vector3d(0, 0.13, 0)};
       d.boards.push_back(b);
     }
   fitting::StereoEstimate st;
@@ -201,8 +203,15 @@ TEST(Report, TablesCarryValuesSigmasAndTruth) {
   const std::vector<Table> tables = MakeTables(d);
   std::map<std::string, Table> by;
   for (const auto& t : tables) by[t.name] = t;
-  for (const char* n : {"parameters", "solver", "undetermined", "truth_comparison", "ranging", "ranging_summary",
-                        "step_metrics", "gain_study", "limits"})
+  for (const char* n : {"parameters",
+                        "solver",
+                        "undetermined",
+                        "truth_comparison",
+                        "ranging",
+                        "ranging_summary",
+                        "step_metrics",
+                        "gain_study",
+                        "limits"})
     EXPECT_TRUE(by.count(n)) << n;
   // The ranging notes that no row carries (what the size check compared with) are in the summary;
   // a fixation's own note is its row's reason, not repeated.
@@ -231,7 +240,8 @@ TEST(Report, TablesCarryValuesSigmasAndTruth) {
   }
   EXPECT_TRUE(servos_seen.count("Rx") && servos_seen.count("Ry")) << ToCsv(by["servo_map_truth"]);
   const std::string md = ToMarkdown(by["parameters"]);
-  EXPECT_NE(md.find("| servo.Rx.centre_us | 1540.30 | 0.4 | \u00b5s | yes | 1540 | 0.3 | 0.75 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| servo.Rx.centre_us | 1540.30 | 0.4 | \u00b5s | yes | 1540 | 0.3 | 0.75 |"), std::string::npos)
+      << md;
   const std::string tex = ToLatex(by["parameters"]);
   EXPECT_NE(tex.find("servo.Rx.centre\\_us"), std::string::npos);
   EXPECT_NE(tex.find("\\toprule"), std::string::npos);
@@ -252,11 +262,22 @@ TEST(Report, WritesASelfContainedPageWithEveryFigure) {
   const ReportOutput out = WriteReport(d, dir);
   for (const auto& w : out.warnings) ADD_FAILURE() << w;
   // Every figure the lab report needs.
-  const std::vector<std::string> expected = {
-      "view_rms",          "residual_field_left", "residual_field_right", "residual_hist_left", "residual_hist_right",
-      "uncertainty_left",  "uncertainty_right",   "poses_3d",             "distortion_left",    "coverage",
-      "servo_maps",        "servo_rx_deviation",  "range_error",          "step_responses",     "settling_vs_gain",
-      "limits"};
+  const std::vector<std::string> expected = {"view_rms",
+                                             "residual_field_left",
+                                             "residual_field_right",
+                                             "residual_hist_left",
+                                             "residual_hist_right",
+                                             "uncertainty_left",
+                                             "uncertainty_right",
+                                             "poses_3d",
+                                             "distortion_left",
+                                             "coverage",
+                                             "servo_maps",
+                                             "servo_rx_deviation",
+                                             "range_error",
+                                             "step_responses",
+                                             "settling_vs_gain",
+                                             "limits"};
   const std::string html = Slurp(out.index_html);
   for (const auto& name : expected) {
     EXPECT_TRUE(std::find(out.figures.begin(), out.figures.end(), name) != out.figures.end()) << name;
@@ -316,8 +337,13 @@ TEST(Report, ImagesOnlyReportShowsOnlySectionsWithData) {
   const ReportOutput out = WriteReport(d, dir);
   EXPECT_EQ(out.index_html, dir + "/report/index.html");
   const std::string html = Slurp(out.index_html);
-  for (const char* absent : {"Vergence ranging", "Step response", "Servo limits", "Ground-truth", "Servo maps and head",
-                             "robot file", "guide-owl"})
+  for (const char* absent : {"Vergence ranging",
+                             "Step response",
+                             "Servo limits",
+                             "Ground-truth",
+                             "Servo maps and head",
+                             "robot file",
+                             "guide-owl"})
     EXPECT_EQ(html.find(absent), std::string::npos) << absent;
   EXPECT_NE(html.find("No robot"), std::string::npos);
   EXPECT_NE(html.find("Camera intrinsics"), std::string::npos);
@@ -377,7 +403,8 @@ TEST(Report, LatexTablesCompile) {
   WriteTextFile(dir + "/tables/all.tex", doc.str());
   int st = std::system("command -v pdflatex >/dev/null 2>&1");
   if (st != 0) GTEST_SKIP() << "no TeX engine (pdflatex) installed: the LaTeX tables were written but not compiled";
-  st = std::system(("cd " + dir + "/tables && pdflatex -interaction=nonstopmode -halt-on-error all.tex >latex.log 2>&1").c_str());
+  st = std::system(
+      ("cd " + dir + "/tables && pdflatex -interaction=nonstopmode -halt-on-error all.tex >latex.log 2>&1").c_str());
   EXPECT_EQ(st, 0) << Slurp(dir + "/tables/latex.log").substr(0, 4000);
   EXPECT_TRUE(std::filesystem::exists(dir + "/tables/all.pdf"));
 }

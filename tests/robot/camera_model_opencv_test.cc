@@ -21,7 +21,8 @@ double WorstDifferenceFromOpenCv(uint32_t seed, int num_trials, int num_points) 
       z(0.1, 10);
   double worst = 0;
   for (int trial = 0; trial < num_trials; ++trial) {
-    std::vector<double> params = {f(rng), f(rng), c(rng), c(rng) - 80, k(rng), k(rng) * 0.5, p(rng), p(rng), k(rng) * 0.2};
+    std::vector<double> params = {
+        f(rng), f(rng), c(rng), c(rng) - 80, k(rng), k(rng) * 0.5, p(rng), p(rng), k(rng) * 0.2};
     if constexpr (Camera::kNumDistortion == 8) {
       params.push_back(k(rng));
       params.push_back(k(rng) * 0.5);
@@ -63,8 +64,12 @@ TEST(CameraModelVsOpenCv, DifferentParametersDoDiffer) {
   const double params[9] = {585, 585, 320, 240, -0.2, 0.05, 0.001, 0.001, 0.01};
   const std::vector<cv::Point3d> pts = {{0.3, 0.2, 1.0}};
   std::vector<cv::Point2d> out;
-  cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Matx33d(585, 0, 320, 0, 585, 240, 0, 0, 1),
-                    std::vector<double>{-0.21, 0.05, 0.001, 0.001, 0.01}, out);
+  cv::projectPoints(pts,
+                    cv::Vec3d(0, 0, 0),
+                    cv::Vec3d(0, 0, 0),
+                    cv::Matx33d(585, 0, 320, 0, 585, 240, 0, 0, 1),
+                    std::vector<double>{-0.21, 0.05, 0.001, 0.001, 0.01},
+                    out);
   const double x[3] = {0.3, 0.2, 1.0};
   double pix[2];
   ASSERT_TRUE(Camera5::Project(params, x, pix));

@@ -152,7 +152,7 @@ TEST(PythonModeServer, ServesOneClientAndQuitsOnItsNullPacket) {
     Socket s = ConnectTcp("127.0.0.1", server->Port(), 1000ms);
     ASSERT_TRUE(SendAll(s.fd(), "1545 1530 1545 1580 1530"));
     EXPECT_EQ(Reply(s, 2), "ok");
-    ::shutdown(s.fd(), SHUT_WR);  // the host closes: recv gives 0 bytes
+    ::shutdown(s.fd(), SHUT_WR);   // the host closes: recv gives 0 bytes
     EXPECT_EQ(Reply(s, 2), "ok");  // the NULL packet is answered too, then the server quits
   }
   ASSERT_TRUE(WaitExited(*server));

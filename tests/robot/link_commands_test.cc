@@ -8,9 +8,9 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "robot/mjpeg_client.h"
 #include "robot/mjpeg_server.h"
 #include "robot/servo_server.h"
-#include "robot/mjpeg_client.h"
 #include "robot/socket_util.h"
 
 namespace owlcal::robot {
@@ -62,7 +62,9 @@ TEST_F(LinkCommandsTest, UnreachableRobotThrowsNamingIt) {
   int port = 0;
   { Socket s = Listen("127.0.0.1", 0, &port); }
   try {
-    SendOneCommand("127.0.0.1:" + std::to_string(port), models::DefaultRobotConfig(), {1545, 1530, 1545, 1580, 1530},
+    SendOneCommand("127.0.0.1:" + std::to_string(port),
+                   models::DefaultRobotConfig(),
+                   {1545, 1530, 1545, 1580, 1530},
                    std::chrono::milliseconds(200));
     FAIL();
   } catch (const std::runtime_error& e) {
@@ -135,7 +137,10 @@ TEST(GrabOneFrame, FrameLargerThanTheRobotFileIsNeverDecoded) {
   video.Start();
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    GrabOneFrame("127.0.0.1", video.Port(), models::DefaultRobotConfig(), "/tmp/owlcal_never_big",
+    GrabOneFrame("127.0.0.1",
+                 video.Port(),
+                 models::DefaultRobotConfig(),
+                 "/tmp/owlcal_never_big",
                  std::chrono::milliseconds(500));
     ADD_FAILURE() << "no error";
   } catch (const std::runtime_error& e) {

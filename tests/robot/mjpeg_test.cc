@@ -239,8 +239,9 @@ TEST_F(MjpegTest, FramesOfTheWrongSizeAreSkippedBeforeDecoding) {
 TEST_F(MjpegTest, HostileServerTimeStampsAreIgnored) {
   const std::vector<uint8_t>& jpeg = Jpegs()[0];
   auto part = [&](const std::string& stamp) {
-    return "--f\r\nContent-Type: image/jpeg\r\nX-Timestamp: " + stamp + "\r\nContent-Length: " +
-           std::to_string(jpeg.size()) + "\r\n\r\n" + std::string(jpeg.begin(), jpeg.end()) + "\r\n";
+    return "--f\r\nContent-Type: image/jpeg\r\nX-Timestamp: " + stamp +
+           "\r\nContent-Length: " + std::to_string(jpeg.size()) + "\r\n\r\n" + std::string(jpeg.begin(), jpeg.end()) +
+           "\r\n";
   };
   testing::RawServer server(
       [&](int) {
@@ -300,7 +301,8 @@ std::string HttpExchange(int port, const std::string& request) {
 TEST_F(MjpegTest, OtherRoutesGoToTheHook) {
   std::string put_body;
   MjpegServer server({}, nullptr, [&](const HttpRequest& req) -> std::optional<HttpResponse> {
-    if (req.method == "GET" && req.path == "/truth") return HttpResponse{200, "application/json", "{\"ipd\":0.065}", {}};
+    if (req.method == "GET" && req.path == "/truth")
+      return HttpResponse{200, "application/json", "{\"ipd\":0.065}", {}};
     if (req.method == "PUT" && req.path.rfind("/scene/targets/", 0) == 0) {
       put_body = req.body;
       return HttpResponse{204, "text/plain", "", {}};
@@ -311,8 +313,8 @@ TEST_F(MjpegTest, OtherRoutesGoToTheHook) {
   const std::string truth = HttpExchange(server.Port(), "GET /truth HTTP/1.1\r\nHost: x\r\n\r\n");
   EXPECT_EQ(truth.rfind("HTTP/1.0 200", 0), 0u) << truth;
   EXPECT_NE(truth.find("{\"ipd\":0.065}"), std::string::npos);
-  const std::string put = HttpExchange(
-      server.Port(), "PUT /scene/targets/board HTTP/1.1\r\nContent-Length: 11\r\n\r\n{\"z\": 1.25}");
+  const std::string put =
+      HttpExchange(server.Port(), "PUT /scene/targets/board HTTP/1.1\r\nContent-Length: 11\r\n\r\n{\"z\": 1.25}");
   EXPECT_EQ(put.rfind("HTTP/1.0 204", 0), 0u) << put;
   EXPECT_EQ(put_body, "{\"z\": 1.25}");
   const std::string missing = HttpExchange(server.Port(), "GET /nothing HTTP/1.1\r\n\r\n");

@@ -136,8 +136,8 @@ TEST(ServoClient, CommandTimeoutBoundsRetriesToo) {
   const ServoClientReply r = client.Send({1545, 1530, 1545, 1580, 1530});
   const auto took = std::chrono::steady_clock::now() - t0;
   EXPECT_FALSE(r.ok);
-  EXPECT_GE(took, 350ms);   // the first wait ran in full
-  EXPECT_LT(took, 700ms);   // not 3 x 400 ms: no resend that cannot finish in time
+  EXPECT_GE(took, 350ms);  // the first wait ran in full
+  EXPECT_LT(took, 700ms);  // not 3 x 400 ms: no resend that cannot finish in time
 }
 
 TEST(ServoClient, NextClientIsServedAfterClose) {
@@ -235,7 +235,7 @@ TEST(OwlLink, ClampsSendsAndGrabsFrames) {
   ASSERT_TRUE(f);
   EXPECT_GT(f->stamp_ns, t0);
   EXPECT_EQ(f->left.size(), cv::Size(640, 480));
-  EXPECT_GT(cv::mean(f->left)[0], 200);   // left = columns 0-639
+  EXPECT_GT(cv::mean(f->left)[0], 200);  // left = columns 0-639
   EXPECT_LT(cv::mean(f->right)[0], 50);
   std::optional<StereoFrame> g = owl.GrabFrame(f->stamp_ns, 5'000'000'000);
   ASSERT_TRUE(g);

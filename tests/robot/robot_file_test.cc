@@ -103,11 +103,11 @@ TEST(RobotFile, ErrorsNameTheFileFieldAndValue) {
             "robots/x.yaml: servos.Rx.centre_us = 1100 is not above min_us 1200");
   EXPECT_EQ(ErrorOf(Edited("max_us: 1850", "max_us: 18500")),
             "robots/x.yaml: servos.Lx.max_us = 18500 is not a four-digit pulse width (1000..9999 us)");
-  EXPECT_EQ(ErrorOf(Edited("direction: -1", "direction: 2")),
-            "robots/x.yaml: servos.Ly.direction = 2 is not 1 or -1");
+  EXPECT_EQ(ErrorOf(Edited("direction: -1", "direction: 2")), "robots/x.yaml: servos.Ly.direction = 2 is not 1 or -1");
   EXPECT_EQ(ErrorOf(Edited("direction: -1, deg_per_us: 0.113}\n  Neck", "direction: -1, deg_per_us: 0}\n  Neck")),
             "robots/x.yaml: servos.Ly.deg_per_us = 0 is not positive");
-  EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: abc")), "robots/x.yaml:9: servos.Neck.min_us = 'abc' is not an integer");
+  EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: abc")),
+            "robots/x.yaml:9: servos.Neck.min_us = 'abc' is not an integer");
   EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: 1100.5")),
             "robots/x.yaml:9: servos.Neck.min_us = '1100.5' is not an integer");
   EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0", "ipd_mm: -3")), "robots/x.yaml: ipd_mm = -3 is not in (0, 1000] mm");
@@ -148,13 +148,17 @@ TEST(RobotFile, RefusesAbsurdImagesRepeatedKeysAndListsWhereNamesBelong) {
             "robots/x.yaml:3: key 'ipd_mm' given twice (first on line 2)");
   EXPECT_EQ(ErrorOf(Edited("min_us: 1200, max_us: 1890", "min_us: 1200, min_us: 1100, max_us: 1890")),
             "robots/x.yaml:5: key 'servos.Rx.min_us' given twice (first on line 5)");
-  EXPECT_EQ(ErrorOf(Edited("  Lx:   {", "  [Lx, Rx]:   {")), "robots/x.yaml:7: a key of 'servos' is a list, not a name");
+  EXPECT_EQ(ErrorOf(Edited("  Lx:   {", "  [Lx, Rx]:   {")),
+            "robots/x.yaml:7: a key of 'servos' is a list, not a name");
   EXPECT_EQ(ErrorOf(Edited("centre_us: 1545, direction: 1,  deg_per_us: 0.113}\n  Ry",
                            "centre_us: [1545], direction: 1,  deg_per_us: 0.113}\n  Ry")),
             "robots/x.yaml:5: servos.Rx.centre_us must be a single value, not a list");
-  EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0", "ipd_mm: .nan")), "robots/x.yaml:2: ipd_mm = '.nan' is not a finite decimal number");
-  EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0", "ipd_mm: 1e400")), "robots/x.yaml:2: ipd_mm = '1e400' is not a finite decimal number");
-  EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: 0x44c")), "robots/x.yaml:9: servos.Neck.min_us = '0x44c' is not an integer");
+  EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0", "ipd_mm: .nan")),
+            "robots/x.yaml:2: ipd_mm = '.nan' is not a finite decimal number");
+  EXPECT_EQ(ErrorOf(Edited("ipd_mm: 65.0", "ipd_mm: 1e400")),
+            "robots/x.yaml:2: ipd_mm = '1e400' is not a finite decimal number");
+  EXPECT_EQ(ErrorOf(Edited("min_us: 1100", "min_us: 0x44c")),
+            "robots/x.yaml:9: servos.Neck.min_us = '0x44c' is not an integer");
   EXPECT_EQ(ErrorOf(Edited("image: {", "colour: red\nimage: {")),
             "robots/x.yaml:3: unknown field 'colour' (expected one of: name, ipd_mm, image, servos)");
   EXPECT_EQ(ErrorOf("- just\n- a list\n"), "robots/x.yaml:1: the file must be a map of key: value");

@@ -54,7 +54,8 @@ class ServoServerTest : public ::testing::Test {
  protected:
   void SetUp() override {
     server_ = std::make_unique<ServoServer>(
-        ServoServerOptions{}, [this](const models::PwmVector& p) { rec_.Add(p); },
+        ServoServerOptions{},
+        [this](const models::PwmVector& p) { rec_.Add(p); },
         [this](const std::string& r) { rec_.AddRaw(r); });
     server_->Start();
     ASSERT_GT(server_->Port(), 0);

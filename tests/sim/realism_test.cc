@@ -19,7 +19,8 @@
 namespace owlcal::sim {
 namespace {
 
-std::vector<cv::Point2f> Project(const models::CameraIntrinsics& k, const Eigen::Matrix4d& cam_from_target,
+std::vector<cv::Point2f> Project(const models::CameraIntrinsics& k,
+                                 const Eigen::Matrix4d& cam_from_target,
                                  const std::vector<Eigen::Vector3d>& points) {
   cv::Mat r(3, 3, CV_64F), rvec, tvec(3, 1, CV_64F);
   for (int i = 0; i < 3; ++i) {
@@ -206,7 +207,8 @@ TEST(HandHeldCapture, WritesPairsWithTheBoardInBothEyes) {
   const calib::TargetDefinition def = owl.SceneState().Find("chessboard")->definition;
   int found = 0;
   for (size_t i = 0; i < c.left_paths.size(); ++i)
-    for (const auto& p : {c.left_paths[i], c.right_paths[i]}) found += calib::DetectTarget(cv::imread(p), def, {}).found;
+    for (const auto& p : {c.left_paths[i], c.right_paths[i]})
+      found += calib::DetectTarget(cv::imread(p), def, {}).found;
   EXPECT_GE(found, 7);
   EXPECT_FALSE(owl.SceneState().Find("aprilgrid")->visible);
   EXPECT_TRUE(owl.SceneState().Find("chessboard")->motion.Still());  // let go at the end
@@ -217,7 +219,6 @@ TEST(HandHeldCapture, WritesPairsWithTheBoardInBothEyes) {
   EXPECT_NE(why.find("num_pairs"), std::string::npos);
   EXPECT_THROW(CaptureHandHeldSet(&owl, dir, ho), std::invalid_argument);
 }
-
 
 TEST(SceneFile, WarpAndMotionRoundTripAndBadValuesNameTheField) {
   SceneDescription scene = DefaultScene();
@@ -257,7 +258,6 @@ TEST(SceneFile, WarpAndMotionRoundTripAndBadValuesNameTheField) {
   expect_error(head + "    warp_m: [0.001]\n", "warp_m");
   std::filesystem::remove_all(dir);
 }
-
 
 TEST(RobotTruthFile, MeasuredStreamRoundTripsAndOlderFilesKeepTheCleanDefaults) {
   RobotTruth t = DefaultRobotTruth();

@@ -27,7 +27,10 @@ VirtualOwlOptions NoiseFree() {
 }
 
 // Truth pixels of a target's corners by cv::projectPoints (not the sim's own code).
-std::vector<cv::Point2f> TruthCorners(const VirtualOwl& owl, const FrameTruth& ft, models::Eye eye, const std::string& target,
+std::vector<cv::Point2f> TruthCorners(const VirtualOwl& owl,
+                                      const FrameTruth& ft,
+                                      models::Eye eye,
+                                      const std::string& target,
                                       std::vector<int>* ids = nullptr) {
   const models::HeadModel head = owl.TruthHeadModel();
   const SceneDescription scene = owl.SceneState();
@@ -65,22 +68,30 @@ void MaybeDump(const cv::Mat& img, const std::string& name) {
 
 // Detects the 9x6 board and returns the RMS distance to the truth corners [px]; `mean_offset`:
 // the mean of (detected - truth) [px].
-double ChessboardRms(const cv::Mat& grey, const std::vector<cv::Point2f>& truth, cv::Size size,
+double ChessboardRms(const cv::Mat& grey,
+                     const std::vector<cv::Point2f>& truth,
+                     cv::Size size,
                      cv::Point2f* mean_offset = nullptr) {
   std::vector<cv::Point2f> found;
-  if (!cv::findChessboardCorners(grey, size, found, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE)) return -1;
-  cv::cornerSubPix(grey, found, cv::Size(5, 5), cv::Size(-1, -1),
+  if (!cv::findChessboardCorners(grey, size, found, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE))
+    return -1;
+  cv::cornerSubPix(grey,
+                   found,
+                   cv::Size(5, 5),
+                   cv::Size(-1, -1),
                    cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4));
   if (found.size() != truth.size()) return -1;
   // The pattern is symmetric under a half turn: OpenCV may order it either way.
-  if (cv::norm(found.front() - truth.front()) > cv::norm(found.front() - truth.back())) std::reverse(found.begin(), found.end());
+  if (cv::norm(found.front() - truth.front()) > cv::norm(found.front() - truth.back()))
+    std::reverse(found.begin(), found.end());
   double sum = 0;
   cv::Point2f mean(0, 0);
   for (size_t i = 0; i < found.size(); ++i) {
     const cv::Point2f d = found[i] - truth[i];
     sum += d.dot(d);
     mean += d;
-    if (std::getenv("OWLCAL_SIM_DEBUG")) std::printf("  corner %zu (%.1f %.1f) d %.3f %.3f\n", i, truth[i].x, truth[i].y, d.x, d.y);
+    if (std::getenv("OWLCAL_SIM_DEBUG"))
+      std::printf("  corner %zu (%.1f %.1f) d %.3f %.3f\n", i, truth[i].x, truth[i].y, d.x, d.y);
   }
   mean /= float(found.size());
   std::printf("  mean offset %.4f %.4f px\n", mean.x, mean.y);
@@ -98,9 +109,10 @@ TEST(RenderGeometry, ChessboardCornersMatchProjectPointsWithinATenthPixel) {
   for (const std::string& n : owl.TargetNames())
     if (n != "chessboard") owl.SetTargetVisible(n, false);
   const calib::TargetDefinition def = owl.SceneState().Find("chessboard")->definition;
-  const std::vector<BoardPose> poses = {
-      {{0.0, 0.0, 0.63}, 0, 0, 0}, {{0.05, -0.03, 0.55}, 25, 0, 5}, {{-0.06, 0.04, 0.7}, -20, 15, -8},
-      {{0.02, 0.02, 0.45}, 10, -25, 12}};
+  const std::vector<BoardPose> poses = {{{0.0, 0.0, 0.63}, 0, 0, 0},
+                                        {{0.05, -0.03, 0.55}, 25, 0, 5},
+                                        {{-0.06, 0.04, 0.7}, -20, 15, -8},
+                                        {{0.02, 0.02, 0.45}, 10, -25, 12}};
   double total = 0;
   int n = 0;
   int64_t after = 0;
@@ -183,7 +195,8 @@ TEST(RenderGeometry, AprilTagCornersMatchProjectPointsWithinTwoTenthsPixel) {
         }
       }
       apriltag_detections_destroy(detections);
-      std::printf("pose %zu %s eye: %d of %d tags detected\n", pi, models::kEyeNames[e], found, def.tag_cols * def.tag_rows);
+      std::printf(
+          "pose %zu %s eye: %d of %d tags detected\n", pi, models::kEyeNames[e], found, def.tag_cols * def.tag_rows);
       EXPECT_GE(found, def.tag_cols * def.tag_rows * 3 / 4);
     }
   }

@@ -118,7 +118,8 @@ TEST(ServoDynamics, BacklashDeadBandAndQuantum) {
   servo.Command(1700, 1'000'000'000);
   servo.Command(1600, 2'000'000'000);
   const double down = servo.AngleAt(3'000'000'000);
-  EXPECT_NEAR(up - down, models::ServoMap::JointAngle(p.data(), 1, 1600, 1) - models::ServoMap::JointAngle(p.data(), 1, 1600, -1),
+  EXPECT_NEAR(up - down,
+              models::ServoMap::JointAngle(p.data(), 1, 1600, 1) - models::ServoMap::JointAngle(p.data(), 1, 1600, -1),
               1e-12);
   EXPECT_GT(down, up);  // backlash: the joint lags behind the direction it came from
   // Dead band of 3 us: a 2 us change is ignored.

@@ -47,7 +47,8 @@ class SimServerTest : public ::testing::Test {
   std::string Http(const std::string& method, const std::string& path, const std::string& body = "") {
     robot::Socket s = robot::ConnectTcp("127.0.0.1", server_->HttpPort(), 2000ms);
     std::string req = method + " " + path + " HTTP/1.0\r\nHost: 127.0.0.1\r\n";
-    if (!body.empty()) req += "Content-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) + "\r\n";
+    if (!body.empty())
+      req += "Content-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) + "\r\n";
     req += "\r\n" + body;
     EXPECT_TRUE(robot::SendAll(s.fd(), req));
     std::string out;
@@ -155,8 +156,10 @@ TEST_F(SimServerTest, MalformedPartialAndAbruptClientsNeverMoveAServoOrWedgeTheS
   EXPECT_EQ(server_->Owl().LastCommand(), before);
   EXPECT_EQ(server_->ServoStats().num_packets, packets_before);
   const robot::ServoServerStats stats = server_->ServoStats();
-  std::printf("after fuzz: %lld sessions, %lld malformed, %lld valid packets\n", (long long)stats.num_sessions,
-              (long long)stats.num_malformed, (long long)stats.num_packets);
+  std::printf("after fuzz: %lld sessions, %lld malformed, %lld valid packets\n",
+              (long long)stats.num_sessions,
+              (long long)stats.num_malformed,
+              (long long)stats.num_packets);
   EXPECT_GE(stats.num_malformed, 10000);
   // Still serving: a packet split over three writes is joined and applied.
   robot::Socket s = Connect();
@@ -177,7 +180,8 @@ TEST_F(SimServerTest, HttpTruthAndSceneRoutes) {
   const nlohmann::json truth = nlohmann::json::parse(Body(Http("GET", "/truth")));
   EXPECT_EQ(truth["seed"], 5);
   EXPECT_TRUE(truth["robot_truth"]["servos"].contains("Ly"));
-  const std::string ok = Http("PUT", "/scene/targets/chessboard", R"({"t_m": [0.1, -0.05, 0.8], "rpy_deg": [0, 0, 10]})");
+  const std::string ok =
+      Http("PUT", "/scene/targets/chessboard", R"({"t_m": [0.1, -0.05, 0.8], "rpy_deg": [0, 0, 10]})");
   EXPECT_NE(ok.find(" 200 "), std::string::npos) << ok;
   const auto pose = server_->Owl().TargetPose("chessboard");
   ASSERT_TRUE(pose.has_value());
@@ -257,16 +261,22 @@ TEST_F(SimServerTest, AFiveFpsClientGetsRecentFramesNotAQueue) {
     worst_age_ms = std::max(worst_age_ms, age_ms);
     worst_margin_ms = std::min(worst_margin_ms, bound_ms - age_ms);
   }
-  std::printf("5 fps client: oldest frame received %.0f ms after exposure (latency %.0f ms, rendering lag up to %.0f "
-              "ms), smallest margin to the bound %.0f ms\n",
-              worst_age_ms, latency_ms, server_->MaxPublishLagMs(), worst_margin_ms);
+  std::printf(
+      "5 fps client: oldest frame received %.0f ms after exposure (latency %.0f ms, rendering lag up to %.0f "
+      "ms), smallest margin to the bound %.0f ms\n",
+      worst_age_ms,
+      latency_ms,
+      server_->MaxPublishLagMs(),
+      worst_margin_ms);
 }
 
 TEST_F(SimServerTest, HttpGarbageGetsA400AndASilentClientBlocksNoOne) {
   robot::Socket silent = robot::ConnectTcp("127.0.0.1", server_->HttpPort(), 2000ms);  // sends nothing
   {
     robot::Socket s = robot::ConnectTcp("127.0.0.1", server_->HttpPort(), 2000ms);
-    ASSERT_TRUE(robot::SendAll(s.fd(), std::string("\x16\x03\x01" "garbage\r\n\r\n")));
+    ASSERT_TRUE(robot::SendAll(s.fd(),
+                               std::string("\x16\x03\x01"
+                                           "garbage\r\n\r\n")));
     char buf[512];
     const int64_t n = robot::RecvSome(s.fd(), buf, sizeof buf, 3000ms);
     ASSERT_GT(n, 0);

@@ -85,10 +85,17 @@ TEST(StreamLayout, DefaultStreamIsMirroredAndACourseClientThatFlipsSeesEachEyeRi
   const auto left = ChangeCentroid(r.without.left, r.with.left);
   const auto right = ChangeCentroid(r.without.right, r.with.right);
   ASSERT_TRUE(left && right);
-  std::printf("disc in the course client's Left (%.1f, %.1f), truth left eye (%.1f, %.1f); Right (%.1f, %.1f), truth "
-              "right eye (%.1f, %.1f)\n",
-              left->x, left->y, r.predicted[models::kLeftEye].x, r.predicted[models::kLeftEye].y, right->x, right->y,
-              r.predicted[models::kRightEye].x, r.predicted[models::kRightEye].y);
+  std::printf(
+      "disc in the course client's Left (%.1f, %.1f), truth left eye (%.1f, %.1f); Right (%.1f, %.1f), truth "
+      "right eye (%.1f, %.1f)\n",
+      left->x,
+      left->y,
+      r.predicted[models::kLeftEye].x,
+      r.predicted[models::kLeftEye].y,
+      right->x,
+      right->y,
+      r.predicted[models::kRightEye].x,
+      r.predicted[models::kRightEye].y);
   // The truth places the disc left of centre in both eyes, the left eye seeing it further right
   // (positive disparity, 17 px), so mirroring (~280 px) or swapping (17 px) would move it far beyond 3 px.
   ASSERT_LT(r.predicted[models::kLeftEye].x, 290);
@@ -105,8 +112,8 @@ TEST(StreamLayout, OwlcalsDefaultRobotFileReadsTheSameHalvesAsTheCourseClient) {
   EXPECT_TRUE(robot.mirror_stream);
   EXPECT_FALSE(robot.swap_eyes);
   cv::Mat left, right;
-  robot::SplitStereo(cv::imdecode(r.jpeg_with, cv::IMREAD_GRAYSCALE), robot.mirror_stream, robot.swap_eyes, &left,
-                     &right);
+  robot::SplitStereo(
+      cv::imdecode(r.jpeg_with, cv::IMREAD_GRAYSCALE), robot.mirror_stream, robot.swap_eyes, &left, &right);
   EXPECT_EQ(cv::norm(left, r.with.left, cv::NORM_INF), 0);
   EXPECT_EQ(cv::norm(right, r.with.right, cv::NORM_INF), 0);
 }

@@ -49,7 +49,10 @@ TEST(TagSheets, TagsAreDetectedWhereTheChessboardIsCutAtTheImageCorner) {
   struct Case {
     models::Eye eye;
     double pan_deg, tilt_deg;
-  } cases[] = {{models::kRightEye, 19, 13}, {models::kRightEye, 17, -15}, {models::kLeftEye, -18, 14}, {models::kLeftEye, -22, -14}};
+  } cases[] = {{models::kRightEye, 19, 13},
+               {models::kRightEye, 17, -15},
+               {models::kLeftEye, -18, 14},
+               {models::kLeftEye, -22, -14}};
   int num_cases = 0;
   for (const Case& c : cases) {
     models::JointAngles a = head.Angles(owl.Config().Centre());
@@ -58,7 +61,8 @@ TEST(TagSheets, TagsAreDetectedWhereTheChessboardIsCutAtTheImageCorner) {
     std::map<int, Eigen::Vector2d> chess_px;
     const int chess_inside = CornersInImage(head, c.eye, a, chess, &chess_px);
     SCOPED_TRACE(std::string(models::kEyeNames[c.eye]) + " eye pan " + std::to_string(c.pan_deg) + " tilt " +
-                 std::to_string(c.tilt_deg) + ": " + std::to_string(chess_inside) + " of 54 chessboard corners in the image");
+                 std::to_string(c.tilt_deg) + ": " + std::to_string(chess_inside) +
+                 " of 54 chessboard corners in the image");
     // The chessboard is cut: part of it in view, part out.
     EXPECT_GT(chess_inside, 5);
     EXPECT_LT(chess_inside, 54);
@@ -83,9 +87,16 @@ TEST(TagSheets, TagsAreDetectedWhereTheChessboardIsCutAtTheImageCorner) {
       }
     }
     const double rms = num_tags ? std::sqrt(ss / (4 * num_tags)) : 0.0;
-    std::printf("%s eye pan %+.0f tilt %+.0f deg: chessboard %d of 54 corners in view, not found; %d tags, corner RMS "
-                "%.3f px, worst %.3f px\n",
-                models::kEyeNames[c.eye], c.pan_deg, c.tilt_deg, chess_inside, num_tags, rms, worst);
+    std::printf(
+        "%s eye pan %+.0f tilt %+.0f deg: chessboard %d of 54 corners in view, not found; %d tags, corner RMS "
+        "%.3f px, worst %.3f px\n",
+        models::kEyeNames[c.eye],
+        c.pan_deg,
+        c.tilt_deg,
+        chess_inside,
+        num_tags,
+        rms,
+        worst);
     EXPECT_GE(num_tags, 4);
     EXPECT_LT(rms, 0.3);
     EXPECT_LT(worst, 1.0);
@@ -104,7 +115,8 @@ TEST(TagSheets, DetectAprilGridsKeepsEachGridsOwnTags) {
   a.pan_rad[models::kRightEye] += 12 * kDeg;
   const cv::Mat img = owl.RenderEyeGrey(models::kRightEye, a);
   std::vector<calib::TargetDefinition> sheets;
-  for (const char* n : {"tags_right_up", "tags_right_down", "tags_left_up"}) sheets.push_back(owl.SceneState().Find(n)->definition);
+  for (const char* n : {"tags_right_up", "tags_right_down", "tags_left_up"})
+    sheets.push_back(owl.SceneState().Find(n)->definition);
   const auto together = calib::DetectAprilGrids(img, sheets, calib::DetectorOptions());
   ASSERT_EQ(together.size(), 3u);
   int found = 0;
@@ -119,8 +131,9 @@ TEST(TagSheets, DetectAprilGridsKeepsEachGridsOwnTags) {
     found += together[g].found;
   }
   EXPECT_GE(found, 2);  // both right-hand sheets
-  EXPECT_THROW(calib::DetectAprilGrids(img, {owl.SceneState().Find("chessboard")->definition}, calib::DetectorOptions()),
-               std::invalid_argument);
+  EXPECT_THROW(
+      calib::DetectAprilGrids(img, {owl.SceneState().Find("chessboard")->definition}, calib::DetectorOptions()),
+      std::invalid_argument);
 }
 
 }  // namespace

@@ -110,7 +110,8 @@ TEST(VirtualOwl, ACommandShowsInTheImageOnlyAfterTheLatency) {
   ASSERT_TRUE(later.has_value());
   const FrameTruth lt = owl.TruthForFrame(later->seq);
   const models::HeadModel head = owl.TruthHeadModel();
-  EXPECT_NEAR(lt.angles[kLeftEye].pan_rad[kLeftEye], head.ServoAngle(models::kLx, cmd[models::kLx], +1), 1e-5);  // lag tail
+  EXPECT_NEAR(
+      lt.angles[kLeftEye].pan_rad[kLeftEye], head.ServoAngle(models::kLx, cmd[models::kLx], +1), 1e-5);  // lag tail
   cv::Mat diff;
   cv::absdiff(frame_before->left, later->left, diff);
   EXPECT_GT(cv::mean(diff)[0], 5.0);
@@ -133,8 +134,10 @@ TEST(VirtualOwl, SceneControlMovesTargetsAndTruthJsonHasEverything) {
   const nlohmann::json j = nlohmann::json::parse(scene->TruthJson());
   EXPECT_EQ(j["seed"], 1);
   EXPECT_NEAR(j["scene"]["targets"][0]["pose"]["t_m"][2].get<double>(), 0.8, 1e-12);
-  EXPECT_NEAR(j["robot_truth"]["servos"]["Rx"]["centre_us"].get<double>(), owl.Truth().servos[models::kRx].centre_us, 1e-12);
-  EXPECT_NEAR(j["robot_truth"]["cameras"]["left"]["params"][0].get<double>(), owl.Truth().intrinsics[0].params[0], 1e-12);
+  EXPECT_NEAR(
+      j["robot_truth"]["servos"]["Rx"]["centre_us"].get<double>(), owl.Truth().servos[models::kRx].centre_us, 1e-12);
+  EXPECT_NEAR(
+      j["robot_truth"]["cameras"]["left"]["params"][0].get<double>(), owl.Truth().intrinsics[0].params[0], 1e-12);
   EXPECT_TRUE(j["servo_state"].contains("Neck"));
   EXPECT_NEAR(j["robot_truth"]["geometry"]["ipd_m"].get<double>(), owl.TruthHeadModel().geometry.Ipd(), 1e-12);
 }
@@ -173,7 +176,8 @@ TEST(RobotTruth, ShippedFilesLoadAndBadValuesNameTheField) {
     const RobotTruth t = LoadRobotTruth((dir / f).string());
     EXPECT_FALSE(t.name.empty());
   }
-  EXPECT_EQ(RobotTruthYaml(LoadRobotTruth((dir / "owl_default_truth.yaml").string())), RobotTruthYaml(DefaultRobotTruth()));
+  EXPECT_EQ(RobotTruthYaml(LoadRobotTruth((dir / "owl_default_truth.yaml").string())),
+            RobotTruthYaml(DefaultRobotTruth()));
   for (const char* f : {"scene_default.yaml", "scene_ranging.yaml"}) {
     SCOPED_TRACE(f);
     EXPECT_FALSE(LoadScene((dir / f).string()).targets.empty());
@@ -214,7 +218,8 @@ std::string Replaced(std::string text, const std::string& from, const std::strin
 // the built-in robot while the manifest named the file; NaN ran to "complete"; the robot section
 // skipped the robot-file checks. Each is now an error naming the file (and line and field).
 TEST(RobotTruth, BrokenFilesAreErrorsNamingTheFileNeverTheBuiltInRobot) {
-  const std::string path = (std::filesystem::temp_directory_path() / ("owlcal_bad_truth_" + std::to_string(::getpid()) + ".yaml")).string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("owlcal_bad_truth_" + std::to_string(::getpid()) + ".yaml")).string();
   const std::string good = DefaultTruthText();
   EXPECT_EQ(TruthErrorOf(good, path), "");
   EXPECT_EQ(TruthErrorOf("", path), path + ": the file is empty");
@@ -230,20 +235,26 @@ TEST(RobotTruth, BrokenFilesAreErrorsNamingTheFileNeverTheBuiltInRobot) {
   EXPECT_NE(TruthErrorOf(Replaced(good, "  fps: 30", "  fsp: 30"), path).find("stream.fps"), std::string::npos);
   const std::string nan = TruthErrorOf(Replaced(good, "lag_s: 0.025", "lag_s: .nan"), path);
   EXPECT_NE(nan.find("servos.Rx.lag_s = '.nan' is not a finite decimal number"), std::string::npos) << nan;
-  const std::string neg = TruthErrorOf(Replaced(good, "Ly: {direction: -1, centre_us: 1617, deg_per_us: 0.121",
-                                                 "Ly: {direction: -1, centre_us: 1617, deg_per_us: -0.2"), path);
+  const std::string neg = TruthErrorOf(Replaced(good,
+                                                "Ly: {direction: -1, centre_us: 1617, deg_per_us: 0.121",
+                                                "Ly: {direction: -1, centre_us: 1617, deg_per_us: -0.2"),
+                                       path);
   EXPECT_NE(neg.find("servos.Ly.deg_per_us = -0.2 is outside [0, 1]"), std::string::npos) << neg;
-  const std::string twice = TruthErrorOf(Replaced(good, "  latency_ms: 100", "  latency_ms: 100\n  latency_ms: 300"), path);
+  const std::string twice =
+      TruthErrorOf(Replaced(good, "  latency_ms: 100", "  latency_ms: 100\n  latency_ms: 300"), path);
   EXPECT_NE(twice.find("key 'stream.latency_ms' given twice"), std::string::npos) << twice;
   const std::string unknown = TruthErrorOf(good + "extra: 1\n", path);
   EXPECT_NE(unknown.find("unknown field 'extra'"), std::string::npos) << unknown;
   // The robot section gets the robot file's checks: a 10^6 x 10^6 image, min above max.
-  const std::string huge = TruthErrorOf(Replaced(Replaced(good, "image_width: 640", "image_width: 1000000"),
-                                                 "  image_height: 480", "  image_height: 1000000"), path);
+  const std::string huge = TruthErrorOf(
+      Replaced(
+          Replaced(good, "image_width: 640", "image_width: 1000000"), "  image_height: 480", "  image_height: 1000000"),
+      path);
   EXPECT_NE(huge.find("image.width = 1000000 is not in 16..8192 px"), std::string::npos) << huge;
   const std::string minmax = TruthErrorOf(Replaced(good, "Rx: {min_us: 1200", "Rx: {min_us: 1950"), path);
   EXPECT_NE(minmax.find("robot section (checked as a robot file): servos.Rx.min_us = 1950 is above max_us 1890"),
-            std::string::npos) << minmax;
+            std::string::npos)
+      << minmax;
   std::filesystem::remove(path);
 }
 
