@@ -98,7 +98,7 @@ class Scanner {
         return "";
       }
       const std::string name = Name();
-      if (name.empty()) return Fail(std::string("unexpected '") + t_[i_] + "' inside a tag");
+      if (name.empty()) return Fail("unexpected '" + std::string(1, t_[i_]) + "' inside a tag");
       SkipSpace();
       if (!Starts("=")) return Fail("attribute '" + name + "' without '=\"value\"'");
       ++i_;

@@ -1,23 +1,27 @@
 #!/usr/bin/env bash
-# Checks the C++ lines a change touches against .clang-format (git clang-format: only changed
-# lines, so the tree is never reformatted wholesale). Usage:
-#   scripts/check-format.sh [BASE]   # BASE: commit to compare with (default: the merge base
-#                                    # with main, else HEAD~1); uncommitted changes count too
-# Exit 0 when the changed lines are formatted, 1 with the diff that would fix them.
-# To fix them: git clang-format BASE
+# Checks every tracked C++ file (*.h, *.cc) against .clang-format; the tree was formatted once, so
+# any difference is a change that was not formatted. Usage:
+#   scripts/check-format.sh [--fix]   # --fix: rewrite the differing files in place
+# Exit 0 when every file is formatted, 1 naming the files that are not (and how to fix them),
+# 2 when clang-format is missing. Runs as the ctest test `format` (label unit).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-command -v git-clang-format >/dev/null || { echo "check-format: git-clang-format not installed (apt install clang-format)"; exit 2; }
-base="${1:-}"
-if [ -z "$base" ]; then
-  base="$(git merge-base HEAD main 2>/dev/null || true)"
-  if [ -z "$base" ] || [ "$base" = "$(git rev-parse HEAD)" ]; then base="$(git rev-parse HEAD~1 2>/dev/null || git rev-parse HEAD)"; fi
-fi
-out="$(git clang-format --quiet --diff --extensions h,cc "$base" -- 2>&1 || true)"
-if [ -z "$out" ] || [[ "$out" == "no modified files to format" ]] || [[ "$out" == *"did not modify any files"* ]]; then
-  echo "check-format: changed lines since $(git rev-parse --short "$base") are formatted"
+command -v clang-format >/dev/null || { echo "check-format: clang-format not installed (apt install clang-format)"; exit 2; }
+fix=0
+[ "${1:-}" = "--fix" ] && fix=1
+bad=()
+while IFS= read -r f; do
+  [ -f "$f" ] || continue
+  if ! clang-format --style=file "$f" | cmp -s - "$f"; then
+    bad+=("$f")
+    [ "$fix" = 1 ] && clang-format --style=file -i "$f"
+  fi
+done < <(git ls-files '*.h' '*.cc' 2>/dev/null || find . -path ./build -prune -o \( -name '*.h' -o -name '*.cc' \) -print)
+if [ ${#bad[@]} -eq 0 ]; then
+  echo "check-format: every C++ file matches .clang-format"
   exit 0
 fi
-echo "$out"
-echo "check-format: the lines above differ from .clang-format; fix with: git clang-format $(git rev-parse --short "$base")"
+if [ "$fix" = 1 ]; then echo "check-format: reformatted ${#bad[@]} file(s): ${bad[*]}"; exit 0; fi
+printf 'check-format: not formatted: %s\n' "${bad[@]}"
+echo "check-format: ${#bad[@]} file(s) differ from .clang-format; fix with: scripts/check-format.sh --fix"
 exit 1
