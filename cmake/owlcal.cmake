@@ -13,7 +13,8 @@ set(OWLCAL_PCH_HEADERS
     <nlohmann/json.hpp>)
 set(OWLCAL_PCH_DEPS Eigen3::Eigen Ceres::ceres opencv_core opencv_imgproc opencv_imgcodecs opencv_calib3d
     nlohmann_json::nlohmann_json)
-if(OWLCAL_PCH)
+# The fuzz build (clang, its own targets) does not use them.
+if(OWLCAL_PCH AND NOT OWLCAL_FUZZ)
   file(WRITE ${CMAKE_BINARY_DIR}/generated/owlcal_pch.cc "// The translation unit owlcal's precompiled headers are built from.\n")
   add_library(owlcal_pch STATIC ${CMAKE_BINARY_DIR}/generated/owlcal_pch.cc)
   target_link_libraries(owlcal_pch PUBLIC ${OWLCAL_PCH_DEPS})
@@ -22,20 +23,9 @@ if(OWLCAL_PCH)
   target_link_libraries(owlcal_pch_test PUBLIC ${OWLCAL_PCH_DEPS} GTest::gtest)
   target_precompile_headers(owlcal_pch_test PRIVATE ${OWLCAL_PCH_HEADERS} <gtest/gtest.h>)
 endif()
-# Unity build (-DOWLCAL_UNITY=OFF to build file by file): each library and the program compile their
-# .cc files in batches of OWLCAL_UNITY_BATCH, so the templates they share (JSON, CLI11, Eigen) are
-# instantiated and optimised once per batch rather than once per file. File-local names must then
-# be unique within a folder.
-option(OWLCAL_UNITY "Compile each library's files in batches (unity build)" OFF)
-set(OWLCAL_UNITY_BATCH 8 CACHE STRING "Files per unity batch")
-if(OWLCAL_UNITY)
-  set(CMAKE_UNITY_BUILD ON)
-  set(CMAKE_UNITY_BUILD_BATCH_SIZE ${OWLCAL_UNITY_BATCH})
-endif()
-
 # owlcal_use_pch(TARGET [test]): TARGET reuses the precompiled headers (the test set with "test").
 function(owlcal_use_pch target)
-  if(NOT OWLCAL_PCH)
+  if(NOT OWLCAL_PCH OR OWLCAL_FUZZ)
     return()
   endif()
   set(from owlcal_pch)
