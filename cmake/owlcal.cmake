@@ -54,35 +54,55 @@ function(owlcal_library name)
   endif()
 endfunction()
 
-# owlcal_tests(FOLDER LIBS ...): one GoogleTest executable per tests/FOLDER/*_test.cc.
-# Every test carries its tier as a ctest label and a timeout per test (ctest -L unit runs the fast
-# tier alone): executables matching the regex OWLCAL_MC_TESTS are "mc" (Monte-Carlo over robots,
-# 1500 s), OWLCAL_E2E_TESTS "e2e" (whole protocols recorded and fitted, the served virtual Owl, or
-# the owlcal program run; 900 s), all others "unit" (300 s).
+# owlcal_tests(FOLDER LIBS ...): the GoogleTest files tests/FOLDER/*_test.cc, one executable per
+# folder and tier (FOLDER_tests, FOLDER_e2e_tests, FOLDER_mc_tests): one link each instead of one per
+# file. Every test carries its tier as a ctest label and a timeout per test (ctest -L unit runs the
+# fast tier alone): files whose FOLDER_STEM matches the regex OWLCAL_MC_TESTS are "mc" (Monte-Carlo
+# over robots, 1500 s), OWLCAL_E2E_TESTS "e2e" (whole protocols recorded and fitted, the served
+# virtual Owl, or the owlcal program run; 900 s), all others "unit" (300 s). Test code is compiled
+# at -O1: it is parsed more than optimised, and the work it calls lives in the libraries.
 set(OWLCAL_TEST_TMPDIR ${CMAKE_BINARY_DIR}/test-tmp)
 file(MAKE_DIRECTORY ${OWLCAL_TEST_TMPDIR})
 function(owlcal_tests folder)
   cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
   file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/${folder}/*_test.cc)
+  set(unit_srcs)
+  set(e2e_srcs)
+  set(mc_srcs)
   foreach(t ${tests})
     get_filename_component(stem ${t} NAME_WE)
-    set(exe ${folder}_${stem})
-    add_executable(${exe} ${t})
-    target_link_libraries(${exe} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
-    owlcal_use_pch(${exe} test)
-    if(exe MATCHES "${OWLCAL_MC_TESTS}")
-      set(tier mc)
-      set(timeout 1500)
-    elseif(exe MATCHES "${OWLCAL_E2E_TESTS}")
-      set(tier e2e)
-      set(timeout 900)
+    if("${folder}_${stem}" MATCHES "${OWLCAL_MC_TESTS}")
+      list(APPEND mc_srcs ${t})
+    elseif("${folder}_${stem}" MATCHES "${OWLCAL_E2E_TESTS}")
+      list(APPEND e2e_srcs ${t})
     else()
-      set(tier unit)
-      set(timeout 300)
+      list(APPEND unit_srcs ${t})
     endif()
+  endforeach()
+  set(targets)
+  foreach(tier unit e2e mc)
+    if(NOT ${tier}_srcs)
+      continue()
+    endif()
+    if(tier STREQUAL "unit")
+      set(exe ${folder}_tests)
+      set(timeout 300)
+    else()
+      set(exe ${folder}_${tier}_tests)
+      set(timeout 900)
+      if(tier STREQUAL "mc")
+        set(timeout 1500)
+      endif()
+    endif()
+    add_executable(${exe} ${${tier}_srcs})
+    target_link_libraries(${exe} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
+    target_compile_options(${exe} PRIVATE -O1)
+    owlcal_use_pch(${exe} test)
     # Each build folder gets its own TMPDIR: suites of several checkouts (or a CI and a developer)
     # running at once never share std::filesystem::temp_directory_path() folders.
     gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60
                          PROPERTIES ENVIRONMENT "TMPDIR=${OWLCAL_TEST_TMPDIR}" LABELS ${tier} TIMEOUT ${timeout})
+    list(APPEND targets ${exe})
   endforeach()
+  set(OWLCAL_TEST_TARGETS_${folder} ${targets} PARENT_SCOPE)
 endfunction()

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite under AddressSanitizer + UndefinedBehaviorSanitizer.
 #   bash scripts/sanitize.sh [CTEST ARGS...]     e.g. bash scripts/sanitize.sh -R robot_
-#   OWLCAL_SANITIZE_TARGETS="io_xml_check_test robot_limits_guard_test" bash scripts/sanitize.sh -E NOT_BUILT
+#   OWLCAL_SANITIZE_TARGETS="io_tests robot_tests" bash scripts/sanitize.sh -E NOT_BUILT
 # Builds in build-asan/ (GCC by default; CXX=clang++ to use clang) with
 # -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer and line
 # tables only (-g1: stack traces keep file:line, compiling and linking are much faster), -O1 and
@@ -20,7 +20,7 @@ flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-fr
 flags+=" -DEIGEN_MALLOC_ALREADY_ALIGNED=1"
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Sanitize -DOWLCAL_BENCH=OFF \
   -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null
-# OWLCAL_SANITIZE_TARGETS="a_test b_test": build only those (then pass -E NOT_BUILT to ctest).
+# OWLCAL_SANITIZE_TARGETS="io_tests robot_tests": build only those (then pass -E NOT_BUILT to ctest).
 # shellcheck disable=SC2086
 nice -n 10 cmake --build "$build" -j2 ${OWLCAL_SANITIZE_TARGETS:+--target $OWLCAL_SANITIZE_TARGETS}
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
