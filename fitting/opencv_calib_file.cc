@@ -34,6 +34,7 @@ std::string UnitComment(const OpenCvStereoCalibration& c, bool intr, bool extr) 
 
 void WriteFields(cv::FileStorage& fs, const OpenCvStereoCalibration& c, bool intr, bool extr) {
   fs.writeComment(UnitComment(c, intr, extr));
+  if (!c.run_id.empty()) fs << "owlcal_run_id" << c.run_id;
   if (c.image_width > 0 && intr) {
     fs << "image_width" << c.image_width;
     fs << "image_height" << c.image_height;
@@ -167,6 +168,11 @@ void ReadFields(const cv::FileStorage& fs, const std::string& path, OpenCvStereo
   // The unit: stated by owlcal's files; else the course's mm when |T| > 1 (a stereo baseline
   // of more than 1 m is not an Owl), metres otherwise.
   c->rectify_alpha = NAN;
+  if (const cv::FileNode id = fs["owlcal_run_id"]; !id.empty()) {
+    if (!id.isString())
+      throw std::runtime_error("OpenCV calibration file " + path + ": field owlcal_run_id is not a string");
+    c->run_id = std::string(id);
+  }
   if (fs["length_unit"].isString()) {
     c->length_unit = std::string(fs["length_unit"]);
   } else if (!c->T.empty()) {
@@ -238,7 +244,9 @@ OpenCvStereoCalibration ToOpenCvCalibration(const CalibrationResult& r, double r
   std::string unit = "m";
   if (r.diagnostics.contains("stereo") && r.diagnostics["stereo"].contains("length_unit"))
     unit = r.diagnostics["stereo"]["length_unit"].get<std::string>();
-  return MakeOpenCvCalibration(*cam[0], *cam[1], r.stereo->right_from_left, unit, rectify_alpha);
+  OpenCvStereoCalibration c = MakeOpenCvCalibration(*cam[0], *cam[1], r.stereo->right_from_left, unit, rectify_alpha);
+  c.run_id = r.run_id;
+  return c;
 }
 
 OpenCvStereoCalibration WithLengthUnit(const OpenCvStereoCalibration& c, const std::string& unit) {
@@ -344,6 +352,12 @@ OpenCvStereoCalibration ParseOpenCvCalibration(const std::string& text, const st
 OpenCvStereoCalibration ReadOpenCvSplitFiles(const std::string& intrinsics_path, const std::string& extrinsics_path) {
   OpenCvStereoCalibration c = ReadOpenCvCalibration(intrinsics_path);
   const OpenCvStereoCalibration e = ReadOpenCvCalibration(extrinsics_path);
+  if (c.run_id != e.run_id) {
+    auto id = [](const std::string& s) { return s.empty() ? std::string("none") : "'" + s + "'"; };
+    throw std::runtime_error(intrinsics_path + " (owlcal run id " + id(c.run_id) + ") and " + extrinsics_path +
+                             " (owlcal run id " + id(e.run_id) +
+                             ") were written by different runs: calibrate again into a fresh folder");
+  }
   for (auto [dst, src] : {std::pair{&c.R, &e.R},
                           {&c.T, &e.T},
                           {&c.E, &e.E},

@@ -33,6 +33,9 @@ struct OpenCvStereoCalibration {
   int image_width = 0, image_height = 0;  // 0 when the file does not say
   std::string length_unit = "m";          // of T, E, P2(0,3), Q(3,2): "m", "mm" or a target unit
   double rectify_alpha = -1;              // the alpha R1..Q were computed with (NaN: unknown)
+  // The owlcal run that wrote the file (string node `owlcal_run_id`, ignored by the course code;
+  // fitting/calibration_folder.h); "" when the file carries none.
+  std::string run_id;
 
   bool HasIntrinsics() const { return !M1.empty() && !D1.empty() && !M2.empty() && !D2.empty(); }
   bool HasExtrinsics() const { return !R.empty() && !T.empty(); }
@@ -50,8 +53,8 @@ OpenCvStereoCalibration MakeOpenCvCalibration(const models::CameraIntrinsics& le
 
 // From a stereo fit (its cameras, right_from_left and length unit).
 OpenCvStereoCalibration ToOpenCvCalibration(const StereoFit& fit, double rectify_alpha = -1);
-// From a result: cameras (else the head's intrinsics), stereo, and the stereo fit's length unit
-// (diagnostics.stereo.length_unit, default m). Throws naming the missing part.
+// From a result: cameras (else the head's intrinsics), stereo, the stereo fit's length unit
+// (diagnostics.stereo.length_unit, default m) and the run id. Throws naming the missing part.
 OpenCvStereoCalibration ToOpenCvCalibration(const CalibrationResult& result, double rectify_alpha = -1);
 
 // The same calibration with lengths in `unit` ("m" <-> "mm"; T, E, P2(0,3), Q(3,2) scaled).
@@ -74,7 +77,8 @@ void WriteOpenCvSplitFiles(const std::string& intrinsics_path,
 OpenCvStereoCalibration ReadOpenCvCalibration(const std::string& path);
 // The same from the text of a YAML or XML FileStorage file (`source` names it in errors).
 OpenCvStereoCalibration ParseOpenCvCalibration(const std::string& text, const std::string& source);
-// Reads the split files and merges them.
+// Reads the split files and merges them. Throws naming both files when they carry different
+// owlcal run ids (or one carries an id and the other none): halves of two runs.
 OpenCvStereoCalibration ReadOpenCvSplitFiles(const std::string& intrinsics_path, const std::string& extrinsics_path);
 
 // A camera from M and D: 5-coefficient model when D has <= 5 entries or entries 5..7 are zero,

@@ -76,7 +76,10 @@ StereoRig RigFromResult(const CalibrationResult& result);
 // squares), else metres. No covariance.
 StereoRig RigFromOpenCv(const OpenCvStereoCalibration& c, int width = 640, int height = 480);
 // Reads a rig: results.json, an OpenCV .xml/.yml/.yaml with M1..T, or intrinsics.xml whose
-// folder also holds extrinsics.xml (the course's split files). Throws naming the path.
+// folder also holds extrinsics.xml (the course's split files). Throws naming the path. A folder,
+// or a file of one by its calibration-folder name (calibration.yaml, results.json ...), is read
+// only when the folder's files belong to one run (fitting/calibration_folder.h CheckOneRun); a
+// results.json whose verdict is unusable is refused.
 StereoRig LoadStereoRig(const std::string& path);
 
 struct Rectification {

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
+#include "fitting/calibration_folder.h"
 #include "fitting/range_images_ranging.h"
 
 namespace owlcal::fitting {
@@ -46,9 +47,23 @@ StereoRig LoadStereoRig(const std::string& path) {
     throw std::runtime_error(path + ": folder holds neither results.json nor intrinsics.xml");
   }
   if (!fs::exists(p)) throw std::runtime_error(path + ": no such calibration file");
+  // A file of a calibration folder is read only when the folder holds one run.
+  if (IsRunFileName(p.filename().string()))
+    CheckOneRun(p.has_parent_path() ? p.parent_path().string() : std::string("."));
   StereoRig rig;
   if (p.extension() == ".json") {
-    rig = RigFromResult(ReadResultJson(path));
+    const CalibrationResult result = ReadResultJson(path);
+    // The numbers of an unusable set are refused where they are made (no calibration.yaml or
+    // exports); its results.json is for reading why, not for measuring.
+    if (result.verdict.is_object() && result.verdict.value("status", "") == "unusable") {
+      std::string reason = "see its verdict";
+      if (result.verdict.contains("reasons") && result.verdict.at("reasons").is_array() &&
+          !result.verdict.at("reasons").empty() && result.verdict.at("reasons")[0].is_string())
+        reason = result.verdict.at("reasons")[0].get<std::string>();
+      throw std::runtime_error(path + ": the calibration's verdict is unusable (" + reason +
+                               "); calibrate with a better set of views");
+    }
+    rig = RigFromResult(result);
     rig.source = path + " (" + rig.source + ")";
     return rig;
   } else if (p.filename() == "intrinsics.xml" && fs::exists(p.parent_path() / "extrinsics.xml")) {

@@ -122,6 +122,7 @@ Parameter& CalibrationResult::Set(const Parameter& p) {
 json ToJson(const CalibrationResult& r) {
   json j;
   j["software"] = {{"name", "owlcal"}, {"version", r.software_version}};
+  if (!r.run_id.empty()) j["run_id"] = r.run_id;
   j["parameters"] = json::array();
   for (const Parameter& p : r.parameters) {
     json jp = {{"name", p.name},
@@ -175,6 +176,10 @@ json ToJson(const CalibrationResult& r) {
 CalibrationResult ResultFromJson(const json& j) {
   CalibrationResult r;
   if (j.contains("software")) r.software_version = j.at("software").value("version", "");
+  if (j.contains("run_id")) {
+    if (!j.at("run_id").is_string()) throw std::runtime_error("field 'run_id' is not a string");
+    r.run_id = j.at("run_id").get<std::string>();
+  }
   for (const json& jp : j.at("parameters")) {
     Parameter p;
     p.name = jp.at("name").get<std::string>();

@@ -60,6 +60,10 @@ struct StereoEstimate {
 
 struct CalibrationResult {
   std::string software_version;
+  // The run that wrote this result ("" when unknown: an older file or a result never written).
+  // Every file of a calibration folder carries it, so a reader can tell a folder holding one
+  // run from one mixing runs (fitting/calibration_folder.h).
+  std::string run_id;
   std::vector<Parameter> parameters;
   std::vector<SolveSummary> summaries;
   std::vector<std::string> warnings;  // e.g. "k3 not determined: all views fronto-parallel"
