@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
+#include "fitting/calibration_folder.h"
 #include "fitting/opencv_calib_file.h"
 #include "fitting/pixel_pwm_map.h"
 #include "fitting/projection_uncertainty.h"
@@ -270,7 +271,11 @@ ExportSet WriteCalibrationFiles(const ReportData& d, const std::string& dir) {
   const fitting::CalibrationResult& r = d.result;
   if (const std::string why = ImplausibleExportValue(r); !why.empty())
     throw std::runtime_error(dir + "/results.json: " + why + "; no calibration.yaml or exports written from it");
+  // What an earlier writing left goes before this one writes, so that no export of another
+  // result survives whatever this one writes or skips.
   const std::string ex = dir + "/exports";
+  for (const char* f : {"calibration.yaml", "intrinsics.xml", "extrinsics.xml"}) std::filesystem::remove(dir + "/" + f);
+  std::filesystem::remove_all(ex);
   std::filesystem::create_directories(ex);
   auto attempt = [&](const std::string& rel, const std::string& tool, auto&& fn) {
     const std::string path = dir + "/" + rel;
@@ -313,6 +318,17 @@ ExportSet WriteCalibrationFiles(const ReportData& d, const std::string& dir) {
     WriteTextFile(p, fitting::PixelPwmGridCsv(fitting::MakePixelPwmGrid(*r.head, d.config, 40)));
     return std::string("pixel -> PWM map: pan/tilt pulse widths that centre each pixel, every 40 px, centre pose");
   });
+  // Last: the run the exports belong to, and which they are (fitting/calibration_folder.h).
+  if (!r.run_id.empty()) {
+    nlohmann::json files = nlohmann::json::array();
+    for (const auto& p : out.written)
+      if (std::filesystem::path(p).parent_path() == std::filesystem::path(ex))
+        files.push_back(std::filesystem::path(p).filename().string());
+    const nlohmann::json run = {{"format", "owlcal-exports"}, {"run_id", r.run_id}, {"files", files}};
+    const std::string path = dir + "/" + fitting::kExportsRunFile;
+    WriteTextFile(path, run.dump(1) + "\n");
+    out.written.push_back(path);
+  }
   return out;
 }
 

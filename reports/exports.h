@@ -56,9 +56,12 @@ struct ExportSet {
 // finite pose), or "" when they are.
 std::string ImplausibleExportValue(const fitting::CalibrationResult& result);
 
-// Every file above into DIR (exports/ below it). Nothing it can write is left out; what it
-// cannot write is listed in `skipped` with the reason. Throws, writing nothing, when
-// ImplausibleExportValue finds a value no export may carry.
+// Every file above into DIR (exports/ below it), after removing what an earlier writing left
+// there (calibration.yaml, the xml files, exports/). Nothing it can write is left out; what it
+// cannot write is listed in `skipped` with the reason. When the result has a run id, each
+// OpenCV file carries it (owlcal_run_id) and exports/owlcal_run.json names the run and the
+// export files written (fitting/calibration_folder.h). Throws, writing and removing nothing,
+// when ImplausibleExportValue finds a value no export may carry.
 ExportSet WriteCalibrationFiles(const ReportData& data, const std::string& dir);
 
 // The single writers (the note is what the file states about itself).

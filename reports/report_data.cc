@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "fitting/calibration_folder.h"
 #include "io/json_strict.h"
 #include "reports/table.h"
 
@@ -90,6 +91,7 @@ fitting::GainSettling GainFromJson(const json& j) {
 json EvaluationToJson(const ReportData& d) {
   json j;
   j["format"] = "owlcal-evaluation";
+  if (!d.result.run_id.empty()) j["run_id"] = d.result.run_id;  // results.json's run
   j["robot"] = RobotConfigToJson(d.config);
   j["settings"] = d.settings;
   if (d.truth) {
@@ -492,6 +494,7 @@ void EvaluationFromJson(const json& j, ReportData* d) {
 }
 
 ReportData ReadReportData(const std::string& dir) {
+  fitting::CheckOneRun(dir);  // results.json, evaluation.json and the exports of one run
   ReportData d;
   d.result = fitting::ReadResultJson(dir + "/results.json");
   const std::string ev = dir + "/evaluation.json";

@@ -24,7 +24,7 @@ using CoveragePoint = fitting::CoveragePoint;
 using ViewStat = fitting::ViewStat;
 using BoardOutline = fitting::BoardOutline;
 
-// evaluation.json (everything but `result`, which is results.json).
+// evaluation.json (everything but `result`, which is results.json; its `run_id` is the result's).
 nlohmann::json EvaluationToJson(const ReportData& data);
 // Fills everything but `result`; throws naming the field on a malformed document.
 void EvaluationFromJson(const nlohmann::json& j, ReportData* data);
@@ -32,7 +32,8 @@ void EvaluationFromJson(const nlohmann::json& j, ReportData* data);
 using fitting::RobotConfigFromJson;
 using fitting::RobotConfigToJson;
 
-// Reads DIR/results.json and DIR/evaluation.json (the latter optional).
+// Reads DIR/results.json and DIR/evaluation.json (the latter optional); throws when the files of
+// DIR are of different runs (fitting/calibration_folder.h CheckOneRun).
 ReportData ReadReportData(const std::string& dir);
 // Writes DIR/results.json and DIR/evaluation.json.
 void WriteReportData(const ReportData& data, const std::string& dir);

@@ -5,6 +5,7 @@
 // compilers found at test time for owl-pwm.h (two translation units each).
 #include "reports/exports.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -19,9 +20,12 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "fitting/calibration_folder.h"
+#include "fitting/opencv_calib_file.h"
 #include "fitting/radtan_refit.h"
 #include "models/head_model.h"
 #include "owlcal_version.h"
+#include "reports/report_data.h"
 #include "reports/table.h"
 
 namespace owlcal::reports {
@@ -496,6 +500,47 @@ TEST(Exports, NothingIsExportedFromAnImplausibleOrNonFiniteValue) {
   far.result.stereo->right_from_left.translation.x() = 1e300;
   EXPECT_THROW(WriteCalibrationFiles(far, dir), std::runtime_error);
   EXPECT_EQ(Slurp(dir + "/calibration.yaml"), good);
+}
+
+// An output folder never mixes runs: every export carries the result's run id (the OpenCV files
+// an owlcal_run_id node, the rest through exports/owlcal_run.json), and an export an earlier
+// writing left (here owl-pwm.h, which this result has no servo maps for) does not survive.
+TEST(Exports, TheExportsCarryTheRunIdAndNoEarlierExportSurvives) {
+  const std::string dir = TempDir("run_id");
+  std::filesystem::create_directories(dir + "/exports");
+  for (const char* stale : {"/exports/owl-pwm.h", "/exports/notes.txt"}) std::ofstream(dir + stale) << "stale\n";
+  ReportData d = StereoData();
+  d.result.run_id = "20250101T000000Z-0000abcd";
+  WriteReportData(d, dir);
+  const ExportSet ex = WriteCalibrationFiles(d, dir);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/exports/owl-pwm.h"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/exports/notes.txt"));
+  for (const char* f : {"/calibration.yaml", "/intrinsics.xml", "/extrinsics.xml"})
+    EXPECT_EQ(fitting::ReadOpenCvCalibration(dir + f).run_id, d.result.run_id) << f;
+  const nlohmann::json run = nlohmann::json::parse(Slurp(dir + "/exports/owlcal_run.json"));
+  EXPECT_EQ(run.at("run_id"), d.result.run_id);
+  std::vector<std::string> listed = run.at("files").get<std::vector<std::string>>(), present;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/exports"))
+    if (e.path().filename() != "owlcal_run.json") present.push_back(e.path().filename().string());
+  std::sort(listed.begin(), listed.end());
+  std::sort(present.begin(), present.end());
+  EXPECT_EQ(listed, present);
+  EXPECT_GE(listed.size(), 5u);
+  EXPECT_EQ(nlohmann::json::parse(Slurp(dir + "/evaluation.json")).at("run_id"), d.result.run_id);
+  EXPECT_EQ(fitting::MixedRunsError(dir), "");
+  EXPECT_NO_THROW(ReadReportData(dir));
+  // evaluation.json of another run: `owlcal report` would draw one run's evaluation next to another's
+  // result.
+  ReportData other = d;
+  other.result.run_id = "20250101T000001Z-0000beef";
+  WriteTextFile(dir + "/evaluation.json", EvaluationToJson(other).dump() + "\n");
+  try {
+    ReadReportData(dir);
+    ADD_FAILURE() << "read a folder of two runs";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("run 20250101T000001Z-0000beef: evaluation.json"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace
