@@ -25,6 +25,8 @@ void Progress::operator()(const std::string& msg) const {
   std::cout.unsetf(std::ios::fixed);
 }
 
+void PrintWarning(const std::string& message) { std::cerr << "warning: " << message << std::endl; }
+
 nlohmann::json SoftwareInputs() {
   return {{"name", "owlcal"}, {"version", OWLCAL_VERSION}, {"git", OWLCAL_GIT_DESCRIBE}};
 }

@@ -31,6 +31,9 @@ class Progress {
   std::chrono::steady_clock::time_point t0_;
 };
 
+// Prints "warning: MESSAGE" on stderr, with --quiet too (CalibratePipelineOptions::warning).
+void PrintWarning(const std::string& message);
+
 // The software that made a result: {"name": "owlcal", "version", "git"} (git describe at
 // configure time, "unknown" without a checkout).
 nlohmann::json SoftwareInputs();

@@ -46,6 +46,7 @@ int RunCalibrate(const CalibrateOptions& o) {
   co.interactive = !o.robot.IsSim() && !o.non_interactive && ::isatty(STDIN_FILENO);
   co.stop_flag = protocols::InstallStopSignals();
   co.progress = progress;
+  co.fit.warning = PrintWarning;
   co.settings = {{"command", "owlcal calibrate"},
                  {"robot", o.robot.robot},
                  {"robot_file", o.robot.robot_file},

@@ -43,6 +43,7 @@ int RunFitDatasets(FitDatasetsCommand o) {
   std::string why;
   if (!pipeline::SetLensModel(o.lens_model, &po, &why) || !po.Check(&why)) throw UsageError(why);
   o.fit.progress = progress;
+  po.warning = PrintWarning;
   fitting::CalibrationRun run;
   try {
     run = pipeline::FitDatasets(o.dir, o.fit);

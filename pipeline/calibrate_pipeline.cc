@@ -560,17 +560,24 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
   const models::RobotConfig& config = o.config;
   fitting::CalibrationRun d;
   d.config = config;
+  static const std::set<std::string> kKnown = {
+      "intrinsics", "stereo", "servo_sweep", "vergence", "latency", "step_response", "limits", "alignment", "saccade"};
   for (const auto& [name, dir] : datasets) {
-    static const std::set<std::string> kKnown = {"intrinsics",
-                                                 "stereo",
-                                                 "servo_sweep",
-                                                 "vergence",
-                                                 "latency",
-                                                 "step_response",
-                                                 "limits",
-                                                 "alignment",
-                                                 "saccade"};
-    if (!kKnown.count(name)) progress("dataset " + dir + " (protocol " + name + "): no calibration step reads it");
+    if (kKnown.count(name)) continue;
+    // Skipped, so the fit lacks what it holds (a renamed intrinsics dataset widens every sigma):
+    // a warning, never only a progress line.
+    std::string known;
+    for (const auto& k : kKnown) {
+      if (!known.empty()) known += ", ";
+      known += k;
+    }
+    const std::string w = "dataset " + dir + " skipped: its manifest names protocol '" + name +
+                          "', which no calibration step reads (known: " + known + ")";
+    d.result.warnings.push_back(w);
+    if (o.warning)
+      o.warning(w);
+    else
+      progress(w);
   }
 
   // 0) What the bring-up learned and the protocols after it used.

@@ -47,8 +47,9 @@ namespace owlcal::pipeline {
 struct CalibratePipelineOptions {
   models::RobotConfig config = models::DefaultRobotConfig();
   // What the bring-up learned from the limits dataset when the protocols after it ran on it
-  // (pipeline/bring_up.h; then config is bring_up->learned): its findings lead the warnings, it
-  // is diagnostics.bring_up, and the limits are compared with the robot file's (bring_up->file).
+  // (pipeline/bring_up.h; then config is bring_up->learned): its findings lead the warnings (after
+  // any dataset skipped), it is diagnostics.bring_up, and the limits are compared with the robot
+  // file's (bring_up->file).
   std::optional<BringUp> bring_up;
   // The virtual Owl's true head (as the robot truth gives it, not yet in the fit's gauge):
   // true fixation distances and the truth columns. nullopt on a real robot.
@@ -93,13 +94,16 @@ struct CalibratePipelineOptions {
   double theory_min_m = 0.2, theory_max_m = 2.0, theory_step_m = 0.05;
   // Progress lines (may be null).
   std::function<void(const std::string&)> progress;
+  // Warnings the user must see even when progress lines are off (a dataset no step reads); each
+  // is also in result.warnings (may be null).
+  std::function<void(const std::string&)> warning;
 
   // The head-fit options `owlcal calibrate` uses (why each: calibrate_pipeline.cc).
   static fitting::HeadFitOptions CalibrateHeadFitOptions();
   // The stereo-fit options `owlcal calibrate` uses (the board's bow fitted).
   static fitting::StereoFitOptions CalibrateStereoFitOptions();
   bool Check(std::string* why) const;
-  // Every option above but `truth` and `progress`, for results.json's inputs.
+  // Every option above but `truth`, `progress` and `warning`, for results.json's inputs.
   nlohmann::json ToJson() const;
 };
 
@@ -107,8 +111,9 @@ struct CalibratePipelineOptions {
 // or "opencv8" (that model, no cross-validation). False (and why) for another value.
 bool SetLensModel(const std::string& value, CalibratePipelineOptions* options, std::string* why);
 
-// Runs the steps above on `datasets` (protocol name -> dataset folder; names the pipeline does
-// not know are listed in a warning). Failures of a fit are warnings in the result, never a
+// Runs the steps above on `datasets` (protocol name -> dataset folder; a dataset of a protocol
+// the pipeline does not know is skipped with a warning naming it, the first of result.warnings
+// and said through options.warning). Failures of a fit are warnings in the result, never a
 // throw; unreadable dataset files throw std::runtime_error naming path:line:column.
 fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
                                               const CalibratePipelineOptions& options);

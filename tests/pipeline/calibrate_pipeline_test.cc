@@ -116,5 +116,28 @@ TEST(CalibratePipeline, NoDatasetsGiveWarningsNotACrash) {
   EXPECT_TRUE(run.result.inputs.contains("pipeline"));
 }
 
+// Regression: fit-datasets skipped a dataset whose manifest named an unknown protocol with only a
+// progress line (none with --quiet), so a renamed intrinsics dataset silently tripled left.fx's
+// sigma. The skip is the first warning of the result and goes to the warning callback.
+TEST(CalibratePipeline, ADatasetOfAnUnknownProtocolIsAWarning) {
+  const fs::path root = TempDir("unknown");
+  MakeDataset(root / "datasets" / "intrinsics", "intrinsicz");
+  CalibratePipelineOptions o;
+  std::vector<std::string> said, progress;
+  o.warning = [&](const std::string& w) { said.push_back(w); };
+  o.progress = [&](const std::string& m) { progress.push_back(m); };
+  const std::string dir = (root / "datasets" / "intrinsics").string();
+  const fitting::CalibrationRun run = CalibrateFromDatasets({{"intrinsicz", dir}}, o);
+  ASSERT_FALSE(run.result.warnings.empty());
+  const std::string& w = run.result.warnings[0];
+  EXPECT_NE(w.find("dataset " + dir + " skipped"), std::string::npos) << w;
+  EXPECT_NE(w.find("protocol 'intrinsicz'"), std::string::npos) << w;
+  EXPECT_NE(w.find("known: "), std::string::npos) << w;
+  ASSERT_EQ(said.size(), 1u);
+  EXPECT_EQ(said[0], w);
+  for (const auto& m : progress) EXPECT_EQ(m.find("intrinsicz"), std::string::npos) << "said twice: " << m;
+  fs::remove_all(root);
+}
+
 }  // namespace
 }  // namespace owlcal::pipeline
