@@ -4,6 +4,7 @@
 
 #include <iostream>
 
+#include "apps/output_folder.h"
 #include "fitting/truth_compare.h"
 #include "owlcal_git.h"
 #include "owlcal_version.h"
@@ -31,8 +32,26 @@ nlohmann::json SoftwareInputs() {
   return {{"name", "owlcal"}, {"version", OWLCAL_VERSION}, {"git", OWLCAL_GIT_DESCRIBE}};
 }
 
-void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out, bool draw, const Progress& progress) {
+std::string StartCalibrationFolder(const std::string& out, const Progress& progress) {
+  const std::vector<std::string> removed = RemoveEarlierRun(out);
+  if (!removed.empty()) {
+    std::string list;
+    for (const auto& f : removed) {
+      if (!list.empty()) list += ", ";
+      list += f;
+    }
+    progress("removed what an earlier run left in " + out + ": " + list);
+  }
+  return NewRunId();
+}
+
+void WriteCalibrationFolder(fitting::CalibrationRun* run,
+                            const std::string& run_id,
+                            const std::string& out,
+                            bool draw,
+                            const Progress& progress) {
   run->result.software_version = OWLCAL_VERSION;
+  run->result.run_id = run_id;
   run->result.inputs["software"] = SoftwareInputs();
   reports::WriteReportData(*run, out);
   // The robot file the run suggests (pipeline/bring_up.h CorrectedRobotFile): what the bring-up

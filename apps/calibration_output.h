@@ -38,10 +38,18 @@ void PrintWarning(const std::string& message);
 // configure time, "unknown" without a checkout).
 nlohmann::json SoftwareInputs();
 
-// Stamps run->result with the software (software_version, inputs.software) and writes the
-// calibration folder `out`; draw = run gnuplot. On the virtual Owl, prints the comparison with
-// the truth.
-void WriteCalibrationFolder(fitting::CalibrationRun* run, const std::string& out, bool draw, const Progress& progress);
+// Before a run: removes what an earlier run left in `out` (apps/output_folder.h; never
+// datasets/), says what on a progress line, and returns the new run's id.
+std::string StartCalibrationFolder(const std::string& out, const Progress& progress);
+
+// Stamps run->result with the software (software_version, inputs.software) and the run id (from
+// StartCalibrationFolder), and writes the calibration folder `out`; draw = run gnuplot. On the
+// virtual Owl, prints the comparison with the truth.
+void WriteCalibrationFolder(fitting::CalibrationRun* run,
+                            const std::string& run_id,
+                            const std::string& out,
+                            bool draw,
+                            const Progress& progress);
 
 // The options calibrate and fit-datasets share after the pipeline: --no-figures, --quiet and
 // --lens-model (auto|opencv5|opencv8).

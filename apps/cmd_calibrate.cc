@@ -60,14 +60,14 @@ int RunCalibrate(const CalibrateOptions& o) {
                  {"lens_model", o.lens_model},
                  {"owlcal_version", OWLCAL_VERSION}};
   std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
-  fs::create_directories(o.out);
+  const std::string run_id = StartCalibrationFolder(o.out, progress);
   fitting::CalibrationRun run;
   try {
     run = pipeline::Calibrate(*robot, co);
   } catch (const protocols::ProtocolError& e) {
     throw UsageError(e.what());
   }
-  WriteCalibrationFolder(&run, o.out, !o.no_figures, progress);
+  WriteCalibrationFolder(&run, run_id, o.out, !o.no_figures, progress);
   return kExitOk;
 }
 

@@ -7,9 +7,11 @@
 #include <optional>
 
 #include "apps/command_registry.h"
+#include "apps/output_folder.h"
 #include "calib/image_pairs.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
+#include "fitting/calibration_folder.h"
 #include "fitting/fit_points.h"
 #include "fitting/fix_list.h"
 #include "fitting/range_images_calib.h"
@@ -47,8 +49,13 @@ fitting::OpenCvStereoCalibration ReadReference(const std::string& path) {
       throw UsageError("--reference " + path +
                        ": the folder needs intrinsics.xml and extrinsics.xml (the course's "
                        "stereo_calib output)");
+    fitting::CheckOneRun(path);
     return fitting::ReadOpenCvSplitFiles(in.string(), ex.string());
   }
+  // A file of a calibration folder (calibration.yaml ...) only when the folder holds one run.
+  const fs::path p(path);
+  if (fitting::IsRunFileName(p.filename().string()))
+    fitting::CheckOneRun(p.has_parent_path() ? p.parent_path().string() : std::string("."));
   return fitting::ReadOpenCvCalibration(path);
 }
 
@@ -174,7 +181,15 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
     if (!cmp.ok) std::cerr << "warning: not compared with " << a.reference << ": " << cmp.message << "\n";
   }
 
-  fs::create_directories(a.out);
+  // The folder holds this run alone: what an earlier run left goes first (apps/output_folder.h),
+  // so an unusable set never leaves an earlier set's calibration.yaml and exports behind.
+  c.result.run_id = NewRunId();
+  const std::vector<std::string> removed = RemoveEarlierRun(a.out);
+  if (!removed.empty()) {
+    std::cerr << "removed what an earlier run left in " << a.out << ":";
+    for (size_t i = 0; i < removed.size(); ++i) std::cerr << (i ? ", " : " ") << removed[i];
+    std::cerr << "\n";
+  }
   const fs::path out(a.out);
   calib::WriteObservationsCsv((out / "observations.csv").string(), set.observations);
   const std::string md = reports::ImageSetReportMarkdown(c, keys) + (reference_md.empty() ? "" : "\n" + reference_md);

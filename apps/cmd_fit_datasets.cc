@@ -72,8 +72,8 @@ int RunFitDatasets(FitDatasetsCommand o) {
                   {"lens_model", o.lens_model},
                   {"owlcal_version", OWLCAL_VERSION}};
   run.result.inputs["command"] = run.settings;
-  fs::create_directories(o.out);
-  WriteCalibrationFolder(&run, o.out, !o.no_figures, progress);
+  const std::string run_id = StartCalibrationFolder(o.out, progress);
+  WriteCalibrationFolder(&run, run_id, o.out, !o.no_figures, progress);
   return kExitOk;
 }
 

@@ -7,12 +7,15 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "calib/observation_io.h"
+#include "fitting/robot_config_json.h"
 #include "owlcal_version.h"
+#include "protocols/dataset.h"
 #include "tests/apps/run_owlcal.h"
 
 namespace owlcal {
@@ -117,6 +120,50 @@ TEST(FitDatasetsCli, AFolderWithoutDatasetsIsAClearError) {
   const auto r = RunOwlcal("fit-datasets '" + root.string() + "' --quiet --out '" + (root / "out").string() + "'");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("holds no dataset"), std::string::npos) << r.output;
+  fs::remove_all(root);
+}
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// Regression: a dataset whose manifest names an unknown protocol was skipped with only a progress
+// line (nothing with --quiet, nothing in results.json). Now it is a warning on stderr with --quiet,
+// in results.json's warnings and in the report. The output folder held an earlier run's
+// calibration.yaml and ROS export (but no results.json, so fit-datasets may write there): this run
+// writes no calibration.yaml (it fits no stereo rig), and the earlier one must not look current.
+TEST(FitDatasetsCli, ADatasetOfAnUnknownProtocolIsAWarningEvenWhenQuiet) {
+  ASSERT_FALSE(test_cli::OwlcalBinary().empty()) << "the owlcal binary is not built";
+  const fs::path root = fs::temp_directory_path() / ("owlcal_fit_datasets_unknown_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  const nlohmann::json manifest = {{"protocols", {{{"name", "intrinsicz"}}}},
+                                   {"robot", {{"config", fitting::RobotConfigToJson(models::DefaultRobotConfig())}}}};
+  protocols::DatasetWriter::Create((root / "datasets" / "intrinsics").string(), manifest)->Finish("complete", "");
+  const fs::path out = root / "out";
+  fs::create_directories(out / "exports");
+  std::ofstream(out / "calibration.yaml") << "%YAML:1.0\n---\nowlcal_run_id: \"earlier\"\n";
+  std::ofstream(out / "exports" / "ros_left.yaml") << "# stale\nimage_width: 640\n";
+  const auto r = RunOwlcal("fit-datasets '" + root.string() + "' --quiet --no-figures --out '" + out.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string dataset = (root / "datasets" / "intrinsics").string();
+  EXPECT_NE(r.output.find("warning: dataset " + dataset + " skipped: its manifest names protocol 'intrinsicz'"),
+            std::string::npos)
+      << r.output;
+  const nlohmann::json results = ReadJson(out / "results.json");
+  ASSERT_FALSE(results.at("warnings").empty());
+  EXPECT_NE(results.at("warnings")[0].get<std::string>().find("protocol 'intrinsicz'"), std::string::npos)
+      << results.at("warnings");
+  EXPECT_NE(Slurp(out / "report" / "index.html").find("protocol 'intrinsicz'"), std::string::npos);
+  // The earlier run's files are gone; this run's carry one run id.
+  EXPECT_FALSE(fs::exists(out / "calibration.yaml"));
+  EXPECT_EQ(Slurp(out / "exports" / "ros_left.yaml").find("# stale"), std::string::npos);
+  const std::string id = results.value("run_id", "");
+  EXPECT_FALSE(id.empty());
+  EXPECT_EQ(ReadJson(out / "evaluation.json").value("run_id", ""), id);
+  EXPECT_EQ(ReadJson(out / "exports" / "owlcal_run.json").value("run_id", ""), id);
   fs::remove_all(root);
 }
 

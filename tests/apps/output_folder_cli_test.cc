@@ -1,0 +1,105 @@
+// An output folder never mixes runs (apps/output_folder.h, fitting/calibration_folder.h), as a user
+// meets it: calibrate-images on a good set, then on an unusable one into the same folder. The
+// unusable run said "calibration.yaml and exports not written" but left the good run's
+// calibration.yaml, xml files and exports/, and `range-images --calib` read them as current.
+// OpenCV's stereo sample with the 25 mm square of its calibration sample (every export written).
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "fitting/opencv_calib_file.h"
+#include "tests/apps/run_owlcal.h"
+#include "tests/shared_data.h"
+
+namespace owlcal {
+namespace {
+
+namespace fs = std::filesystem;
+using test_cli::RunOwlcal;
+
+std::string JsonRunId(const fs::path& p) {
+  std::ifstream f(p);
+  return nlohmann::json::parse(f).value("run_id", "");
+}
+
+class OutputFolderCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (test_cli::OwlcalBinary().empty()) GTEST_SKIP() << "the owlcal binary is not built";
+    dir_ = fs::temp_directory_path() / ("owlcal_output_folder_cli_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    std::ofstream t(dir_ / "board.yaml");
+    t << "target_type: chessboard\nid: opencv-sample-25mm\ncols: 9\nrows: 6\nsquare_size_m: 0.025\n";
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  // calibrate-images on the sample into OUT, with `extra` flags.
+  test_cli::RunResult Calibrate(const std::string& extra) const {
+    return RunOwlcal("calibrate-images '" + Sample() + "' --target '" + (dir_ / "board.yaml").string() +
+                     "' --model opencv5 --board-warp flat --no-report " + extra + " --out '" + Out().string() + "'");
+  }
+  static std::string Sample() { return test_data::SharedData() + "/opencv-stereo-chessboard"; }
+  fs::path Out() const { return dir_ / "out"; }
+  fs::path dir_;
+};
+
+TEST_F(OutputFolderCliTest, AnUnusableRunLeavesNoEarlierCalibrationLookingCurrent) {
+  const auto good = Calibrate("");
+  ASSERT_EQ(good.exit_code, 0) << good.output;
+  // Every file of the run carries its id.
+  const std::string id = JsonRunId(Out() / "results.json");
+  ASSERT_FALSE(id.empty());
+  EXPECT_EQ(JsonRunId(Out() / "evaluation.json"), id);
+  EXPECT_EQ(JsonRunId(Out() / "exports" / "owlcal_run.json"), id);
+  for (const char* f : {"calibration.yaml", "intrinsics.xml", "extrinsics.xml"})
+    EXPECT_EQ(fitting::ReadOpenCvCalibration((Out() / f).string()).run_id, id) << f;
+  fs::copy_file(Out() / "calibration.yaml", dir_ / "good_calibration.yaml");
+
+  // The same images with the eyes exchanged: T_x > 0, unusable.
+  const auto bad = Calibrate("--swap");
+  ASSERT_EQ(bad.exit_code, 1) << bad.output;
+  ASSERT_NE(bad.output.find("verdict: unusable"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("removed what an earlier run left in " + Out().string() + ": results.json"),
+            std::string::npos)
+      << bad.output;
+  const std::string bad_id = JsonRunId(Out() / "results.json");
+  EXPECT_FALSE(bad_id.empty());
+  EXPECT_NE(bad_id, id);
+  EXPECT_EQ(JsonRunId(Out() / "evaluation.json"), bad_id);
+  for (const char* f : {"calibration.yaml", "intrinsics.xml", "extrinsics.xml", "exports"})
+    EXPECT_FALSE(fs::exists(Out() / f)) << f << " of the earlier run is still there";
+
+  // range-images on the folder: the unusable result is refused, and there is no calibration.yaml.
+  const std::string range = "range-images '" + Sample() + "' --out '" + (dir_ / "ranges").string() + "' --calib ";
+  const auto on_folder = RunOwlcal(range + "'" + Out().string() + "'");
+  EXPECT_EQ(on_folder.exit_code, 1) << on_folder.output;
+  EXPECT_NE(on_folder.output.find("verdict is unusable"), std::string::npos) << on_folder.output;
+  const auto on_yaml = RunOwlcal(range + "'" + (Out() / "calibration.yaml").string() + "'");
+  EXPECT_EQ(on_yaml.exit_code, 1) << on_yaml.output;
+  EXPECT_NE(on_yaml.output.find("no such calibration file"), std::string::npos) << on_yaml.output;
+
+  // A folder an older owlcal left mixed (the good run's calibration.yaml next to the unusable
+  // run's results.json): every reader refuses it, naming the files and their runs.
+  fs::copy_file(dir_ / "good_calibration.yaml", Out() / "calibration.yaml");
+  for (const std::string& cmd : {range + "'" + (Out() / "calibration.yaml").string() + "'",
+                                 std::string("report --no-figures '") + Out().string() + "'"}) {
+    const auto r = RunOwlcal(cmd);
+    EXPECT_EQ(r.exit_code, 1) << cmd << "\n" << r.output;
+    EXPECT_NE(r.output.find("holds files of different runs"), std::string::npos) << cmd << "\n" << r.output;
+    EXPECT_NE(r.output.find("run " + id + ": calibration.yaml"), std::string::npos) << cmd << "\n" << r.output;
+    EXPECT_NE(r.output.find("run " + bad_id + ": results.json"), std::string::npos) << cmd << "\n" << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "ranges" / "ranges.csv"));
+}
+
+}  // namespace
+}  // namespace owlcal
