@@ -20,26 +20,10 @@ namespace {
 namespace fs = std::filesystem;
 using test_cli::RunOwlcal;
 
-class CalibrateImagesFixCliTest : public ::testing::Test {
+class CalibrateImagesFixCliTest : public test_cli::SampleBoardCliTest {
  protected:
-  void SetUp() override {
-    if (test_cli::OwlcalBinary().empty()) GTEST_SKIP() << "the owlcal binary is not built";
-    dir_ = fs::temp_directory_path() / ("owlcal_calibrate_images_fix_cli_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    std::ofstream t(dir_ / "board.yaml");
-    t << "target_type: chessboard\nid: opencv-sample-25mm\ncols: 9\nrows: 6\nsquare_size_m: 0.025\n";
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  std::string Args(const std::string& out) const {
-    return "calibrate-images '" + test_data::SharedData() + "/opencv-stereo-chessboard' --target '" +
-           (dir_ / "board.yaml").string() + "' --model opencv5 --board-warp flat --no-report --out '" +
-           (dir_ / out).string() + "'";
-  }
-  fs::path dir_;
+  CalibrateImagesFixCliTest() : SampleBoardCliTest("calibrate_images_fix_cli") {}
+  std::string Args(const std::string& out) const { return CalibrateImagesArgs(out); }
 };
 
 std::string Slurp(const fs::path& p) {

@@ -28,28 +28,15 @@ std::string JsonRunId(const fs::path& p) {
   return nlohmann::json::parse(f).value("run_id", "");
 }
 
-class OutputFolderCliTest : public ::testing::Test {
+class OutputFolderCliTest : public test_cli::SampleBoardCliTest {
  protected:
-  void SetUp() override {
-    if (test_cli::OwlcalBinary().empty()) GTEST_SKIP() << "the owlcal binary is not built";
-    dir_ = fs::temp_directory_path() / ("owlcal_output_folder_cli_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    std::ofstream t(dir_ / "board.yaml");
-    t << "target_type: chessboard\nid: opencv-sample-25mm\ncols: 9\nrows: 6\nsquare_size_m: 0.025\n";
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
+  OutputFolderCliTest() : SampleBoardCliTest("output_folder_cli") {}
   // calibrate-images on the sample into OUT, with `extra` flags.
   test_cli::RunResult Calibrate(const std::string& extra) const {
-    return RunOwlcal("calibrate-images '" + Sample() + "' --target '" + (dir_ / "board.yaml").string() +
-                     "' --model opencv5 --board-warp flat --no-report " + extra + " --out '" + Out().string() + "'");
+    return RunOwlcal(CalibrateImagesArgs("out") + " " + extra);
   }
   static std::string Sample() { return test_data::SharedData() + "/opencv-stereo-chessboard"; }
   fs::path Out() const { return dir_ / "out"; }
-  fs::path dir_;
 };
 
 TEST_F(OutputFolderCliTest, AnUnusableRunLeavesNoEarlierCalibrationLookingCurrent) {
