@@ -1,6 +1,7 @@
 #include "fitting/servo_motion_fit.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -93,6 +94,136 @@ class Problem {
   const ServoMotionFitOptions& o_;
 };
 
+// Grid search then Nelder-Mead over the parameters marked free (log slew, lag, delay); the others
+// stay at `start`. The delay is kept inside its window, the lag >= 0.
+Params Search(const Problem& problem, const ServoMotionFitOptions& o, const std::array<bool, 3>& free, Params start) {
+  // Grid: slew 800-20000 us/s (90-2260 deg/s at 0.113 deg/us), lag 0-150 ms, delay over its window.
+  const int ns = free[0] ? 14 : 1, nl = free[1] ? 31 : 1, nd = free[2] ? 7 : 1;
+  if (!free[2]) start.delay = std::max(start.delay, o.exposure_delay_min_s);
+  Params best = start;
+  double best_rms = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < ns; ++i)
+    for (int j = 0; j < nl; ++j)
+      for (int k = 0; k < nd; ++k) {
+        Params p = start;
+        if (free[0]) p.log_slew = std::log(800.0) + i * (std::log(20000.0) - std::log(800.0)) / 13.0;
+        if (free[1]) p.lag = 0.005 * j;
+        if (free[2])
+          p.delay = o.exposure_delay_min_s + k * (o.exposure_delay_max_s - o.exposure_delay_min_s) / (nd - 1);
+        const double rms = problem.Evaluate(p).rms;
+        if (rms < best_rms) {
+          best_rms = rms;
+          best = p;
+        }
+      }
+  // Refine with Nelder-Mead (the three are correlated: a coordinate search stalls).
+  std::vector<int> dims;
+  for (int c = 0; c < 3; ++c)
+    if (free[c]) dims.push_back(c);
+  const int dim = int(dims.size());
+  if (dim == 0) return best;
+  auto to_params = [&](const Eigen::Vector3d& x) {
+    Params p{
+        x[0], std::max(0.0, x[1]), free[2] ? std::clamp(x[2], o.exposure_delay_min_s, o.exposure_delay_max_s) : x[2]};
+    return p;
+  };
+  auto cost = [&](const Eigen::Vector3d& x) {
+    const Params p = to_params(x);
+    double c = problem.Evaluate(p).rms;
+    if (x[1] < 0) c += -x[1];  // outside the box: penalised
+    if (free[2] && (x[2] < o.exposure_delay_min_s || x[2] > o.exposure_delay_max_s)) c += 1.0;
+    return c;
+  };
+  std::vector<Eigen::Vector3d> simplex(dim + 1, Eigen::Vector3d(best.log_slew, best.lag, best.delay));
+  const double step[3] = {0.15, 0.005, 0.004};
+  for (int i = 0; i < dim; ++i) simplex[i + 1][dims[i]] += step[dims[i]];
+  std::vector<double> f(dim + 1);
+  for (int i = 0; i <= dim; ++i) f[i] = cost(simplex[i]);
+  for (int it = 0; it < 400 && dim > 0; ++it) {
+    std::vector<int> idx(dim + 1);
+    for (int i = 0; i <= dim; ++i) idx[i] = i;
+    std::sort(idx.begin(), idx.end(), [&](int a, int b) { return f[a] < f[b]; });
+    const int lo = idx[0], hi = idx[dim], nh = idx[std::max(0, dim - 1)];
+    if (f[hi] - f[lo] < 1e-9 * (1 + f[lo])) break;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int i = 0; i <= dim; ++i)
+      if (i != hi) c += simplex[i];
+    c /= dim;
+    const Eigen::Vector3d xr = c + (c - simplex[hi]);
+    const double fr = cost(xr);
+    if (fr < f[lo]) {
+      const Eigen::Vector3d xe = c + 2 * (c - simplex[hi]);
+      const double fe = cost(xe);
+      if (fe < fr)
+        simplex[hi] = xe, f[hi] = fe;
+      else
+        simplex[hi] = xr, f[hi] = fr;
+    } else if (fr < f[nh]) {
+      simplex[hi] = xr, f[hi] = fr;
+    } else {
+      const Eigen::Vector3d xc = c + 0.5 * (simplex[hi] - c);
+      const double fc = cost(xc);
+      if (fc < f[hi]) {
+        simplex[hi] = xc, f[hi] = fc;
+      } else {
+        for (int i = 0; i <= dim; ++i)
+          if (i != lo) simplex[i] = simplex[lo] + 0.5 * (simplex[i] - simplex[lo]), f[i] = cost(simplex[i]);
+      }
+    }
+  }
+  int bi = 0;
+  for (int i = 1; i <= dim; ++i)
+    if (f[i] < f[bi]) bi = i;
+  if (f[bi] < best_rms) best = to_params(simplex[bi]);
+  return best;
+}
+
+// Sigmas of the free parameters (sigma[0] of log slew, i.e. relative; lag [s]; delay [s]; 0 for a
+// held one): J^T J of the residuals (a, px_per_us re-solved), scaled by the residual variance. A
+// parameter whose relative sigma is above 30 % (the lag: above max(30 %, 3 ms)) is not determined.
+struct Sigmas {
+  std::array<double, 3> sigma{0, 0, 0};
+  std::array<bool, 3> determined{false, false, false};
+};
+Sigmas ParamSigmas(const Problem& problem, const Params& best, const std::array<bool, 3>& free, int num_segments) {
+  Sigmas out;
+  const Evaluation ev = problem.Evaluate(best);
+  std::vector<int> dims;
+  for (int c = 0; c < 3; ++c)
+    if (free[c]) dims.push_back(c);
+  const int n = int(ev.residuals.size());
+  const int np = int(dims.size());
+  if (np == 0 || n == 0) return out;
+  Eigen::MatrixXd J(n, np);
+  const double h[3] = {0.02, 0.001, 0.001};
+  for (int col = 0; col < np; ++col) {
+    const int c = dims[col];
+    Params up = best, dn = best;
+    double Params::*f = c == 0 ? &Params::log_slew : (c == 1 ? &Params::lag : &Params::delay);
+    up.*f += h[c];
+    dn.*f -= h[c];
+    if (c == 1 && dn.lag < 0) dn.lag = 0;
+    const double step = up.*f - dn.*f;
+    const Evaluation eu = problem.Evaluate(up), ed = problem.Evaluate(dn);
+    for (int i = 0; i < n; ++i)
+      J(i, col) = (i < int(eu.residuals.size()) && i < int(ed.residuals.size()))
+                      ? (eu.residuals[i] - ed.residuals[i]) / step
+                      : 0;
+  }
+  const double s2 = ev.rms * ev.rms * n / std::max(1, n - np - 1 - num_segments);
+  const Eigen::MatrixXd info = J.transpose() * J;
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(info);
+  const double big = std::numeric_limits<double>::infinity();
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Constant(np, np, big);
+  if (lu.rank() == np) cov = lu.inverse() * s2;
+  for (int col = 0; col < np; ++col) out.sigma[dims[col]] = std::sqrt(std::max(0.0, cov(col, col)));
+  const double slew = std::exp(best.log_slew);
+  out.determined[0] = free[0] && std::isfinite(out.sigma[0]) && slew * out.sigma[0] < 0.3 * slew;
+  out.determined[1] = free[1] && std::isfinite(out.sigma[1]) && out.sigma[1] < std::max(0.3 * best.lag, 0.003);
+  out.determined[2] = free[2] && std::isfinite(out.sigma[2]);
+  return out;
+}
+
 }  // namespace
 
 bool ServoMotionFitOptions::Check(std::string* why) const {
@@ -103,6 +234,8 @@ bool ServoMotionFitOptions::Check(std::string* why) const {
     r = "need 0 <= exposure delay min <= max";
   else if (!(command_delay_s >= 0) || !(hysteresis_us >= 0))
     r = "command delay and hysteresis must be >= 0";
+  else if (!(prior_slew_us_per_s >= 0) || !std::isfinite(prior_slew_us_per_s) || !std::isfinite(prior_lag_s))
+    r = "prior_slew_us_per_s must be finite and >= 0, prior_lag_s finite";
   else if (!resolution.Check(&r)) {
   }
   if (r.empty()) return true;
@@ -136,84 +269,26 @@ ServoMotionFit FitServoMotion(const std::vector<MotionSegment>& segments, const 
     return out;
   }
   const Problem problem(segs, o);
-  // Grid: slew 800-20000 us/s (90-2260 deg/s at 0.113 deg/us), lag 0-150 ms, delay over its window.
-  Params best;
-  double best_rms = std::numeric_limits<double>::infinity();
   const int nd = o.exposure_delay_max_s > o.exposure_delay_min_s ? 7 : 1;
-  for (int i = 0; i < 14; ++i)
-    for (int j = 0; j <= 30; ++j)
-      for (int k = 0; k < nd; ++k) {
-        Params p{std::log(800.0) + i * (std::log(20000.0) - std::log(800.0)) / 13.0,
-                 0.005 * j,
-                 nd == 1 ? o.exposure_delay_min_s
-                         : o.exposure_delay_min_s + k * (o.exposure_delay_max_s - o.exposure_delay_min_s) / (nd - 1)};
-        const double rms = problem.Evaluate(p).rms;
-        if (rms < best_rms) {
-          best_rms = rms;
-          best = p;
-        }
-      }
-  // Refine with Nelder-Mead (the three are correlated: a coordinate search stalls), the delay
-  // kept inside its window.
-  {
-    const int dim = nd > 1 ? 3 : 2;
-    auto to_params = [&](const Eigen::Vector3d& x) {
-      Params p{x[0],
-               std::max(0.0, x[1]),
-               nd > 1 ? std::clamp(x[2], o.exposure_delay_min_s, o.exposure_delay_max_s) : best.delay};
-      return p;
-    };
-    auto cost = [&](const Eigen::Vector3d& x) {
-      const Params p = to_params(x);
-      double c = problem.Evaluate(p).rms;
-      if (x[1] < 0) c += -x[1];  // outside the box: penalised
-      if (nd > 1 && (x[2] < o.exposure_delay_min_s || x[2] > o.exposure_delay_max_s)) c += 1.0;
-      return c;
-    };
-    std::vector<Eigen::Vector3d> simplex(dim + 1, Eigen::Vector3d(best.log_slew, best.lag, best.delay));
-    const double step[3] = {0.15, 0.005, 0.004};
-    for (int i = 0; i < dim; ++i) simplex[i + 1][i] += step[i];
-    std::vector<double> f(dim + 1);
-    for (int i = 0; i <= dim; ++i) f[i] = cost(simplex[i]);
-    for (int it = 0; it < 400; ++it) {
-      std::vector<int> idx(dim + 1);
-      for (int i = 0; i <= dim; ++i) idx[i] = i;
-      std::sort(idx.begin(), idx.end(), [&](int a, int b) { return f[a] < f[b]; });
-      const int lo = idx[0], hi = idx[dim], nh = idx[dim - 1];
-      if (f[hi] - f[lo] < 1e-9 * (1 + f[lo])) break;
-      Eigen::Vector3d c = Eigen::Vector3d::Zero();
-      for (int i = 0; i <= dim; ++i)
-        if (i != hi) c += simplex[i];
-      c /= dim;
-      const Eigen::Vector3d xr = c + (c - simplex[hi]);
-      const double fr = cost(xr);
-      if (fr < f[lo]) {
-        const Eigen::Vector3d xe = c + 2 * (c - simplex[hi]);
-        const double fe = cost(xe);
-        if (fe < fr)
-          simplex[hi] = xe, f[hi] = fe;
-        else
-          simplex[hi] = xr, f[hi] = fr;
-      } else if (fr < f[nh]) {
-        simplex[hi] = xr, f[hi] = fr;
-      } else {
-        const Eigen::Vector3d xc = c + 0.5 * (simplex[hi] - c);
-        const double fc = cost(xc);
-        if (fc < f[hi]) {
-          simplex[hi] = xc, f[hi] = fc;
-        } else {
-          for (int i = 0; i <= dim; ++i)
-            if (i != lo) simplex[i] = simplex[lo] + 0.5 * (simplex[i] - simplex[lo]), f[i] = cost(simplex[i]);
-        }
-      }
-    }
-    int bi = 0;
-    for (int i = 1; i <= dim; ++i)
-      if (f[i] < f[bi]) bi = i;
-    if (f[bi] < best_rms) {
-      best_rms = f[bi];
-      best = to_params(simplex[bi]);
-    }
+  // The search over every parameter; then the slew, if the data do not determine it and it has a
+  // prior, held at the prior and the rest fitted again; then the same for the lag (judged with the
+  // slew held: a slew running off drags the lag's sigma along with it).
+  std::array<bool, 3> free = {true, true, nd > 1};
+  Params best = Search(problem, o, free, Params{});
+  Sigmas sig = ParamSigmas(problem, best, free, int(segs.size()));
+  const bool slew_prior = !sig.determined[0] && o.prior_slew_us_per_s > 0;
+  if (slew_prior) {
+    best.log_slew = std::log(o.prior_slew_us_per_s);
+    free[0] = false;
+    best = Search(problem, o, free, best);
+    sig = ParamSigmas(problem, best, free, int(segs.size()));
+  }
+  const bool lag_prior = !sig.determined[1] && o.prior_lag_s >= 0;
+  if (lag_prior) {
+    best.lag = o.prior_lag_s;
+    free[1] = false;
+    best = Search(problem, o, free, best);
+    sig = ParamSigmas(problem, best, free, int(segs.size()));
   }
   const Evaluation ev = problem.Evaluate(best);
   out.ok = std::isfinite(ev.rms);
@@ -226,38 +301,17 @@ ServoMotionFit FitServoMotion(const std::vector<MotionSegment>& segments, const 
   out.exposure_delay_s = best.delay;
   out.px_per_us = ev.px_per_us;
   out.rms_px = ev.rms;
-  // Sigmas: J^T J of the residuals (a, px_per_us re-solved), scaled by the residual variance.
-  const int n = int(ev.residuals.size());
-  const int np = nd > 1 ? 3 : 2;
-  Eigen::MatrixXd J(n, np);
-  const double h[3] = {0.02, 0.001, 0.001};
-  for (int c = 0; c < np; ++c) {
-    Params up = best, dn = best;
-    double Params::*f = c == 0 ? &Params::log_slew : (c == 1 ? &Params::lag : &Params::delay);
-    up.*f += h[c];
-    dn.*f -= h[c];
-    if (c == 1 && dn.lag < 0) dn.lag = 0;
-    const double step = up.*f - dn.*f;
-    const Evaluation eu = problem.Evaluate(up), ed = problem.Evaluate(dn);
-    for (int i = 0; i < n; ++i)
-      J(i, c) = (i < int(eu.residuals.size()) && i < int(ed.residuals.size()))
-                    ? (eu.residuals[i] - ed.residuals[i]) / step
-                    : 0;
-  }
-  const double s2 = ev.rms * ev.rms * n / std::max(1, n - np - 1 - int(segs.size()));
-  const Eigen::MatrixXd info = J.transpose() * J;
-  Eigen::FullPivLU<Eigen::MatrixXd> lu(info);
-  const double big = std::numeric_limits<double>::infinity();
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Constant(np, np, big);
-  if (lu.rank() == np) cov = lu.inverse() * s2;
-  out.slew_sigma_us_per_s = out.slew_us_per_s * std::sqrt(std::max(0.0, cov(0, 0)));
-  out.lag_sigma_s = std::sqrt(std::max(0.0, cov(1, 1)));
-  out.exposure_delay_sigma_s = np == 3 ? std::sqrt(std::max(0.0, cov(2, 2))) : 0.0;
-  out.slew_determined = std::isfinite(out.slew_sigma_us_per_s) && out.slew_sigma_us_per_s < 0.3 * out.slew_us_per_s;
-  out.lag_determined = std::isfinite(out.lag_sigma_s) && out.lag_sigma_s < std::max(0.3 * out.lag_s, 0.003);
-  out.message = "slew " + std::to_string(int(std::lround(out.slew_us_per_s))) + " us/s, lag " +
-                std::to_string(out.lag_s * 1000).substr(0, 5) + " ms, exposure delay " +
-                std::to_string(out.exposure_delay_s * 1000).substr(0, 5) + " ms, RMS " +
+  out.slew_sigma_us_per_s = out.slew_us_per_s * sig.sigma[0];
+  out.lag_sigma_s = sig.sigma[1];
+  out.exposure_delay_sigma_s = sig.sigma[2];
+  out.slew_from_prior = slew_prior;
+  out.lag_from_prior = lag_prior;
+  out.slew_determined = !slew_prior && sig.determined[0];
+  out.lag_determined = !lag_prior && sig.determined[1];
+  out.message = "slew " + std::to_string(int(std::lround(out.slew_us_per_s))) + " us/s" +
+                (slew_prior ? " (prior: not determined)" : "") + ", lag " +
+                std::to_string(out.lag_s * 1000).substr(0, 5) + " ms" + (lag_prior ? " (prior: not determined)" : "") +
+                ", exposure delay " + std::to_string(out.exposure_delay_s * 1000).substr(0, 5) + " ms, RMS " +
                 std::to_string(out.rms_px).substr(0, 5) + " px over " + std::to_string(out.num_frames) + " frames";
   return out;
 }

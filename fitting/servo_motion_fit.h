@@ -14,7 +14,11 @@
 // solved in closed form for every (slew, lag, delay); those three are found by a grid search
 // refined coordinate by coordinate, and their sigmas come from the Jacobian of the residuals
 // (with a, px_per_us re-solved) scaled by the residual RMS. A parameter whose relative sigma is
-// above 30 % is reported as not determined by the data (e.g. the slew of small steps).
+// above 30 % is reported as not determined by the data (e.g. the slew of small steps or a slow
+// servo's steps, where the lag and the latency explain the frames as well); with a prior for it
+// (prior_slew_us_per_s, prior_lag_s) it is then held at the prior and the others fitted again,
+// and the result says so (slew_from_prior, lag_from_prior): an undetermined number is never
+// reported as if measured (the unconstrained search runs the slew out to 1e9 us/s).
 #include <string>
 #include <vector>
 
@@ -41,6 +45,8 @@ struct ServoMotionFitOptions {
   double command_delay_s = 0.001;
   double hysteresis_us = 0;
   models::ServoResolution resolution;
+  double prior_slew_us_per_s = 0;  // > 0: an undetermined slew is held here [us/s]; 0: none
+  double prior_lag_s = -1;         // >= 0: an undetermined lag is held here [s]; < 0: none
   bool Check(std::string* why) const;
 };
 
@@ -51,6 +57,8 @@ struct ServoMotionFit {
   double lag_s = 0, lag_sigma_s = 0;
   double exposure_delay_s = 0, exposure_delay_sigma_s = 0;
   bool slew_determined = false, lag_determined = false;
+  // Not determined, so held at the options' prior (then its sigma is 0 and determined false).
+  bool slew_from_prior = false, lag_from_prior = false;
   double px_per_us = 0;  // signed
   double rms_px = 0;
   int num_frames = 0, num_segments = 0;

@@ -77,6 +77,11 @@ SettlingStudy CompareSettling(const LoopModel& model,
   st.latency_ms = latency_ms;
   st.ideal_delay_frames = ideal_delay_frames;
   st.deg_per_us = deg_per_us;
+  auto source = [](bool prior, bool determined) {
+    return prior ? "prior" : determined ? "fitted" : "fitted, not determined";
+  };
+  st.slew_source = source(motion.slew_from_prior, motion.slew_determined);
+  st.lag_source = source(motion.lag_from_prior, motion.lag_determined);
   const double period = 1.0 / model.fps;
   const double kcrit = CriticalGain(ideal_delay_frames);
   auto ideal = [&](double gain, bool* stable) {
@@ -214,8 +219,14 @@ SettlingStudy CompareSettling(const LoopModel& model,
     }
   st.notes.push_back("loop model: exposure delay " + F(1000 * model.exposure_delay_s, 1) + " ms, slew " +
                      F(model.slew_us_per_s * deg_per_us, 0) + " deg/s" +
-                     (motion.slew_determined ? "" : " (not determined by the steps)") + ", lag " +
-                     F(1000 * model.lag_s, 1) + " ms, dead zone " + F(model.DeadZonePx(), 2) + " px, PWM step " +
+                     (motion.slew_from_prior    ? " (a prior: the steps do not determine it)"
+                      : !motion.slew_determined ? " (not determined by the steps)"
+                                                : "") +
+                     ", lag " + F(1000 * model.lag_s, 1) + " ms" +
+                     (motion.lag_from_prior    ? " (a prior: the steps do not determine it)"
+                      : !motion.lag_determined ? " (not determined by the steps)"
+                                               : "") +
+                     ", dead zone " + F(model.DeadZonePx(), 2) + " px, PWM step " +
                      std::to_string(model.resolution.step_us) + " us, dead band " +
                      std::to_string(model.resolution.dead_band_us) + " us, backlash " + F(model.hysteresis_us, 1) +
                      " us, noise " + F(model.noise_px, 2) + " px");

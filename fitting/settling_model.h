@@ -67,6 +67,10 @@ struct SettlingStudy {
   int ideal_delay_frames = 3;  // d of the course model
   double deg_per_us = 0.113;   // to state slew in deg/s
   int servo = -1;              // the servo the trials stepped (models::ServoIndex), -1 unknown
+  // Where the model's slew and lag come from: "fitted" (from the step frames), "prior" (the
+  // steps do not determine it: fitting/servo_motion_fit.h holds it at the prior) or "fitted, not
+  // determined" (no prior given).
+  std::string slew_source = "fitted", lag_source = "fitted";
   std::vector<SettlingRow> rows;
   std::vector<SettlingCurvePoint> curve;
   std::vector<std::string> notes;

@@ -897,12 +897,30 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
                                &d.result.warnings,
                                d.resolution);
     if (d.settling) {
+      const fitting::SettlingStudy& st = *d.settling;
       int agree = 0;
-      for (const auto& r : d.settling->rows) agree += r.agreement.rfind("agrees", 0) == 0;
-      progress("settling: loop model (slew " + Fmt(d.settling->model.slew_us_per_s, 4) + " us/s, lag " +
-               Fmt(1000 * d.settling->model.lag_s, 3) + " ms, exposure delay " +
-               Fmt(1000 * d.settling->model.exposure_delay_s, 3) + " ms) agrees with " + std::to_string(agree) +
-               " of " + std::to_string(d.settling->rows.size()) + " (gain, step) groups");
+      for (const auto& r : st.rows) agree += r.agreement.rfind("agrees", 0) == 0;
+      // The loop model's servo motion and where each number comes from (a prior is named).
+      d.result.diagnostics["settling"] = {
+          {"servo", st.servo >= 0 ? models::kServoNames[st.servo] : ""},
+          {"slew_us_per_s", st.model.slew_us_per_s},
+          {"slew_deg_per_s", st.model.slew_us_per_s * st.deg_per_us},
+          {"slew_sigma_us_per_s",
+           st.motion.slew_from_prior ? nlohmann::json(nullptr) : nlohmann::json(st.motion.slew_sigma_us_per_s)},
+          {"slew_determined", st.motion.slew_determined},
+          {"slew_source", st.slew_source},
+          {"lag_s", st.model.lag_s},
+          {"lag_sigma_s", st.motion.lag_from_prior ? nlohmann::json(nullptr) : nlohmann::json(st.motion.lag_sigma_s)},
+          {"lag_determined", st.motion.lag_determined},
+          {"lag_source", st.lag_source},
+          {"exposure_delay_s", st.model.exposure_delay_s},
+          {"groups", st.rows.size()},
+          {"groups_agree", agree}};
+      auto source = [](const std::string& s) { return s == "fitted" ? std::string() : " (" + s + ")"; };
+      progress("settling: loop model (slew " + Fmt(st.model.slew_us_per_s * st.deg_per_us, 4) + " deg/s" +
+               source(st.slew_source) + ", lag " + Fmt(1000 * st.model.lag_s, 3) + " ms" + source(st.lag_source) +
+               ", exposure delay " + Fmt(1000 * d.settling->model.exposure_delay_s, 3) + " ms) agrees with " +
+               std::to_string(agree) + " of " + std::to_string(d.settling->rows.size()) + " (gain, step) groups");
     }
   }
   return d;

@@ -16,6 +16,11 @@ namespace owlcal::pipeline {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
+// What the loop model uses for a slew or lag the step frames do not determine
+// (fitting/servo_motion_fit.h): the slow end of hobby servos' slew (docs/conventions.md#facts,
+// 300-400 deg/s) and a typical response lag (the default virtual Owl's are 25-50 ms).
+constexpr double kPriorSlewDegPerS = 300;
+constexpr double kPriorLagS = 0.03;
 
 }  // namespace
 
@@ -83,6 +88,13 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
     mo.hysteresis_us = std::max(0.0, h->value);
   for (const fitting::ServoResolutionResult& r : resolution)
     if (r.servo == servo && r.fit.ok && r.fit.determined) mo.resolution = r.fit.resolution;
+  // deg per us of the stepped servo: the head fit's, else the robot file's.
+  double deg_per_us = sc.nominal_deg_per_us;
+  if (const fitting::Parameter* p = result.Find("servo." + name + ".deg_per_us");
+      p && std::isfinite(p->value) && p->value > 0)
+    deg_per_us = p->value;
+  mo.prior_slew_us_per_s = kPriorSlewDegPerS / deg_per_us;
+  mo.prior_lag_s = kPriorLagS;
   const fitting::ServoMotionFit motion = fitting::FitServoMotion(segments, mo);
   if (!motion.ok) return refuse("the servo motion fit failed: " + motion.message);
 
@@ -102,12 +114,6 @@ std::optional<fitting::SettlingStudy> StudySettling(const std::string& dataset,
   m.max_step_us = step_defaults.max_step_us;
   m.latency_frames = step_defaults.latency_frames;
   if (std::string why; !m.Check(&why)) return refuse("the fitted loop model is not valid: " + why);
-
-  // deg per us of the stepped servo: the head fit's, else the robot file's.
-  double deg_per_us = sc.nominal_deg_per_us;
-  if (const fitting::Parameter* p = result.Find("servo." + name + ".deg_per_us");
-      p && std::isfinite(p->value) && p->value > 0)
-    deg_per_us = p->value;
 
   // Measured settling with the model's band (the same criterion as the prediction).
   std::vector<fitting::StepTrace> measured = steps;

@@ -2,9 +2,10 @@
 // The loop model of the stepped servo, built from what calibrate measured, against the step
 // trials (fitting/settling_model.h): the slew, lag and exposure delay fitted from the trials'
 // frames (fitting/servo_motion_fit.h), the latency protocol's delay, the head fit's backlash
-// and the step protocol's controller settings. Each trial's settling is re-measured with the
-// loop model's band (fitting/loop_model.h SettlingBand) so that measured and predicted use the
-// same criterion.
+// and the step protocol's controller settings (a slew or lag the frames do not determine is held
+// at a stated prior, 300 deg/s and 30 ms, and named: SettlingStudy::slew_source, lag_source).
+// Each trial's settling is re-measured with the loop model's band (fitting/loop_model.h
+// SettlingBand) so that measured and predicted use the same criterion.
 #include <optional>
 #include <string>
 #include <vector>

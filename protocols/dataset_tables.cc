@@ -162,6 +162,7 @@ std::vector<LimitRow> ReadLimitsCsv(const std::string& dir) {
     l.image_px_per_us = t.Newer(r, "image_px_per_us", -kMaxPx, kMaxPx);
     if (t.Has("beyond_rim_us")) l.beyond_rim_us = t.OptionalInt(r, "beyond_rim_us", 0, kMaxPwm);
     l.beyond_rim_reason = t.TextOr(r, "beyond_rim_reason");
+    l.backlash_us = t.Newer(r, "backlash_us", -kMaxPwm, kMaxPwm);
     l.status = t.Status(r);
     l.message = t.TextOr(r, "message");
   });

@@ -104,6 +104,9 @@ struct LimitRow {
   // searched or an older dataset).
   std::optional<int> beyond_rim_us;
   std::string beyond_rim_reason;
+  // Width of the servo's backlash band measured at this end (2 hysteresis_us of
+  // models/servo_map.h) [us]; nullopt when not measured or in datasets older than the column.
+  std::optional<double> backlash_us;
   std::optional<calib::TrialStatus> status;  // nullopt: a dataset older than the column
   std::string message;
 };

@@ -65,21 +65,40 @@ LimitSearchResult SearchLimit(int centre_us,
     r.cause.clear();
     r.message = m;
     r.measured_us = centre_us;
+    r.met_us = centre_us;
     return r;
   };
   if (limit_us == centre_us) {
     r.cause = "configured";
     r.message = "the configured limit is the centre";
+    r.met_us = r.measured_us;
     return r;
   }
+  // Watches an image until it stops moving (0.); the image unchanged without io.settle.
+  auto watch = [&](const cv::Mat& img, bool reference, bool* still_at_once) -> cv::Mat {
+    if (!io.settle) {
+      if (still_at_once) *still_at_once = true;
+      return img;
+    }
+    const SettledImage s = io.settle(img, reference);
+    ++r.watched;
+    if (!s.settled) ++r.unsettled;
+    if (still_at_once) *still_at_once = s.still_at_first_look;
+    return s.image.empty() ? img : s.image;
+  };
 
   // 1) The centre image must show texture. The centre is approached from the other end's side,
   // so the first outward step is not spent taking up backlash.
   if (o.approach_us > 0) io.move(centre_us - d * o.approach_us);
   io.move(centre_us);
-  const cv::Mat centre_img = io.image();
+  bool still_at_once = true;
+  const cv::Mat centre_img = watch(io.image(), true, &still_at_once);
+  // A servo still moving at the first look after the wait is watched at every probe.
+  r.slow = o.judge_speed ? !still_at_once : o.watch_every_probe;
+  const bool watch_each = o.watch_every_probe || r.slow;
   const double rim0 = RimFraction(centre_img);
-  cv::Mat prev = MotionThumb(centre_img, kDownsample);
+  const cv::Mat centre_thumb = MotionThumb(centre_img, kDownsample);
+  cv::Mat prev = centre_thumb;
   {
     cv::Scalar mean, sd;
     cv::meanStdDev(prev, mean, sd);
@@ -87,12 +106,27 @@ LimitSearchResult SearchLimit(int centre_us,
       return fail("the image at the centre is black or constant (grey mean " + Num(mean[0]) + ", std " + Num(sd[0]) +
                   " < " + Num(o.min_contrast_grey) + "): covered lens, dead or disconnected camera; no limit measured");
   }
-  auto take = [&](int pulse, cv::Mat* thumb) {
-    io.move(pulse);
-    const cv::Mat img = io.image();
-    ++r.probes;
+  cv::Mat last_img;  // the last probe's image
+  bool last_watched = false;
+  auto look = [&](const cv::Mat& img, cv::Mat* thumb) {
+    last_img = img;
     *thumb = MotionThumb(img, kDownsample);
     r.rim = RimFraction(img) - rim0;
+  };
+  // A probe; reference: an image later probes are measured against (watched more strictly).
+  auto take = [&](int pulse, cv::Mat* thumb, bool reference) {
+    io.move(pulse);
+    ++r.probes;
+    last_watched = watch_each;
+    look(last_watched ? watch(io.image(), reference, nullptr) : io.image(), thumb);
+  };
+  // Before acting on an unwatched probe (a fast servo's): watch it until still. False when it
+  // was watched already.
+  auto rewatch = [&](cv::Mat* thumb) {
+    if (last_watched || !io.settle) return false;
+    last_watched = true;
+    look(watch(last_img, false, nullptr), thumb);
+    return true;
   };
   auto rim_in = [&] { return o.check_rim && r.rim > o.rim_fraction; };
 
@@ -106,10 +140,12 @@ LimitSearchResult SearchLimit(int centre_us,
     int nv = d > 0 ? std::min(limit_us, v + o.coarse_us) : std::max(limit_us, v - o.coarse_us);
     if (retry_to) nv = retry_to, retry_to = 0;
     cv::Mat cur;
-    take(nv, &cur);
-    const double signed_shift = ThumbShift(prev, cur, kDownsample).px[axis];
-    r.last_shift_px = std::abs(signed_shift);
+    take(nv, &cur, false);
     const double expected = std::abs(nv - v) * nominal_px_per_us;
+    double signed_shift = ThumbShift(prev, cur, kDownsample).px[axis];
+    if ((rim_in() || std::abs(signed_shift) < o.moved_fraction * expected) && rewatch(&cur))
+      signed_shift = ThumbShift(prev, cur, kDownsample).px[axis];
+    r.last_shift_px = std::abs(signed_shift);
     if (rim_in()) break;  // the fine walk finds where
     if (r.last_shift_px < o.moved_fraction * expected) {
       if (v == centre_us) {
@@ -151,13 +187,42 @@ LimitSearchResult SearchLimit(int centre_us,
   if ((inside - centre_us) * d < 0) inside = centre_us;
   io.move(inside);
   cv::Mat anchor_thumb;
-  take(anchor, &anchor_thumb);
+  take(anchor, &anchor_thumb, true);
+
+  // 5) The centre again, now from outside: the backlash band's width against the centre's image
+  // from inside (far from a stop, which would cut the band short). An end-stop is then given at
+  // approach 0. Called once the fine walk has its answer.
+  auto finish = [&]() -> LimitSearchResult {
+    r.met_us = r.measured_us;
+    double band = o.known_backlash_us;
+    const int outside =
+        d > 0 ? std::min(limit_us, centre_us + o.coarse_us) : std::max(limit_us, centre_us - o.coarse_us);
+    if (o.measure_backlash && outside != centre_us) {
+      const double rim = r.rim;
+      io.move(outside);
+      cv::Mat back;
+      take(centre_us, &back, true);
+      r.rim = rim;  // the rim of the probe that ended the walk, not of the centre
+      band = sign * d * ThumbShift(centre_thumb, back, kDownsample).px[axis] / scale;
+      r.backlash_us = band;
+    }
+    if (r.cause == "end-stop" && band > 0) {
+      const double stop = r.met_us - d * 0.5 * band;
+      r.measured_us = d > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
+      r.message += "; backlash band " + Num(band) + " us: met from inside at " + std::to_string(r.met_us) +
+                   " us, at approach 0 " + std::to_string(r.measured_us) + " us";
+    }
+    return r;
+  };
+
   // In outward us from the anchor command: x = commanded travel, a(x) = applied. Each probe
   // measures travel = a(x) - a(0); deficit = x - travel = (x - a(x)) + a(0). Over the probes
   // that moved, the median deficit (bias) estimates a(0): the PWM step's rounding averages out.
   const double tol = std::max(8.0, 2.0 * o.fine_us);
   StopDetector detector(tol, 0.5 * o.fine_us);
   int last_free = anchor;
+  bool retrying = false;  // the previous probe looked like a stop: this one decides
+  std::string first_stop;
   r.cause.clear();
   for (int nv = anchor; nv != limit_us;) {
     nv = d > 0 ? std::min(limit_us, nv + o.fine_us) : std::max(limit_us, nv - o.fine_us);
@@ -165,26 +230,37 @@ LimitSearchResult SearchLimit(int centre_us,
     // than the dead band may be ignored, leaving the servo short of the limit as if at a stop.
     if (nv == limit_us) io.move(limit_us - d * o.coarse_us);
     cv::Mat cur;
-    take(nv, &cur);
+    take(nv, &cur, false);
+    const double commanded = std::abs(nv - anchor);
     const double shift = ThumbShift(anchor_thumb, cur, kDownsample).px[axis];
+    const double travel = sign * d * shift / scale;
     r.last_shift_px = std::abs(shift);
     if (rim_in()) {
       r.cause = "rim";
       r.measured_us = last_free;
       r.message = "rim darkening " + Num(r.rim) + " at " + std::to_string(nv) + " us";
-      return r;
+      return finish();
     }
-    const double travel = sign * d * shift / scale;
-    const double commanded = std::abs(nv - anchor);
     if (detector.Stopped(commanded, travel)) {
+      const std::string at = "at " + std::to_string(nv) + " us commanded travel " + Num(commanded) + " us, measured " +
+                             Num(travel) + " us from " + std::to_string(anchor) + " us";
+      if (!retrying && nv != limit_us) {
+        // One fine step further before the stop is believed: a pulse the dead band swallowed
+        // leaves the servo where it was, and the next one is taken.
+        retrying = true;
+        first_stop = at;
+        continue;
+      }
       const double stop = anchor + d * detector.StopTravel();
       r.cause = "end-stop";
       r.measured_us = d > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
-      r.message = "the image stopped following: at " + std::to_string(nv) + " us commanded travel " + Num(commanded) +
-                  " us, measured " + Num(travel) + " us from " + std::to_string(anchor) + " us (tolerance " + Num(tol) +
-                  " us, scale " + Num(scale) + " px/us)";
-      return r;
+      r.message = "the image stopped following: " + (first_stop.empty() ? at : first_stop + ", " + at) +
+                  " (tolerance " + Num(tol) + " us, scale " + Num(scale) + " px/us)";
+      return finish();
     }
+    if (retrying) ++r.retries;  // the image followed again: the dead band, not a stop
+    retrying = false;
+    first_stop.clear();
     last_free = nv;
     if (nv == limit_us) {
       // 4) The configured limit reached with the image following, unless the servo applied
@@ -201,13 +277,13 @@ LimitSearchResult SearchLimit(int centre_us,
         r.measured_us = limit_us;
         r.message = "configured limit reached with the image following (within " + Num(short_us) + " us)";
       }
-      return r;
+      return finish();
     }
   }
   r.cause = "configured";  // the anchor is the limit
   r.measured_us = limit_us;
   r.message = "configured limit reached";
-  return r;
+  return finish();
 }
 
 }  // namespace owlcal::protocols

@@ -37,14 +37,17 @@
 //                      frames,final_offset_px,message,status,reason (a trial whose fixation failed is a
 //                      row with status skipped and the reason)
 //   limits.csv         step_index,servo,end,configured_us,measured_us,reason,last_shift_px,rim_darkening,
-//                      image_px_per_us,beyond_rim_us,beyond_rim_reason,status,message
+//                      image_px_per_us,beyond_rim_us,beyond_rim_reason,backlash_us,status,message
 //                      (protocols/limits_search.h; image_px_per_us: the signed image shift per +1 us
 //                      along the servo's image axis; beyond_rim_*: at a rim end, what the search
-//                      found past the rim with the rim ignored: end-stop, configured or unknown; reason: end-stop = the
-//                      image stopped following the command; rim = the fraction of the 8 px border band darker than grey
-//                      20 grew by more than rim_fraction over the centre pose (protocols/ image_motion.h RimFraction);
-//                      configured = the robot file's limit reached with neither. status failed, measured_us empty: a
-//                      black, constant or motionless image; the step then fails with a message)
+//                      found past the rim with the rim ignored: end-stop, configured or unknown;
+//                      backlash_us: the width of the backlash band measured at this end, empty when
+//                      not measured; measured_us of an end-stop is at approach 0, the middle of that
+//                      band; reason: end-stop = the image stopped following the command; rim = the fraction of the 8 px
+//                      border band darker than grey 20 grew by more than rim_fraction over the centre pose (protocols/
+//                      image_motion.h RimFraction); configured = the robot file's limit reached with neither. status
+//                      failed, measured_us empty: a black, constant or motionless image; the step then fails with a
+//                      message)
 //   resolution.csv     step_index,servo,sample,command_us,position_px,response,status,reason (the limits
 //                      step's fine sweep at the centre, resolution_span_us > 0: the fixation target's
 //                      position along the servo's axis relative to the first sample [px]; response

@@ -70,11 +70,15 @@ class SaccadeController {
     LoopResult r;
     r.dead_zone_px[0] = dead_zone_px_[0];
     r.dead_zone_px[1] = dead_zone_px_[1];
-    int wait = 0, lost = 0, still = 0, stuck = 0;
+    int lost = 0, still = 0, stuck = 0;
     int64_t last_stamp = -1;
     double frame_s = kDefaultFrameS;
     bool prepared = false;
-    for (int k = 0; k < frames; ++k) {
+    // Past `frames` (up to 3 times as many), a trial goes on until the last move's result has been
+    // seen on two frames: on a slow stream a correction sent late in the trial is not cut off.
+    const int max_frames = stop_when_settled ? frames : 3 * frames;
+    for (int k = 0; k < max_frames; ++k) {
+      if (k >= frames && last_stamp >= ready_ns_ + int64_t(2 * frame_s * 1e9)) break;
       const robot::StereoFrame frame = run_.Grab();
       if (last_stamp >= 0 && frame.stamp_ns > last_stamp) {
         const double dt = (frame.stamp_ns - last_stamp) * 1e-9;
@@ -109,10 +113,7 @@ class SaccadeController {
       r.trace.push_back(smp);
       r.found_at_end = smp.found;
       if (smp.found) r.final_offset_px = smp.offset_px;
-      if (wait > 0) {  // frames exposed before the joint could have arrived
-        --wait;
-        continue;
-      }
+      if (frame.stamp_ns < ready_ns_) continue;  // exposed before the joint could have arrived
       if (!smp.found) {
         if (++lost >= kLostFrames) {
           r.end = LoopResult::End::kLost;
@@ -183,13 +184,21 @@ class SaccadeController {
       }
       stuck = 0;
       r.at_resolution = false;
+      const int64_t sent_ns = run_.robot().NowNs();
       const double move_s = Move(target, major, shaped, r.moves == 0, &r);
       ++r.moves;
-      wait = std::max(0, int(std::ceil((delay_s_ + move_s) / frame_s - 1e-9)) - 1);
+      Expect(sent_ns, move_s);
     }
     r.end = LoopResult::End::kFrames;
-    r.message = "ran " + std::to_string(frames) + " frames, " + std::to_string(r.moves) + " moves";
+    r.message = "ran " + std::to_string(r.trace.size()) + " frames, " + std::to_string(r.moves) + " moves";
     return r;
+  }
+
+  // A move of `servo` by delta_us sent at sent_ns by someone else (the step away, the way back):
+  // frames exposed before it could have arrived are not acted on.
+  void Moved(int servo, double delta_us, int64_t sent_ns) {
+    const int a = servo == models::kPanServo[eye_] ? 0 : 1;
+    Expect(sent_ns, MoveTime(a, servo, delta_us));
   }
 
  private:
@@ -219,6 +228,18 @@ class SaccadeController {
     return models::SaccadePulses(head_, models::Eye(eye_), a, *x, pan, tilt, ap, centre);
   }
 
+  // The time a plain step of delta_us on axis a (servo i) needs to arrive [s]. Unknown motion:
+  // 300 deg/s (the guide's servo at 4.8 V) and 100 ms of lag and slack.
+  double MoveTime(int a, int i, double delta_us) const {
+    return Known(a) ? std::abs(delta_us) / slew_us_per_s_[a] + 3 * lag_s_[a]
+                    : std::abs(delta_us) * std::abs(head_.servo_params[i][1]) / 300.0 + 0.1;
+  }
+  // The first frame to act on after a move sent at sent_ns that needs move_s: one received at
+  // least the exposure delay after the joint arrived (the stream's stamps are arrival times).
+  void Expect(int64_t sent_ns, double move_s) {
+    ready_ns_ = std::max(ready_ns_, sent_ns + int64_t(std::llround((delay_s_ + move_s) * 1e9)));
+  }
+
   // Whether a first move whose larger part is on axis a (0 pan, 1 tilt) is shaped: asked for,
   // and that servo's slew and lag are known.
   bool Known(int a) const { return slew_us_per_s_[a] > 0 && lag_s_[a] > 0; }
@@ -244,9 +265,7 @@ class SaccadeController {
     const int servos[2] = {models::kPanServo[eye_], models::kTiltServo[eye_]};
     const int i = servos[a];
     const double delta = target[i] - from[i];
-    // Unknown motion: 300 deg/s (the guide's servo at 4.8 V) and 100 ms of lag and slack.
-    double move_s = Known(a) ? std::abs(delta) / slew_us_per_s_[a] + 3 * lag_s_[a]
-                             : std::abs(delta) * std::abs(head_.servo_params[i][1]) / 300.0 + 0.1;
+    double move_s = MoveTime(a, i, delta);
     std::string how = "plain step";
     if (shaped) {
       // Overdrive and switch (models/saccade.h): within 2 % of the step, at least one pulse.
@@ -286,6 +305,7 @@ class SaccadeController {
   double dead_zone_px_[2] = {1, 1};
   double slew_us_per_s_[2] = {0, 0}, lag_s_[2] = {0, 0};
   double delay_s_ = kDefaultDelayFrames * kDefaultFrameS;
+  int64_t ready_ns_ = 0;  // robot clock: frames received before this are not acted on
 };
 
 const char* EndName(LoopResult::End e) {
@@ -395,6 +415,7 @@ void RunSaccadeStep(RunContext& run, const Protocol& p, const SaccadeStep& s) {
       PwmVector away = fix;
       away[servo] += int(std::lround(sign * amp / sc.nominal_deg_per_us));
       run.Send(away);
+      ctl.Moved(servo, away[servo] - fix[servo], run.robot().NowNs());
       run.Settle(rest);
       const PwmVector start = run.cmd();
       // 3) The saccade and its corrections, every frame logged.
@@ -438,7 +459,9 @@ void RunSaccadeStep(RunContext& run, const Protocol& p, const SaccadeStep& s) {
         *run.options().progress << "  saccade " << FixedText(amp, 0) << " deg: " << calib::TrialStatusName(status)
                                 << ", final offset " << FixedText(final_off, 2) << " px, " << r.saccade << "\n";
       // 4) Back to the fixation pose.
+      const PwmVector back_from = run.cmd();
       run.Send(fix);
+      ctl.Moved(servo, fix[servo] - back_from[servo], run.robot().NowNs());
       run.Settle(rest);
     }
   }

@@ -3,8 +3,10 @@
 //   1. fixates one eye's target with the same controller (both axes, not logged);
 //   2. steps the servo away by the amplitude (alternating direction, the robot file's nominal
 //      scale: the same step as the step-response step's P loop) and lets it rest 400 ms;
-//   3. runs the controller for `frames` frames, logging every frame (step_response.csv) and the
-//      trial's outcome (step_trials.csv, with status and reason), then goes back.
+//   3. runs the controller for `frames` frames (longer, up to 3 x frames, until the last move's
+//      result has been seen on two frames: a slow stream or servo does not cut a correction off),
+//      logging every frame (step_response.csv) and the trial's outcome (step_trials.csv, with
+//      status and reason), then goes back.
 //
 // The controller (one update per frame it is allowed to act on):
 //   - saccade: the target's pixel and the head's current joint angles (the calibration's servo
@@ -14,10 +16,12 @@
 //     first command overshoots by ShapeSaccade's overdrive and the target pulse follows after its
 //     switch time (the robot's clock sleeps in between), so the lagging joint arrives sooner; the
 //     target pulse is then computed for the approach from beyond (backlash).
-//   - latency-aware correction: after every command the controller ignores the frames that were
-//     exposed before the joint could have arrived: ceil((delay + move time) * fps) - 1 frames,
-//     delay = latency_frames / fps if set, else the calibration's measured exposure delay, else
-//     4 frames; move time = |step| / slew + 3 lag (ShapeSaccade's settle time when shaped). Then
+//   - latency-aware correction: after every command (its own, and the step's moves away and back)
+//     the controller ignores the frames that were exposed before the joint could have arrived:
+//     those received before the command's time + move time + delay (the stream's stamps are
+//     arrival times), delay = latency_frames / 30 s if set, else the calibration's measured
+//     exposure delay, else 4 frames of 30 fps; move time = |step| / slew + 3 lag
+//     (ShapeSaccade's settle time when shaped), without a fitted motion 300 deg/s + 100 ms. Then
 //     it re-measures and, when the target is more than the dead zone off, steps once more to the
 //     map's pulses (a P step of gain 1 on the calibrated map), at most max_corrections times.
 //     A frame on which the target moved by more than the dead zone since the frame before is

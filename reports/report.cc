@@ -12,6 +12,11 @@ namespace {
 
 std::string Pct(double rel, int sig = 3) { return std::isfinite(rel) ? Fmt(100 * rel, sig) : ""; }
 std::string Bool(bool b) { return b ? "yes" : "no"; }
+// Where a loop-model number comes from (fitting/settling_model.h): nothing when fitted.
+std::string Source(const std::string& source) {
+  if (source == "prior") return " (a prior: the steps do not determine it)";
+  return source == "fitted" || source.empty() ? "" : " (" + source + ")";
+}
 
 }  // namespace
 
@@ -587,24 +592,24 @@ std::vector<Table> MakeTables(const ReportData& d) {
     };
     int agree = 0;
     for (const auto& r : st.rows) agree += r.agreement.rfind("agrees", 0) == 0;
-    Table t{
-        "settling_model",
-        "Settling: the loop model against the measured trials, per gain and step (" + std::to_string(agree) + " of " +
-            std::to_string(st.rows.size()) + " agree). Loop model: slew " + Fmt(st.model.slew_us_per_s, 4) +
-            " \u00b5s/s, lag " + Fmt(1000 * st.model.lag_s, 3) + " ms, exposure delay " +
-            Fmt(1000 * st.model.exposure_delay_s, 3) + " ms (fitted from the step frames), latency " +
-            Fmt(st.latency_ms, 4) + " ms, backlash " + Fmt(st.model.hysteresis_us, 3) +
-            " \u00b5s; course model: " + "ideal P loop with d = " + std::to_string(st.ideal_delay_frames) + " frames",
-        {"gain",
-         "step [deg]",
-         "band [%]",
-         "trials run of N",
-         "measured [s] median (min\u2013max)",
-         "loop model [s] median (range)",
-         "course model [s]",
-         "agreement",
-         "why"},
-        {}};
+    Table t{"settling_model",
+            "Settling: the loop model against the measured trials, per gain and step (" + std::to_string(agree) +
+                " of " + std::to_string(st.rows.size()) + " agree). Loop model: slew " +
+                Fmt(st.model.slew_us_per_s * st.deg_per_us, 4) + " \u00b0/s" + Source(st.slew_source) + ", lag " +
+                Fmt(1000 * st.model.lag_s, 3) + " ms" + Source(st.lag_source) + ", exposure delay " +
+                Fmt(1000 * st.model.exposure_delay_s, 3) + " ms (fitted from the step frames), latency " +
+                Fmt(st.latency_ms, 4) + " ms, backlash " + Fmt(st.model.hysteresis_us, 3) + " \u00b5s; course model: " +
+                "ideal P loop with d = " + std::to_string(st.ideal_delay_frames) + " frames",
+            {"gain",
+             "step [deg]",
+             "band [%]",
+             "trials run of N",
+             "measured [s] median (min\u2013max)",
+             "loop model [s] median (range)",
+             "course model [s]",
+             "agreement",
+             "why"},
+            {}};
     for (const auto& r : st.rows)
       t.rows.push_back(
           {Fmt(r.gain, 3),

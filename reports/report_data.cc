@@ -221,6 +221,8 @@ json EvaluationToJson(const ReportData& d) {
                        {"tolerance_px", st.model.tolerance_px},
                        {"max_step_us", st.model.max_step_us},
                        {"latency_frames", st.model.latency_frames}}},
+                     {"slew_source", st.slew_source},
+                     {"lag_source", st.lag_source},
                      {"latency_ms", Num(st.latency_ms)},
                      {"ideal_delay_frames", st.ideal_delay_frames},
                      {"deg_per_us", st.deg_per_us},
@@ -399,6 +401,12 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     st.model.tolerance_px = Get(m, "tolerance_px");
     st.model.max_step_us = m.value("max_step_us", 60);
     st.model.latency_frames = m.value("latency_frames", 0);
+    st.slew_source = js.value("slew_source", std::string("fitted"));
+    st.lag_source = js.value("lag_source", std::string("fitted"));
+    st.motion.slew_from_prior = st.slew_source == "prior";
+    st.motion.lag_from_prior = st.lag_source == "prior";
+    st.motion.slew_determined = st.slew_source == "fitted";
+    st.motion.lag_determined = st.lag_source == "fitted";
     st.latency_ms = Get(js, "latency_ms");
     st.ideal_delay_frames = js.value("ideal_delay_frames", 3);
     st.deg_per_us = Get(js, "deg_per_us");

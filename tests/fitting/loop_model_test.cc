@@ -87,6 +87,53 @@ TEST(ServoMotionFit, RecoversSlewLagAndDelayFromLoopTrials) {
   EXPECT_LT(f.rms_px, 0.12);
 }
 
+// A servo whose slew never limits (15 fps, 200 ms delay, 100 ms lag): the steps do not determine
+// the slew. Without a prior it is named as not determined; with one it is held at the prior, named
+// as such, and the lag and the delay are fitted again with it.
+TEST(ServoMotionFit, AnUndeterminedSlewIsHeldAtThePriorAndNamed) {
+  LoopModel m;
+  m.fps = 15;
+  m.slew_us_per_s = 1e6;
+  m.lag_s = 0.1;
+  m.exposure_delay_s = 0.2;
+  m.px_per_us = 1.2;
+  m.noise_px = 0.08;
+  std::vector<MotionSegment> segs;
+  uint64_t seed = 1;
+  for (double gain : {0.1, 0.2})
+    for (double amp : {45.0, -90.0}) {
+      const LoopTrial t = SimulateLoopStep(m, gain, amp, 60, seed++);
+      MotionSegment s;
+      s.initial_approach = amp >= 0 ? 1 : -1;
+      for (size_t k = 0; k < t.t_s.size(); ++k) s.frames.push_back({t.t_s[k], t.offset_px[k], true, t.command_us[k]});
+      segs.push_back(s);
+    }
+  ServoMotionFitOptions o;
+  o.fps = 15;
+  o.exposure_delay_min_s = 0.15;
+  o.exposure_delay_max_s = 0.3;
+  const ServoMotionFit free = FitServoMotion(segs, o);
+  ASSERT_TRUE(free.ok) << free.message;
+  EXPECT_FALSE(free.slew_determined) << free.message;
+  EXPECT_FALSE(free.slew_from_prior);
+  o.prior_slew_us_per_s = 2655;
+  const ServoMotionFit f = FitServoMotion(segs, o);
+  ASSERT_TRUE(f.ok) << f.message;
+  EXPECT_TRUE(f.slew_from_prior) << f.message;
+  EXPECT_FALSE(f.slew_determined);
+  EXPECT_NEAR(f.slew_us_per_s, 2655, 1e-6);
+  EXPECT_NE(f.message.find("slew 2655 us/s (prior: not determined)"), std::string::npos) << f.message;
+  EXPECT_TRUE(f.lag_determined) << f.message;
+  EXPECT_FALSE(f.lag_from_prior);
+  EXPECT_NEAR(f.lag_s, 0.1, 0.01) << f.message;
+  EXPECT_NEAR(f.exposure_delay_s, 0.2, 0.01) << f.message;
+  ServoMotionFitOptions bad;
+  bad.prior_slew_us_per_s = -1;
+  std::string why;
+  EXPECT_FALSE(bad.Check(&why));
+  EXPECT_NE(why.find("prior_slew_us_per_s"), std::string::npos) << why;
+}
+
 TEST(ServoMotionFit, RefusesSegmentsWithoutMotion) {
   MotionSegment s;
   for (int k = 0; k < 20; ++k) s.frames.push_back({k / 30.0, 0.1 * k, true, 1500});

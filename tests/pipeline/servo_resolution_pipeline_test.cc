@@ -1,7 +1,8 @@
 // The PWM step and dead band per servo, measured by the limits step's fine sweep at the centre
 // (resolution.csv) and fitted by calibrate (fitting/servo_resolution_fit.h), on the test robots
 // built like real ones (tests/data/robots/): 5 us PWM steps with dead bands of 2-5 us, and 1 us
-// pulses with dead bands of 2-5 us, and on the default robot (1 us, no dead band but the neck's 3 us).
+// pulses with dead bands of 2-5 us, on the default robot (1 us, no dead band but the neck's 3 us)
+// and on slow servos.
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -85,6 +86,14 @@ TEST(ServoResolutionPipeline, DeadBandRobotStepsAndDeadBands) {
 }
 
 TEST(ServoResolutionPipeline, DefaultRobot) { ExpectResolution(sim::DefaultRobotTruth(), "default"); }
+
+// Slow, laggy servos on a 15 fps stream with 200 ms latency: the probe's first command is watched
+// until the image stops moving and every later one waits as long (a fixed 250 ms read a 1 us
+// servo as 5-7 us steps).
+TEST(ServoResolutionPipeline, SlowServosStepsAndDeadBands) {
+  ExpectResolution(
+      sim::LoadRobotTruth(std::string(OWLCAL_SOURCE_DIR) + "/tests/data/robots/owl_slow_servos_truth.yaml"), "slow");
+}
 
 }  // namespace
 }  // namespace owlcal::pipeline

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "calib/trial_status.h"
 #include "fitting/loop_model.h"
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
@@ -53,7 +54,8 @@ std::vector<fitting::StepTrace> Record(const fs::path& dir, const fitting::LoopM
                         std::to_string(1500 + t.command_us[k]),
                         "1",
                         "-1"});
-        const std::string status = t.info.settled ? "ok" : "not_settled";
+        const std::string status =
+            calib::TrialStatusName(t.info.settled ? calib::TrialStatus::kOk : calib::TrialStatus::kNotSettled);
         w->AppendRow("step_trials.csv",
                      kTrialsHeader,
                      {"1",
@@ -117,6 +119,46 @@ TEST(SettlingStudy, ARobotThatIsTheLoopModelAgreesWithTheModelFittedFromItsSteps
     agree += r.agreement.rfind("agrees", 0) == 0;
   }
   EXPECT_GE(agree, 3) << st->rows[0].agreement << " / " << st->rows[0].why;
+  fs::remove_all(dir);
+}
+
+// A slow, laggy servo on a 15 fps stream with 200 ms latency (tests/data/robots/
+// owl_slow_servos_truth.yaml's kind): a 100 ms lag hides the slew, so the steps do not determine
+// it. The model then uses the stated prior (300 deg/s) and says so, never the unconstrained
+// search's slew (it ran to 2.3e9 us/s); the lag and the exposure delay are still fitted.
+TEST(SettlingStudy, ASlewTheStepsDoNotDetermineFallsBackToTheStatedPrior) {
+  fitting::LoopModel robot;
+  robot.fps = 15;
+  robot.exposure_delay_s = 0.2;
+  robot.lag_s = 0.1;
+  robot.slew_us_per_s = 1e6;
+  robot.nominal_px_per_us = 585.0 * std::tan(0.113 * M_PI / 180);
+  robot.px_per_us = robot.nominal_px_per_us;
+  robot.tolerance_px = protocols::ClosedLoopSettings{}.tolerance_px;
+  const fs::path dir = TempDir("slow");
+  const auto steps = Record(dir, robot, 0.113);
+  std::vector<std::string> warnings;
+  const auto st = StudySettling(
+      dir.string(), steps, models::DefaultRobotConfig(), fitting::CalibrationResult{}, 240.0, 4, 15.0, &warnings);
+  ASSERT_TRUE(st.has_value()) << (warnings.empty() ? "" : warnings[0]);
+  std::printf("motion fit: %s; source %s\n", st->motion.message.c_str(), st->slew_source.c_str());
+  for (const std::string& n : st->notes) std::printf("%s\n", n.c_str());
+  const double slew = st->model.slew_us_per_s;
+  if (st->slew_source == "fitted") {
+    // Determined: then within a factor of 2 of the robot's.
+    EXPECT_GT(slew, 0.5 * robot.slew_us_per_s);
+    EXPECT_LT(slew, 2 * robot.slew_us_per_s);
+  } else {
+    EXPECT_EQ(st->slew_source, "prior");
+    EXPECT_NEAR(slew * st->deg_per_us, 300, 1e-6);
+    EXPECT_TRUE(st->motion.slew_from_prior);
+    EXPECT_FALSE(st->motion.slew_determined);
+    ASSERT_FALSE(st->notes.empty());
+    EXPECT_NE(st->notes[0].find("slew 300 deg/s (a prior: the steps do not determine it)"), std::string::npos)
+        << st->notes[0];
+  }
+  EXPECT_NEAR(st->model.lag_s, robot.lag_s, 0.03);
+  EXPECT_NEAR(st->model.exposure_delay_s, robot.exposure_delay_s, 0.03);
   fs::remove_all(dir);
 }
 

@@ -132,7 +132,20 @@ TEST(DatasetTables, OlderDatasetsWithoutStatusColumnsStillRead) {
   EXPECT_EQ(l[0].measured_us, 1150);
   EXPECT_FALSE(l[0].status);
   EXPECT_FALSE(l[0].last_shift_px);
+  EXPECT_FALSE(l[0].backlash_us);
   EXPECT_EQ(l[0].cause, "end-stop");
+  // The backlash band column: a number, or empty when not measured.
+  Write(dir + "/limits.csv",
+        "step_index,servo,end,configured_us,measured_us,reason,backlash_us,status,message\n"
+        "1,Neck,min,1100,1150,end-stop,11.25,ok,\n1,Neck,max,1950,1950,configured,,ok,\n");
+  const std::vector<LimitRow> b = ReadLimitsCsv(dir);
+  ASSERT_EQ(b.size(), 2u);
+  EXPECT_EQ(b[0].backlash_us, 11.25);
+  EXPECT_FALSE(b[1].backlash_us);
+  Write(dir + "/limits.csv",
+        "step_index,servo,end,configured_us,measured_us,reason,backlash_us\n1,Neck,min,1100,1150,end-stop,wide\n");
+  EXPECT_NE(ErrorOf([&] { ReadLimitsCsv(dir); }).find("limits.csv:2: column backlash_us = 'wide'"), std::string::npos)
+      << ErrorOf([&] { ReadLimitsCsv(dir); });
 }
 
 TEST(DatasetTables, MissingTablesHaveNoRowsAndACutTailIsDropped) {

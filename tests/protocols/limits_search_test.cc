@@ -41,7 +41,7 @@ class SyntheticEye {
     return bgr;
   }
   LimitSearchIo Io() {
-    return {[this](int u) { Move(u); }, [this] { return Image(); }};
+    return {[this](int u) { Move(u); }, [this] { return Image(); }, {}};
   }
   bool black = false, frozen = false;
 
@@ -112,6 +112,82 @@ TEST(LimitSearch, LowEndToo) {
     EXPECT_EQ(r.cause, "end-stop") << r.message;
     EXPECT_LE(std::abs(r.measured_us - 1357), 5) << r.measured_us << " " << r.message;
   }
+}
+
+// A slow servo with backlash on the same wall: the joint (pulse-equivalent) is the applied pulse
+// minus approach * hysteresis, clamped to the stops (given at approach 0, as sim/robot_truth.h);
+// after a move the first image shows it a `lag` fraction short of where it goes, and every later
+// frame halves what is left (a first-order lag).
+class SlowBacklashEye {
+ public:
+  SlowBacklashEye(double hysteresis_us, double lag, int dead_band, double stop_hi)
+      : res_(models::ServoResolution::Rounding(1, dead_band)), h_(hysteresis_us), lag_(lag), stop_hi_(stop_hi) {
+    cv::RNG rng(11);
+    cv::Mat small(40, 60, CV_8UC1);
+    rng.fill(small, cv::RNG::UNIFORM, 40, 220);
+    cv::resize(small, wall_, cv::Size(1600, 300), 0, 0, cv::INTER_CUBIC);
+  }
+  double Target() const { return std::min(stop_hi_, state_.applied_us - h_ * state_.approach); }
+  LimitSearchIo Io(bool with_settle) {
+    LimitSearchIo io;
+    io.move = [this](int u) {
+      state_ = res_.Next(state_, u);
+      shown_ = Target() + lag_ * (shown_ - Target());
+    };
+    io.image = [this] { return Image(); };
+    if (with_settle)
+      io.settle = [this](const cv::Mat&, bool reference) {
+        SettledImage s;
+        double moved = 1e9;
+        while (moved * kPxPerUs >= (reference ? 0.3 : 0.6)) {
+          const double next = Target() + 0.5 * (shown_ - Target());
+          moved = std::abs(next - shown_);
+          shown_ = next;
+          ++s.frames;
+          s.still_at_first_look = s.still_at_first_look && !(s.frames == 1 && moved * kPxPerUs >= 0.6);
+        }
+        s.image = Image();
+        return s;
+      };
+    return io;
+  }
+
+ private:
+  cv::Mat Image() const {
+    const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, -(640 + (shown_ - 1500) * kPxPerUs), 0, 1, -30);
+    cv::Mat out;
+    cv::warpAffine(wall_, out, m, cv::Size(320, 240), cv::INTER_LINEAR);
+    return out;
+  }
+  models::ServoResolution res_;
+  models::ServoState state_{1500, 1};
+  double h_, lag_, stop_hi_, shown_ = 1500;
+  cv::Mat wall_;
+};
+
+// Watched until still, the slow servo's stop comes back within 2 us of the truth (at approach 0,
+// though the probes meet it half a band later) and its 11 us backlash band within 1 us; the search
+// names the servo slow. With the image taken after the wait alone, the lag and the backlash put the
+// stop several us outward.
+TEST(LimitSearch, SlowBacklashedServoIsWatchedUntilStillAndItsBacklashMeasured) {
+  const double stop = 1663;
+  SlowBacklashEye eye(5.5, 0.6, 6, stop);
+  const LimitSearchResult r = SearchLimit(1500, 1700, 0, kPxPerUs, Options(), eye.Io(true));
+  ASSERT_EQ(r.status, calib::TrialStatus::kOk) << r.message;
+  std::cout << "watched: measured " << r.measured_us << " (" << r.cause << "), met " << r.met_us << ", backlash "
+            << (r.backlash_us ? *r.backlash_us : -1) << ": " << r.message << "\n";
+  EXPECT_EQ(r.cause, "end-stop");
+  EXPECT_TRUE(r.slow);
+  EXPECT_GE(r.watched, r.probes);
+  EXPECT_LE(std::abs(r.measured_us - stop), 2) << r.message;
+  ASSERT_TRUE(r.backlash_us);
+  EXPECT_NEAR(*r.backlash_us, 11, 1.0) << r.message;
+  EXPECT_NEAR(r.met_us - r.measured_us, 5.5, 1.0);
+
+  SlowBacklashEye unwatched(5.5, 0.6, 6, stop);
+  const LimitSearchResult u = SearchLimit(1500, 1700, 0, kPxPerUs, Options(), unwatched.Io(false));
+  std::cout << "unwatched: measured " << u.measured_us << " (" << u.cause << "): " << u.message << "\n";
+  EXPECT_GT(std::abs(u.measured_us - stop), 2) << u.message;
 }
 
 TEST(LimitSearch, BlackOrCoveredCameraFailsWithAMessage) {

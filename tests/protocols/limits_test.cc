@@ -96,12 +96,15 @@ int TruthEnd(const sim::VirtualOwl& owl, int servo, int d, double rim_fraction, 
 // border, a soft threshold) is allowed rim_error_us. With check_recommended, the recommended
 // limits (fitting/limits_eval.h, 10 us margin + 5 us for the search's error) must keep >= 10 us from every true
 // end-stop that lies inside the configured range.
+// With max_backlash_error_us >= 0, every end's backlash_us must be within it of the truth's band
+// (2 hysteresis_us).
 void CheckLimits(const sim::VirtualOwlOptions& vo,
                  const std::string& name,
                  const std::vector<int>& servos = {},
                  int max_error_us = 10,
                  int rim_error_us = 10,
-                 bool check_recommended = false) {
+                 bool check_recommended = false,
+                 double max_backlash_error_us = -1) {
   sim::VirtualOwl owl(vo);
   Protocol p = LoadProtocolFile(ResolveProtocolPath("limits"));
   ASSERT_TRUE(p.steps[1].As<LimitsStep>().search_ends);
@@ -128,6 +131,19 @@ void CheckLimits(const sim::VirtualOwlOptions& vo,
     EXPECT_LE(std::abs(measured - truth), cause == "rim" ? rim_error_us : max_error_us) << what;
     EXPECT_EQ(row.cause, cause) << what;
     EXPECT_EQ(row.status, calib::TrialStatus::kOk) << what;
+    if (row.beyond_rim_reason == "end-stop") {
+      // Past the rim, the stop the rim hides: at approach 0 too.
+      const double stop = d > 0 ? owl.Truth().servos[servo].endstop_hi_us : owl.Truth().servos[servo].endstop_lo_us;
+      ASSERT_TRUE(row.beyond_rim_us) << what;
+      std::cout << name << " " << what << ": beyond the rim " << *row.beyond_rim_us << ", true stop " << stop << "\n";
+      EXPECT_LE(std::abs(*row.beyond_rim_us - stop), max_error_us) << what;
+    }
+    if (max_backlash_error_us >= 0) {
+      const double band = 2 * owl.Truth().servos[servo].hysteresis_us;
+      ASSERT_TRUE(row.backlash_us) << what << ": no backlash measured";
+      std::cout << name << " " << what << ": backlash " << *row.backlash_us << " us, truth " << band << " us\n";
+      EXPECT_NEAR(*row.backlash_us, band, max_backlash_error_us) << what;
+    }
     measurements.push_back({servo, d > 0, double(measured), fitting::LimitCauseFromName(row.cause)});
     ++rows;
   }
@@ -204,6 +220,15 @@ TEST(Limits, Step5RobotEveryStopWithin5usAndRecommendedLimitsKeep10us) {
 
 TEST(Limits, DeadBandRobotEveryStopWithin5usAndRecommendedLimitsKeep10us) {
   CheckLimits(RobotFile("tests/data/robots/owl_deadband_truth.yaml", 7), "deadband", {}, 5, 10, true);
+}
+
+// Cheap, slow servos (tests/data/robots/owl_slow_servos_truth.yaml): slew 160-220 deg/s, lag
+// 80-120 ms, the neck's 11 us backlash band plus a 6 us dead band, stops inside the configured
+// range, a 15 fps stream with 200 ms latency. The probe watches the image until it stops moving and
+// measures the backlash band: the protocol completes, every end lies within 5 us of the truth
+// (the stops at approach 0, as the truth gives them) and every band within 2 us.
+TEST(Limits, SlowServosEveryEndWithin5usAndTheBacklashMeasured) {
+  CheckLimits(RobotFile("tests/data/robots/owl_slow_servos_truth.yaml", 13), "slow", {}, 5, 10, true, 2.0);
 }
 
 // The neck: a stop at 1935 us under a configured 1950 us limit (inside the last coarse
