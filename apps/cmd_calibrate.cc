@@ -71,7 +71,7 @@ int RunCalibrate(const CalibrateOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered =
+const bool kCalibrateRegistered =
     RegisterCommand("calibrate",
                     "The main job: run the standard suite, fit, evaluate and write the report folder.\n"
                     "With no --robot it uses the in-process virtual Owl. Produces DIR/results.json (every\n"

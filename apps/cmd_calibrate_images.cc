@@ -248,7 +248,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kCalibrateImagesRegistered = RegisterCommand(
     "calibrate-images",
     "Stereo calibration from a folder of image pairs (left*/right* files, or 1280x480 side-by-side frames\n"
     "with --side-by-side): detect the target, fit both cameras and R, T with sigma, write results.json,\n"

@@ -64,7 +64,7 @@ int RunCatchUp(const CatchUpCmdOptions& o) {
   return study.num_ok == study.num_trials ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kCatchUpRegistered = RegisterCommand(
     "catch-up",
     "Catch-up saccades (course notes: a target faster than about 30 deg/s needs them): the target moves at\n"
     "10, 20 and 30 deg/s across the eye's view (the virtual Owl moves it; a real robot cannot, and every trial\n"

@@ -22,7 +22,7 @@ int RunCentre(const CentreOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kCentreRegistered = RegisterCommand(
     "centre",
     "Send the robot's centre pose (centre_us of every servo in the robot file) and print the reply.\n"
     "One connection per run: a one-client server (the course's C server, MRSsocket.c, or\n"

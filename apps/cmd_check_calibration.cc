@@ -108,7 +108,7 @@ int RunCheckCalibration(const CheckCalibrationOptions& a) {
   return c.verdict == "still valid" ? kExitOk : 3;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kCheckCalibrationRegistered = RegisterCommand(
     "check-calibration",
     "Check a stereo calibration on new images of the board (as ROS's cameracheck): with the calibration held\n"
     "fixed, reprojection RMS per eye and joint and the rectified epipolar error, each with sigma; refits of\n"

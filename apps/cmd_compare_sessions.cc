@@ -44,7 +44,7 @@ int RunCompare(const CompareOptions& a) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kCompareSessionsRegistered = RegisterCommand(
     "compare-sessions",
     "Compare calibrations of one robot from different sessions (results.json files or their folders):\n"
     "parameters side by side with sigma, each pair's differences in sigma units, and which changed.",

@@ -51,7 +51,7 @@ int RunInfo(const DatasetCmdOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kDatasetRegistered = RegisterCommand(
     "dataset",
     "Inspect a recorded dataset: check (exit 1 if unusable), repair (drop a partial tail), info.",
     [](CLI::App* cmd) {

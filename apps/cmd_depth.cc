@@ -280,7 +280,7 @@ int RunDepth(const DepthCmdOptions& a) {
   return failed ? kExitFailed : kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kDepthRegistered = RegisterCommand(
     "depth",
     "Dense disparity and depth with a calibration (results.json, calibration.yaml or the course's\n"
     "intrinsics.xml + extrinsics.xml): rectify, StereoSGBM, write rectified images, disparity (16-bit and\n"

@@ -180,7 +180,7 @@ int RunDetect(const DetectOptions& o) {
   return found > 0 ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kDetectRegistered = RegisterCommand(
     "detect",
     "Detect a chessboard/AprilGrid in images and write an observation CSV. Consumes image files or "
     "folders (left*/right* pairs, single-eye images, or 1280x480 side-by-side frames), or one recorded "

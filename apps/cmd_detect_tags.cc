@@ -73,7 +73,7 @@ int RunDetectTags(const DetectTagsOptions& a) {
   return unreadable == 0 ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kDetectTagsRegistered = RegisterCommand(
     "detect-tags",
     "Detect free-standing AprilTags (any of the families libapriltag 3.3 ships) in image files or\n"
     "folders and write one CSV row per tag: image, family, id, hamming, decision_margin, corners x0 y0 .. x3 y3\n"

@@ -184,7 +184,7 @@ int RunFit(const FitCmdOptions& o) {
   return usable ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kFitRegistered = RegisterCommand(
     "fit",
     "Fit intrinsics per eye (and stereo R, T when both eyes are observed) from an observation CSV. "
     "Produces DIR/results.json (every value with sigma) and DIR/calibration.yaml (OpenCV M1 D1 M2 D2 R T E F R1 R2 P1 "

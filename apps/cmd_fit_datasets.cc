@@ -77,7 +77,7 @@ int RunFitDatasets(FitDatasetsCommand o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kFitDatasetsRegistered = RegisterCommand(
     "fit-datasets",
     "Re-fit a recorded calibration folder (owlcal calibrate's DIR/datasets/) without a robot.\n"
     "Runs calibrate's pipeline on the datasets with the robot and (virtual Owl) the truth their\n"

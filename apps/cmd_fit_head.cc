@@ -83,7 +83,7 @@ int RunFitHead(const FitHeadArgs& a) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kFitHeadRegistered = RegisterCommand(
     "fit-head",
     "Fit servo maps, camera mounts, eye centres/IPD and the neck map from servo-sweep observations of fixed boards",
     [](CLI::App* cmd) {

@@ -191,7 +191,7 @@ int RunFitToeIn(const FitToeInOptions& a) {
   return fit.ok && used == static_cast<int>(sets.size()) ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kFitToeInRegistered = RegisterCommand(
     "fit-toe-in",
     "Eye-pan servo maps (deg/us per eye, sigma including the scatter between sets, chi2/dof) from stereo\n"
     "calibrations taken at known pulse widths. SETS.csv has a header with calibration, Rx, Ry, Lx, Ly; each\n"

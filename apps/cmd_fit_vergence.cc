@@ -100,7 +100,7 @@ int RunFitVergence(const FitVergenceOptions& a) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kFitVergenceRegistered = RegisterCommand(
     "fit-vergence",
     "Fit each eye's pan centre and us/deg scale (and the distance datum) from a vergence log CSV\n"
     "(run, a true distance, Rx, Lx), with sigma and leave-one-out range error; with --constants ROBOT-FILE,\n"

@@ -24,7 +24,7 @@ int RunGrab(const GrabOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kGrabRegistered = RegisterCommand(
     "grab",
     "Save one stereo frame from http://HOST:PORT/stream/video.mjpeg as DIR/left.png, DIR/right.png\n"
     "(split per the robot file's swap_eyes / mirror) and the raw side-by-side DIR/frame.jpg.",

@@ -288,7 +288,7 @@ int RunJog(const JogCmdOptions& o) {
   return code;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kJogRegistered = RegisterCommand(
     "jog",
     "Find each servo's maximal range by hand (arrow keys, live position and image feedback; a\n"
     "prompt when stdin is not a terminal). A limit is widened only by an explicit key, in small\n"

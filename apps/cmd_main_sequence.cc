@@ -68,7 +68,7 @@ int RunMainSequence(const MainSequenceCmdOptions& o) {
   return study.num_ok == study.num_saccades && f.peak.ok ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kMainSequenceRegistered = RegisterCommand(
     "main-sequence",
     "The saccade main sequence: the eye's pan makes saccades of 2-40 deg across a fixation disc, each command\n"
     "at a different phase of the frame clock, on calibrate's fitted maps (--calib) or the robot file's nominal\n"

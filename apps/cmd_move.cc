@@ -32,7 +32,7 @@ int RunMove(const MoveOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kMoveRegistered = RegisterCommand(
     "move",
     "Send one servo command (pulse widths in us, wire order Rx Ry Lx Ly Neck), clamped to the\n"
     "robot file's limits; prints what was sent, any clamp and the server's reply.\n"

@@ -101,7 +101,7 @@ int RunPoseCalibration(const PoseCalibrationOptions& a) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kPoseCalibrationRegistered = RegisterCommand(
     "pose-calibration",
     "The stereo calibration (R, T, E, F, rectification R1 R2 P1 P2, Q) at any servo command, predicted\n"
     "from a calibration folder's head fit (owlcal calibrate), with sigma propagated from the head fit's\n"

@@ -238,7 +238,7 @@ int RunRangeImages(const RangeImagesOptions& a) {
   return s.num_failed == 0 && s.num_low_confidence == 0 ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kRangeImagesRegistered = RegisterCommand(
     "range-images",
     "Range a target in stereo pairs: rectify with a calibration (results.json, calibration.yaml or the\n"
     "course's intrinsics.xml + extrinsics.xml), match a template from the left image along the rectified row\n"

@@ -33,7 +33,7 @@ int RunReport(const ReportCmdOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kReportRegistered = RegisterCommand(
     "report",
     "Regenerate figures (PNG, SVG, CSV, gnuplot script), tables (CSV, Markdown, LaTeX), exports\n"
     "and report/index.html of a calibration folder from DIR/results.json and DIR/evaluation.json.",

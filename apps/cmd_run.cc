@@ -79,7 +79,7 @@ int RunRun(const RunCmdOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kRunRegistered = RegisterCommand(
     "run",
     "Run experiment protocols on a robot and record a dataset.\n"
     "Consumes protocol files (YAML; or standard names: limits, alignment, intrinsics, stereo,\n"

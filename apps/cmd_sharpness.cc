@@ -83,7 +83,7 @@ int RunSharpness(const SharpnessCmdOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kSharpnessRegistered = RegisterCommand(
     "sharpness",
     "Lens sharpness against distance: the edge blur (Gaussian-equivalent sigma of isolated edges) per eye\n"
     "and distance, the fixed-focus lens's fitted focus and depth of field (blur <= sqrt 2 x the in-focus\n"

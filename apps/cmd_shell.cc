@@ -99,7 +99,7 @@ int RunShell(const ShellOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kShellRegistered = RegisterCommand(
     "shell",
     "Send several servo commands over ONE connection: a script (or standard input) of\n"
     "  move Rx Ry Lx Ly Neck | centre | wait SECONDS | quit   ('#' comments)\n"

@@ -149,7 +149,7 @@ int RunSim(const SimCommandOptions& o) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kSimRegistered = RegisterCommand(
     "sim",
     "Run the virtual Owl in real time (servo TCP + MJPEG stream on loopback), or --write-truth FILE",
     [](CLI::App* cmd) {

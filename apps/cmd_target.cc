@@ -91,7 +91,7 @@ int RunTarget(const TargetOptions& a) {
   return kExitOk;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kTargetRegistered = RegisterCommand(
     "target",
     "Write a printable calibration target at true scale (PDF or SVG by --out's extension): a chessboard or\n"
     "AprilGrid from a target file (data/targets/*.yaml), with its dimensions and a scale-check bar, and the\n"

@@ -68,7 +68,7 @@ int RunTrack(const TrackCmdOptions& o) {
   return ok ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kTrackRegistered = RegisterCommand(
     "track",
     "Salience targets and tracking (course notes: Itti & Koch's salience model, Lucas-Kanade tracking in\n"
     "Annex 7): a salience map of the right eye (intensity, colour and orientation difference-of-Gaussians\n"

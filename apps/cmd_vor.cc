@@ -72,7 +72,7 @@ int RunVor(const VorCmdOptions& o) {
   return study.num_ok == study.num_trials ? kExitOk : kExitFailed;
 }
 
-const bool kRegistered = RegisterCommand(
+const bool kVorRegistered = RegisterCommand(
     "vor",
     "The vestibulo-ocular reflex: the neck turns through sines at 0.2-1 Hz and a step, once with the eyes\n"
     "held still and once with the eyes counter-rotating on the calibrated neck and eye-pan maps (--calib: a\n"

@@ -1,9 +1,10 @@
 #pragma once
 // Subcommands of the `owlcal` program register themselves here, one file each
-// (apps/cmd_<name>.cc), so adding a command touches no shared file:
+// (apps/cmd_<name>.cc), so adding a command touches no shared file (the registration variable is
+// named after the command: the files are compiled together in a unity build):
 //
 //   namespace {
-//   const bool kRegistered = owlcal::apps::RegisterCommand(
+//   const bool kMoveRegistered = owlcal::apps::RegisterCommand(
 //       "move", "Send one servo command (pulse widths in us) and print the reply",
 //       [](CLI::App* cmd) {
 //         auto opts = std::make_shared<MoveOptions>();

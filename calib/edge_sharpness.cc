@@ -23,7 +23,7 @@ double Quantile(std::vector<double> v, double q) {
 }
 
 // Bilinear sample of a CV_32F image; false outside.
-bool Sample(const cv::Mat& f, double x, double y, double* out) {
+bool SampleBilinear(const cv::Mat& f, double x, double y, double* out) {
   if (!(x >= 0 && y >= 0 && x <= f.cols - 1 && y <= f.rows - 1)) return false;
   const int x0 = std::min(int(x), f.cols - 2), y0 = std::min(int(y), f.rows - 2);
   const double ax = x - x0, ay = y - y0;
@@ -184,7 +184,7 @@ EdgeSharpness MeasureEdgeSharpness(const cv::Mat& image, const cv::Rect& roi_in,
       const double nx = gx.at<float>(y, x) / m0, ny = gy.at<float>(y, x) / m0;
       // Non-maximum suppression along n (bilinear magnitude one pixel either side).
       double mp, mm;
-      if (!Sample(mag, x + nx, y + ny, &mp) || !Sample(mag, x - nx, y - ny, &mm)) continue;
+      if (!SampleBilinear(mag, x + nx, y + ny, &mp) || !SampleBilinear(mag, x - nx, y - ny, &mm)) continue;
       if (!(m0 >= mp && m0 > mm)) continue;
       ++s.num_candidates;
       // Sub-pixel centre along n: vertex of the parabola through (-1, mm), (0, m0), (1, mp).

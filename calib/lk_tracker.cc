@@ -11,7 +11,7 @@
 namespace owlcal::calib {
 namespace {
 
-cv::Mat Grey(const cv::Mat& image) {
+cv::Mat LkGrey(const cv::Mat& image) {
   if (image.channels() == 1) return image;
   cv::Mat g;
   cv::cvtColor(image, g, cv::COLOR_BGR2GRAY);
@@ -52,7 +52,7 @@ std::string Px(const Eigen::Vector2d& p) {
 
 double PatchNcc(
     const cv::Mat& a, const Eigen::Vector2d& pa, const cv::Mat& b, const Eigen::Vector2d& pb, int window_px) {
-  return Ncc(Patch(Grey(a), pa, window_px), Patch(Grey(b), pb, window_px));
+  return Ncc(Patch(LkGrey(a), pa, window_px), Patch(LkGrey(b), pb, window_px));
 }
 
 bool LkTrackerOptions::Check(std::string* why) const {
@@ -86,7 +86,7 @@ bool LkTracker::Start(const cv::Mat& image, const Eigen::Vector2d& px, std::stri
   std::string w;
   if (!options_.Check(&w)) return fail(w);
   if (image.empty()) return fail("LK tracker: empty image at start");
-  const cv::Mat g = Grey(image);
+  const cv::Mat g = LkGrey(image);
   const double half = options_.window_px / 2;
   if (!Inside(px, g, half)) return fail("LK tracker: start point " + Px(px) + " within half a window of the border");
   cv::Scalar m, sd;
@@ -139,7 +139,7 @@ LkUpdate LkTracker::Track(const cv::Mat& image) {
     u.reason = lost_reason_.empty() ? "not tracking" : "lost earlier: " + lost_reason_;
     return u;
   }
-  const cv::Mat g = Grey(image);
+  const cv::Mat g = LkGrey(image);
   const cv::Size win(options_.window_px, options_.window_px);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
   const double half = options_.window_px / 2;

@@ -14,7 +14,7 @@
 namespace owlcal::calib {
 namespace {
 
-cv::Mat ToGrey(const cv::Mat& m) {
+cv::Mat MatchGrey(const cv::Mat& m) {
   cv::Mat g;
   if (m.channels() == 3)
     cv::cvtColor(m, g, cv::COLOR_BGR2GRAY);
@@ -154,7 +154,7 @@ StereoMatch MatchAlongRow(const cv::Mat& left_rect, const cv::Mat& right_rect, c
   if (!o.Check(&why)) throw std::invalid_argument("StereoMatchOptions: " + why);
   if (left_rect.empty() || right_rect.empty() || left_rect.size() != right_rect.size())
     throw std::invalid_argument("MatchAlongRow: images empty or of different sizes");
-  const cv::Mat left = ToGrey(left_rect), right = ToGrey(right_rect);
+  const cv::Mat left = MatchGrey(left_rect), right = MatchGrey(right_rect);
   StereoMatch m;
   m.lr_error_px = std::numeric_limits<double>::quiet_NaN();
   cv::Rect roi = o.template_roi;

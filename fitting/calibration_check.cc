@@ -11,11 +11,10 @@
 #include <opencv2/calib3d.hpp>
 
 #include "fitting/format.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 // Corner of the left view: cam = left_from_target (angle-axis, t) * point.
 template <typename Camera>

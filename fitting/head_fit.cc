@@ -45,7 +45,7 @@ class StageTimer {
   nlohmann::json timing_ = nlohmann::json::object();
 };
 
-struct SolveOutcome {
+struct HeadSolveOutcome {
   ceres::Solver::Summary final_summary;
   int iterations = 0;
   double initial_cost = 0;
@@ -129,14 +129,14 @@ void DropViewsTheModelDoesNotExplain(const std::vector<calib::View>& views,
 // every inlier (its Jacobian is the one the observability analysis reads), whitened again with
 // the measured noise when options.estimate_corner_sigma. Blocks no residual involves are marked
 // not determined.
-SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
-                                       const HeadFitOptions& options,
-                                       const std::vector<std::string>& classes,
-                                       std::vector<PreparedView>* prepared,
-                                       HeadState* s,
-                                       std::unique_ptr<ceres::Problem>* problem,
-                                       HeadFit* fit,
-                                       StageTimer* timer) {
+HeadSolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
+                                           const HeadFitOptions& options,
+                                           const std::vector<std::string>& classes,
+                                           std::vector<PreparedView>* prepared,
+                                           HeadState* s,
+                                           std::unique_ptr<ceres::Problem>* problem,
+                                           HeadFit* fit,
+                                           StageTimer* timer) {
   const double sigma = options.corner_sigma_px;
   // Each class's widening for errors its views share (HeadFitOptions::sigma_factor_of_class).
   std::vector<double> class_factor(classes.size(), 1.0);
@@ -144,7 +144,7 @@ SolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
     if (const auto it = options.sigma_factor_of_class.find(classes[k]); it != options.sigma_factor_of_class.end())
       class_factor[k] = it->second;
   std::vector<std::array<double, 2>> class_sigma(classes.size(), {sigma, sigma});
-  SolveOutcome out;
+  HeadSolveOutcome out;
   {
     ceres::Problem robust;
     // Every corner is not needed to reach the basin: a spread subset per view is 3-5 x faster.
@@ -598,7 +598,8 @@ HeadFit FitHead(const std::vector<calib::View>& views,
 
   // 2. Solve.
   std::unique_ptr<ceres::Problem> problem;
-  const SolveOutcome solved = SolveWithOutlierRejection(views, options, classes, &prepared, &s, &problem, &fit, &timer);
+  const HeadSolveOutcome solved =
+      SolveWithOutlierRejection(views, options, classes, &prepared, &s, &problem, &fit, &timer);
   const ResidualStatistics stats = ComputeResidualStatistics(views, prepared, s, fit, classes);
   fit.num_views_used = static_cast<int>(prepared.size());
 

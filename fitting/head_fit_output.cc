@@ -9,14 +9,14 @@
 #include <map>
 #include <set>
 
+#include "models/units.h"
+
 namespace owlcal::fitting::internal {
 namespace {
 
 using models::kLeftEye;
 using models::kNumServos;
 using models::kRightEye;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // "a, b, servo.Rx.*": servo.X.<all five> written once as servo.X.*.
 std::string JoinNames(const std::vector<std::string>& names) {

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "fitting/head_gauge.h"
+#include "models/units.h"
 
 namespace owlcal::fitting::internal {
 namespace {
@@ -18,8 +19,6 @@ using models::kLeftEye;
 using models::kNeck;
 using models::kNumServos;
 using models::kRightEye;
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 }  // namespace
 

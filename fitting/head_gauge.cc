@@ -6,6 +6,7 @@
 
 #include "models/head_kinematics.h"
 #include "models/servo_map.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
@@ -15,8 +16,6 @@ using models::kNeck;
 using models::kNumServos;
 using models::kRightEye;
 using models::ServoMap;
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 }  // namespace
 

@@ -11,14 +11,13 @@
 #include "fitting/tag_edge_corner.h"
 #include "models/head_kinematics.h"
 #include "models/servo_map.h"
+#include "models/units.h"
 
 namespace owlcal::fitting::internal {
 namespace {
 
 using models::kNeck;
 using models::ServoMap;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 }  // namespace
 

@@ -4,6 +4,8 @@
 
 #include <Eigen/Geometry>
 
+#include "models/units.h"
+
 namespace owlcal::fitting {
 namespace {
 
@@ -11,8 +13,6 @@ using models::kLeftEye;
 using models::kNeck;
 using models::kNumServos;
 using models::kRightEye;
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 double Uniform(std::mt19937_64* rng, double lo, double hi) {
   return std::uniform_real_distribution<double>(lo, hi)(*rng);

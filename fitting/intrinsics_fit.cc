@@ -18,12 +18,12 @@
 #include "fitting/intrinsics_residual.h"
 #include "fitting/observability.h"
 #include "io/number_text.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
 
 using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string Fmt(double v, int prec = 4) { return io::SignificantText(v, prec); }
 

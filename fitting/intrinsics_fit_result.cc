@@ -5,12 +5,10 @@
 #include <limits>
 #include <string>
 
+#include "models/units.h"
+
 namespace owlcal::fitting {
-namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-}  // namespace
+namespace {}  // namespace
 
 void AppendIntrinsicsToResult(const IntrinsicsFit& fit, const std::string& eye_name, CalibrationResult* result) {
   SolveSummary s = fit.summary;

@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "models/units.h"
+
 namespace owlcal::fitting {
 
 const char* LimitCauseName(LimitCause c) {
@@ -35,7 +37,6 @@ LimitsEvaluation EvaluateLimits(const models::RobotConfig& config,
   if (margin_us < 0 || stop_error_us < 0)
     throw std::invalid_argument("EvaluateLimits: margin_us and stop_error_us must be >= 0");
   const int narrow_us = margin_us + stop_error_us;
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   LimitsEvaluation ev;
   auto deg = [&](int servo, std::optional<double> us) {
     if (!head || !us) return kNaN;

@@ -8,11 +8,11 @@
 
 #include <ceres/ceres.h>
 
+#include "models/units.h"
+
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 constexpr double kSlewMin = 20, kSlewMax = 5000;  // deg/s
 constexpr double kLagMin = 1e-3, kLagMax = 0.3;   // s
 
@@ -257,7 +257,7 @@ MainSequenceFit FitMainSequence(const std::vector<SaccadeTrace>& traces, const M
   if (ps.size() < 3) return not_measured("too few saccades with measured motion (" + std::to_string(ps.size()) + ")");
 
   // 1. Pooled: a grid for the start, then the least-squares fit.
-  double best = kInf, slew = 300, lag = 0.03, delay = o.delay_min_s;
+  double best = kUnbounded, slew = 300, lag = 0.03, delay = o.delay_min_s;
   for (double s : {150.0, 250.0, 400.0, 650.0, 1000.0})
     for (double l : {0.01, 0.03, 0.06})
       for (double d = o.delay_min_s; d <= o.delay_max_s + 1e-9; d += 0.005) {
@@ -287,7 +287,7 @@ MainSequenceFit FitMainSequence(const std::vector<SaccadeTrace>& traces, const M
       mo.fit_lag_sigma_s = std::sqrt(std::max(0.0, c[1][1] * s2));
       mo.fit_delay_sigma_s = std::sqrt(std::max(0.0, c[2][2] * s2));
     } else {
-      mo.fit_slew_sigma_deg_per_s = mo.fit_lag_sigma_s = mo.fit_delay_sigma_s = kInf;
+      mo.fit_slew_sigma_deg_per_s = mo.fit_lag_sigma_s = mo.fit_delay_sigma_s = kUnbounded;
     }
     // The frames of one saccade share their errors (the disc's centroid, the servo's step and
     // backlash, where the frame clock fell): the residual-based covariance treats 16 frames as 16
@@ -384,7 +384,7 @@ MainSequenceFit FitMainSequence(const std::vector<SaccadeTrace>& traces, const M
       m.duration_sigma_s =
           std::isfinite(m.duration_s) ? prop([&](double aa, double ss) { return DurationS(aa, ss, l, vth); }) : kNaN;
     } else {
-      m.slew_sigma_deg_per_s = m.amplitude_sigma_deg = m.peak_sigma_deg_per_s = m.duration_sigma_s = kInf;
+      m.slew_sigma_deg_per_s = m.amplitude_sigma_deg = m.peak_sigma_deg_per_s = m.duration_sigma_s = kUnbounded;
     }
     m.ok = true;
   }
@@ -426,7 +426,7 @@ MainSequenceFit FitMainSequence(const std::vector<SaccadeTrace>& traces, const M
         const double gv = -cdeg / (vmax * vmax), gc = 1 / vmax;
         cu.lag_sigma_s = std::sqrt(std::max(0.0, (gv * gv * c[0][0] + 2 * gv * gc * c[0][1] + gc * gc * c[1][1]) * s2));
       } else {
-        cu.vmax_sigma_deg_per_s = cu.c_sigma_deg = cu.lag_sigma_s = kInf;
+        cu.vmax_sigma_deg_per_s = cu.c_sigma_deg = cu.lag_sigma_s = kUnbounded;
       }
       cu.message = cu.ok ? "Vmax " + Num(vmax, 1) + " +- " + Num(cu.vmax_sigma_deg_per_s, 1) + " deg/s, C " +
                                Num(cdeg, 2) + " +- " + Num(cu.c_sigma_deg, 2) + " deg over " + std::to_string(n) +
@@ -467,7 +467,7 @@ MainSequenceFit FitMainSequence(const std::vector<SaccadeTrace>& traces, const M
         du.slew_sigma_deg_per_s = std::hypot(std::sqrt(std::max(0.0, c[0][0] * s2)), o.angle_scale_sigma * s);
         du.lag_sigma_s = std::sqrt(std::max(0.0, c[1][1] * s2));
       } else {
-        du.slew_sigma_deg_per_s = du.lag_sigma_s = kInf;
+        du.slew_sigma_deg_per_s = du.lag_sigma_s = kUnbounded;
       }
       du.message = du.ok ? "slew " + Num(s, 1) + " +- " + Num(du.slew_sigma_deg_per_s, 1) + " deg/s, lag " +
                                Num(1000 * l, 2) + " +- " + Num(1000 * du.lag_sigma_s, 2) + " ms over " +

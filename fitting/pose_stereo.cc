@@ -6,11 +6,10 @@
 #include <Eigen/Geometry>
 
 #include "fitting/head_gauge.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 // The four eye servos (the neck turns both eyes together and drops out of R, T).
 constexpr models::ServoIndex kEyeServos[4] = {models::kRx, models::kRy, models::kLx, models::kLy};

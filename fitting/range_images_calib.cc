@@ -10,11 +10,10 @@
 #include <Eigen/Geometry>
 
 #include "fitting/format.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 void MarkUndetermined(CalibrationResult* r, const std::string& name, const std::string& why) {
   for (auto& p : r->parameters) {

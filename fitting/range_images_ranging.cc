@@ -24,10 +24,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-cv::Mat CameraMatrix(const models::CameraIntrinsics& c) {
+cv::Mat RangingCameraMatrix(const models::CameraIntrinsics& c) {
   return (cv::Mat_<double>(3, 3) << c.params[0], 0, c.params[2], 0, c.params[1], c.params[3], 0, 0, 1);
 }
-cv::Mat DistCoeffs(const models::CameraIntrinsics& c) {
+cv::Mat RangingDistCoeffs(const models::CameraIntrinsics& c) {
   const auto d = c.Distortion();
   return cv::Mat(d, true).reshape(1, 1);
 }
@@ -120,8 +120,8 @@ StereoRig RigFromResult(const CalibrationResult& r) {
 Rectification RectifyRig(const StereoRig& rig, double alpha) {
   Rectification r;
   r.size = cv::Size(rig.cameras[0].width, rig.cameras[0].height);
-  const cv::Mat K1 = CameraMatrix(rig.cameras[0]), K2 = CameraMatrix(rig.cameras[1]);
-  const cv::Mat D1 = DistCoeffs(rig.cameras[0]), D2 = DistCoeffs(rig.cameras[1]);
+  const cv::Mat K1 = RangingCameraMatrix(rig.cameras[0]), K2 = RangingCameraMatrix(rig.cameras[1]);
+  const cv::Mat D1 = RangingDistCoeffs(rig.cameras[0]), D2 = RangingDistCoeffs(rig.cameras[1]);
   const Eigen::Matrix3d Re = rig.right_from_left.rotation.toRotationMatrix();
   cv::Mat R(3, 3, CV_64F), T(3, 1, CV_64F);
   for (int i = 0; i < 3; ++i) {

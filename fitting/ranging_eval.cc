@@ -9,17 +9,15 @@
 
 #include "models/head_kinematics.h"
 #include "models/statistics.h"
+#include "models/units.h"
 #include "models/vergence.h"
 
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kDeg = M_PI / 180.0;
 // Fixations without a known target radius are size-checked against each other from this many on.
 constexpr int kMinSizePeers = 3;
 
-std::array<double, models::kNumServos> ToDouble(const models::PwmVector& p) {
+std::array<double, models::kNumServos> PwmToDouble(const models::PwmVector& p) {
   std::array<double, models::kNumServos> d;
   for (int i = 0; i < models::kNumServos; ++i) d[i] = p[i];
   return d;
@@ -90,7 +88,7 @@ std::optional<double> SizeRatio(const models::HeadModel& head,
                                 const RangeFix& fix,
                                 double radius_m) {
   if (!(radius_m > 0)) return std::nullopt;
-  const models::JointAngles a = head.Angles(ToDouble(f.Pulses()), Approach(f));
+  const models::JointAngles a = head.Angles(PwmToDouble(f.Pulses()), Approach(f));
   double sum = 0;
   int n = 0;
   for (int e = 0; e < 2; ++e) {
@@ -147,7 +145,7 @@ std::optional<ParamSlot> Slot(const std::string& name) {
   return std::nullopt;
 }
 
-double StepFor(const std::string& name) {
+double RangingStepFor(const std::string& name) {
   if (name.find("deg_per_us") != std::string::npos) return 1e-4;
   if (name.find("_deg") != std::string::npos) return 1e-2;
   return 0.1;  // us, mm, px
@@ -236,7 +234,7 @@ RangeFix RangeFromFixation(const models::HeadModel& head,
                            const Fixation& f,
                            const RangingOptions& options,
                            const Eigen::Vector2d* pixels) {
-  return RangeFromPulses(head, f, ToDouble(f.Pulses()), options, pixels);
+  return RangeFromPulses(head, f, PwmToDouble(f.Pulses()), options, pixels);
 }
 
 std::optional<double> NominalRange(const models::RobotConfig& config, const models::PwmVector& pwm_us) {
@@ -284,7 +282,7 @@ std::optional<Fixation> SyntheticFixation(const models::HeadModel& head,
     f.pwm_us[models::kTiltServo[e]] = int(std::lround(u_tilt));
   }
   f.pwm_us[models::kNeck] = int(std::lround(neck_us));
-  const models::JointAngles q = head.Angles(ToDouble(f.pwm_us));
+  const models::JointAngles q = head.Angles(PwmToDouble(f.pwm_us));
   for (int e = 0; e < 2; ++e) {
     Eigen::Vector2d px;
     if (!head.Project(models::Eye(e), q, target_in_base, &px)) return std::nullopt;
@@ -309,7 +307,7 @@ double RangeVariance(const models::HeadModel& head,
   if (n > 0) {
     Eigen::RowVectorXd J = Eigen::RowVectorXd::Zero(n);
     for (int i = 0; i < n; ++i) {
-      const double h = StepFor(cov.names[i]);
+      const double h = RangingStepFor(cov.names[i]);
       models::HeadModel hp = head, hm = head;
       if (!PerturbHead(cov.names[i], h, &hp) || !PerturbHead(cov.names[i], -h, &hm)) continue;
       const RangeFix a = RangeFromFixation(hp, f, options), b = RangeFromFixation(hm, f, options);
@@ -331,7 +329,7 @@ double RangeVariance(const models::HeadModel& head,
     }
   } else {
     // The gaze is the optical axis at the commanded PWM: the command's quantisation counts.
-    const std::array<double, models::kNumServos> base = ToDouble(f.Pulses());
+    const std::array<double, models::kNumServos> base = PwmToDouble(f.Pulses());
     const std::optional<Eigen::Vector2d> none[2];
     for (int servo : {int(models::kLx), int(models::kRx)}) {
       auto up = base, dn = base;
@@ -343,7 +341,7 @@ double RangeVariance(const models::HeadModel& head,
     }
   }
   // The pulse each servo applied, when it is not known exactly (dead band, PWM step).
-  const std::array<double, models::kNumServos> pulses = ToDouble(f.Pulses());
+  const std::array<double, models::kNumServos> pulses = PwmToDouble(f.Pulses());
   for (int servo = 0; servo < models::kNumServos; ++servo) {
     const double sigma = f.applied_sigma_us[servo];
     if (!(sigma > 0)) continue;

@@ -9,23 +9,22 @@
 
 #include "fitting/intrinsics_fit.h"
 #include "models/slew_lag.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
 
-constexpr double kDeg = 180.0 / M_PI;
-
 nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 nlohmann::json Num(const std::optional<double>& v) { return v ? Num(*v) : nlohmann::json(nullptr); }
 
-struct Spread {
+struct CheckSpread {
   int n = 0;
   double mean = NAN, sigma = NAN, median = NAN, min = NAN, max = NAN;
 };
 
 // Mean, sample standard deviation (n >= 2), median and range.
-Spread SpreadOf(std::vector<double> v) {
-  Spread s;
+CheckSpread CheckSpreadOf(std::vector<double> v) {
+  CheckSpread s;
   s.n = int(v.size());
   if (v.empty()) return s;
   std::sort(v.begin(), v.end());
@@ -75,7 +74,7 @@ std::optional<double> ExpectedLatencyReadingMs(const LatencyTruth& truth, const 
   // Fraction of the step the joint must cover, and when it does (slew + first-order lag from
   // rest, in units of the step; y rises monotonically).
   const double fraction = *t.threshold_px / shift_px;
-  const double slew = truth.slew_deg_per_s[t.servo] / kDeg / step_rad;
+  const double slew = truth.slew_deg_per_s[t.servo] / kRadToDeg / step_rad;
   const double lag = truth.lag_s[t.servo];
   auto y = [&](double s) { return models::SlewLagState(0, 0, 1, slew, lag, s); };
   double lo = 0, hi = 1.0 / slew + 50 * lag + 1e-3;
@@ -128,7 +127,7 @@ LatencyCheck CheckLatency(const std::vector<LatencyTrial>& trials, const std::op
         ++why_no_truth[why];
       }
     }
-    const Spread s = SpreadOf(ms);
+    const CheckSpread s = CheckSpreadOf(ms);
     g.num_ok = s.n;
     g.mean_ms = s.mean;
     g.sigma_ms = s.sigma;
@@ -137,7 +136,7 @@ LatencyCheck CheckLatency(const std::vector<LatencyTrial>& trials, const std::op
     g.max_ms = s.max;
     g.num_with_truth = int(pred.size());
     if (!pred.empty()) {
-      g.truth_mean_ms = SpreadOf(pred).mean;
+      g.truth_mean_ms = CheckSpreadOf(pred).mean;
       g.max_abs_error_ms = max_err;
     }
     c.groups.push_back(g);
@@ -161,7 +160,7 @@ AlignmentCheck CheckAlignment(const std::vector<AlignmentFrame>& frames,
   AlignmentCheck c;
   c.num_frames = int(frames.size());
   c.tolerance_vertical_px = 1.0;
-  c.tolerance_roll_deg = std::atan(1.0 / (0.5 * image_width)) * kDeg;
+  c.tolerance_roll_deg = std::atan(1.0 / (0.5 * image_width)) * kRadToDeg;
   c.tolerance_source =
       "a block matcher searching along image rows (OpenCV StereoBM/SGBM, the course's disparity code on unrectified "
       "images) tolerates about 1 px of vertical disparity: |vertical offset| <= 1 px, and |roll| <= atan(1 px / " +
@@ -177,7 +176,7 @@ AlignmentCheck CheckAlignment(const std::vector<AlignmentFrame>& frames,
     if (f.horizontal_offset_px) dx.push_back(*f.horizontal_offset_px);
     if (c.method.empty()) c.method = f.method;
   }
-  const Spread r = SpreadOf(roll), v = SpreadOf(dy), h = SpreadOf(dx);
+  const CheckSpread r = CheckSpreadOf(roll), v = CheckSpreadOf(dy), h = CheckSpreadOf(dx);
   c.num_roll = r.n;
   c.num_vertical = v.n;
   c.roll_deg = r.mean;
@@ -198,7 +197,7 @@ AlignmentCheck CheckAlignment(const std::vector<AlignmentFrame>& frames,
   if (r.n == 0)
     c.advice.push_back("roll not measured (no chessboard in both eyes): the verdict is on the offset alone");
   if (!dy_ok) {
-    const double us = std::abs(c.vertical_px) / focal_px * kDeg / deg_per_us;
+    const double us = std::abs(c.vertical_px) / focal_px * kRadToDeg / deg_per_us;
     c.advice.push_back("vertical offset " + Fixed(c.vertical_px, 2) + " px (left - right) is about " +
                        std::to_string(int(std::lround(us))) +
                        " us of one eye's tilt (Ry or Ly): adjust its centre in the robot file, or use the "
@@ -217,7 +216,7 @@ std::array<double, 2> EdgeFovDeg(const models::CameraIntrinsics& cam) {
     Eigen::Vector3d a, b;
     const double p0[2] = {u0, v0}, p1[2] = {u1, v1};
     if (!cam.Unproject(p0, a.data()) || !cam.Unproject(p1, b.data())) return double(NAN);
-    return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * kDeg;
+    return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * kRadToDeg;
   };
   return {angle(-0.5, cy, cam.width - 0.5, cy), angle(cx, -0.5, cx, cam.height - 0.5)};
 }
@@ -278,8 +277,8 @@ FovCheck CheckFieldOfView(const CalibrationResult& result,
     const Eigen::Matrix2d cf = J * cov * J.transpose();
     row.hfov_sigma_deg = any_sigma ? std::sqrt(std::max(0.0, cf(0, 0))) : NAN;
     row.vfov_sigma_deg = any_sigma ? std::sqrt(std::max(0.0, cf(1, 1))) : NAN;
-    row.pinhole_hfov_deg = 2 * std::atan(0.5 * cam.width / cam.params[0]) * kDeg;
-    row.pinhole_vfov_deg = 2 * std::atan(0.5 * cam.height / cam.params[1]) * kDeg;
+    row.pinhole_hfov_deg = 2 * std::atan(0.5 * cam.width / cam.params[0]) * kRadToDeg;
+    row.pinhole_vfov_deg = 2 * std::atan(0.5 * cam.height / cam.params[1]) * kRadToDeg;
     row.datasheet_f_px = ds.FocalPx(cam.width);
     row.datasheet_hfov_deg = ds.hfov_deg;
     row.datasheet_vfov_deg = ds.vfov_deg;

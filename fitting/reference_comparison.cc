@@ -6,10 +6,10 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "models/units.h"
+
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 // One calibration's comparable numbers: fx fy cx cy per eye, rotation vector [deg], T [display unit].
 struct Numbers {
@@ -46,7 +46,7 @@ double LengthFactor(const std::string& from, const std::string& to) {
   return 0;
 }
 
-std::string Fixed(double v, int digits) {
+std::string FixedDigits(double v, int digits) {
   if (!std::isfinite(v)) return "";
   std::ostringstream s;
   s.setf(std::ios::fixed);
@@ -299,12 +299,12 @@ ReferenceComparison CompareWithReference(const std::vector<calib::View>& left_vi
   std::ostringstream s;
   s << "Against the " << c.reference_name << " reference (" << c.reference_model << "), over " << c.num_weighted
     << " parameters weighted by owlcal's sigma: the lens-model choice (" << c.owlcal_model << ") explains "
-    << Fixed(100 * c.share_model, 0) << " % of the difference, the corner detection "
-    << Fixed(100 * c.share_detection, 0) << " %, the board's bow " << Fixed(100 * c.share_bow, 0)
-    << " %, owlcal's estimator (robust loss, per-eye noise) " << Fixed(100 * c.share_estimator, 0) << " %";
+    << FixedDigits(100 * c.share_model, 0) << " % of the difference, the corner detection "
+    << FixedDigits(100 * c.share_detection, 0) << " %, the board's bow " << FixedDigits(100 * c.share_bow, 0)
+    << " %, owlcal's estimator (robust loss, per-eye noise) " << FixedDigits(100 * c.share_estimator, 0) << " %";
   if (worst)
-    s << "; largest: " << worst->name << " " << Fixed(worst->Total(), 3) << " " << worst->unit << " ("
-      << Fixed(worst->Total() / worst->owlcal_sigma, 1) << " sigma)";
+    s << "; largest: " << worst->name << " " << FixedDigits(worst->Total(), 3) << " " << worst->unit << " ("
+      << FixedDigits(worst->Total() / worst->owlcal_sigma, 1) << " sigma)";
   c.message = s.str();
   return c;
 }
@@ -358,20 +358,21 @@ std::string ReferenceComparisonMarkdown(const ReferenceComparison& c) {
   }
   s << c.message << ".\n\n"
     << "A = the reference; B = OpenCV with the reference's flags on owlcal's corners (RMS "
-    << Fixed(c.rms_reference_model_px, 4) << " px); D = OpenCV with owlcal's model " << c.owlcal_model << " (RMS "
-    << Fixed(c.rms_owlcal_model_px, 4) << " px); E = owlcal with a flat board (RMS " << Fixed(c.rms_owlcal_flat_px, 4)
-    << " px); C = owlcal (RMS " << Fixed(c.rms_owlcal_px, 4)
+    << FixedDigits(c.rms_reference_model_px, 4) << " px); D = OpenCV with owlcal's model " << c.owlcal_model << " (RMS "
+    << FixedDigits(c.rms_owlcal_model_px, 4) << " px); E = owlcal with a flat board (RMS "
+    << FixedDigits(c.rms_owlcal_flat_px, 4) << " px); C = owlcal (RMS " << FixedDigits(c.rms_owlcal_px, 4)
     << " px). detection = B - A, model = D - B, estimator = E - D, bow = C - E; they add up to C - A.\n\n"
     << "| parameter | unit | reference A | owlcal C | sigma | C - A | (C - A) / sigma | detection | model | estimator "
        "| bow |\n"
     << "|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : c.rows) {
     const int dig = r.unit == "px" ? 2 : 3;
-    s << "| " << r.name << " | " << r.unit << " | " << Fixed(r.reference, dig + 1) << " | " << Fixed(r.owlcal, dig + 1)
-      << " | " << Fixed(r.owlcal_sigma, dig + 1) << " | " << Fixed(r.Total(), dig) << " | "
-      << (r.owlcal_sigma > 0 ? Fixed(r.Total() / r.owlcal_sigma, 1) : std::string()) << " | "
-      << Fixed(r.Detection(), dig) << " | " << Fixed(r.Model(), dig) << " | " << Fixed(r.Estimator(), dig) << " | "
-      << Fixed(r.Bow(), dig) << " |\n";
+    s << "| " << r.name << " | " << r.unit << " | " << FixedDigits(r.reference, dig + 1) << " | "
+      << FixedDigits(r.owlcal, dig + 1) << " | " << FixedDigits(r.owlcal_sigma, dig + 1) << " | "
+      << FixedDigits(r.Total(), dig) << " | "
+      << (r.owlcal_sigma > 0 ? FixedDigits(r.Total() / r.owlcal_sigma, 1) : std::string()) << " | "
+      << FixedDigits(r.Detection(), dig) << " | " << FixedDigits(r.Model(), dig) << " | "
+      << FixedDigits(r.Estimator(), dig) << " | " << FixedDigits(r.Bow(), dig) << " |\n";
   }
   for (const auto& n : c.notes) s << "\nNote: " << n << "\n";
   return s.str();

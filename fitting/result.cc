@@ -14,7 +14,7 @@ namespace {
 
 using nlohmann::json;
 
-json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+json JsonNum(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 double NumOr(const json& j, const char* key, double dflt = std::numeric_limits<double>::quiet_NaN()) {
   if (!j.contains(key) || j.at(key).is_null()) return dflt;
   return j.at(key).get<double>();
@@ -126,11 +126,11 @@ json ToJson(const CalibrationResult& r) {
   j["parameters"] = json::array();
   for (const Parameter& p : r.parameters) {
     json jp = {{"name", p.name},
-               {"value", Num(p.value)},
-               {"sigma", Num(p.sigma)},
+               {"value", JsonNum(p.value)},
+               {"sigma", JsonNum(p.sigma)},
                {"unit", p.unit},
                {"determined", p.determined}};
-    if (p.truth) jp["truth"] = Num(*p.truth);
+    if (p.truth) jp["truth"] = JsonNum(*p.truth);
     if (!p.note.empty()) jp["note"] = p.note;
     if (p.held) jp["held"] = true;
     j["parameters"].push_back(jp);
@@ -140,11 +140,11 @@ json ToJson(const CalibrationResult& r) {
     j["solver"].push_back({{"problem", s.problem},
                            {"termination", s.termination},
                            {"message", s.message},
-                           {"initial_cost", Num(s.initial_cost)},
-                           {"final_cost", Num(s.final_cost)},
+                           {"initial_cost", JsonNum(s.initial_cost)},
+                           {"final_cost", JsonNum(s.final_cost)},
                            {"iterations", s.iterations},
-                           {"time_s", Num(s.time_s)},
-                           {"rms_px", Num(s.rms_px)},
+                           {"time_s", JsonNum(s.time_s)},
+                           {"rms_px", JsonNum(s.rms_px)},
                            {"num_residuals", s.num_residuals},
                            {"num_outliers", s.num_outliers},
                            {"usable", s.usable}});

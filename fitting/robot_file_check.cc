@@ -7,7 +7,7 @@
 namespace owlcal::fitting {
 namespace {
 
-std::string Num(double v, int significant) { return io::SignificantText(v, significant); }
+std::string SignificantNum(double v, int significant) { return io::SignificantText(v, significant); }
 
 // The fitted parameter, when it says something: present, determined, finite, with a finite sigma.
 const Parameter* Usable(const CalibrationResult& r, const std::string& name) {
@@ -46,11 +46,12 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
                  const std::string& fix) {
     RobotFileDisagreement d{servo.empty() ? kind : servo + " " + kind, p.name, p.value, p.sigma, file, unit, "", ""};
     const double z = p.sigma > 0 ? (p.value - file) / p.sigma : INFINITY;
-    d.item = (servo.empty() ? kind : servo) + " " + Num(p.value, 6) + " \u00b1 " + Num(p.sigma, 2) + " " + unit +
-             ", file " + Num(file, 6) + " " + unit + " (" + detail + ", " + Num(std::abs(z), 3) + "\u03c3)";
-    d.message = (servo.empty() ? "" : servo + " ") + kind + " " + Num(p.value, 6) + " \u00b1 " + Num(p.sigma, 2) + " " +
-                unit + ", robot file says " + Num(file, 6) + " " + unit + " (" + detail + ", " + Num(std::abs(z), 3) +
-                "\u03c3): " + fix;
+    d.item = (servo.empty() ? kind : servo) + " " + SignificantNum(p.value, 6) + " \u00b1 " +
+             SignificantNum(p.sigma, 2) + " " + unit + ", file " + SignificantNum(file, 6) + " " + unit + " (" +
+             detail + ", " + SignificantNum(std::abs(z), 3) + "\u03c3)";
+    d.message = (servo.empty() ? "" : servo + " ") + kind + " " + SignificantNum(p.value, 6) + " \u00b1 " +
+                SignificantNum(p.sigma, 2) + " " + unit + ", robot file says " + SignificantNum(file, 6) + " " + unit +
+                " (" + detail + ", " + SignificantNum(std::abs(z), 3) + "\u03c3): " + fix;
     out.push_back(std::move(d));
   };
 
@@ -62,7 +63,7 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
           *p,
           file,
           "mm",
-          Num(100 * std::abs(p->value - file) / p->value, 2) + " % of every nominal range",
+          SignificantNum(100 * std::abs(p->value - file) / p->value, 2) + " % of every nominal range",
           "update ipd_mm in the robot file");
   }
   for (int i = 0; i < models::kNumServos; ++i) {
@@ -75,14 +76,14 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
             *p,
             sc.centre_us,
             "\u00b5s",
-            Num(std::abs(p->value - sc.centre_us) * sc.nominal_deg_per_us, 2) + "\u00b0 off straight ahead",
+            SignificantNum(std::abs(p->value - sc.centre_us) * sc.nominal_deg_per_us, 2) + "\u00b0 off straight ahead",
             "update centre_us in the robot file");
     }
     if (const Parameter* p = Usable(fitted, "servo." + name + ".deg_per_us")) {
       if (p->value < 0 && std::abs(p->value) > tol.n_sigma * p->sigma) {
         RobotFileDisagreement d{name + " direction", p->name, p->value, p->sigma, double(sc.direction), "", "", ""};
         d.item = name + " turns the other way from the file's direction " + std::to_string(sc.direction) +
-                 " (fitted deg/\u00b5s " + Num(p->value, 4) + " \u00b1 " + Num(p->sigma, 2) +
+                 " (fitted deg/\u00b5s " + SignificantNum(p->value, 4) + " \u00b1 " + SignificantNum(p->sigma, 2) +
                  "): set direction: " + std::to_string(-sc.direction);
         d.message = d.item + " in the robot file";
         out.push_back(std::move(d));
@@ -92,7 +93,7 @@ std::vector<RobotFileDisagreement> CompareWithRobotFile(const CalibrationResult&
             *p,
             sc.nominal_deg_per_us,
             "deg/\u00b5s",
-            Num(100 * (p->value / sc.nominal_deg_per_us - 1), 2) + " %",
+            SignificantNum(100 * (p->value / sc.nominal_deg_per_us - 1), 2) + " %",
             "update deg_per_us in the robot file");
       }
     }

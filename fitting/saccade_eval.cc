@@ -6,11 +6,10 @@
 
 #include "fitting/ploop_analysis.h"
 #include "models/statistics.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 using models::Median;
 

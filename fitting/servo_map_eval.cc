@@ -8,11 +8,10 @@
 
 #include "fitting/ranging_eval.h"
 #include "models/servo_map.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 // Statistics of fitted_rad(u) - truth_rad(u) [deg] over n equally spaced samples.
 template <typename Fitted, typename Truth>

@@ -8,13 +8,10 @@
 #include <stdexcept>
 
 #include "fitting/format.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
-namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-}  // namespace
+namespace {}  // namespace
 
 SessionComparison CompareSessions(const std::vector<NamedResult>& sessions,
                                   const std::vector<std::string>& names,

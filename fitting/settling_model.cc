@@ -9,24 +9,24 @@
 #include "fitting/ploop_analysis.h"
 #include "io/number_text.h"
 #include "models/statistics.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string F(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : "n/a"; }
 
 using models::Median;
 
-struct Spread {
+struct SettlingSpread {
   double median = kNaN, lo = kNaN, hi = kNaN;
   int settled = 0, runs = 0;
 };
 
 // The loop model over its exposure-delay uncertainty and noise seeds.
-Spread Predict(const LoopModel& base, double gain, double amplitude_us, const SettlingOptions& o, double delay_sd) {
-  Spread s;
+SettlingSpread Predict(
+    const LoopModel& base, double gain, double amplitude_us, const SettlingOptions& o, double delay_sd) {
+  SettlingSpread s;
   std::vector<double> t;
   const double spread = std::max(o.delay_spread_s, 2 * delay_sd);
   uint64_t seed = 17;
@@ -122,7 +122,7 @@ SettlingStudy CompareSettling(const LoopModel& model,
     r.measured_median_s = Median(t);
     r.measured_lo_s = t.empty() ? kNaN : *std::min_element(t.begin(), t.end());
     r.measured_hi_s = t.empty() ? kNaN : *std::max_element(t.begin(), t.end());
-    const Spread p = Predict(model, r.gain, amp_us, o, motion.exposure_delay_sigma_s);
+    const SettlingSpread p = Predict(model, r.gain, amp_us, o, motion.exposure_delay_sigma_s);
     r.predicted_median_s = p.median;
     r.predicted_lo_s = p.lo;
     r.predicted_hi_s = p.hi;
@@ -209,7 +209,7 @@ SettlingStudy CompareSettling(const LoopModel& model,
       SettlingCurvePoint c;
       c.gain = g;
       c.amplitude_deg = a;
-      const Spread p = Predict(model, g, a / deg_per_us, co, motion.exposure_delay_sigma_s);
+      const SettlingSpread p = Predict(model, g, a / deg_per_us, co, motion.exposure_delay_sigma_s);
       c.median_s = p.median;
       c.lo_s = p.lo;
       c.hi_s = p.hi;

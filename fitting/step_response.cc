@@ -4,9 +4,10 @@
 #include <limits>
 #include <stdexcept>
 
+#include "models/units.h"
+
 namespace owlcal::fitting {
 namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // First time the normalised response e reaches `level`, interpolated; NaN if never.
 double FirstCrossing(const std::vector<double>& t, const std::vector<double>& e, double level) {

@@ -20,25 +20,25 @@
 #include "fitting/intrinsics_residual.h"
 #include "fitting/observability.h"
 #include "io/number_text.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
 
 using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr const char* kEye[2] = {"left", "right"};
+constexpr const char* kStereoEye[2] = {"left", "right"};
 
-std::string Fmt(double v, int prec = 4) { return io::SignificantText(v, prec); }
+std::string StereoFmt(double v, int prec = 4) { return io::SignificantText(v, prec); }
 
 Eigen::Vector3d RotVec(const Eigen::Quaterniond& q) {
   const Eigen::AngleAxisd aa(q.normalized());
   return aa.angle() * aa.axis();
 }
 
-cv::Mat CameraMatrix(const models::CameraIntrinsics& c) {
+cv::Mat StereoCameraMatrix(const models::CameraIntrinsics& c) {
   return (cv::Mat_<double>(3, 3) << c.params[0], 0, c.params[2], 0, c.params[1], c.params[3], 0, 0, 1);
 }
-cv::Mat DistCoeffs(const models::CameraIntrinsics& c) {
+cv::Mat StereoDistCoeffs(const models::CameraIntrinsics& c) {
   const std::vector<double> d = c.Distortion();
   return cv::Mat(d, true).reshape(1, 1);
 }
@@ -55,7 +55,7 @@ bool StereoFitOptions::Check(std::string* why) const {
     return fail("width/height must be > 0, got " + std::to_string(width) + "x" + std::to_string(height));
   if (length_unit.empty()) return fail("length_unit must not be empty");
   if (rectify_alpha != -1 && (rectify_alpha < 0 || rectify_alpha > 1))
-    return fail("rectify_alpha must be -1 or 0..1, got " + Fmt(rectify_alpha));
+    return fail("rectify_alpha must be -1 or 0..1, got " + StereoFmt(rectify_alpha));
   if (max_iterations < 1) return fail("max_iterations must be >= 1, got " + std::to_string(max_iterations));
   return true;
 }
@@ -176,7 +176,8 @@ std::vector<std::string> StereoTangentNames(const StereoFitOptions& options, int
   const std::vector<std::string> names = IntrinsicParamNames(options.intrinsics.model);
   for (int e = 0; e < 2 && !options.fix_intrinsics; ++e)
     for (int i = 0; i < np; ++i)
-      if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) out.push_back(std::string(kEye[e]) + "." + names[i]);
+      if (std::find(fixed.begin(), fixed.end(), i) == fixed.end())
+        out.push_back(std::string(kStereoEye[e]) + "." + names[i]);
   for (const char* n : {"stereo.rx", "stereo.ry", "stereo.rz", "stereo.tx", "stereo.ty", "stereo.tz"}) out.push_back(n);
   if (options.fit_board_warp)
     for (const char* n : {"stereo.board_warp_x", "stereo.board_warp_y"}) out.push_back(n);
@@ -286,7 +287,7 @@ void ReportStereoCovariance(const Observability& obs, double scale, const Stereo
   const std::vector<std::string> names = IntrinsicParamNames(model);
   const int ng = 2 * np + 6;
   for (int e = 0; e < 2; ++e)
-    for (const auto& nm : names) fit->param_names.push_back(std::string(kEye[e]) + "." + nm);
+    for (const auto& nm : names) fit->param_names.push_back(std::string(kStereoEye[e]) + "." + nm);
   for (const char* nm : {"stereo.rx", "stereo.ry", "stereo.rz", "stereo.tx", "stereo.ty", "stereo.tz"})
     fit->param_names.push_back(nm);
   std::vector<int> free_idx;
@@ -363,8 +364,8 @@ void Rectify(const std::vector<calib::View>& left_views,
              const std::vector<calib::View>& right_views,
              const StereoFitOptions& options,
              StereoFit* fit) {
-  const cv::Mat m1 = CameraMatrix(fit->cameras[0]), d1 = DistCoeffs(fit->cameras[0]);
-  const cv::Mat m2 = CameraMatrix(fit->cameras[1]), d2 = DistCoeffs(fit->cameras[1]);
+  const cv::Mat m1 = StereoCameraMatrix(fit->cameras[0]), d1 = StereoDistCoeffs(fit->cameras[0]);
+  const cv::Mat m2 = StereoCameraMatrix(fit->cameras[1]), d2 = StereoDistCoeffs(fit->cameras[1]);
   cv::Mat r, t, r1, r2, p1, p2, q;
   cv::eigen2cv(Eigen::Matrix3d(fit->right_from_left.rotation.toRotationMatrix()), r);
   cv::eigen2cv(Eigen::Vector3d(fit->right_from_left.translation), t);
@@ -451,9 +452,9 @@ StereoFit FitStereo(const std::vector<calib::View>& left_views,
   if (!fit.message.empty()) return fit;
   for (int e = 0; e < 2; ++e) {
     if (fit.per_eye[e].ok) continue;
-    fit.message = stereo_params + " cannot be determined: the " + kEye[e] +
+    fit.message = stereo_params + " cannot be determined: the " + kStereoEye[e] +
                   " camera's intrinsics could not be fitted: " + fit.per_eye[e].message;
-    fit.undetermined.push_back(std::string("stereo.*: ") + kEye[e] + " intrinsics not determined");
+    fit.undetermined.push_back(std::string("stereo.*: ") + kStereoEye[e] + " intrinsics not determined");
     return fit;
   }
   std::map<int, int> left_of_frame, right_of_frame;
@@ -504,10 +505,10 @@ StereoFit FitStereo(const std::vector<calib::View>& left_views,
   Rectify(left_views, right_views, options, &fit);
   fit.ok = true;
   std::ostringstream msg;
-  msg << fit.paired_frames.size() << " pairs, RMS left " << Fmt(fit.rms_px[0]) << " right " << Fmt(fit.rms_px[1])
-      << " joint " << Fmt(fit.rms_joint_px) << " px, baseline " << Fmt(fit.right_from_left.translation.norm(), 6) << " "
-      << options.length_unit << ", rectified |dy| mean " << Fmt(fit.rectified_dy_mean_px) << " max "
-      << Fmt(fit.rectified_dy_max_px) << " px";
+  msg << fit.paired_frames.size() << " pairs, RMS left " << StereoFmt(fit.rms_px[0]) << " right "
+      << StereoFmt(fit.rms_px[1]) << " joint " << StereoFmt(fit.rms_joint_px) << " px, baseline "
+      << StereoFmt(fit.right_from_left.translation.norm(), 6) << " " << options.length_unit << ", rectified |dy| mean "
+      << StereoFmt(fit.rectified_dy_mean_px) << " max " << StereoFmt(fit.rectified_dy_max_px) << " px";
   fit.message = msg.str();
   bool ext_ok = true;
   for (int i = 2 * d.np; i < 2 * d.np + 6; ++i) ext_ok = ext_ok && fit.determined[i];

@@ -7,13 +7,13 @@
 
 #include <Eigen/Geometry>
 
+#include "models/units.h"
+
 namespace owlcal::fitting {
 namespace {
+constexpr const char* kEyeName[2] = {"left", "right"};
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr const char* kEye[2] = {"left", "right"};
-
-Eigen::Vector3d RotVec(const Eigen::Quaterniond& q) {
+Eigen::Vector3d RotationVector(const Eigen::Quaterniond& q) {
   const Eigen::AngleAxisd aa(q.normalized());
   return aa.angle() * aa.axis();
 }
@@ -24,7 +24,7 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   if (!fit.ok) {
     for (int e = 0; e < 2; ++e)
       if (fit.per_eye[e].ok || !fit.per_eye[e].message.empty())
-        AppendIntrinsicsToResult(fit.per_eye[e], kEye[e], result);
+        AppendIntrinsicsToResult(fit.per_eye[e], kEyeName[e], result);
     result->warnings.push_back("stereo: " + fit.message);
     SolveSummary s = fit.summary;
     s.problem = "stereo";
@@ -70,7 +70,7 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   const double f = metres ? 1000.0 : 1.0;
   const std::string unit = metres ? "mm" : fit.length_unit + "s";
   const int ro = 2 * np, to = 2 * np + 3;
-  const Eigen::Vector3d rv = RotVec(fit.right_from_left.rotation);
+  const Eigen::Vector3d rv = RotationVector(fit.right_from_left.rotation);
   const Eigen::Vector3d t = fit.right_from_left.translation;
   const char* rn[3] = {"stereo.rx_deg", "stereo.ry_deg", "stereo.rz_deg"};
   const char* tn[3] = {"stereo.tx", "stereo.ty", "stereo.tz"};
@@ -137,7 +137,7 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   result->summaries.push_back(s);
   for (int e = 0; e < 2; ++e) {
     SolveSummary pe = fit.per_eye[e].summary;
-    pe.problem = std::string("intrinsics.") + kEye[e] + " (initialisation)";
+    pe.problem = std::string("intrinsics.") + kEyeName[e] + " (initialisation)";
     result->summaries.push_back(pe);
   }
   nlohmann::json d;
@@ -150,7 +150,7 @@ void AppendStereoToResult(const StereoFit& fit, CalibrationResult* result) {
   d["length_unit"] = fit.length_unit;
   nlohmann::json rej = nlohmann::json::array();
   for (const auto& r : fit.rejected)
-    rej.push_back({{"eye", kEye[r.eye == 1 ? 1 : 0]},
+    rej.push_back({{"eye", kEyeName[r.eye == 1 ? 1 : 0]},
                    {"frame", r.frame_index},
                    {"corner", r.corner_id},
                    {"residual_px", r.residual_px}});

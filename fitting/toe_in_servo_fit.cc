@@ -7,13 +7,12 @@
 #include <Eigen/Geometry>
 
 #include "fitting/format.h"
+#include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
-
-struct LinearFit {
+struct ToeInLinearFit {
   Eigen::VectorXd x;
   Eigen::MatrixXd cov;  // unscaled (from the weights)
   double chi2 = 0;
@@ -21,8 +20,8 @@ struct LinearFit {
   bool ok = false;
 };
 
-LinearFit WeightedLeastSquares(const Eigen::MatrixXd& A, const Eigen::VectorXd& y, const Eigen::VectorXd& w) {
-  LinearFit f;
+ToeInLinearFit WeightedLeastSquares(const Eigen::MatrixXd& A, const Eigen::VectorXd& y, const Eigen::VectorXd& w) {
+  ToeInLinearFit f;
   const Eigen::MatrixXd N = A.transpose() * w.asDiagonal() * A;
   const Eigen::FullPivLU<Eigen::MatrixXd> lu(N);
   if (lu.rank() < N.rows()) return f;
@@ -107,8 +106,10 @@ ToeInServoFit FitToeIn(const std::vector<ToeInSet>& sets, const ToeInFitOptions&
     y[k] = s.yaw_deg;
     w[k] = 1 / (s.yaw_sigma_deg * s.yaw_sigma_deg);
   }
-  auto scale_of = [](const LinearFit& f, int dof) { return dof > 0 ? std::max(1.0, std::sqrt(f.chi2 / dof)) : 1.0; };
-  LinearFit per_eye, common = WeightedLeastSquares(A2, y, w);
+  auto scale_of = [](const ToeInLinearFit& f, int dof) {
+    return dof > 0 ? std::max(1.0, std::sqrt(f.chi2 / dof)) : 1.0;
+  };
+  ToeInLinearFit per_eye, common = WeightedLeastSquares(A2, y, w);
   bool use_per_eye = false;
   if (o.scale_mode != ScaleMode::kCommon && n >= 4) {
     per_eye = WeightedLeastSquares(A3, y, w);
@@ -133,7 +134,7 @@ ToeInServoFit FitToeIn(const std::vector<ToeInSet>& sets, const ToeInFitOptions&
     fit.message = "one scale per eye needs at least 4 usable sets";
     return fit;
   }
-  const LinearFit& f = use_per_eye ? per_eye : common;
+  const ToeInLinearFit& f = use_per_eye ? per_eye : common;
   if (!f.ok) {
     fit.message =
         "the sets do not determine a scale: every set has the same (Lx - Rx); pan the eyes to at least "

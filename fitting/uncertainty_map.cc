@@ -14,7 +14,7 @@ namespace {
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 
-Mat3 Exp(const Vec3& w) {
+Mat3 ExpSo3(const Vec3& w) {
   const double a = w.norm();
   return a > 0 ? Eigen::AngleAxisd(a, w / a).toRotationMatrix() : Mat3::Identity();
 }
@@ -43,7 +43,7 @@ struct State {
     if (k >= base && k < base + 3) {
       Vec3 w = Vec3::Zero();
       w[k - base] = h;
-      q.R = Exp(w) * q.R;
+      q.R = ExpSo3(w) * q.R;
     } else if (k >= base + 3 && k < base + 6) {
       q.t[k - base - 3] += h;
     }

@@ -17,13 +17,11 @@
 #include "fitting/format.h"
 #include "fitting/observability.h"
 #include "models/statistics.h"
+#include "models/units.h"
 #include "models/vergence.h"
 
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
-constexpr double kDegToRad = M_PI / 180.0;
 
 // Residual of one row: predicted minus logged PWM for both eyes, whitened.
 struct VergenceRowResidual {

@@ -5,10 +5,10 @@
 
 #include <Eigen/Dense>
 
+#include "models/units.h"
+
 namespace owlcal::fitting {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 double Wrap(double a) {  // to (-pi, pi]
   a = std::fmod(a + M_PI, 2 * M_PI);

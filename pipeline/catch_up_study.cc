@@ -9,6 +9,7 @@
 #include "calib/csv.h"
 #include "io/number_text.h"
 #include "models/statistics.h"
+#include "pipeline/study_cells.h"
 #include "protocols/dataset.h"
 #include "reports/experiment_page.h"
 #include "reports/gnuplot_figure.h"
@@ -20,14 +21,6 @@ namespace {
 // Measured and true retinal error further apart than this: the eye tracked something else.
 constexpr double kOffTargetDeg = 2.0;
 namespace fs = std::filesystem;
-
-std::string Fx(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : ""; }
-
-double Opt(const calib::CsvTable& t, size_t r, const char* col) {
-  const std::string& s = t.Text(r, col);
-  if (s.empty()) return NAN;
-  return t.Number(r, col);
-}
 
 double Mean(const std::vector<double>& v) {
   if (v.empty()) return NAN;

@@ -8,6 +8,7 @@
 
 #include "calib/csv.h"
 #include "io/number_text.h"
+#include "pipeline/study_cells.h"
 #include "protocols/dataset.h"
 #include "reports/experiment_page.h"
 #include "reports/gnuplot_figure.h"
@@ -16,14 +17,6 @@
 namespace owlcal::pipeline {
 namespace {
 namespace fs = std::filesystem;
-
-std::string Fx(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : ""; }
-
-double Opt(const calib::CsvTable& t, size_t r, const char* col) {
-  const std::string& s = t.Text(r, col);
-  if (s.empty()) return NAN;
-  return t.Number(r, col);
-}
 
 constexpr double kNominalAngleScaleSigma = 0.02;
 constexpr double kCalibratedAngleScaleSigma = 0.003;

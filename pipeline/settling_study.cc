@@ -8,14 +8,13 @@
 
 #include "fitting/loop_model.h"
 #include "fitting/servo_motion_fit.h"
+#include "models/units.h"
 #include "protocols/dataset_tables.h"
 #include "protocols/fixation.h"
 #include "protocols/protocol.h"
 
 namespace owlcal::pipeline {
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 // What the loop model uses for a slew or lag the step frames do not determine
 // (fitting/servo_motion_fit.h): the slow end of hobby servos' slew (docs/conventions.md#facts,
 // 300-400 deg/s) and a typical response lag (the default virtual Owl's are 25-50 ms).

@@ -28,7 +28,7 @@ namespace {
 // (models::HeadGeometry) plus about 15 mm from there to the lens's centre of projection.
 constexpr double kNominalCameraAheadM = 0.045;
 
-std::string Fx(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : "inf"; }
+std::string FxOrInf(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : "inf"; }
 
 // The course's 80x80 window at (280, 200) (data/owl-real/kit2020-distance-target1/README.md),
 // grown about its centre for near targets (the box label's scale goes as 1 / distance).
@@ -67,7 +67,8 @@ void Measure(
     eo.probe_px = std::min(eo.probe_px, (square_px - 3) / 2);
     if (eo.probe_px < 2) {
       row->status = "unmeasurable";
-      row->reason = "the board's squares are " + Fx(square_px, 1) + " px: too small for an edge window (at least 7 px)";
+      row->reason =
+          "the board's squares are " + FxOrInf(square_px, 1) + " px: too small for an edge window (at least 7 px)";
       row->sharpness.roi = roi;
       return;
     }
@@ -117,8 +118,9 @@ void Summarise(SharpnessStudy* s, const SharpnessOptions& o) {
       s->notes.push_back(std::string(models::kEyeNames[e]) + " eye: no focus fit: " + s->fit[e].reason);
     else if (!s->fit[e].focus_found)
       s->notes.push_back(std::string(models::kEyeNames[e]) + " eye: no defocus over " +
-                         Fx(s->fit[e].min_distance_m, 2) + "-" + Fx(s->fit[e].max_distance_m, 2) + " m (defocus " +
-                         Fx(s->fit[e].k_px_per_dioptre, 3) + " +- " + Fx(s->fit[e].k_sigma, 3) +
+                         FxOrInf(s->fit[e].min_distance_m, 2) + "-" + FxOrInf(s->fit[e].max_distance_m, 2) +
+                         " m (defocus " + FxOrInf(s->fit[e].k_px_per_dioptre, 3) + " +- " +
+                         FxOrInf(s->fit[e].k_sigma, 3) +
                          " px/D): the focus distance is not determined, everything measured is in focus");
   }
   for (const SharpnessRow& r : s->rows) {
@@ -126,8 +128,8 @@ void Summarise(SharpnessStudy* s, const SharpnessOptions& o) {
       ++s->num_ok;
     } else {
       ++s->num_failed;
-      s->notes.push_back(r.image + " (" + models::kEyeNames[r.eye] + ", " + Fx(r.distance_m, 2) + " m): " + r.status +
-                         ": " + r.reason);
+      s->notes.push_back(r.image + " (" + models::kEyeNames[r.eye] + ", " + FxOrInf(r.distance_m, 2) +
+                         " m): " + r.status + ": " + r.reason);
     }
   }
 }
@@ -222,7 +224,7 @@ SharpnessStudy MeasureSharpnessDataset(const std::string& dir, const SharpnessOp
           row.status = "no target";
           row.reason =
               "the chessboard was not found (classic and sector-based detectors) and does not fill the view at " +
-              Fx(d, 2) + " m";
+              FxOrInf(d, 2) + " m";
         }
       }
       s.rows.push_back(row);
@@ -233,8 +235,8 @@ SharpnessStudy MeasureSharpnessDataset(const std::string& dir, const SharpnessOp
   for (const protocols::PlacementRecord& pl : placements)
     if (pl.source == "scene") {
       s.notes.push_back("distances are from the lens: the scene's placements (from the neck axis) less " +
-                        Fx(1e3 * ahead_m[0], 1) + " / " + Fx(1e3 * ahead_m[1], 1) + " mm (left / right), from " +
-                        ahead_source);
+                        FxOrInf(1e3 * ahead_m[0], 1) + " / " + FxOrInf(1e3 * ahead_m[1], 1) +
+                        " mm (left / right), from " + ahead_source);
       break;
     }
   Summarise(&s, o);
@@ -356,7 +358,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
     const bool ok = r.status == "ok";
     images.rows.push_back({fs::path(r.image).filename().string(),
                            models::kEyeNames[r.eye],
-                           Fx(r.distance_m, 3),
+                           FxOrInf(r.distance_m, 3),
                            r.status,
                            r.reason,
                            r.roi_source,
@@ -365,10 +367,10 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
                            r.roi_source.empty() ? "" : std::to_string(e.roi.width),
                            r.roi_source.empty() ? "" : std::to_string(e.roi.height),
                            std::to_string(e.num_edges),
-                           ok ? Fx(e.blur_sigma_px, 4) : "",
-                           ok ? Fx(e.blur_sigma_se_px, 4) : "",
-                           ok ? Fx(e.laplacian_variance, 5) : "",
-                           r.roi_source.empty() ? "" : Fx(e.contrast, 1)});
+                           ok ? FxOrInf(e.blur_sigma_px, 4) : "",
+                           ok ? FxOrInf(e.blur_sigma_se_px, 4) : "",
+                           ok ? FxOrInf(e.laplacian_variance, 5) : "",
+                           r.roi_source.empty() ? "" : FxOrInf(e.contrast, 1)});
   }
   tables.push_back(images);
 
@@ -380,21 +382,21 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
   for (int e = 0; e < 2; ++e)
     for (const SharpnessAtDistance& a : s.by_distance[e])
       by.rows.push_back({models::kEyeNames[e],
-                         Fx(a.distance_m, 3),
+                         FxOrInf(a.distance_m, 3),
                          std::to_string(a.num_ok),
                          std::to_string(a.num_images),
-                         a.num_ok ? Fx(a.sigma_px, 4) : "",
-                         a.num_ok ? Fx(a.se_px, 4) : "",
-                         s.fit[e].ok ? Fx(s.fit[e].Predict(a.distance_m), 4) : "",
-                         a.num_ok ? Fx(a.laplacian_variance, 5) : ""});
+                         a.num_ok ? FxOrInf(a.sigma_px, 4) : "",
+                         a.num_ok ? FxOrInf(a.se_px, 4) : "",
+                         s.fit[e].ok ? FxOrInf(s.fit[e].Predict(a.distance_m), 4) : "",
+                         a.num_ok ? FxOrInf(a.laplacian_variance, 5) : ""});
   tables.push_back(by);
 
   reports::Table fit{
       "sharpness_fit",
       "Focus and depth of field per eye: sigma(d)^2 = s0^2 + k^2 (1/d - 1/focus)^2; depth of field where the blur "
       "is at most " +
-          Fx(s.fit[0].dof_blur_ratio, 3) + " x s0 (sharpness within " +
-          Fx(100 / std::max(1.0, s.fit[0].dof_blur_ratio), 0) + " % of its best)",
+          FxOrInf(s.fit[0].dof_blur_ratio, 3) + " x s0 (sharpness within " +
+          FxOrInf(100 / std::max(1.0, s.fit[0].dof_blur_ratio), 0) + " % of its best)",
       {"eye", "quantity", "value", "sigma", "unit", "truth", "z"},
       {}};
   for (int e = 0; e < 2; ++e) {
@@ -405,49 +407,62 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
       continue;
     }
     const bool t = s.truth.has_value();
-    auto z = [](double v, double truth, double sg) { return sg > 0 ? Fx((v - truth) / sg, 2) : ""; };
-    fit.rows.push_back({eye, "in-focus blur s0", Fx(f.s0_px, 3), Fx(f.s0_sigma_px, 3), "px", "", ""});
+    auto z = [](double v, double truth, double sg) { return sg > 0 ? FxOrInf((v - truth) / sg, 2) : ""; };
+    fit.rows.push_back({eye, "in-focus blur s0", FxOrInf(f.s0_px, 3), FxOrInf(f.s0_sigma_px, 3), "px", "", ""});
     fit.rows.push_back({eye,
                         "defocus k",
-                        Fx(f.k_px_per_dioptre, 3),
-                        Fx(f.k_sigma, 3),
+                        FxOrInf(f.k_px_per_dioptre, 3),
+                        FxOrInf(f.k_sigma, 3),
                         "px/D",
-                        t ? Fx(s.truth->k_px_per_dioptre[e], 3) : "",
+                        t ? FxOrInf(s.truth->k_px_per_dioptre[e], 3) : "",
                         t ? z(f.k_px_per_dioptre, s.truth->k_px_per_dioptre[e], f.k_sigma) : ""});
     if (f.focus_found) {
       fit.rows.push_back({eye,
                           "focus",
-                          Fx(f.focus_dioptre, 3),
-                          Fx(f.focus_dioptre_sigma, 3),
+                          FxOrInf(f.focus_dioptre, 3),
+                          FxOrInf(f.focus_dioptre_sigma, 3),
                           "D",
-                          t ? Fx(1 / s.truth->focus_m, 3) : "",
+                          t ? FxOrInf(1 / s.truth->focus_m, 3) : "",
                           t ? z(f.focus_dioptre, 1 / s.truth->focus_m, f.focus_dioptre_sigma) : ""});
+      fit.rows.push_back({eye,
+                          "focus distance",
+                          FxOrInf(f.focus_m, 3),
+                          FxOrInf(f.focus_sigma_m, 3),
+                          "m",
+                          t ? FxOrInf(s.truth->focus_m, 3) : "",
+                          ""});
       fit.rows.push_back(
-          {eye, "focus distance", Fx(f.focus_m, 3), Fx(f.focus_sigma_m, 3), "m", t ? Fx(s.truth->focus_m, 3) : "", ""});
-      fit.rows.push_back({eye, "depth of field, near", Fx(f.dof_near_m, 3), Fx(f.dof_near_sigma_m, 3), "m", "", ""});
+          {eye, "depth of field, near", FxOrInf(f.dof_near_m, 3), FxOrInf(f.dof_near_sigma_m, 3), "m", "", ""});
       // A far limit beyond the measured range is an extrapolation: said so, not given a number.
       if (f.dof_far_m > f.max_distance_m)
-        fit.rows.push_back({eye,
-                            "depth of field, far",
-                            "beyond " + Fx(f.max_distance_m, 2),
-                            "",
-                            "m",
-                            "",
-                            std::isfinite(f.dof_far_m) ? "extrapolated: " + Fx(f.dof_far_m, 1) + " m" : "to infinity"});
+        fit.rows.push_back(
+            {eye,
+             "depth of field, far",
+             "beyond " + FxOrInf(f.max_distance_m, 2),
+             "",
+             "m",
+             "",
+             std::isfinite(f.dof_far_m) ? "extrapolated: " + FxOrInf(f.dof_far_m, 1) + " m" : "to infinity"});
       else
-        fit.rows.push_back({eye, "depth of field, far", Fx(f.dof_far_m, 3), Fx(f.dof_far_sigma_m, 3), "m", "", ""});
+        fit.rows.push_back(
+            {eye, "depth of field, far", FxOrInf(f.dof_far_m, 3), FxOrInf(f.dof_far_sigma_m, 3), "m", "", ""});
     } else {
       fit.rows.push_back({eye,
                           "focus",
                           "not determined",
                           "",
                           "",
-                          t ? Fx(1 / s.truth->focus_m, 3) : "",
+                          t ? FxOrInf(1 / s.truth->focus_m, 3) : "",
                           "no defocus over the measured range"});
-      fit.rows.push_back(
-          {eye, "depth of field", "at least " + Fx(f.dof_near_m, 2) + "-" + Fx(f.dof_far_m, 2), "", "m", "", ""});
+      fit.rows.push_back({eye,
+                          "depth of field",
+                          "at least " + FxOrInf(f.dof_near_m, 2) + "-" + FxOrInf(f.dof_far_m, 2),
+                          "",
+                          "m",
+                          "",
+                          ""});
     }
-    fit.rows.push_back({eye, "chi2/dof", Fx(f.chi2_per_dof, 2), "", "", "", ""});
+    fit.rows.push_back({eye, "chi2/dof", FxOrInf(f.chi2_per_dof, 2), "", "", "", ""});
   }
   tables.push_back(fit);
   for (const reports::Table& t : tables) reports::WriteTable(t, out + "/tables");
@@ -471,7 +486,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
     const fitting::FocusFit& f = s.fit[e];
     if (f.ok) {
       reports::Series line{std::string(models::kEyeNames[e]) + " fit" +
-                               (f.focus_found ? ", focus " + Fx(f.focus_m, 2) + " m" : ", no defocus found"),
+                               (f.focus_found ? ", focus " + FxOrInf(f.focus_m, 2) + " m" : ", no defocus found"),
                            std::string("lines lw 2 lc rgb '") + colour[e] + "'",
                            "1:2",
                            {"distance_m", "fit_px"},
@@ -489,7 +504,7 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
     for (const SharpnessAtDistance& a : s.by_distance[e])
       lo = std::min(lo, a.distance_m), hi = std::max(hi, a.distance_m);
   if (hi > lo) {
-    fig.settings.push_back("set xrange [" + Fx(0.85 * lo, 4) + ":" + Fx(1.15 * hi, 4) + "]");
+    fig.settings.push_back("set xrange [" + FxOrInf(0.85 * lo, 4) + ":" + FxOrInf(1.15 * hi, 4) + "]");
     std::string tics;  // a log axis over less than a decade needs its own labels
     for (const double t : {0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0})
       if (t >= 0.85 * lo && t <= 1.15 * hi) tics += (tics.empty() ? "" : ", ") + io::SignificantText(t, 3);
@@ -498,14 +513,15 @@ std::string WriteSharpnessStudy(const SharpnessStudy& s, const std::string& out,
   // The depth of field's near limit per eye (dashed), where the fit found a focus.
   for (int e = 0; e < 2; ++e)
     if (s.fit[e].ok && s.fit[e].focus_found && s.fit[e].dof_near_m > 0.85 * lo && s.fit[e].dof_near_m < 1.15 * hi)
-      fig.settings.push_back("set arrow from " + Fx(s.fit[e].dof_near_m, 4) + ", graph 0 to " +
-                             Fx(s.fit[e].dof_near_m, 4) + ", graph 1 nohead dt 2 lw 1.5 lc rgb '" + colour[e] + "'");
+      fig.settings.push_back("set arrow from " + FxOrInf(s.fit[e].dof_near_m, 4) + ", graph 0 to " +
+                             FxOrInf(s.fit[e].dof_near_m, 4) + ", graph 1 nohead dt 2 lw 1.5 lc rgb '" + colour[e] +
+                             "'");
   fig.key = "top right";
   fig.caption =
       "Gaussian-equivalent edge blur per eye (mean over the ok images, bars +-2 standard errors) and the thin-lens "
       "fit; "
       "dashed: the near limit of the depth of field (blur <= " +
-      Fx(s.fit[0].dof_blur_ratio, 2) + " x the in-focus blur).";
+      FxOrInf(s.fit[0].dof_blur_ratio, 2) + " x the in-focus blur).";
   const reports::FigureFiles ff = reports::WriteFigure(fig, out + "/figures", draw);
 
   nlohmann::json j = SharpnessStudyJson(s);

@@ -9,6 +9,7 @@
 #include "calib/csv.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
+#include "pipeline/study_cells.h"
 #include "protocols/dataset.h"
 #include "reports/experiment_page.h"
 #include "reports/gnuplot_figure.h"
@@ -19,14 +20,6 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr double kStepLeadS = 0.5;  // protocols/vor_step.cc: a step profile's rest before the step
-
-std::string Fx(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : ""; }
-
-double Opt(const calib::CsvTable& t, size_t r, const char* col) {
-  const std::string& s = t.Text(r, col);
-  if (s.empty()) return NAN;
-  return t.Number(r, col);
-}
 
 struct TrialInfo {
   std::string status, reason, map;

@@ -8,6 +8,7 @@
 #include "calib/csv.h"
 #include "calib/trial_status.h"
 #include "models/saccade.h"
+#include "models/units.h"
 #include "protocols/fixate_step.h"
 
 namespace owlcal::protocols {
@@ -15,8 +16,6 @@ namespace {
 
 using models::kNumServos;
 using models::PwmVector;
-
-constexpr double kDeg = M_PI / 180.0;
 constexpr double kFrameS = 1.0 / 30;
 constexpr int kDefaultDelayFrames = 4;
 constexpr int kLostFrames = 5;

@@ -64,7 +64,7 @@ class Rows {
 
 // Every row of DIR/NAME as Row: its line and step_index, then fill(t, r, row) for the rest.
 template <typename Row, typename Fill>
-std::vector<Row> ReadTable(const std::string& dir, const char* name, Fill fill) {
+std::vector<Row> ReadDatasetTable(const std::string& dir, const char* name, Fill fill) {
   const Rows t(dir, name);
   std::vector<Row> out;
   out.reserve(t.Size());
@@ -89,7 +89,7 @@ void ReadTrialKey(const Rows& t, size_t r, Row& row) {
 }  // namespace
 
 std::vector<FixationRow> ReadFixationsCsv(const std::string& dir) {
-  return ReadTable<FixationRow>(dir, "fixations.csv", [](const Rows& t, size_t r, FixationRow& f) {
+  return ReadDatasetTable<FixationRow>(dir, "fixations.csv", [](const Rows& t, size_t r, FixationRow& f) {
     f.step_name = t.Text(r, "step_name");
     f.placement_index = t.Int(r, "placement_index", -1, INT32_MAX);
     f.target = t.Text(r, "target");
@@ -123,7 +123,7 @@ std::vector<FixationRow> ReadFixationsCsv(const std::string& dir) {
 }
 
 std::vector<StepResponseRow> ReadStepResponseCsv(const std::string& dir) {
-  return ReadTable<StepResponseRow>(dir, "step_response.csv", [](const Rows& t, size_t r, StepResponseRow& s) {
+  return ReadDatasetTable<StepResponseRow>(dir, "step_response.csv", [](const Rows& t, size_t r, StepResponseRow& s) {
     ReadTrialKey(t, r, s);
     s.k = t.Int(r, "k", 0, INT32_MAX);
     s.t_s = t.Number(r, "t_s", -1e9, 1e9);
@@ -136,7 +136,7 @@ std::vector<StepResponseRow> ReadStepResponseCsv(const std::string& dir) {
 }
 
 std::vector<StepTrialRow> ReadStepTrialsCsv(const std::string& dir) {
-  return ReadTable<StepTrialRow>(dir, "step_trials.csv", [](const Rows& t, size_t r, StepTrialRow& s) {
+  return ReadDatasetTable<StepTrialRow>(dir, "step_trials.csv", [](const Rows& t, size_t r, StepTrialRow& s) {
     ReadTrialKey(t, r, s);
     s.eye = t.Text(r, "eye");
     s.axis = t.Text(r, "axis");
@@ -151,7 +151,7 @@ std::vector<StepTrialRow> ReadStepTrialsCsv(const std::string& dir) {
 }
 
 std::vector<LimitRow> ReadLimitsCsv(const std::string& dir) {
-  return ReadTable<LimitRow>(dir, "limits.csv", [](const Rows& t, size_t r, LimitRow& l) {
+  return ReadDatasetTable<LimitRow>(dir, "limits.csv", [](const Rows& t, size_t r, LimitRow& l) {
     l.servo = t.Text(r, "servo");
     l.end = t.Text(r, "end");
     l.configured_us = t.Int(r, "configured_us", 0, kMaxPwm);
@@ -169,7 +169,7 @@ std::vector<LimitRow> ReadLimitsCsv(const std::string& dir) {
 }
 
 std::vector<ResolutionRow> ReadResolutionCsv(const std::string& dir) {
-  return ReadTable<ResolutionRow>(dir, "resolution.csv", [](const Rows& t, size_t r, ResolutionRow& x) {
+  return ReadDatasetTable<ResolutionRow>(dir, "resolution.csv", [](const Rows& t, size_t r, ResolutionRow& x) {
     x.servo = t.Text(r, "servo");
     x.sample = t.Int(r, "sample", 0, INT32_MAX);
     x.command_us = t.Int(r, "command_us", 0, kMaxPwm);
@@ -180,7 +180,7 @@ std::vector<ResolutionRow> ReadResolutionCsv(const std::string& dir) {
 }
 
 std::vector<LatencyRow> ReadLatencyCsv(const std::string& dir) {
-  return ReadTable<LatencyRow>(dir, "latency.csv", [](const Rows& t, size_t r, LatencyRow& l) {
+  return ReadDatasetTable<LatencyRow>(dir, "latency.csv", [](const Rows& t, size_t r, LatencyRow& l) {
     l.trial = t.Int(r, "trial", 0, INT32_MAX);
     l.servo = t.Text(r, "servo");
     l.amplitude_us = t.Int(r, "amplitude_us", -kMaxPwm, kMaxPwm);
@@ -195,7 +195,7 @@ std::vector<LatencyRow> ReadLatencyCsv(const std::string& dir) {
 }
 
 std::vector<AlignmentRow> ReadAlignmentCsv(const std::string& dir) {
-  return ReadTable<AlignmentRow>(dir, "alignment.csv", [](const Rows& t, size_t r, AlignmentRow& a) {
+  return ReadDatasetTable<AlignmentRow>(dir, "alignment.csv", [](const Rows& t, size_t r, AlignmentRow& a) {
     a.frame_index = t.Int64(r, "frame_index");
     a.method = t.Text(r, "method");
     a.roll_deg = t.Optional(r, "roll_deg", -180, 180);

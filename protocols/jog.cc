@@ -10,6 +10,7 @@
 #include "protocols/fixation.h"
 #include "protocols/image_motion.h"
 #include "protocols/limits_search.h"
+#include "protocols/run_context.h"
 
 namespace owlcal::protocols {
 namespace {
@@ -17,8 +18,6 @@ namespace {
 constexpr int kDownsample = 4;
 constexpr double kMovedFraction = 0.3;  // as the limits protocol's default
 
-int ServoEye(int servo) { return servo == models::kLx || servo == models::kLy ? models::kLeftEye : models::kRightEye; }
-int ServoAxis(int servo) { return servo == models::kRy || servo == models::kLy ? 1 : 0; }
 const char* EndName(int direction) { return direction > 0 ? "max" : "min"; }
 
 std::string Num(double v, int digits = 1) { return io::FixedText(v, digits); }

@@ -13,9 +13,9 @@
 namespace owlcal::protocols {
 namespace {
 
-constexpr int kDownsample = 2;
+constexpr int kSearchDownsample = 2;
 
-std::string Num(double v, int prec = 3) { return io::SignificantText(v, prec); }
+std::string SearchNum(double v, int prec = 3) { return io::SignificantText(v, prec); }
 
 using models::Median;
 
@@ -97,20 +97,21 @@ LimitSearchResult SearchLimit(int centre_us,
   r.slow = o.judge_speed ? !still_at_once : o.watch_every_probe;
   const bool watch_each = o.watch_every_probe || r.slow;
   const double rim0 = RimFraction(centre_img);
-  const cv::Mat centre_thumb = MotionThumb(centre_img, kDownsample);
+  const cv::Mat centre_thumb = MotionThumb(centre_img, kSearchDownsample);
   cv::Mat prev = centre_thumb;
   {
     cv::Scalar mean, sd;
     cv::meanStdDev(prev, mean, sd);
     if (sd[0] < o.min_contrast_grey)
-      return fail("the image at the centre is black or constant (grey mean " + Num(mean[0]) + ", std " + Num(sd[0]) +
-                  " < " + Num(o.min_contrast_grey) + "): covered lens, dead or disconnected camera; no limit measured");
+      return fail("the image at the centre is black or constant (grey mean " + SearchNum(mean[0]) + ", std " +
+                  SearchNum(sd[0]) + " < " + SearchNum(o.min_contrast_grey) +
+                  "): covered lens, dead or disconnected camera; no limit measured");
   }
   cv::Mat last_img;  // the last probe's image
   bool last_watched = false;
   auto look = [&](const cv::Mat& img, cv::Mat* thumb) {
     last_img = img;
-    *thumb = MotionThumb(img, kDownsample);
+    *thumb = MotionThumb(img, kSearchDownsample);
     r.rim = RimFraction(img) - rim0;
   };
   // A probe; reference: an image later probes are measured against (watched more strictly).
@@ -142,9 +143,9 @@ LimitSearchResult SearchLimit(int centre_us,
     cv::Mat cur;
     take(nv, &cur, false);
     const double expected = std::abs(nv - v) * nominal_px_per_us;
-    double signed_shift = ThumbShift(prev, cur, kDownsample).px[axis];
+    double signed_shift = ThumbShift(prev, cur, kSearchDownsample).px[axis];
     if ((rim_in() || std::abs(signed_shift) < o.moved_fraction * expected) && rewatch(&cur))
-      signed_shift = ThumbShift(prev, cur, kDownsample).px[axis];
+      signed_shift = ThumbShift(prev, cur, kSearchDownsample).px[axis];
     r.last_shift_px = std::abs(signed_shift);
     if (rim_in()) break;  // the fine walk finds where
     if (r.last_shift_px < o.moved_fraction * expected) {
@@ -154,13 +155,15 @@ LimitSearchResult SearchLimit(int centre_us,
         const int tries = std::max(1, o.first_step_tries);
         const int span = std::abs(nv - centre_us);
         if (span < tries * o.coarse_us && nv != limit_us) {
-          first_tries.push_back(std::to_string(nv) + " us: " + Num(r.last_shift_px) + " px of " + Num(expected));
+          first_tries.push_back(std::to_string(nv) + " us: " + SearchNum(r.last_shift_px) + " px of " +
+                                SearchNum(expected));
           const int longer = d > 0 ? std::min(limit_us, centre_us + span + o.coarse_us)
                                    : std::max(limit_us, centre_us - span - o.coarse_us);
           retry_to = longer;  // onwards from here, compared with the centre image: backlash stays taken up
           continue;
         }
-        first_tries.push_back(std::to_string(nv) + " us: " + Num(r.last_shift_px) + " px of " + Num(expected));
+        first_tries.push_back(std::to_string(nv) + " us: " + SearchNum(r.last_shift_px) + " px of " +
+                              SearchNum(expected));
         std::string tried;
         for (const auto& t : first_tries) tried += (tried.empty() ? "" : ", ") + t;
         return fail("no image motion at the first step from the centre " + std::to_string(centre_us) + " us (" + tried +
@@ -203,13 +206,13 @@ LimitSearchResult SearchLimit(int centre_us,
       cv::Mat back;
       take(centre_us, &back, true);
       r.rim = rim;  // the rim of the probe that ended the walk, not of the centre
-      band = sign * d * ThumbShift(centre_thumb, back, kDownsample).px[axis] / scale;
+      band = sign * d * ThumbShift(centre_thumb, back, kSearchDownsample).px[axis] / scale;
       r.backlash_us = band;
     }
     if (r.cause == "end-stop" && band > 0) {
       const double stop = r.met_us - d * 0.5 * band;
       r.measured_us = d > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
-      r.message += "; backlash band " + Num(band) + " us: met from inside at " + std::to_string(r.met_us) +
+      r.message += "; backlash band " + SearchNum(band) + " us: met from inside at " + std::to_string(r.met_us) +
                    " us, at approach 0 " + std::to_string(r.measured_us) + " us";
     }
     return r;
@@ -232,18 +235,18 @@ LimitSearchResult SearchLimit(int centre_us,
     cv::Mat cur;
     take(nv, &cur, false);
     const double commanded = std::abs(nv - anchor);
-    const double shift = ThumbShift(anchor_thumb, cur, kDownsample).px[axis];
+    const double shift = ThumbShift(anchor_thumb, cur, kSearchDownsample).px[axis];
     const double travel = sign * d * shift / scale;
     r.last_shift_px = std::abs(shift);
     if (rim_in()) {
       r.cause = "rim";
       r.measured_us = last_free;
-      r.message = "rim darkening " + Num(r.rim) + " at " + std::to_string(nv) + " us";
+      r.message = "rim darkening " + SearchNum(r.rim) + " at " + std::to_string(nv) + " us";
       return finish();
     }
     if (detector.Stopped(commanded, travel)) {
-      const std::string at = "at " + std::to_string(nv) + " us commanded travel " + Num(commanded) + " us, measured " +
-                             Num(travel) + " us from " + std::to_string(anchor) + " us";
+      const std::string at = "at " + std::to_string(nv) + " us commanded travel " + SearchNum(commanded) +
+                             " us, measured " + SearchNum(travel) + " us from " + std::to_string(anchor) + " us";
       if (!retrying && nv != limit_us) {
         // One fine step further before the stop is believed: a pulse the dead band swallowed
         // leaves the servo where it was, and the next one is taken.
@@ -255,7 +258,7 @@ LimitSearchResult SearchLimit(int centre_us,
       r.cause = "end-stop";
       r.measured_us = d > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
       r.message = "the image stopped following: " + (first_stop.empty() ? at : first_stop + ", " + at) +
-                  " (tolerance " + Num(tol) + " us, scale " + Num(scale) + " px/us)";
+                  " (tolerance " + SearchNum(tol) + " us, scale " + SearchNum(scale) + " px/us)";
       return finish();
     }
     if (retrying) ++r.retries;  // the image followed again: the dead band, not a stop
@@ -271,11 +274,12 @@ LimitSearchResult SearchLimit(int centre_us,
         const double stop = anchor + d * reached;
         r.cause = "end-stop";
         r.measured_us = d > 0 ? int(std::floor(stop)) : int(std::ceil(stop));
-        r.message = "at the configured limit the servo applied " + Num(short_us) + " us less: a stop just inside it";
+        r.message =
+            "at the configured limit the servo applied " + SearchNum(short_us) + " us less: a stop just inside it";
       } else {
         r.cause = "configured";
         r.measured_us = limit_us;
-        r.message = "configured limit reached with the image following (within " + Num(short_us) + " us)";
+        r.message = "configured limit reached with the image following (within " + SearchNum(short_us) + " us)";
       }
       return finish();
     }

@@ -9,6 +9,7 @@
 #include "calib/csv.h"
 #include "calib/trial_status.h"
 #include "models/saccade.h"
+#include "models/units.h"
 #include "protocols/fixate_step.h"
 
 namespace owlcal::protocols {
@@ -16,18 +17,16 @@ namespace {
 
 using models::kNumServos;
 using models::PwmVector;
-
-constexpr double kDeg = M_PI / 180.0;
-constexpr double kFrameS = 1.0 / 30;  // the Owl's stream (the phase dither's period)
-constexpr int kFixationMoves = 8;
+constexpr double kMainSequenceFrameS = 1.0 / 30;  // the Owl's stream (the phase dither's period)
+constexpr int kMainSequenceFixationMoves = 8;
 constexpr double kFixationTolerancePx = 1.0;
 constexpr double kMeasuredFraction = 0.9;  // of a saccade's frames, for status ok
 constexpr double kGolden = 0.6180339887498949;
 
-constexpr const char* kFrameColumns =
+constexpr const char* kMainSequenceFrameColumns =
     "step_index,saccade,amplitude_deg,repeat,direction,eye,servo,k,t_s,cmd_us,found,x_px,y_px,angle_deg,"
     "true_angle_deg";
-constexpr const char* kTrialColumns =
+constexpr const char* kMainSequenceTrialColumns =
     "step_index,saccade,amplitude_deg,repeat,direction,eye,servo,from_us,to_us,map_amplitude_deg,phase_ms,frames,"
     "measured,map,true_slew_deg_per_s,true_lag_s,status,reason";
 
@@ -93,7 +92,7 @@ class MainSequenceRun {
     rest.mode = SettleRule::Mode::kTime;
     rest.time_ms = 400;
     run_.Settle(rest);
-    for (int move = 0; move <= kFixationMoves; ++move) {
+    for (int move = 0; move <= kMainSequenceFixationMoves; ++move) {
       const robot::StereoFrame frame = run_.Grab();
       if (!loc_->Prepare(frame, why)) return false;
       const std::optional<Eigen::Vector2d> px = Locate(frame);
@@ -117,7 +116,9 @@ class MainSequenceRun {
       PwmVector target = run_.cmd();
       target[models::kPanServo[eye_]] = int(std::lround((*goal)[0]));
       target[models::kTiltServo[eye_]] = int(std::lround((*goal)[1]));
-      if ((*px - Centre(frame)).norm() <= kFixationTolerancePx || target == run_.cmd() || move == kFixationMoves) break;
+      if ((*px - Centre(frame)).norm() <= kFixationTolerancePx || target == run_.cmd() ||
+          move == kMainSequenceFixationMoves)
+        break;
       if (const std::string lim = OutsideMargin(target); !lim.empty()) {
         *why = lim;
         return false;
@@ -249,7 +250,7 @@ void RunMainSequenceStep(RunContext& run, const Protocol& p, const MainSequenceS
                     true_lag,
                     calib::TrialStatusName(calib::TrialStatus::kSkipped),
                     reason});
-        run.writer().AppendRow("main_sequence_trials.csv", kTrialColumns, row);
+        run.writer().AppendRow("main_sequence_trials.csv", kMainSequenceTrialColumns, row);
         run.Event("main-sequence", FixedText(amp, 1) + " deg, repeat " + std::to_string(rep) + ": skipped: " + reason);
         if (run.options().progress)
           *run.options().progress << "  main sequence " << FixedText(amp, 1) << " deg: skipped (" << reason << ")\n";
@@ -273,7 +274,7 @@ void RunMainSequenceStep(RunContext& run, const Protocol& p, const MainSequenceS
       run.Send(from);
       run.robot().SleepNs(int64_t(s.rest_ms) * 1'000'000);
       ms.Prepare(run.Grab());
-      const double phase = std::fmod((saccade + 1) * kGolden, 1.0) * kFrameS;
+      const double phase = std::fmod((saccade + 1) * kGolden, 1.0) * kMainSequenceFrameS;
       run.robot().SleepNs(int64_t(std::llround(phase * 1e9)));
       const int64_t t_cmd = run.robot().NowNs();
       run.Send(to);
@@ -292,7 +293,7 @@ void RunMainSequenceStep(RunContext& run, const Protocol& p, const MainSequenceS
                   fr.found ? calib::CsvFixed(fr.px.y(), 3) : "",
                   fr.angle_deg ? calib::CsvFixed(*fr.angle_deg, 5) : "",
                   fr.true_angle_deg ? calib::CsvFixed(*fr.true_angle_deg, 5) : ""});
-        run.writer().AppendRow("main_sequence.csv", kFrameColumns, f);
+        run.writer().AppendRow("main_sequence.csv", kMainSequenceFrameColumns, f);
       }
       calib::TrialStatus status = calib::TrialStatus::kOk;
       std::string reason;
@@ -313,7 +314,7 @@ void RunMainSequenceStep(RunContext& run, const Protocol& p, const MainSequenceS
                   true_lag,
                   calib::TrialStatusName(status),
                   reason});
-      run.writer().AppendRow("main_sequence_trials.csv", kTrialColumns, row);
+      run.writer().AppendRow("main_sequence_trials.csv", kMainSequenceTrialColumns, row);
       if (status != calib::TrialStatus::kOk)
         run.Event("main-sequence",
                   FixedText(amp, 1) + " deg, repeat " + std::to_string(rep) + ": " + calib::TrialStatusName(status) +

@@ -6,6 +6,7 @@
 
 #include "calib/trial_status.h"
 #include "models/saccade.h"
+#include "models/units.h"
 #include "protocols/fixate_step.h"
 
 namespace owlcal::protocols {
@@ -13,11 +14,9 @@ namespace {
 
 using models::kNumServos;
 using models::PwmVector;
-
-constexpr double kDeg = M_PI / 180.0;
-constexpr double kDefaultFrameS = 1.0 / 30;  // the Owl's stream
-constexpr int kDefaultDelayFrames = 4;       // 133 ms: the course's stream latency, rounded up
-constexpr int kLostFrames = 5;
+constexpr double kDefaultFrameS = 1.0 / 30;    // the Owl's stream
+constexpr int kSaccadeDefaultDelayFrames = 4;  // 133 ms: the course's stream latency, rounded up
+constexpr int kSaccadeLostFrames = 5;
 constexpr int kAcquireFrames = 30;
 
 struct Sample {
@@ -59,7 +58,7 @@ class SaccadeController {
     }
     delay_s_ = s.latency_frames > 0               ? s.latency_frames * kDefaultFrameS
                : cal && cal->exposure_delay_s > 0 ? cal->exposure_delay_s
-                                                  : kDefaultDelayFrames * kDefaultFrameS;
+                                                  : kSaccadeDefaultDelayFrames * kDefaultFrameS;
   }
 
   const std::string& map_name() const { return map_name_; }
@@ -115,7 +114,7 @@ class SaccadeController {
       if (smp.found) r.final_offset_px = smp.offset_px;
       if (frame.stamp_ns < ready_ns_) continue;  // exposed before the joint could have arrived
       if (!smp.found) {
-        if (++lost >= kLostFrames) {
+        if (++lost >= kSaccadeLostFrames) {
           r.end = LoopResult::End::kLost;
           r.message = "target not found in " + std::to_string(lost) + " consecutive frames";
           return r;
@@ -304,7 +303,7 @@ class SaccadeController {
   std::string map_name_;
   double dead_zone_px_[2] = {1, 1};
   double slew_us_per_s_[2] = {0, 0}, lag_s_[2] = {0, 0};
-  double delay_s_ = kDefaultDelayFrames * kDefaultFrameS;
+  double delay_s_ = kSaccadeDefaultDelayFrames * kDefaultFrameS;
   int64_t ready_ns_ = 0;  // robot clock: frames received before this are not acted on
 };
 
@@ -356,7 +355,7 @@ calib::TrialStatus Status(const LoopResult& r, bool pan, bool tilt, std::string*
   return calib::TrialStatus::kOk;
 }
 
-constexpr const char* kTrialColumns =
+constexpr const char* kSaccadeTrialColumns =
     "step_index,gain,amplitude_deg,trial,eye,axis,servo,start_pwm_us,fixation_pwm_us,outcome,frames,"
     "final_offset_px,message,status,reason";
 
@@ -404,7 +403,7 @@ void RunSaccadeStep(RunContext& run, const Protocol& p, const SaccadeStep& s) {
                     ctl.map_name(),
                     calib::TrialStatusName(calib::TrialStatus::kSkipped),
                     why});
-        run.writer().AppendRow("step_trials.csv", kTrialColumns, row);
+        run.writer().AppendRow("step_trials.csv", kSaccadeTrialColumns, row);
         run.Event("saccade", "trial skipped: " + why);
         if (run.options().progress)
           *run.options().progress << "  saccade " << FixedText(amp, 0) << " deg: skipped (" << why << ")\n";
@@ -452,7 +451,7 @@ void RunSaccadeStep(RunContext& run, const Protocol& p, const SaccadeStep& s) {
                   message,
                   calib::TrialStatusName(status),
                   reason});
-      run.writer().AppendRow("step_trials.csv", kTrialColumns, row);
+      run.writer().AppendRow("step_trials.csv", kSaccadeTrialColumns, row);
       run.Event("saccade",
                 FixedText(amp, 1) + " deg: " + calib::TrialStatusName(status) + " (" + EndName(r.end) + ") " + message);
       if (run.options().progress)

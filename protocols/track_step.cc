@@ -17,10 +17,10 @@ namespace {
 using models::kNumServos;
 using models::PwmVector;
 
-constexpr const char* kFrameColumns =
+constexpr const char* kTrackFrameColumns =
     "step_index,phase,k,t_s,eye,tracker,pan_cmd_us,tilt_cmd_us,status,found,x_px,y_px,reason,true_x_px,true_y_px,"
     "true_in_view";
-constexpr const char* kTrialColumns = "step_index,frames,phases,status,reason";
+constexpr const char* kTrackTrialColumns = "step_index,frames,phases,status,reason";
 constexpr const char* kSalienceColumns =
     "step_index,frame_index,rank,x_px,y_px,score,intensity,colour,orientation,object,object_distance_px,"
     "object_radius_px,fix_status,fix_reason,fix_iterations,fix_dx_px,fix_dy_px,fixated_object,fixated_distance_px";
@@ -277,7 +277,7 @@ void RunTracking(RunContext& run, const Protocol& p, const TrackStep& s, const P
           status = "reacquired";
         }
         run.writer().AppendRow("track.csv",
-                               kFrameColumns,
+                               kTrackFrameColumns,
                                {step,
                                 phase,
                                 std::to_string(k),
@@ -300,7 +300,7 @@ void RunTracking(RunContext& run, const Protocol& p, const TrackStep& s, const P
   const std::string phases = s.leave_deg > 0 ? "figure8 leave return" : "figure8";
   const calib::TrialStatus status = stopped.empty() ? calib::TrialStatus::kOk : calib::TrialStatus::kNotSettled;
   run.writer().AppendRow("track_trials.csv",
-                         kTrialColumns,
+                         kTrackTrialColumns,
                          {step,
                           std::to_string(frames),
                           phases,

@@ -7,6 +7,7 @@
 #include "calib/csv.h"
 #include "calib/trial_status.h"
 #include "models/saccade.h"
+#include "models/units.h"
 #include "protocols/fixate_step.h"
 
 namespace owlcal::protocols {
@@ -14,20 +15,18 @@ namespace {
 
 using models::kNumServos;
 using models::PwmVector;
-
-constexpr double kDeg = M_PI / 180.0;
-constexpr double kFrameS = 1.0 / 30;  // the Owl's stream
-constexpr int kFixationMoves = 8;
-constexpr double kFixationTolerancePx = 1.0;
-constexpr double kStepLeadS = 0.5;      // a step profile's rest before the step
-constexpr double kFoundFraction = 0.9;  // of a trial's frames, per eye, for status ok
+constexpr double kVorFrameS = 1.0 / 30;  // the Owl's stream
+constexpr int kVorFixationMoves = 8;
+constexpr double kVorFixationTolerancePx = 1.0;
+constexpr double kStepLeadS = 0.5;         // a step profile's rest before the step
+constexpr double kVorFoundFraction = 0.9;  // of a trial's frames, per eye, for status ok
 constexpr int64_t kRestNs = 600'000'000;
 
-constexpr const char* kFrameColumns =
+constexpr const char* kVorFrameColumns =
     "step_index,trial,profile,frequency_hz,amplitude_deg,condition,k,t_s,eye,neck_cmd_us,pan_cmd_us,neck_cmd_deg,"
     "pan_cmd_deg,found,x_px,y_px,gaze_err_deg,neck_deg,pan_deg,true_neck_deg,true_pan_deg,true_x_px,true_y_px,"
     "true_gaze_err_deg";
-constexpr const char* kTrialColumns =
+constexpr const char* kVorTrialColumns =
     "step_index,trial,profile,frequency_hz,amplitude_deg,condition,frames,found_left,found_right,map,message,status,"
     "reason";
 
@@ -109,7 +108,7 @@ class VorRun {
     rest.mode = SettleRule::Mode::kTime;
     rest.time_ms = 400;
     run_.Settle(rest);
-    for (int move = 0; move <= kFixationMoves; ++move) {
+    for (int move = 0; move <= kVorFixationMoves; ++move) {
       const robot::StereoFrame frame = run_.Grab();
       if (!loc_->Prepare(frame, why)) return false;
       PwmVector target = run_.cmd();
@@ -128,7 +127,7 @@ class VorRun {
           return false;
         }
         x_in_base_[e] = *x;
-        if ((*px - Centre(frame)).norm() > kFixationTolerancePx) all_within = false;
+        if ((*px - Centre(frame)).norm() > kVorFixationTolerancePx) all_within = false;
         const auto goal = models::SaccadePulses(head_, models::Eye(e), a, *x, true, true, {0, 0}, Centre(frame));
         if (!goal) {
           *why = std::string("the map cannot centre the target in the ") + models::kEyeNames[e] + " eye";
@@ -137,7 +136,7 @@ class VorRun {
         target[models::kPanServo[e]] = int(std::lround((*goal)[0]));
         target[models::kTiltServo[e]] = int(std::lround((*goal)[1]));
       }
-      if (all_within || target == run_.cmd() || move == kFixationMoves) {
+      if (all_within || target == run_.cmd() || move == kVorFixationMoves) {
         fixation_ = run_.cmd();
         return true;
       }
@@ -165,7 +164,7 @@ class VorRun {
     const int64_t t0 = run_.robot().NowNs();
     const double neck0 = head_.ServoAngle(models::kNeck, fixation_[models::kNeck]);
     const double total_s = prof.sine ? prof.duration_s : kStepLeadS + 2 * prof.hold_s;
-    const int frames = int(std::ceil(total_s / kFrameS));
+    const int frames = int(std::ceil(total_s / kVorFrameS));
     for (int k = 0; k < frames; ++k) {
       run_.CheckStop();
       const double t = (run_.robot().NowNs() - t0) * 1e-9;
@@ -350,7 +349,7 @@ void RunVorStep(RunContext& run, const Protocol& p, const VorStep& s) {
                     "",
                     calib::TrialStatusName(calib::TrialStatus::kSkipped),
                     "no fixation before the trial: " + why});
-        run.writer().AppendRow("vor_trials.csv", kTrialColumns, row);
+        run.writer().AppendRow("vor_trials.csv", kVorTrialColumns, row);
       }
     run.Event("vor", "skipped: no fixation: " + why);
     if (run.options().progress) *run.options().progress << "  vor: skipped (no fixation: " << why << ")\n";
@@ -392,7 +391,7 @@ void RunVorStep(RunContext& run, const Protocol& p, const VorStep& s) {
                       es.true_px ? calib::CsvFixed(es.true_px->x(), 3) : "",
                       es.true_px ? calib::CsvFixed(es.true_px->y(), 3) : "",
                       Cell(es.true_gaze_err_deg, 4)});
-          run.writer().AppendRow("vor.csv", kFrameColumns, row);
+          run.writer().AppendRow("vor.csv", kVorFrameColumns, row);
         }
       }
       const int n = int(samples.size());
@@ -403,7 +402,7 @@ void RunVorStep(RunContext& run, const Protocol& p, const VorStep& s) {
         reason = "stopped before a limit after " + std::to_string(n) + " frames: " + stopped;
       } else {
         for (int e = 0; e < 2; ++e)
-          if (found[e] < kFoundFraction * n) {
+          if (found[e] < kVorFoundFraction * n) {
             status = calib::TrialStatus::kLostTarget;
             reason += std::string(reason.empty() ? "" : "; ") + "target found in " + std::to_string(found[e]) + " of " +
                       std::to_string(n) + " frames of the " + models::kEyeNames[e] + " eye";
@@ -421,7 +420,7 @@ void RunVorStep(RunContext& run, const Protocol& p, const VorStep& s) {
                   message,
                   calib::TrialStatusName(status),
                   reason});
-      run.writer().AppendRow("vor_trials.csv", kTrialColumns, row);
+      run.writer().AppendRow("vor_trials.csv", kVorTrialColumns, row);
       run.Event("vor", message + ": " + calib::TrialStatusName(status) + (reason.empty() ? "" : " (" + reason + ")"));
       if (run.options().progress)
         *run.options().progress << "  vor " << message << ": " << calib::TrialStatusName(status) << ", " << n

@@ -19,7 +19,7 @@ constexpr std::chrono::milliseconds kPollStep{50};
 constexpr size_t kMaxHeaderBytes = 64 * 1024;
 constexpr size_t kMaxBodyBytes = 16 * 1024 * 1024;
 
-std::string Lower(std::string s) {
+std::string LowerAscii(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
   return s;
 }
@@ -115,7 +115,7 @@ std::optional<HttpRequest> ReadRequest(int fd,
     line_end = head.find("\r\n", start);
     const std::string line = head.substr(start, line_end == std::string::npos ? std::string::npos : line_end - start);
     const size_t colon = line.find(':');
-    if (colon != std::string::npos) req.headers[Lower(Trim(line.substr(0, colon)))] = Trim(line.substr(colon + 1));
+    if (colon != std::string::npos) req.headers[LowerAscii(Trim(line.substr(0, colon)))] = Trim(line.substr(colon + 1));
   }
   size_t length = 0;
   if (auto it = req.headers.find("content-length"); it != req.headers.end()) {

@@ -13,7 +13,7 @@
 
 namespace owlcal::robot {
 namespace {
-constexpr std::chrono::milliseconds kPollStep{50};
+constexpr std::chrono::milliseconds kServerPollStep{50};
 }  // namespace
 
 bool ServoServerOptions::Check(std::string* why) const {
@@ -107,7 +107,7 @@ void ServoServer::Exit(const std::string& why) {
 
 void ServoServer::Loop() {
   while (!stop_ && !exited_) {
-    if (!WaitReadable(listener_.fd(), kPollStep)) continue;
+    if (!WaitReadable(listener_.fd(), kServerPollStep)) continue;
     Socket client(::accept4(listener_.fd(), nullptr, nullptr, SOCK_CLOEXEC));
     if (!client.valid()) continue;
     const int one = 1;  // replies are tiny writes: do not let Nagle hold them back
@@ -134,7 +134,7 @@ bool ServoServer::ServePython(Socket client) {
   const int fd = client.fd();
   while (!stop_) {
     char buf[kPacketBytes];
-    const int64_t got = RecvSome(fd, buf, kPacketBytes, kPollStep);  // comm.recv(24): one read
+    const int64_t got = RecvSome(fd, buf, kPacketBytes, kServerPollStep);  // comm.recv(24): one read
     if (got == -1) continue;
     const std::string packet(buf, got > 0 ? size_t(got) : 0);
     if (on_raw_ && !packet.empty()) on_raw_(packet);
@@ -167,7 +167,7 @@ bool ServoServer::ServeC(Socket client) {
   const int fd = client.fd();
   while (!stop_) {
     char buf[32];
-    const int64_t got = RecvSome(fd, buf, sizeof(buf), kPollStep);  // read(sockfd, buffer, 32)
+    const int64_t got = RecvSome(fd, buf, sizeof(buf), kServerPollStep);  // read(sockfd, buffer, 32)
     if (got == -1) continue;
     if (got <= 0) {
       // read() gives 0 at the client's close; MRSsocket.c then sets the same servos again and
@@ -242,7 +242,7 @@ void ServoServer::Serve(Socket client) {
   auto partial_since = std::chrono::steady_clock::now();
   auto last_activity = partial_since;
   while (!stop_) {
-    const int64_t got = RecvSome(fd, buf, sizeof(buf), kPollStep);
+    const int64_t got = RecvSome(fd, buf, sizeof(buf), kServerPollStep);
     if (got == -1) {  // no data yet: keep waiting, unless a partial packet went stale
       const auto now = std::chrono::steady_clock::now();
       if (assembler.Pending() > 0 && now - partial_since > options_.partial_timeout) {

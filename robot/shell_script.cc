@@ -16,7 +16,7 @@ std::vector<std::string> Words(const std::string& s) {
   return w;
 }
 
-std::string PwmText(const PwmVector& p) {
+std::string ShellPwmText(const PwmVector& p) {
   std::string s;
   for (int i = 0; i < models::kNumServos; ++i) {
     if (i) s += ' ';
@@ -138,10 +138,10 @@ ShellResult RunShellScript(const std::vector<ShellCommand>& script, RobotInterfa
       throw std::runtime_error("line " + std::to_string(c.line) + " (" + c.text + "): " + e.what());
     }
     ++r.num_moves;
-    out << "   sent " << PwmText(reply.sent);
+    out << "   sent " << ShellPwmText(reply.sent);
     if (reply.clamped) {
       ++r.num_clamped;
-      out << " (clamped from " << PwmText(requested) << " to the robot file's limits)";
+      out << " (clamped from " << ShellPwmText(requested) << " to the robot file's limits)";
     }
     out << ", reply \"" << PrintableReply(reply.text) << "\"\n";
   }

@@ -10,6 +10,7 @@
 #include "io/atomic_file.h"
 #include "io/strict_number.h"
 #include "io/yaml_fields.h"
+#include "models/units.h"
 #include "robot/robot_file.h"
 
 namespace owlcal::sim {
@@ -19,8 +20,6 @@ using models::kLeftEye;
 using models::kNumServos;
 using models::kRightEye;
 using models::kServoNames;
-
-constexpr double kDeg = M_PI / 180.0;
 
 }  // namespace
 

@@ -9,11 +9,10 @@
 
 #include "io/strict_number.h"
 #include "io/yaml_fields.h"
+#include "models/units.h"
 
 namespace owlcal::sim {
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 
 // Base frame x right, y down, z forward: yaw turns about y (positive: +z towards +x, the
 // board's face turns to the robot's right), pitch about x (positive: top edge away from the

@@ -9,12 +9,11 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/detector.h"
+#include "models/units.h"
 #include "sim/virtual_owl.h"
 
 namespace owlcal::sim {
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 
 // How many of the target's corners the truth projects inside the image, and their pixels by id.
 int CornersInImage(const models::HeadModel& head,
