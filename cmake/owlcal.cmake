@@ -37,6 +37,47 @@ function(owlcal_use_pch target)
   target_precompile_headers(${target} REUSE_FROM ${from})
 endfunction()
 
+# Unity build (on by default; -DOWLCAL_UNITY=OFF for one object per file): each target's files
+# are compiled OWLCAL_UNITY_BATCH at a time as one translation unit, so the CLI11, GoogleTest,
+# Eigen, Ceres and JSON headers and their inline code are parsed and generated once per batch
+# instead of once per file. Names in a file's anonymous namespace must therefore differ from those
+# of the other files of its folder; the files below cannot share a unit yet and compile alone.
+option(OWLCAL_UNITY "Compile each target's files in batches (CMake unity build)" ON)
+set(OWLCAL_UNITY_BATCH 8 CACHE STRING "Files per unity translation unit (0: all of a target)")
+set(OWLCAL_UNITY_SKIP
+    robot/mjpeg_server.cc                   # <linux/tcp.h>, which clashes with <netinet/tcp.h>
+    # Test helpers copied between test files (TempDir, Slurp, Truth, Recorded, boards, RunOwlcal):
+    tests/apps/owlcal_cli_test.cc tests/apps/lost_target_cli_test.cc tests/apps/real_data_cli_test.cc
+    tests/calib/detector_test.cc
+    tests/fitting/lens_model_choice_test.cc tests/fitting/observability_test.cc
+    tests/fitting/real_kit2020_test.cc tests/fitting/session_compare_test.cc
+    tests/fitting/set_verdict_real_test.cc tests/fitting/step_response_test.cc
+    tests/fitting/stereo_sanity_test.cc tests/fitting/stereo_test.cc
+    tests/pipeline/main_sequence_study_test.cc tests/pipeline/reference_checks_test.cc
+    tests/pipeline/saccade_study_test.cc tests/pipeline/sharpness_study_test.cc
+    tests/pipeline/tracking_study_test.cc
+    tests/protocols/dataset_test.cc tests/protocols/runner_test.cc
+    tests/apps/fit_datasets_cli_test.cc tests/calib/target_sheet_test.cc
+    tests/fitting/range_honest_test.cc tests/fitting/toe_in_servo_fit_test.cc
+    tests/fitting/truth_compare_test.cc tests/fitting/vergence_log_test.cc
+    tests/fitting/vor_analysis_test.cc tests/pipeline/settling_study_test.cc
+    tests/pipeline/vor_study_test.cc
+    tests/reports/report_test.cc tests/robot/servo_server_test.cc)
+# owlcal_unity(TARGET): TARGET is built in unity batches when OWLCAL_UNITY is on.
+function(owlcal_unity target)
+  if(NOT OWLCAL_UNITY OR OWLCAL_FUZZ)
+    return()
+  endif()
+  set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE ${OWLCAL_UNITY_BATCH})
+  get_target_property(srcs ${target} SOURCES)
+  foreach(src ${srcs})
+    file(RELATIVE_PATH rel ${CMAKE_SOURCE_DIR} ${src})
+    if(rel IN_LIST OWLCAL_UNITY_SKIP)
+      set_source_files_properties(${src} PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)
+    endif()
+  endforeach()
+endfunction()
+
 # owlcal_library(NAME DEPS ...): a static library from every .cc in the folder NAME.
 # Headers are included from the repository root ("models/servo_map.h").
 function(owlcal_library name)
@@ -47,6 +88,7 @@ function(owlcal_library name)
     target_include_directories(owlcal_${name} PUBLIC ${CMAKE_SOURCE_DIR} ${CMAKE_BINARY_DIR}/generated)
     target_link_libraries(owlcal_${name} PUBLIC ${ARG_DEPS})
     owlcal_use_pch(owlcal_${name})
+    owlcal_unity(owlcal_${name})
   else()
     add_library(owlcal_${name} INTERFACE)
     target_include_directories(owlcal_${name} INTERFACE ${CMAKE_SOURCE_DIR} ${CMAKE_BINARY_DIR}/generated)
@@ -84,24 +126,30 @@ function(owlcal_tests folder)
     if(NOT ${tier}_srcs)
       continue()
     endif()
+    # COST: ctest -j starts the long tiers first, so the longest test is not left running alone
+    # at the end of the run.
     if(tier STREQUAL "unit")
       set(exe ${folder}_tests)
       set(timeout 300)
+      set(cost 1)
     else()
       set(exe ${folder}_${tier}_tests)
       set(timeout 900)
+      set(cost 100)
       if(tier STREQUAL "mc")
         set(timeout 1500)
+        set(cost 10000)
       endif()
     endif()
     add_executable(${exe} ${${tier}_srcs})
     target_link_libraries(${exe} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
     target_compile_options(${exe} PRIVATE -O1)
     owlcal_use_pch(${exe} test)
+    owlcal_unity(${exe})
     # Each build folder gets its own TMPDIR: suites of several checkouts (or a CI and a developer)
     # running at once never share std::filesystem::temp_directory_path() folders.
     gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60
-                         PROPERTIES ENVIRONMENT "TMPDIR=${OWLCAL_TEST_TMPDIR}" LABELS ${tier} TIMEOUT ${timeout})
+                         PROPERTIES ENVIRONMENT "TMPDIR=${OWLCAL_TEST_TMPDIR}" LABELS ${tier} TIMEOUT ${timeout} COST ${cost})
     list(APPEND targets ${exe})
   endforeach()
   set(OWLCAL_TEST_TARGETS_${folder} ${targets} PARENT_SCOPE)
