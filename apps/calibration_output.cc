@@ -33,7 +33,8 @@ nlohmann::json SoftwareInputs() {
 }
 
 std::string StartCalibrationFolder(const std::string& out, const Progress& progress) {
-  const std::vector<std::string> removed = RemoveEarlierRun(out);
+  const std::string run_id = NewRunId();
+  const std::vector<std::string> removed = RemoveEarlierRun(out, run_id);
   if (!removed.empty()) {
     std::string list;
     for (const auto& f : removed) {
@@ -42,7 +43,7 @@ std::string StartCalibrationFolder(const std::string& out, const Progress& progr
     }
     progress("removed what an earlier run left in " + out + ": " + list);
   }
-  return NewRunId();
+  return run_id;
 }
 
 void WriteCalibrationFolder(fitting::CalibrationRun* run,

@@ -184,7 +184,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   // The folder holds this run alone: what an earlier run left goes first (apps/output_folder.h),
   // so an unusable set never leaves an earlier set's calibration.yaml and exports behind.
   c.result.run_id = NewRunId();
-  const std::vector<std::string> removed = RemoveEarlierRun(a.out);
+  const std::vector<std::string> removed = RemoveEarlierRun(a.out, c.result.run_id);
   if (!removed.empty()) {
     std::cerr << "removed what an earlier run left in " << a.out << ":";
     for (size_t i = 0; i < removed.size(); ++i) std::cerr << (i ? ", " : " ") << removed[i];

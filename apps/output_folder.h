@@ -8,7 +8,11 @@
 // one, and a reader's CheckOneRun still sees one run.
 //
 //   const std::string id = apps::NewRunId();
-//   for (const auto& f : apps::RemoveEarlierRun(out)) progress("removed " + f + " of an earlier run");
+//   for (const auto& f : apps::RemoveEarlierRun(out, id)) progress("removed " + f + " of an earlier run");
+//
+// Only what an owlcal run wrote is removed: a folder that holds one of those names (a `report/`
+// of the user's, say) with nothing to show that owlcal wrote it is refused, and nothing in it is
+// touched.
 #include <string>
 #include <vector>
 
@@ -22,9 +26,20 @@ std::string NewRunId();
 // robot_corrected.yaml, calibration.md, observations.csv, exports/, figures/, tables/, report/.
 const std::vector<std::string>& RunOutputNames();
 
+// The file every calibration run writes first into its folder, holding its run id: it marks the
+// folder as owlcal's even when the run was stopped before it wrote anything else.
+inline constexpr const char* kRunMarkerName = ".owlcal_run";
+
+// True when `out` shows that owlcal wrote it: the run marker, exports/owlcal_run.json, an
+// OpenCV calibration file with owlcal_run_id, or a results.json that is owlcal's (a run_id, or
+// inputs.software.name "owlcal").
+bool IsOwlcalOutputFolder(const std::string& out);
+
 // Removes every RunOutputNames entry of `out` (and the temporaries a killed atomic write of one
-// left there); returns the names removed, in RunOutputNames order. Creates `out` when missing.
-// Throws naming the path when one cannot be removed.
-std::vector<std::string> RemoveEarlierRun(const std::string& out);
+// left there), then writes the run marker with `run_id`; returns the names removed, in
+// RunOutputNames order. Creates `out` when missing. Throws naming the path when one cannot be
+// removed, and when `out` holds one of those names but is not IsOwlcalOutputFolder (then nothing
+// is removed).
+std::vector<std::string> RemoveEarlierRun(const std::string& out, const std::string& run_id);
 
 }  // namespace owlcal::apps

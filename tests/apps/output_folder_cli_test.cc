@@ -88,5 +88,35 @@ TEST_F(OutputFolderCliTest, AnUnusableRunLeavesNoEarlierCalibrationLookingCurren
   EXPECT_FALSE(fs::exists(dir_ / "ranges" / "ranges.csv"));
 }
 
+// A folder of the user's that happens to hold report/ and tables/ is refused, not emptied; one a
+// stopped owlcal run left (only its run marker and figures/) is cleaned.
+TEST_F(OutputFolderCliTest, OnlyWhatOwlcalWroteIsRemoved) {
+  fs::create_directories(Out() / "report");
+  fs::create_directories(Out() / "tables");
+  std::ofstream(Out() / "report" / "notes.txt") << "my lab notes\n";
+  std::ofstream(Out() / "tables" / "mine.csv") << "a,b\n1,2\n";
+  const auto refused = Calibrate("");
+  EXPECT_NE(refused.exit_code, 0) << refused.output;
+  EXPECT_NE(refused.output.find(Out().string() + ": holds tables, report but nothing that says owlcal wrote them"),
+            std::string::npos)
+      << refused.output;
+  EXPECT_TRUE(fs::exists(Out() / "report" / "notes.txt"));
+  EXPECT_TRUE(fs::exists(Out() / "tables" / "mine.csv"));
+  EXPECT_FALSE(fs::exists(Out() / "results.json"));
+
+  // The same names under a stopped run's marker: owlcal's, so removed, and the new run marks it.
+  fs::remove_all(Out());
+  fs::create_directories(Out() / "figures");
+  std::ofstream(Out() / ".owlcal_run") << "20260101T000000Z-00000000\n";
+  const auto good = Calibrate("");
+  ASSERT_EQ(good.exit_code, 0) << good.output;
+  EXPECT_NE(good.output.find("removed what an earlier run left in " + Out().string() + ": figures"), std::string::npos)
+      << good.output;
+  std::ifstream marker(Out() / ".owlcal_run");
+  std::string id;
+  std::getline(marker, id);
+  EXPECT_EQ(id, JsonRunId(Out() / "results.json"));
+}
+
 }  // namespace
 }  // namespace owlcal
