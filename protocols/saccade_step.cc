@@ -75,9 +75,12 @@ class SaccadeController {
     bool prepared = false;
     // Past `frames` (up to 3 times as many), a trial goes on until the last move's result has been
     // seen on two frames: on a slow stream a correction sent late in the trial is not cut off.
+    // It also goes on while the target is still arriving or a correction is due: on a laggy servo
+    // the joint's last degree can take longer than the frames allowed.
     const int max_frames = stop_when_settled ? frames : 3 * frames;
+    bool busy = false;  // the last frame acted on saw the target still arriving or off the centre
     for (int k = 0; k < max_frames; ++k) {
-      if (k >= frames && last_stamp >= ready_ns_ + int64_t(2 * frame_s * 1e9)) break;
+      if (k >= frames && !busy && last_stamp >= ready_ns_ + int64_t(2 * frame_s * 1e9)) break;
       const robot::StereoFrame frame = run_.Grab();
       if (last_stamp >= 0 && frame.stamp_ns > last_stamp) {
         const double dt = (frame.stamp_ns - last_stamp) * 1e-9;
@@ -130,11 +133,13 @@ class SaccadeController {
         const Eigen::Vector2d d = smp.offset_px - r.trace[r.trace.size() - 2].offset_px;
         if ((pan && std::abs(d.x()) > dead_zone_px_[0]) || (tilt && std::abs(d.y()) > dead_zone_px_[1])) {
           still = 0;
+          busy = true;
           continue;
         }
       }
       const bool within = (!pan || std::abs(smp.offset_px.x()) <= dead_zone_px_[0]) &&
                           (!tilt || std::abs(smp.offset_px.y()) <= dead_zone_px_[1]);
+      busy = !within && r.moves <= s_.max_corrections;
       if (within) {
         if (++still >= 2 && stop_when_settled) {
           r.end = LoopResult::End::kSettled;
@@ -169,6 +174,7 @@ class SaccadeController {
       if (target == run_.cmd()) {
         // The servo cannot resolve the rest: nothing to send, and nothing left to wait for.
         r.at_resolution = true;
+        busy = false;
         if (++stuck >= 2 && stop_when_settled) {
           r.end = LoopResult::End::kSettled;
           r.message = "settled after " + std::to_string(r.moves) + " moves (the rest is below one pulse)";
