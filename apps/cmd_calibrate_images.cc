@@ -53,9 +53,7 @@ fitting::OpenCvStereoCalibration ReadReference(const std::string& path) {
     return fitting::ReadOpenCvSplitFiles(in.string(), ex.string());
   }
   // A file of a calibration folder (calibration.yaml ...) only when the folder holds one run.
-  const fs::path p(path);
-  if (fitting::IsRunFileName(p.filename().string()))
-    fitting::CheckOneRun(p.has_parent_path() ? p.parent_path().string() : std::string("."));
+  fitting::CheckOneRunOfPath(path);
   return fitting::ReadOpenCvCalibration(path);
 }
 

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "apps/command_registry.h"
+#include "fitting/calibration_folder.h"
 #include "fitting/session_compare.h"
 #include "reports/session_tables.h"
 #include "reports/table.h"
@@ -31,6 +32,7 @@ int RunCompare(const CompareOptions& a) {
     fs::path p(a.results[i]);
     if (fs::is_directory(p)) p /= "results.json";
     const std::string name = a.names.empty() ? p.parent_path().filename().string() : a.names[i];
+    fitting::CheckOneRunOfPath(p.string());  // a calibration folder's results.json: of one run
     s.push_back({name.empty() ? "session" + std::to_string(i + 1) : name, fitting::ReadResultJson(p.string())});
   }
   const auto c = fitting::CompareSessions(s, a.params, a.z);

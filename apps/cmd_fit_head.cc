@@ -11,6 +11,7 @@
 #include "apps/command_registry.h"
 #include "calib/observation.h"
 #include "calib/observation_io.h"
+#include "fitting/calibration_folder.h"
 #include "fitting/head_fit.h"
 #include "fitting/result.h"
 #include "models/head_model.h"
@@ -50,6 +51,7 @@ int RunFitHead(const FitHeadArgs& a) {
       a.robot_file.empty() ? models::DefaultRobotConfig() : robot::LoadRobotFile(a.robot_file);
   models::HeadModel init = models::NominalHeadModel(robot);
   if (!a.intrinsics_json.empty()) {
+    fitting::CheckOneRunOfPath(a.intrinsics_json);  // a calibration folder's results.json: of one run
     const fitting::CalibrationResult prior = fitting::ReadResultJson(a.intrinsics_json);
     for (int e = 0; e < 2; ++e) {
       if (!prior.cameras[e])

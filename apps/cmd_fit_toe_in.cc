@@ -11,6 +11,7 @@
 #include "calib/image_pairs.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
+#include "fitting/calibration_folder.h"
 #include "fitting/format.h"
 #include "fitting/range_images_calib.h"
 #include "fitting/toe_in_servo_fit.h"
@@ -79,18 +80,21 @@ std::vector<SetRow> ReadSetsCsv(const std::string& path) {
   return rows;
 }
 
-// The stereo result of one set: read (results.json, or a folder holding one) or calibrated
-// here (an observations CSV, or a folder of image pairs with --target), written to set_dir.
+// The stereo result of one set: read (results.json, or a folder holding one, only when its
+// folder holds one run: fitting/calibration_folder.h) or calibrated here (an observations CSV, or
+// a folder of image pairs with --target), written to set_dir.
 fitting::CalibrationResult ResultOf(const SetRow& row,
                                     const FitToeInOptions& a,
                                     const fs::path& set_dir,
                                     std::string* how) {
   const fs::path p(row.path);
   if (p.extension() == ".json") {
+    fitting::CheckOneRunOfPath(p.string());
     *how = "read";
     return fitting::ReadResultJson(p.string());
   }
   if (fs::is_directory(p) && fs::exists(p / "results.json")) {
+    fitting::CheckOneRunOfPath(p.string());
     *how = "read";
     return fitting::ReadResultJson((p / "results.json").string());
   }

@@ -108,4 +108,13 @@ void CheckOneRun(const std::string& dir) {
   if (const std::string why = MixedRunsError(dir); !why.empty()) throw std::runtime_error(why);
 }
 
+void CheckOneRunOfPath(const std::string& path) {
+  const fs::path p(path);
+  if (fs::is_directory(p)) {
+    CheckOneRun(path);
+  } else if (IsRunFileName(p.filename().string())) {
+    CheckOneRun(p.has_parent_path() ? p.parent_path().string() : std::string("."));
+  }
+}
+
 }  // namespace owlcal::fitting

@@ -44,4 +44,9 @@ void CheckOneRun(const std::string& dir);
 // given such a file checks its folder with CheckOneRun.
 bool IsRunFileName(const std::string& file_name);
 
+// What every reader of a calibration does before reading `path`: a folder is checked with
+// CheckOneRun, a file of a calibration folder (IsRunFileName) by its folder's CheckOneRun; any
+// other file (head_result.json, an observations CSV) is left alone.
+void CheckOneRunOfPath(const std::string& path);
+
 }  // namespace owlcal::fitting

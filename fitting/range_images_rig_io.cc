@@ -48,8 +48,7 @@ StereoRig LoadStereoRig(const std::string& path) {
   }
   if (!fs::exists(p)) throw std::runtime_error(path + ": no such calibration file");
   // A file of a calibration folder is read only when the folder holds one run.
-  if (IsRunFileName(p.filename().string()))
-    CheckOneRun(p.has_parent_path() ? p.parent_path().string() : std::string("."));
+  CheckOneRunOfPath(path);
   StereoRig rig;
   if (p.extension() == ".json") {
     const CalibrationResult result = ReadResultJson(path);

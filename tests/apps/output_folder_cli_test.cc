@@ -2,6 +2,7 @@
 // meets it: calibrate-images on a good set, then on an unusable one into the same folder. The
 // unusable run said "calibration.yaml and exports not written" but left the good run's
 // calibration.yaml, xml files and exports/, and `range-images --calib` read them as current.
+// Then the other readers of a result (compare-sessions, fit-toe-in, fit-head).
 // OpenCV's stereo sample with the 25 mm square of its calibration sample (every export written).
 #include <unistd.h>
 
@@ -26,6 +27,13 @@ using test_cli::RunOwlcal;
 std::string JsonRunId(const fs::path& p) {
   std::ifstream f(p);
   return nlohmann::json::parse(f).value("run_id", "");
+}
+
+std::string FileText(const fs::path& p) {
+  std::ifstream f(p);
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
 }
 
 class OutputFolderCliTest : public test_cli::SampleBoardCliTest {
@@ -116,6 +124,46 @@ TEST_F(OutputFolderCliTest, OnlyWhatOwlcalWroteIsRemoved) {
   std::string id;
   std::getline(marker, id);
   EXPECT_EQ(id, JsonRunId(Out() / "results.json"));
+}
+
+// compare-sessions, fit-toe-in and fit-head read a results.json of a calibration folder only when
+// the folder holds one run, as range-images and report do: here an older owlcal's leftover, a
+// results.json of another run beside this run's calibration.yaml and exports.
+TEST_F(OutputFolderCliTest, EveryReaderOfAResultRefusesAFolderOfTwoRuns) {
+  const auto good = Calibrate("");
+  ASSERT_EQ(good.exit_code, 0) << good.output;
+  const std::string id = JsonRunId(Out() / "results.json");
+  ASSERT_FALSE(id.empty());
+  const std::string other = "20260101T000000Z-00000000";
+  nlohmann::json results;
+  {
+    std::ifstream f(Out() / "results.json");
+    results = nlohmann::json::parse(f);
+  }
+  results["run_id"] = other;
+  std::ofstream(Out() / "results.json") << results.dump(1) << "\n";
+
+  const std::string results_json = (Out() / "results.json").string();
+  std::ofstream(dir_ / "sets.csv") << "calibration,Rx,Ry,Lx,Ly\n"
+                                   << Out().string() << ",1509,1530,1581,1580\n"
+                                   << results_json << ",1545,1530,1545,1580\n";
+  for (const std::string& cmd :
+       {"compare-sessions '" + Out().string() + "' '" + results_json + "'",
+        "fit-toe-in '" + (dir_ / "sets.csv").string() + "' --out '" + (dir_ / "toe").string() + "'",
+        "fit-head '" + (Out() / "observations.csv").string() + "' --intrinsics '" + results_json + "' --out '" +
+            (dir_ / "head").string() + "'"}) {
+    const auto r = RunOwlcal(cmd);
+    EXPECT_EQ(r.exit_code, 1) << cmd << "\n" << r.output;
+    EXPECT_NE(r.output.find(Out().string() + " holds files of different runs"), std::string::npos) << cmd << "\n"
+                                                                                                   << r.output;
+    EXPECT_NE(r.output.find("run " + other + ": results.json"), std::string::npos) << cmd << "\n" << r.output;
+    EXPECT_NE(r.output.find("run " + id + ": evaluation.json, calibration.yaml"), std::string::npos) << cmd << "\n"
+                                                                                                     << r.output;
+  }
+  // fit-toe-in names each set it could not use and writes no head fit from them.
+  const std::string toe_md = FileText(dir_ / "toe" / "toe_in_fit.md");
+  EXPECT_EQ(toe_md.find("servo.Rx.deg_per_us = "), std::string::npos) << toe_md;
+  EXPECT_FALSE(fs::exists(dir_ / "head" / "head_result.json"));
 }
 
 }  // namespace
