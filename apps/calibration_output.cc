@@ -32,18 +32,10 @@ nlohmann::json SoftwareInputs() {
   return {{"name", "owlcal"}, {"version", OWLCAL_VERSION}, {"git", OWLCAL_GIT_DESCRIBE}};
 }
 
-std::string StartCalibrationFolder(const std::string& out, const Progress& progress) {
-  const std::string run_id = NewRunId();
-  const std::vector<std::string> removed = RemoveEarlierRun(out, run_id);
-  if (!removed.empty()) {
-    std::string list;
-    for (const auto& f : removed) {
-      if (!list.empty()) list += ", ";
-      list += f;
-    }
-    progress("removed what an earlier run left in " + out + ": " + list);
-  }
-  return run_id;
+void StampRun(const std::string& run_id, fitting::CalibrationResult* result) {
+  result->software_version = OWLCAL_VERSION;
+  result->run_id = run_id;
+  result->inputs["software"] = SoftwareInputs();
 }
 
 void WriteCalibrationFolder(fitting::CalibrationRun* run,
@@ -51,9 +43,7 @@ void WriteCalibrationFolder(fitting::CalibrationRun* run,
                             const std::string& out,
                             bool draw,
                             const Progress& progress) {
-  run->result.software_version = OWLCAL_VERSION;
-  run->result.run_id = run_id;
-  run->result.inputs["software"] = SoftwareInputs();
+  StampRun(run_id, &run->result);
   reports::WriteReportData(*run, out);
   // The robot file the run suggests (pipeline/bring_up.h CorrectedRobotFile): what the bring-up
   // learned and the fitted centres, scales and IPD, for the user to compare with theirs.

@@ -38,13 +38,12 @@ void PrintWarning(const std::string& message);
 // configure time, "unknown" without a checkout).
 nlohmann::json SoftwareInputs();
 
-// Before a run: removes what an earlier run left in `out` (apps/output_folder.h; never
-// datasets/), says what on a progress line, and returns the new run's id.
-std::string StartCalibrationFolder(const std::string& out, const Progress& progress);
+// Stamps a result with the software that made it (software_version, inputs.software) and its
+// run id (apps/output_folder.h StartRun).
+void StampRun(const std::string& run_id, fitting::CalibrationResult* result);
 
-// Stamps run->result with the software (software_version, inputs.software) and the run id (from
-// StartCalibrationFolder), and writes the calibration folder `out`; draw = run gnuplot. On the
-// virtual Owl, prints the comparison with the truth.
+// Stamps run->result (StampRun with the run id from StartRun) and writes the calibration folder
+// `out`; draw = run gnuplot. On the virtual Owl, prints the comparison with the truth.
 void WriteCalibrationFolder(fitting::CalibrationRun* run,
                             const std::string& run_id,
                             const std::string& out,

@@ -7,6 +7,7 @@
 
 #include "apps/calibration_output.h"
 #include "apps/command_registry.h"
+#include "apps/output_folder.h"
 #include "apps/robot_factory.h"
 #include "apps/robot_options.h"
 #include "owlcal_version.h"
@@ -60,7 +61,7 @@ int RunCalibrate(const CalibrateOptions& o) {
                  {"lens_model", o.lens_model},
                  {"owlcal_version", OWLCAL_VERSION}};
   std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
-  const std::string run_id = StartCalibrationFolder(o.out, progress);
+  const std::string run_id = StartRun(o.out, progress);
   fitting::CalibrationRun run;
   try {
     run = pipeline::Calibrate(*robot, co);

@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 
+#include "apps/calibration_output.h"
 #include "apps/command_registry.h"
 #include "apps/output_folder.h"
 #include "calib/image_pairs.h"
@@ -181,13 +182,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
 
   // The folder holds this run alone: what an earlier run left goes first (apps/output_folder.h),
   // so an unusable set never leaves an earlier set's calibration.yaml and exports behind.
-  c.result.run_id = NewRunId();
-  const std::vector<std::string> removed = RemoveEarlierRun(a.out, c.result.run_id);
-  if (!removed.empty()) {
-    std::cerr << "removed what an earlier run left in " << a.out << ":";
-    for (size_t i = 0; i < removed.size(); ++i) std::cerr << (i ? ", " : " ") << removed[i];
-    std::cerr << "\n";
-  }
+  StampRun(StartRun(a.out, [](const std::string& m) { std::cerr << m << "\n"; }), &c.result);
   const fs::path out(a.out);
   calib::WriteObservationsCsv((out / "observations.csv").string(), set.observations);
   const std::string md = reports::ImageSetReportMarkdown(c, keys) + (reference_md.empty() ? "" : "\n" + reference_md);

@@ -8,6 +8,7 @@
 
 #include "apps/calibration_output.h"
 #include "apps/command_registry.h"
+#include "apps/output_folder.h"
 #include "owlcal_version.h"
 #include "pipeline/calibrate.h"
 
@@ -72,7 +73,7 @@ int RunFitDatasets(FitDatasetsCommand o) {
                   {"lens_model", o.lens_model},
                   {"owlcal_version", OWLCAL_VERSION}};
   run.result.inputs["command"] = run.settings;
-  const std::string run_id = StartCalibrationFolder(o.out, progress);
+  const std::string run_id = StartRun(o.out, progress);
   WriteCalibrationFolder(&run, run_id, o.out, !o.no_figures, progress);
   return kExitOk;
 }

@@ -6,7 +6,9 @@
 #include <iostream>
 #include <memory>
 
+#include "apps/calibration_output.h"
 #include "apps/command_registry.h"
+#include "apps/output_folder.h"
 #include "calib/csv.h"
 #include "calib/image_pairs.h"
 #include "calib/observation_io.h"
@@ -15,7 +17,6 @@
 #include "fitting/format.h"
 #include "fitting/range_images_calib.h"
 #include "fitting/toe_in_servo_fit.h"
-#include "owlcal_version.h"
 #include "reports/table.h"
 #include "reports/toe_in_tables.h"
 #include "robot/robot_file.h"
@@ -82,11 +83,9 @@ std::vector<SetRow> ReadSetsCsv(const std::string& path) {
 
 // The stereo result of one set: read (results.json, or a folder holding one, only when its
 // folder holds one run: fitting/calibration_folder.h) or calibrated here (an observations CSV, or
-// a folder of image pairs with --target), written to set_dir.
-fitting::CalibrationResult ResultOf(const SetRow& row,
-                                    const FitToeInOptions& a,
-                                    const fs::path& set_dir,
-                                    std::string* how) {
+// a folder of image pairs with --target), written to set_dir with this run's id.
+fitting::CalibrationResult ResultOf(
+    const SetRow& row, const FitToeInOptions& a, const std::string& run_id, const fs::path& set_dir, std::string* how) {
   const fs::path p(row.path);
   if (p.extension() == ".json") {
     fitting::CheckOneRunOfPath(p.string());
@@ -125,7 +124,7 @@ fitting::CalibrationResult ResultOf(const SetRow& row,
                              "image folder");
   }
   fitting::ImageSetCalibration c = fitting::CalibrateImageSet(obs, fo);
-  c.result.software_version = OWLCAL_VERSION;
+  StampRun(run_id, &c.result);
   c.result.inputs["source"] = row.path;
   fs::create_directories(set_dir);
   fitting::WriteResultJson(c.result, (set_dir / "results.json").string());
@@ -149,14 +148,18 @@ int RunFitToeIn(const FitToeInOptions& a) {
     o.lx_direction = robot.servos[models::kLx].direction;
   }
   const auto rows = ReadSetsCsv(a.csv);
+  for (size_t i = 0; i < rows.size(); ++i)
+    CheckInputOutsideRun(a.out, rows[i].path, a.csv + " row " + std::to_string(i + 1) + ":");
+  // The folder holds this run alone (apps/output_folder.h): sets/ of an earlier run with more
+  // sets go too, and a folder that is not owlcal's is refused before any set is calibrated.
+  const std::string run_id = StartRun(a.out, [](const std::string& m) { std::cout << m << "\n"; });
   const fs::path out(a.out);
-  fs::create_directories(out);
   std::vector<fitting::ToeInSet> sets;
   for (size_t i = 0; i < rows.size(); ++i) {
     fitting::ToeInSet s;
     std::string how;
     try {
-      const auto result = ResultOf(rows[i], a, out / "sets" / std::to_string(i), &how);
+      const auto result = ResultOf(rows[i], a, run_id, out / "sets" / std::to_string(i), &how);
       s = fitting::ToeInSetFromResult(result, rows[i].path);
     } catch (const UsageError&) {
       throw;
@@ -177,10 +180,10 @@ int RunFitToeIn(const FitToeInOptions& a) {
   reports::WriteTextFile((out / "toe_in_fit.md").string(), md);
   reports::WriteTextFile((out / "toe_in_sets.csv").string(), reports::ToeInSetsCsv(sets, fit));
   fitting::CalibrationResult r;
-  r.software_version = OWLCAL_VERSION;
   r.parameters = fit.parameters;
   r.warnings = fit.notes;
   r.inputs = {{"sets_csv", a.csv}, {"scale_mode", a.scale}, {"robot_file", a.robot_file}};
+  StampRun(run_id, &r);
   r.diagnostics = {{"chi2", fit.chi2},
                    {"dof", fit.dof},
                    {"chi2_per_dof", fit.chi2_per_dof},

@@ -4,7 +4,9 @@
 #include <iostream>
 #include <memory>
 
+#include "apps/calibration_output.h"
 #include "apps/command_registry.h"
+#include "apps/output_folder.h"
 #include "fitting/format.h"
 #include "fitting/vergence_log_fit.h"
 #include "reports/table.h"
@@ -42,8 +44,13 @@ int RunFitVergence(const FitVergenceOptions& a) {
   o.pwm_sigma_us = a.pwm_sigma_us;
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
+  CheckInputOutsideRun(a.out, a.csv, "the vergence log");
+  if (!a.constants.empty()) CheckInputOutsideRun(a.out, a.constants, "--constants");
   fitting::VergenceColumns cols;
   const auto rows = fitting::ReadVergenceLogCsv(a.csv, a.columns, &cols);
+  // The folder holds this run alone (apps/output_folder.h): a fit that fails leaves no earlier
+  // run's fit looking current, and a folder that is not owlcal's is refused before the fit.
+  const std::string run_id = StartRun(a.out, [](const std::string& m) { std::cout << m << "\n"; });
   const auto fit = fitting::FitVergenceLog(rows, o);
   fitting::LooSummary loo;  // leave-one-out refits only make sense around a usable fit
   if (fit.summary.usable && !a.constants.empty()) {
@@ -64,7 +71,6 @@ int RunFitVergence(const FitVergenceOptions& a) {
   } else if (fit.summary.usable) {
     loo = fitting::LeaveOneOut(rows, o, fit);
   }
-  std::filesystem::create_directories(a.out);
   const std::string md = "Columns used: " + cols.Describe() + ".\n\n" + reports::VergenceReportMarkdown(rows, fit, loo);
   reports::WriteTextFile((std::filesystem::path(a.out) / "vergence_fit.md").string(), md);
   reports::WriteTextFile((std::filesystem::path(a.out) / "vergence_rows.csv").string(),
@@ -84,6 +90,7 @@ int RunFitVergence(const FitVergenceOptions& a) {
                 {"run", cols.run_name},
                 {"ignored", cols.ignored}}},
               {"constants", a.constants}};
+  StampRun(run_id, &r);
   r.diagnostics = {{"residual_sigma_us", fit.residual_sigma_us}, {"loo_mean_abs_rel", loo.loo_mean_abs_rel}};
   if (loo.has_fixed) {
     r.diagnostics["fixed_constant_mean_abs_rel"] = loo.fixed_mean_abs_rel;

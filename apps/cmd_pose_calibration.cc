@@ -6,7 +6,9 @@
 #include <iostream>
 #include <memory>
 
+#include "apps/calibration_output.h"
 #include "apps/command_registry.h"
+#include "apps/output_folder.h"
 #include "fitting/format.h"
 #include "fitting/pose_stereo.h"
 #include "fitting/truth_compare.h"
@@ -30,6 +32,12 @@ int RunPoseCalibration(const PoseCalibrationOptions& a) {
   if (a.pwm.size() != models::kNumServos) throw UsageError("give five pulse widths: Rx Ry Lx Ly Neck");
   if (!a.approach.empty() && a.approach.size() != models::kNumServos)
     throw UsageError("--approach takes five values (-1, 0, +1) in wire order");
+  std::string out = a.out;
+  if (out.empty()) {
+    out = (fs::path(a.calib) / "pose").string();
+    for (int p : a.pwm) out += "-" + std::to_string(p);
+  }
+  CheckInputOutsideRun(out, a.calib, "--calib");
   fitting::CalibrationRun run = reports::ReadReportData(a.calib);
   models::PwmVector pwm{};
   for (int i = 0; i < models::kNumServos; ++i) {
@@ -45,21 +53,19 @@ int RunPoseCalibration(const PoseCalibrationOptions& a) {
   o.rectify_alpha = a.alpha;
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
+  // The pose's folder holds this run alone, as a calibration run's (apps/output_folder.h): a
+  // prediction that fails leaves no earlier one looking current.
+  const std::string run_id = StartRun(out, [](const std::string& m) { std::cout << m << "\n"; });
   const fitting::PoseStereo s = fitting::StereoAtPose(run.result, pwm, o);
   if (!s.ok) {
     std::cerr << "owlcal pose-calibration: " << a.calib << ": " << s.message << "\n";
     return kExitFailed;
   }
-  std::string out = a.out;
-  if (out.empty()) {
-    out = (fs::path(a.calib) / "pose").string();
-    for (int p : a.pwm) out += "-" + std::to_string(p);
-  }
-  fs::create_directories(out);
   fitting::CalibrationRun pr;
   pr.result = s.result;
-  pr.result.software_version = run.result.software_version;
+  StampRun(run_id, &pr.result);
   pr.result.inputs["calibration"] = a.calib;
+  pr.result.inputs["calibration_run_id"] = run.result.run_id;  // the head fit's run
   pr.config = run.config;
   pr.limits = run.limits;
   pr.truth = run.truth;

@@ -5,12 +5,14 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <stdexcept>
 #include <system_error>
 
 #include <nlohmann/json.hpp>
 
+#include "apps/command_registry.h"
 #include "io/atomic_file.h"
 #include "io/json_strict.h"
 
@@ -43,7 +45,12 @@ const std::vector<std::string>& RunOutputNames() {
                                                   "exports",
                                                   "figures",
                                                   "tables",
-                                                  "report"};
+                                                  "report",
+                                                  "vergence_fit.md",
+                                                  "vergence_rows.csv",
+                                                  "toe_in_fit.md",
+                                                  "toe_in_sets.csv",
+                                                  "sets"};
   return kNames;
 }
 
@@ -65,9 +72,11 @@ bool IsOwlcalOutputFolder(const std::string& out) {
     const nlohmann::json r = io::ReadJsonFileStrict((dir / "results.json").string());
     if (!r.is_object()) return false;
     if (r.contains("run_id")) return true;
-    const nlohmann::json* inputs = r.contains("inputs") ? &r.at("inputs") : nullptr;
-    return inputs && inputs->is_object() && inputs->contains("software") && inputs->at("software").is_object() &&
-           inputs->at("software").value("name", "") == "owlcal";
+    auto names_owlcal = [](const nlohmann::json& j) {
+      return j.is_object() && j.contains("software") && j.at("software").is_object() &&
+             j.at("software").value("name", "") == "owlcal";
+    };
+    return names_owlcal(r) || (r.contains("inputs") && names_owlcal(r.at("inputs")));
   } catch (const std::exception&) {
     return false;  // not JSON, or not owlcal's: a file of the user's
   }
@@ -109,6 +118,37 @@ std::vector<std::string> RemoveEarlierRun(const std::string& out, const std::str
   for (const fs::path& p : temporaries) remove(p);
   io::WriteFileAtomic((fs::path(out) / kRunMarkerName).string(), run_id + "\n");
   return removed;
+}
+
+std::string StartRun(const std::string& out, const std::function<void(const std::string&)>& say) {
+  const std::string run_id = NewRunId();
+  const std::vector<std::string> removed = RemoveEarlierRun(out, run_id);
+  if (!removed.empty()) {
+    std::string list;
+    for (const auto& f : removed) list += (list.empty() ? "" : ", ") + f;
+    say("removed what an earlier run left in " + out + ": " + list);
+  }
+  return run_id;
+}
+
+void CheckInputOutsideRun(const std::string& out, const std::string& input, const std::string& what) {
+  std::error_code ec;
+  const fs::path o = fs::weakly_canonical(fs::absolute(out), ec);
+  const fs::path in = fs::weakly_canonical(fs::absolute(input), ec);
+  if (ec) return;  // a path that cannot be resolved is reported by the reader, naming it
+  const fs::path rel = in.lexically_relative(o);
+  if (rel.empty() || *rel.begin() == "..") return;
+  if (rel == ".")
+    throw UsageError(what + " " + input + " is the output folder " + out +
+                     ": the run would remove what it reads before it starts; give another --out");
+  const std::string top = rel.begin()->string();
+  const bool itself = std::next(rel.begin()) == rel.end();
+  for (const std::string& name : RunOutputNames())
+    if (top == name)
+      throw UsageError(
+          what + " " + input +
+          (itself ? " is one of the files" : " lies in " + (fs::path(out) / name).string() + ", one of the folders") +
+          " a run into " + out + " removes before it starts; give another --out");
 }
 
 }  // namespace owlcal::apps

@@ -2,7 +2,8 @@
 // meets it: calibrate-images on a good set, then on an unusable one into the same folder. The
 // unusable run said "calibration.yaml and exports not written" but left the good run's
 // calibration.yaml, xml files and exports/, and `range-images --calib` read them as current.
-// Then the other readers of a result (compare-sessions, fit-toe-in, fit-head).
+// Then the other readers of a result (compare-sessions, fit-toe-in, fit-head), the other writers
+// of a result folder (fit-vergence, fit-toe-in).
 // OpenCV's stereo sample with the 25 mm square of its calibration sample (every export written).
 #include <unistd.h>
 
@@ -14,8 +15,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "calib/observation_io.h"
 #include "fitting/opencv_calib_file.h"
 #include "tests/apps/run_owlcal.h"
+#include "tests/fitting/toe_in_synthetic.h"
 #include "tests/shared_data.h"
 
 namespace owlcal {
@@ -27,6 +30,14 @@ using test_cli::RunOwlcal;
 std::string JsonRunId(const fs::path& p) {
   std::ifstream f(p);
   return nlohmann::json::parse(f).value("run_id", "");
+}
+
+// The run id in a folder's run marker ("" without one).
+std::string MarkerRunId(const fs::path& dir) {
+  std::ifstream f(dir / ".owlcal_run");
+  std::string id;
+  std::getline(f, id);
+  return id;
 }
 
 std::string FileText(const fs::path& p) {
@@ -164,6 +175,88 @@ TEST_F(OutputFolderCliTest, EveryReaderOfAResultRefusesAFolderOfTwoRuns) {
   const std::string toe_md = FileText(dir_ / "toe" / "toe_in_fit.md");
   EXPECT_EQ(toe_md.find("servo.Rx.deg_per_us = "), std::string::npos) << toe_md;
   EXPECT_FALSE(fs::exists(dir_ / "head" / "head_result.json"));
+}
+
+// fit-vergence and fit-toe-in write a result folder as calibrate does: every result carries the
+// run's id, what an earlier run left goes first (a longer earlier toe-in run's sets/N too), and a
+// folder of the user's holding one of those names is refused, untouched.
+TEST_F(OutputFolderCliTest, FitVergenceAndFitToeInFoldersHoldOneRun) {
+  const fs::path v = dir_ / "vergence";
+  const std::string log = test_data::SharedData() + "/owl-real/noble2020-vergence-range/vergence_runs.csv";
+  const std::string fit_vergence =
+      "fit-vergence '" + log + "' --distance-column actual_distance_cm --out '" + v.string() + "'";
+  const auto v1 = RunOwlcal(fit_vergence);
+  ASSERT_EQ(v1.exit_code, 0) << v1.output;
+  const std::string v_id = JsonRunId(v / "results.json");
+  EXPECT_FALSE(v_id.empty()) << v1.output;
+  EXPECT_EQ(MarkerRunId(v), v_id);
+  const auto v2 = RunOwlcal(fit_vergence);
+  ASSERT_EQ(v2.exit_code, 0) << v2.output;
+  EXPECT_NE(v2.output.find("removed what an earlier run left in " + v.string() +
+                           ": results.json, vergence_fit.md, vergence_rows.csv"),
+            std::string::npos)
+      << v2.output;
+  EXPECT_NE(JsonRunId(v / "results.json"), v_id);
+  EXPECT_EQ(MarkerRunId(v), JsonRunId(v / "results.json"));
+
+  const fs::path mine = dir_ / "mine";
+  fs::create_directories(mine);
+  std::ofstream(mine / "vergence_fit.md") << "my notes\n";
+  const auto refused =
+      RunOwlcal("fit-vergence '" + log + "' --distance-column actual_distance_cm --out '" + mine.string() + "'");
+  EXPECT_EQ(refused.exit_code, 1) << refused.output;
+  EXPECT_NE(refused.output.find(mine.string() + ": holds vergence_fit.md but nothing that says owlcal wrote them"),
+            std::string::npos)
+      << refused.output;
+  EXPECT_EQ(FileText(mine / "vergence_fit.md"), "my notes\n");
+  EXPECT_FALSE(fs::exists(mine / "results.json"));
+
+  // fit-toe-in on synthetic sets (observation files, each calibrated by the command).
+  const test_toe_in::Truth t;
+  std::mt19937 rng(5);
+  std::string rows;
+  for (size_t i = 0; i < test_toe_in::kSettings.size(); ++i) {
+    const auto& st = test_toe_in::kSettings[i];
+    const std::string name = "set" + std::to_string(i) + ".csv";
+    calib::WriteObservationsCsv((dir_ / name).string(), test_toe_in::SynthesiseSet(t, st.rx, st.lx, &rng));
+    rows += name + "," + std::to_string(st.rx) + ",1530," + std::to_string(st.lx) + ",1580\n";
+  }
+  const size_t last = test_toe_in::kSettings.size() - 1;
+  std::ofstream(dir_ / "all.csv") << "calibration,Rx,Ry,Lx,Ly\n" << rows;
+  std::ofstream(dir_ / "fewer.csv") << "calibration,Rx,Ry,Lx,Ly\n"
+                                    << rows.substr(0, rows.rfind("set" + std::to_string(last)));
+  const fs::path toe = dir_ / "toe";
+  auto fit_toe_in = [&](const std::string& csv) {
+    return RunOwlcal("fit-toe-in '" + (dir_ / csv).string() + "' --out '" + toe.string() + "'");
+  };
+  const auto t1 = fit_toe_in("all.csv");
+  ASSERT_EQ(t1.exit_code, 0) << t1.output;
+  ASSERT_TRUE(fs::exists(toe / "sets" / std::to_string(last) / "results.json")) << t1.output;
+  const std::string t_id = JsonRunId(toe / "results.json");
+  EXPECT_FALSE(t_id.empty()) << t1.output;
+  EXPECT_EQ(JsonRunId(toe / "sets" / "0" / "results.json"), t_id);
+  EXPECT_EQ(MarkerRunId(toe), t_id);
+  const auto t2 = fit_toe_in("fewer.csv");
+  ASSERT_EQ(t2.exit_code, 0) << t2.output;
+  EXPECT_NE(t2.output.find("removed what an earlier run left in " + toe.string() +
+                           ": results.json, toe_in_fit.md, toe_in_sets.csv, sets"),
+            std::string::npos)
+      << t2.output;
+  EXPECT_FALSE(fs::exists(toe / "sets" / std::to_string(last))) << "the earlier run's last set is still there";
+  const std::string t2_id = JsonRunId(toe / "results.json");
+  EXPECT_NE(t2_id, t_id);
+  EXPECT_EQ(JsonRunId(toe / "sets" / "0" / "results.json"), t2_id);
+  EXPECT_EQ(MarkerRunId(toe), t2_id);
+
+  // A set read from the folder the run empties first is refused before anything is removed.
+  std::ofstream(dir_ / "inside.csv") << "calibration,Rx,Ry,Lx,Ly\n"
+                                     << (toe / "sets" / "0").string() << ",1545,1530,1545,1580\n";
+  const auto inside = fit_toe_in("inside.csv");
+  EXPECT_EQ(inside.exit_code, 2) << inside.output;
+  EXPECT_NE(inside.output.find((toe / "sets" / "0").string() + " lies in " + (toe / "sets").string()),
+            std::string::npos)
+      << inside.output;
+  EXPECT_EQ(JsonRunId(toe / "sets" / "0" / "results.json"), t2_id);
 }
 
 }  // namespace

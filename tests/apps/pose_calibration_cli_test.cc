@@ -3,7 +3,8 @@
 // centre pose's files (results.json, calibration.yaml, the course's xml, exports/) with the
 // prediction's sigma and, on the virtual Owl, its truth; a command outside the robot's limits
 // is refused naming the servo. The calibration folder also holds the pixel -> PWM map
-// (exports/pixel_pwm.csv and owl-pwm.h's OwlPixelToPwm).
+// (exports/pixel_pwm.csv and owl-pwm.h's OwlPixelToPwm). The pose's folder holds one run, as a
+// calibration folder does (apps/output_folder.h). One calibration serves every test.
 #include <unistd.h>
 
 #include <cmath>
@@ -14,6 +15,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "fitting/opencv_calib_file.h"
 #include "owlcal_version.h"
 #include "tests/apps/run_owlcal.h"
 
@@ -30,14 +32,37 @@ std::string ReadText(const fs::path& p) {
   return s.str();
 }
 
-TEST(PoseCalibrationCli, WritesTheCentrePoseFilesAtAVergedCommandWithSigmaAndTruth) {
-  ASSERT_FALSE(test_cli::OwlcalBinary().empty()) << "the owlcal binary is not built";
-  const fs::path root = fs::temp_directory_path() / ("owlcal_pose_cli_" + std::to_string(::getpid()));
-  fs::remove_all(root);
-  const std::string sweep = std::string(OWLCAL_SOURCE_DIR) + "/tests/data/protocols/servo_sweep_small.yaml";
-  const auto cal = RunOwlcal("calibrate --quiet --no-figures --protocols stereo '" + sweep + "' --out '" +
-                             (root / "cal").string() + "'");
-  ASSERT_EQ(cal.exit_code, 0) << cal.output;
+class PoseCalibrationCli : public ::testing::Test {
+ protected:
+  // `calibrate` with the stereo protocol and a short servo sweep into root_/cal, once.
+  static void SetUpTestSuite() {
+    if (test_cli::OwlcalBinary().empty()) return;
+    root_ = fs::temp_directory_path() / ("owlcal_pose_cli_" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    const std::string sweep = std::string(OWLCAL_SOURCE_DIR) + "/tests/data/protocols/servo_sweep_small.yaml";
+    const auto cal = RunOwlcal("calibrate --quiet --no-figures --protocols stereo '" + sweep + "' --out '" +
+                               (root_ / "cal").string() + "'");
+    calibrate_output_ = cal.output;
+    calibrated_ = cal.exit_code == 0;
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    if (!root_.empty()) fs::remove_all(root_, ec);
+  }
+  void SetUp() override {
+    ASSERT_FALSE(test_cli::OwlcalBinary().empty()) << "the owlcal binary is not built";
+    ASSERT_TRUE(calibrated_) << calibrate_output_;
+  }
+  static fs::path root_;
+  static std::string calibrate_output_;
+  static bool calibrated_;
+};
+fs::path PoseCalibrationCli::root_;
+std::string PoseCalibrationCli::calibrate_output_;
+bool PoseCalibrationCli::calibrated_ = false;
+
+TEST_F(PoseCalibrationCli, WritesTheCentrePoseFilesAtAVergedCommandWithSigmaAndTruth) {
+  const fs::path root = root_;
   // The pixel -> PWM map is exported with the head.
   const std::string csv = ReadText(root / "cal" / "exports" / "pixel_pwm.csv");
   EXPECT_NE(csv.find("eye,x_px,y_px,ok,clamped,pan_us,tilt_us,delta_pan_us,delta_tilt_us"), std::string::npos);
@@ -77,7 +102,50 @@ TEST(PoseCalibrationCli, WritesTheCentrePoseFilesAtAVergedCommandWithSigmaAndTru
                              "' 1509 1530 2500 1580 1530 --out '" + (root / "bad").string() + "'");
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_NE(bad.output.find("Lx = 2500"), std::string::npos) << bad.output;
-  fs::remove_all(root);
+}
+
+std::string RunIdOfJson(const fs::path& p) {
+  std::ifstream f(p);
+  return nlohmann::json::parse(f).value("run_id", "");
+}
+
+// Every file of the pose's folder carries the pose run's id; a second pose into the same folder
+// removes the first's files; --out the calibration folder itself is refused, the calibration kept.
+TEST_F(PoseCalibrationCli, ThePoseFolderHoldsOneRun) {
+  const fs::path out = root_ / "pose_runs";
+  const std::string pose = "pose-calibration --calib '" + (root_ / "cal").string() + "' --out '" + out.string() + "' ";
+  const auto first = RunOwlcal(pose + "1509 1530 1581 1580 1530");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const std::string id = RunIdOfJson(out / "results.json");
+  ASSERT_FALSE(id.empty()) << first.output;
+  EXPECT_EQ(RunIdOfJson(out / "exports" / "owlcal_run.json"), id);
+  for (const char* file : {"calibration.yaml", "intrinsics.xml", "extrinsics.xml"})
+    EXPECT_EQ(fitting::ReadOpenCvCalibration((out / file).string()).run_id, id) << file;
+  EXPECT_EQ(ReadText(out / ".owlcal_run"), id + "\n");
+  std::ifstream f(out / "results.json");
+  const nlohmann::json j = nlohmann::json::parse(f);
+  EXPECT_EQ(j.at("inputs").at("calibration_run_id"), RunIdOfJson(root_ / "cal" / "results.json"));
+  EXPECT_EQ(j.at("inputs").at("software").at("name"), "owlcal");
+
+  std::ofstream(out / "exports" / "stale.yaml") << "an earlier run's export\n";
+  const auto second = RunOwlcal(pose + "1545 1530 1545 1580 1530");
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  EXPECT_NE(second.output.find("removed what an earlier run left in " + out.string() + ": results.json, "),
+            std::string::npos)
+      << second.output;
+  const std::string id2 = RunIdOfJson(out / "results.json");
+  EXPECT_NE(id2, id);
+  EXPECT_EQ(RunIdOfJson(out / "exports" / "owlcal_run.json"), id2);
+  EXPECT_FALSE(fs::exists(out / "exports" / "stale.yaml"));
+
+  const std::string cal_results = ReadText(root_ / "cal" / "results.json");
+  const auto onto = RunOwlcal("pose-calibration --calib '" + (root_ / "cal").string() + "' --out '" +
+                              (root_ / "cal").string() + "' 1509 1530 1581 1580 1530");
+  EXPECT_EQ(onto.exit_code, 2) << onto.output;
+  EXPECT_NE(onto.output.find("--calib " + (root_ / "cal").string() + " is the output folder"), std::string::npos)
+      << onto.output;
+  EXPECT_EQ(ReadText(root_ / "cal" / "results.json"), cal_results);
+  EXPECT_TRUE(fs::exists(root_ / "cal" / "evaluation.json"));
 }
 
 }  // namespace
