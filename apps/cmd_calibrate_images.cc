@@ -102,18 +102,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
         "them, so the two cannot be compared parameter by parameter");
   const std::optional<fitting::OpenCvStereoCalibration> reference =
       a.reference.empty() ? std::nullopt : std::optional(ReadReference(a.reference));
-  calib::ImagePairOptions po;
-  po.mirror = a.mirror;
-  po.side_by_side = a.side_by_side;
-  po.swap = a.swap;
-  const calib::ImagePairList list = calib::ListImagePairs(a.dir, po);
-  for (const auto& u : list.unpaired) std::cerr << "warning: " << u << " has no partner; ignored\n";
-  // The detection of every command (calib/detector.h: classic then sb, both orientations).
-  const calib::DetectedImageSet set = calib::DetectImagePairs(list, po, target.target, calib::DetectorOptions());
-  WarnAboutMissedBoards(set);
   fitting::StereoFitOptions fo;
-  fo.width = set.width;
-  fo.height = set.height;
   fo.length_unit = target.unit;
   fitting::LensModelChoiceOptions lens;  // auto: chosen by cross-validation over the pairs
   if (a.model == "opencv8")
@@ -133,11 +122,28 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
     if (k > 3 && a.model == "opencv5")
       throw UsageError("--fix k" + std::to_string(k) + ": the opencv5 model has no k" + std::to_string(k) +
                        " (it is one of opencv8's; use --model opencv8 or auto)");
-  if (!fo.Check(&why)) throw UsageError(why);
+  if (!fo.intrinsics.Check(&why)) throw UsageError(why);
   fitting::SetVerdictOptions vo;
   RigFor(a.rig, target.unit, a.ipd_mm, &vo);
+
+  // The folder holds this run alone: what an earlier run left goes before any work
+  // (apps/output_folder.h), so an unusable set never leaves an earlier set's calibration.yaml and
+  // exports behind, and a folder that is not owlcal's is refused before the detection and the fit.
+  const std::string run_id = StartRun(a.out, [](const std::string& m) { std::cerr << m << "\n"; });
+  calib::ImagePairOptions po;
+  po.mirror = a.mirror;
+  po.side_by_side = a.side_by_side;
+  po.swap = a.swap;
+  const calib::ImagePairList list = calib::ListImagePairs(a.dir, po);
+  for (const auto& u : list.unpaired) std::cerr << "warning: " << u << " has no partner; ignored\n";
+  // The detection of every command (calib/detector.h: classic then sb, both orientations).
+  const calib::DetectedImageSet set = calib::DetectImagePairs(list, po, target.target, calib::DetectorOptions());
+  WarnAboutMissedBoards(set);
+  fo.width = set.width;
+  fo.height = set.height;
+  if (!fo.Check(&why)) throw UsageError(why);
   fitting::ImageSetCalibration c = fitting::CalibrateImageSet(set.observations, fo, vo, lens, warp);
-  c.result.software_version = OWLCAL_VERSION;
+  StampRun(run_id, &c.result);
   c.result.inputs["images"] = a.dir;
   c.result.inputs["target"] = a.target;
   c.result.inputs["mirror"] = a.mirror;
@@ -180,9 +186,6 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
     if (!cmp.ok) std::cerr << "warning: not compared with " << a.reference << ": " << cmp.message << "\n";
   }
 
-  // The folder holds this run alone: what an earlier run left goes first (apps/output_folder.h),
-  // so an unusable set never leaves an earlier set's calibration.yaml and exports behind.
-  StampRun(StartRun(a.out, [](const std::string& m) { std::cerr << m << "\n"; }), &c.result);
   const fs::path out(a.out);
   calib::WriteObservationsCsv((out / "observations.csv").string(), set.observations);
   const std::string md = reports::ImageSetReportMarkdown(c, keys) + (reference_md.empty() ? "" : "\n" + reference_md);

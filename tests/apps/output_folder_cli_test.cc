@@ -3,7 +3,7 @@
 // unusable run said "calibration.yaml and exports not written" but left the good run's
 // calibration.yaml, xml files and exports/, and `range-images --calib` read them as current.
 // Then the other readers of a result (compare-sessions, fit-toe-in, fit-head), the other writers
-// of a result folder (fit-vergence, fit-toe-in).
+// of a result folder (fit-vergence, fit-toe-in) and calibrate-images' refusal before any work.
 // OpenCV's stereo sample with the 25 mm square of its calibration sample (every export written).
 #include <unistd.h>
 
@@ -257,6 +257,32 @@ TEST_F(OutputFolderCliTest, FitVergenceAndFitToeInFoldersHoldOneRun) {
             std::string::npos)
       << inside.output;
   EXPECT_EQ(JsonRunId(toe / "sets" / "0" / "results.json"), t2_id);
+}
+
+// calibrate-images refuses a folder of the user's before it looks at the images (it used to
+// detect and fit first, then refuse): here the image folder is empty, so any work would fail
+// first, naming it. A mistyped option still leaves an earlier run in place.
+TEST_F(OutputFolderCliTest, CalibrateImagesRefusesAForeignFolderBeforeAnyWork) {
+  fs::create_directories(Out() / "report");
+  std::ofstream(Out() / "report" / "notes.txt") << "my lab notes\n";
+  const fs::path empty = dir_ / "no_images";
+  fs::create_directories(empty);
+  const auto refused = RunOwlcal("calibrate-images '" + empty.string() + "' --target '" +
+                                 (dir_ / "board.yaml").string() + "' --out '" + Out().string() + "'");
+  EXPECT_EQ(refused.exit_code, 1) << refused.output;
+  EXPECT_NE(refused.output.find(Out().string() + ": holds report but nothing that says owlcal wrote them"),
+            std::string::npos)
+      << refused.output;
+  EXPECT_EQ(refused.output.find("no left*/right* image pairs"), std::string::npos) << refused.output;
+  EXPECT_EQ(FileText(Out() / "report" / "notes.txt"), "my lab notes\n");
+
+  fs::remove_all(Out());
+  fs::create_directories(Out());
+  std::ofstream(Out() / ".owlcal_run") << "20260101T000000Z-00000000\n";
+  std::ofstream(Out() / "results.json") << "{\"run_id\": \"20260101T000000Z-00000000\"}\n";
+  const auto typo = RunOwlcal(CalibrateImagesArgs("out") + " --rig robot");
+  EXPECT_EQ(typo.exit_code, 2) << typo.output;
+  EXPECT_TRUE(fs::exists(Out() / "results.json")) << typo.output;
 }
 
 }  // namespace
