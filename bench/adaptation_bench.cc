@@ -12,7 +12,8 @@
 //   file        the corrected robot file against the truth: directions, centres within 5 us,
 //               limits inside the stops and within margin + 10 us of them (the neck's centre
 //               is the fit's gauge and is not scored)
-// and the bring-up's robot time. Each robot's folder stays under OUT for a look at its report.
+// and the bring-up's robot time. Each robot's datasets, results.json and evaluation.json stay
+// under OUT/NAME (`owlcal report OUT/NAME` draws its report).
 // Usage: adaptation_bench [OUT=/tmp/owlcal_adaptation] [ROBOT_TRUTH_FILE ...]
 // (default: the reassembled and slow-servo robots of tests/data/robots)
 #include <chrono>
@@ -27,6 +28,7 @@
 #include "owlcal_version.h"
 #include "pipeline/bring_up.h"
 #include "pipeline/calibrate.h"
+#include "reports/report_data.h"
 #include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 
@@ -68,6 +70,7 @@ Row RunRobot(const std::string& truth_file, const std::string& out_root) {
   const auto t0 = std::chrono::steady_clock::now();
   const fitting::CalibrationRun run = pipeline::Calibrate(owl, co);
   row.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  reports::WriteReportData(run, co.out);  // results.json and evaluation.json, for `owlcal report`
 
   for (const auto& [name, r] : run.settings["runs"].items()) {
     ++row.protocols;

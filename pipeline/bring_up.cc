@@ -157,12 +157,16 @@ BringUp LearnFromLimits(const models::RobotConfig& file,
         }
       }
       if (cause != fitting::LimitCause::kEndStop) return;
-      const int safe = inward > 0 ? int(std::ceil(*at)) + margin_us + stop_error_us
-                                  : int(std::floor(*at)) - margin_us - stop_error_us;
+      int safe = inward > 0 ? int(std::ceil(*at)) + margin_us + stop_error_us
+                            : int(std::floor(*at)) - margin_us - stop_error_us;
+      // Rounded inward to pigpio's 5 us grid: poses the protocols derive from a limit (servo_sweep's
+      // min+30) are then pulses a 5 us servo applies as commanded, not rounded by up to 2.5 us.
+      safe = inward > 0 ? (safe + 4) / 5 * 5 : safe / 5 * 5;
       if ((safe - *us) * inward <= 0) return;  // the file's limit is already inside it
+      const int stop = int(std::lround(*at));
       b.findings.push_back(l.name + " " + end + " limit: your robot file says " + std::to_string(*us) +
-                           " us; end-stop measured at " + std::to_string(int(std::lround(*at))) + " us; used " +
-                           std::to_string(safe) + " us (" + std::to_string(margin_us + stop_error_us) + " us inside)");
+                           " us; end-stop measured at " + std::to_string(stop) + " us; used " + std::to_string(safe) +
+                           " us (" + std::to_string(std::abs(safe - stop)) + " us inside)");
       *us = safe;
     };
     bound("low", l.measured_min_us, l.min_cause, &lo, +1);

@@ -12,7 +12,8 @@
 // file. When the three x-axis servos (Rx, Lx, Neck) all disagree and the tilts agree, the stream
 // is mirrored against the file (robot file image.mirror): that is named, and no direction changed.
 //
-// Limits: each measured end-stop minus a margin, never wider than the file's; the socket rim is
+// Limits: each measured end-stop minus a margin, rounded inward to the 5 us grid, never wider than
+// the file's; the socket rim is
 // noted but bounds nothing (it is where the image stops being whole, not where the servo must
 // stop; the servo sweep's tag sheets carry the fit there). A centre outside the learned range is
 // moved inside it.

@@ -105,7 +105,12 @@ TEST(BringUpRobot, AReassembledRobotIsMeasuredThenDrivenOnWhatWasLearned) {
     }
   }
   EXPECT_NEAR(corrected.ipd_m, 0.0685, 0.0005);
-  EXPECT_FALSE(changes.empty());
+  // The learned limits are on the 5 us grid (poses derived from them are pulses a 5 us servo
+  // applies as commanded).
+  for (int s = 0; s < models::kNumServos; ++s) {
+    EXPECT_EQ(run.config.servos[s].min_us % 5, 0) << models::kServoNames[s];
+    EXPECT_EQ(run.config.servos[s].max_us % 5, 0) << models::kServoNames[s];
+  }
 
   // fit-datasets reads the same bring-up from the recorded datasets and applies it the same way.
   pipeline::FitDatasetsOptions fo;

@@ -30,6 +30,24 @@ std::vector<protocols::LimitRow> AgreeingRows(const models::RobotConfig& c) {
   return rows;
 }
 
+// A stop off pigpio's 5 us grid: the limit used is the stop minus the margin, rounded inward to
+// the grid, so that the servo sweep's "min+30" is a pulse a 5 us servo applies as commanded (off
+// the grid, the reassembled robot's neck map came out with its quadratic term 8 sigma off).
+TEST(BringUp, LearnedLimitsAreOnTheFiveMicrosecondGrid) {
+  const models::RobotConfig c = models::DefaultRobotConfig();
+  std::vector<protocols::LimitRow> rows = AgreeingRows(c);
+  for (auto& r : rows) {
+    if (r.servo == "Neck" && r.end == "min") r.measured_us = 1163, r.cause = "end-stop";
+    if (r.servo == "Neck" && r.end == "max") r.measured_us = 1878, r.cause = "end-stop";
+  }
+  const BringUp b = LearnFromLimits(c, rows, 10);
+  EXPECT_EQ(b.learned.servos[models::kNeck].min_us, 1180);  // 1163 + 15 = 1178, inward to 1180
+  EXPECT_EQ(b.learned.servos[models::kNeck].max_us, 1860);  // 1878 - 15 = 1863, inward to 1860
+  ASSERT_EQ(b.findings.size(), 2u);
+  EXPECT_EQ(b.findings[0],
+            "Neck low limit: your robot file says 1100 us; end-stop measured at 1163 us; used 1180 us (17 us inside)");
+}
+
 TEST(BringUp, ARobotAsItsFileSaysChangesNothing) {
   const models::RobotConfig c = models::DefaultRobotConfig();
   const BringUp b = LearnFromLimits(c, AgreeingRows(c));
