@@ -59,6 +59,15 @@ Summary MakeSummary(const ReportData& d) {
     if (fitted)
       s.headlines.push_back({"servo scales (" + std::to_string(fitted) + " maps fitted)", scales, "deg/\u00b5s", ""});
   }
+  // The pan zero (fitting/head_gauge.h item 2): the one offset both pan maps share, which limits
+  // their absolute angles however well the rest of each map is known.
+  if (diag.contains("head") && diag["head"].contains("pan_zero") &&
+      diag["head"]["pan_zero"].value("sigma_deg", NAN) > 0)
+    s.headlines.push_back({"pan zero (both pan maps' common offset), 1\u03c3",
+                           "\u00b1 " + Fmt(diag["head"]["pan_zero"]["sigma_deg"].get<double>(), 2),
+                           "deg",
+                           "where the optical axes are square to the eye baseline, found from the eye centres' "
+                           "depths: it shifts both pan maps alike and cancels in vergence ranging"});
   if (d.ranging) {
     std::vector<double> e;
     int failed = 0;
