@@ -4,6 +4,8 @@
 #include <cmath>
 
 #include "calib/trial_status.h"
+#include "fitting/step_response.h"
+#include "models/head_model.h"
 #include "protocols/dataset_tables.h"
 #include "protocols/protocol.h"
 #include "reports/table.h"
@@ -22,7 +24,10 @@ protocols::CalibratedMaps ControllerCalibration(const fitting::CalibrationRun& r
   }
   for (const fitting::ServoResolutionResult& r : run.resolution)
     if (r.fit.ok && r.fit.determined && r.servo >= 0 && r.servo < models::kNumServos)
+    {
       c.resolution_us[r.servo] = std::max(r.fit.resolution.step_us, r.fit.resolution.dead_band_us);
+      c.pwm_step_us[r.servo] = r.fit.resolution.step_us;
+    }
   return c;
 }
 
@@ -37,9 +42,37 @@ void AddSaccadeEvaluation(const std::string& dataset, const CalibratePipelineOpt
   for (const protocols::StepTrialRow& row : protocols::ReadStepTrialsCsv(dataset))
     if (const int s = protocols::ServoIndexFromName(row.servo); s >= 0) servo = s;
   double amplitude = traces.front().amplitude_deg;
+  // Settled within 2 % of the step, or within half the servo's resolution (its PWM step or dead
+  // band) plus twice the image noise when that is wider: no command can put the target closer.
+  double half_pulse_px = 0, noise_px = 0.05, focal_px = 0;
+  if (servo >= 0) {
+    const models::HeadModel head = run->result.head ? *run->result.head : models::NominalHeadModel(run->config);
+    const int eye = servo == models::kPanServo[models::kLeftEye] || servo == models::kTiltServo[models::kLeftEye]
+                        ? models::kLeftEye
+                        : models::kRightEye;
+    double res_us = 0;
+    for (const fitting::ServoResolutionResult& r : run->resolution)
+      if (r.servo == servo && r.fit.ok && r.fit.determined)
+        res_us = std::max(r.fit.resolution.step_us, r.fit.resolution.dead_band_us);
+    focal_px = head.intrinsics[eye].params[0];
+    half_pulse_px = 0.5 * res_us * focal_px * std::tan(std::abs(head.servo_params[servo][1]) * M_PI / 180);
+    if (run->settling) noise_px = std::max(noise_px, run->settling->model.noise_px);
+  }
   for (fitting::StepTrace& t : traces) {
     t.controller = "saccade";
     t.eye_axis = "saccade";
+    const double step_px = focal_px * std::tan(std::min(80.0, std::abs(t.amplitude_deg)) * M_PI / 180);
+    if (t.t_s.size() >= 3 && step_px > 0) {
+      const double band = std::max(0.02, (half_pulse_px + 2 * noise_px) / step_px);
+      if (band > 0.02) {
+        t.band = band;
+        fitting::StepInfoOptions so;
+        so.y_init = 0.0;
+        so.y_final = 1.0;
+        so.settling_band = band;
+        t.info = fitting::ComputeStepInfo(t.t_s, t.y, so);
+      }
+    }
     if (std::abs(std::abs(t.amplitude_deg) - 10) < 1e-6) amplitude = 10;
     if (t.status != calib::TrialStatus::kOk)
       run->result.warnings.push_back("saccade trial (" + Fmt(t.amplitude_deg, 3) + " deg, trial " +

@@ -101,6 +101,9 @@ struct CalibratedMaps {
   std::array<double, models::kNumServos> lag_s{};
   double exposure_delay_s = 0;                             // 0: not measured
   std::array<double, models::kNumServos> resolution_us{};  // PWM step or dead band, whichever is larger; 0 unknown
+  // The PWM step the servo rounds pulses to [us] (pigpio: 5); 0 unknown. A saccade seats its
+  // commands on that grid, so that the pulse sent is the pulse applied.
+  std::array<int, models::kNumServos> pwm_step_us{};
 };
 
 struct RunOptions {

@@ -1,6 +1,7 @@
 #include "protocols/saccade_step.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -56,12 +57,21 @@ class SaccadeController {
       if (cal && cal->slew_us_per_s[i] > 0) slew_us_per_s_[a] = cal->slew_us_per_s[i];
       if (cal && cal->lag_s[i] > 0) lag_s_[a] = cal->lag_s[i];
     }
+    if (cal) pwm_step_us_ = cal->pwm_step_us;
     delay_s_ = s.latency_frames > 0               ? s.latency_frames * kDefaultFrameS
                : cal && cal->exposure_delay_s > 0 ? cal->exposure_delay_s
                                                   : kSaccadeDefaultDelayFrames * kDefaultFrameS;
   }
 
   const std::string& map_name() const { return map_name_; }
+
+  // The pulse for goal_us: on the servo's PWM step grid when the step is known and coarser than
+  // 1 us (a pulse off the grid is rounded by the servo, so the correction would alternate
+  // between the two neighbours of the one it means), else the nearest microsecond.
+  int Seat(int servo, double goal_us) const {
+    const int step = pwm_step_us_[servo];
+    return step > 1 ? int(std::lround(goal_us / step)) * step : int(std::lround(goal_us));
+  }
 
   // Runs the controller on the axes asked for, for at most `frames` frames; stops when settled
   // if asked (the acquisition), else logs all of them.
@@ -169,8 +179,8 @@ class SaccadeController {
         return r;
       }
       PwmVector target = run_.cmd();
-      if (pan) target[servos[0]] = int(std::lround((*goal)[0]));
-      if (tilt) target[servos[1]] = int(std::lround((*goal)[1]));
+      if (pan) target[servos[0]] = Seat(servos[0], (*goal)[0]);
+      if (tilt) target[servos[1]] = Seat(servos[1], (*goal)[1]);
       if (target == run_.cmd()) {
         // The servo cannot resolve the rest: nothing to send, and nothing left to wait for.
         r.at_resolution = true;
@@ -308,6 +318,7 @@ class SaccadeController {
   models::HeadModel head_;
   std::string map_name_;
   double dead_zone_px_[2] = {1, 1};
+  std::array<int, models::kNumServos> pwm_step_us_{};  // 0: unknown
   double slew_us_per_s_[2] = {0, 0}, lag_s_[2] = {0, 0};
   double delay_s_ = kSaccadeDefaultDelayFrames * kDefaultFrameS;
   int64_t ready_ns_ = 0;  // robot clock: frames received before this are not acted on
