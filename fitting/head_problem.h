@@ -1,6 +1,7 @@
 #pragma once
-// The head fit's parameter blocks and Ceres problem (internal to fitting/head_fit.cc; see
-// fitting/head_fit.h for what is estimated and fitting/head_gauge.h for what is held).
+// The head fit's parameter blocks, Ceres problem and phases (internal to fitting/: FitHead in
+// fitting/head_fit.cc; see fitting/head_fit.h for what is estimated and fitting/head_gauge.h for
+// what is held).
 //
 // Blocks (values in SI inside, `scale` converts to the result's unit):
 //   servo[i]   models::ServoMap params of servo i (wire order)
@@ -11,13 +12,17 @@
 // An entry is held (SubsetManifold, or the whole block constant) when `fixed`, with the reason
 // in `fixed_note`.
 #include <array>
+#include <chrono>
+#include <cmath>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
 #include "calib/observation.h"
 #include "fitting/head_fit.h"
@@ -178,5 +183,66 @@ void WriteHeadOutputs(const models::HeadModel& initial,
                       const HeadCovariance& cov,
                       size_t num_views_given,
                       HeadFit* fit);
+
+// Stage timings for the diagnostics.
+class StageTimer {
+ public:
+  StageTimer() : start_(std::chrono::steady_clock::now()), last_(start_) {}
+  void Mark(const char* stage) {
+    const auto now = std::chrono::steady_clock::now();
+    timing_[stage] = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+  double TotalS() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  const nlohmann::json& Timing() const { return timing_; }
+
+ private:
+  std::chrono::steady_clock::time_point start_, last_;
+  nlohmann::json timing_ = nlohmann::json::object();
+};
+
+// The solve of FitHead (fitting/head_fit_solve.cc).
+struct HeadSolveOutcome {
+  ceres::Solver::Summary final_summary;
+  int iterations = 0;
+  double initial_cost = 0;
+};
+// The noise classes of the views (index 0: kDefaultNoiseClass, then the named classes in
+// order); sets PreparedView::noise_class.
+std::vector<std::string> AssignNoiseClasses(const HeadFitOptions& options, std::vector<PreparedView>* prepared);
+// Stage 1: robust solve on a spread subset of corners; rejection of corners beyond
+// outlier_threshold_sigma and of whole views the model does not explain; stage 2: plain solve on
+// every inlier (its Jacobian is the one the observability analysis reads), whitened again with
+// the measured noise when options.estimate_corner_sigma. Blocks no residual involves are marked
+// not determined.
+HeadSolveOutcome SolveWithOutlierRejection(const std::vector<calib::View>& views,
+                                           const HeadFitOptions& options,
+                                           const std::vector<std::string>& classes,
+                                           std::vector<PreparedView>* prepared,
+                                           HeadState* s,
+                                           std::unique_ptr<ceres::Problem>* problem,
+                                           HeadFit* fit,
+                                           StageTimer* timer);
+
+// The covariance of FitHead (fitting/head_fit_covariance.cc).
+// The observability analysis over the free head blocks with the boards eliminated, cluster-robust
+// when options.covariance_clusters is set.
+HeadCovariance AnalyseHead(ceres::Problem* problem,
+                           HeadState* s,
+                           const std::vector<calib::View>& views,
+                           const HeadFitOptions& options);
+// What the floors of FloorHeadCovariance report: the pan zero's sigma after its widening [rad]
+// and the focal scale's sigma before its floor; NaN when not applied.
+struct HeadCovarianceFloors {
+  double pan_zero_sigma_rad = NAN;
+  double focal_scale_sigma = NAN;
+};
+// The floors and widenings of the options, in order: hysteresis, intrinsics (carried as
+// intrinsics_floor_carry says), pan zero, focal scale, principal points. Nothing when the
+// analysis failed.
+HeadCovarianceFloors FloorHeadCovariance(const HeadState& s,
+                                         const models::RobotConfig& robot,
+                                         const HeadFitOptions& options,
+                                         HeadCovariance* cov);
 
 }  // namespace owlcal::fitting::internal
