@@ -86,19 +86,9 @@ fitting::GainSettling GainFromJson(const json& j) {
   return g;
 }
 
-}  // namespace
-
-json EvaluationToJson(const ReportData& d) {
-  json j;
-  j["format"] = "owlcal-evaluation";
-  if (!d.result.run_id.empty()) j["run_id"] = d.result.run_id;  // results.json's run
-  j["robot"] = RobotConfigToJson(d.config);
-  j["settings"] = d.settings;
-  if (d.truth) {
-    fitting::CalibrationResult tmp;
-    tmp.head = *d.truth;
-    j["truth_head"] = fitting::ToJson(tmp)["head"];
-  }
+// evaluation.json's "ranging" entries.
+void AddRangingJson(const ReportData& d, json* out) {
+  json& j = *out;
   if (d.ranging) {
     const auto& r = *d.ranging;
     json rows = json::array();
@@ -132,6 +122,11 @@ json EvaluationToJson(const ReportData& d) {
                     {"propagated", r.propagated},
                     {"notes", r.notes}};
   }
+}
+
+// evaluation.json's "limits" entries.
+void AddLimitsJson(const ReportData& d, json* out) {
+  json& j = *out;
   if (d.limits) {
     json servos = json::array();
     for (const auto& s : d.limits->servos)
@@ -154,21 +149,11 @@ json EvaluationToJson(const ReportData& d) {
                         {"max_excess_us", JsonNum(s.max_excess_us)}});
     j["limits"] = {{"servos", servos}, {"notes", d.limits->notes}};
   }
-  json steps = json::array();
-  for (const auto& s : d.steps)
-    steps.push_back({{"gain", s.gain},
-                     {"amplitude_deg", s.amplitude_deg},
-                     {"trial", s.trial},
-                     {"eye_axis", s.eye_axis},
-                     {"t_s", VecJson(s.t_s)},
-                     {"y", VecJson(s.y)},
-                     {"residual_px", JsonNum(s.residual_px)},
-                     {"info", StepInfoJson(s.info)},
-                     {"simulated", s.simulated},
-                     {"status", calib::TrialStatusName(s.status)},
-                     {"reason", s.reason},
-                     {"controller", s.controller}});
-  j["steps"] = steps;
+}
+
+// evaluation.json's "gains" entries.
+void AddGainsJson(const ReportData& d, json* out) {
+  json& j = *out;
   if (d.gains) {
     const auto& g = *d.gains;
     json sim = json::array();
@@ -183,6 +168,11 @@ json EvaluationToJson(const ReportData& d) {
                   {"lower_bound_fast_s", g.lower_bound_fast_s},
                   {"lower_bound_slow_s", g.lower_bound_slow_s}};
   }
+}
+
+// evaluation.json's "settling" entries.
+void AddSettlingJson(const ReportData& d, json* out) {
+  json& j = *out;
   if (d.settling) {
     const auto& st = *d.settling;
     json rows = json::array(), curve = json::array();
@@ -232,6 +222,11 @@ json EvaluationToJson(const ReportData& d) {
                      {"curve", curve},
                      {"notes", st.notes}};
   }
+}
+
+// evaluation.json's "saccade" entries.
+void AddSaccadeJson(const ReportData& d, json* out) {
+  json& j = *out;
   if (d.saccade) {
     const auto& sa = *d.saccade;
     j["saccade"] = {{"amplitude_deg", sa.amplitude_deg},
@@ -253,38 +248,10 @@ json EvaluationToJson(const ReportData& d) {
                     {"speedup_vs_ploop", JsonNum(sa.speedup_vs_ploop)},
                     {"notes", sa.notes}};
   }
-  json res = json::array();
-  for (const auto& r : d.residuals) res.push_back({r.eye, r.frame, r.x, r.y, r.dx, r.dy});
-  j["residuals"] = res;  // [eye, frame, x, y, dx, dy]
-  json cov = json::array();
-  for (const auto& c : d.coverage) cov.push_back({c.eye, c.x, c.y});
-  j["coverage"] = cov;  // [eye, x, y]
-  json views = json::array();
-  for (const auto& v : d.views)
-    views.push_back({{"eye", v.eye},
-                     {"frame", v.frame},
-                     {"name", v.name},
-                     {"rms_px", JsonNum(v.rms_px)},
-                     {"corners", v.num_corners},
-                     {"over_1px", v.num_over_1px}});
-  j["views"] = views;
-  json boards = json::array();
-  for (const auto& b : d.boards) {
-    json c = json::array();
-    for (const auto& p : b.corners_in_cam) c.push_back({p.x(), p.y(), p.z()});
-    boards.push_back({{"eye", b.eye}, {"frame", b.frame}, {"corners_in_cam", c}});
-  }
-  j["boards"] = boards;
-  return j;
 }
 
-void EvaluationFromJson(const json& j, ReportData* d) {
-  if (j.contains("robot")) d->config = RobotConfigFromJson(j.at("robot"));
-  if (j.contains("settings")) d->settings = j.at("settings");
-  if (j.contains("truth_head") && !j.at("truth_head").is_null()) {
-    json r = {{"parameters", json::array()}, {"head", j.at("truth_head")}};
-    d->truth = fitting::ResultFromJson(r).head;
-  }
+// The "ranging" entries of evaluation.json, when present.
+void ReadRangingJson(const json& j, ReportData* d) {
   if (j.contains("ranging")) {
     const json& r = j.at("ranging");
     fitting::RangingEvaluation ev;
@@ -327,6 +294,10 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     ev.notes = r.value("notes", std::vector<std::string>{});
     d->ranging = ev;
   }
+}
+
+// The "limits" entries of evaluation.json, when present.
+void ReadLimitsJson(const json& j, ReportData* d) {
   if (j.contains("limits")) {
     fitting::LimitsEvaluation ev;
     for (const json& s : j.at("limits").at("servos")) {
@@ -353,7 +324,10 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     ev.notes = j.at("limits").value("notes", std::vector<std::string>{});
     d->limits = ev;
   }
-  d->steps.clear();
+}
+
+// The "steps" entries of evaluation.json, when present.
+void ReadStepsJson(const json& j, ReportData* d) {
   if (j.contains("steps")) {
     for (const json& s : j.at("steps")) {
       StepTrace t;
@@ -372,6 +346,10 @@ void EvaluationFromJson(const json& j, ReportData* d) {
       d->steps.push_back(t);
     }
   }
+}
+
+// The "gains" entries of evaluation.json, when present.
+void ReadGainsJson(const json& j, ReportData* d) {
   if (j.contains("gains") && !j.at("gains").is_null()) {
     const json& g = j.at("gains");
     GainStudy s;
@@ -386,7 +364,10 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     s.lower_bound_slow_s = Vec(g, "lower_bound_slow_s");
     d->gains = s;
   }
-  d->settling.reset();
+}
+
+// The "settling" entries of evaluation.json, when present.
+void ReadSettlingJson(const json& j, ReportData* d) {
   if (j.contains("settling") && !j.at("settling").is_null()) {
     const json& js = j.at("settling");
     fitting::SettlingStudy st;
@@ -443,7 +424,10 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     st.notes = js.value("notes", std::vector<std::string>{});
     d->settling = st;
   }
-  d->saccade.reset();
+}
+
+// The "saccade" entries of evaluation.json, when present.
+void ReadSaccadeJson(const json& j, ReportData* d) {
   if (j.contains("saccade") && !j.at("saccade").is_null()) {
     const json& js = j.at("saccade");
     fitting::SaccadeEvaluation sa;
@@ -467,6 +451,82 @@ void EvaluationFromJson(const json& j, ReportData* d) {
     sa.notes = js.value("notes", std::vector<std::string>{});
     d->saccade = sa;
   }
+}
+
+}  // namespace
+
+json EvaluationToJson(const ReportData& d) {
+  json j;
+  j["format"] = "owlcal-evaluation";
+  if (!d.result.run_id.empty()) j["run_id"] = d.result.run_id;  // results.json's run
+  j["robot"] = RobotConfigToJson(d.config);
+  j["settings"] = d.settings;
+  if (d.truth) {
+    fitting::CalibrationResult tmp;
+    tmp.head = *d.truth;
+    j["truth_head"] = fitting::ToJson(tmp)["head"];
+  }
+  AddRangingJson(d, &j);
+  AddLimitsJson(d, &j);
+  json steps = json::array();
+  for (const auto& s : d.steps)
+    steps.push_back({{"gain", s.gain},
+                     {"amplitude_deg", s.amplitude_deg},
+                     {"trial", s.trial},
+                     {"eye_axis", s.eye_axis},
+                     {"t_s", VecJson(s.t_s)},
+                     {"y", VecJson(s.y)},
+                     {"residual_px", JsonNum(s.residual_px)},
+                     {"info", StepInfoJson(s.info)},
+                     {"simulated", s.simulated},
+                     {"status", calib::TrialStatusName(s.status)},
+                     {"reason", s.reason},
+                     {"controller", s.controller}});
+  j["steps"] = steps;
+  AddGainsJson(d, &j);
+  AddSettlingJson(d, &j);
+  AddSaccadeJson(d, &j);
+  json res = json::array();
+  for (const auto& r : d.residuals) res.push_back({r.eye, r.frame, r.x, r.y, r.dx, r.dy});
+  j["residuals"] = res;  // [eye, frame, x, y, dx, dy]
+  json cov = json::array();
+  for (const auto& c : d.coverage) cov.push_back({c.eye, c.x, c.y});
+  j["coverage"] = cov;  // [eye, x, y]
+  json views = json::array();
+  for (const auto& v : d.views)
+    views.push_back({{"eye", v.eye},
+                     {"frame", v.frame},
+                     {"name", v.name},
+                     {"rms_px", JsonNum(v.rms_px)},
+                     {"corners", v.num_corners},
+                     {"over_1px", v.num_over_1px}});
+  j["views"] = views;
+  json boards = json::array();
+  for (const auto& b : d.boards) {
+    json c = json::array();
+    for (const auto& p : b.corners_in_cam) c.push_back({p.x(), p.y(), p.z()});
+    boards.push_back({{"eye", b.eye}, {"frame", b.frame}, {"corners_in_cam", c}});
+  }
+  j["boards"] = boards;
+  return j;
+}
+
+void EvaluationFromJson(const json& j, ReportData* d) {
+  if (j.contains("robot")) d->config = RobotConfigFromJson(j.at("robot"));
+  if (j.contains("settings")) d->settings = j.at("settings");
+  if (j.contains("truth_head") && !j.at("truth_head").is_null()) {
+    json r = {{"parameters", json::array()}, {"head", j.at("truth_head")}};
+    d->truth = fitting::ResultFromJson(r).head;
+  }
+  ReadRangingJson(j, d);
+  ReadLimitsJson(j, d);
+  d->steps.clear();
+  ReadStepsJson(j, d);
+  ReadGainsJson(j, d);
+  d->settling.reset();
+  ReadSettlingJson(j, d);
+  d->saccade.reset();
+  ReadSaccadeJson(j, d);
   d->residuals.clear();
   if (j.contains("residuals"))
     for (const json& r : j.at("residuals"))

@@ -144,24 +144,18 @@ reports::Table SettingsTable(const nlohmann::json& settings, const nlohmann::jso
   return t;
 }
 
-}  // namespace
-
-ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const ReportOptions& options) {
-  ReportOutput out;
-  const std::string fig_dir = out_dir + "/figures", tab_dir = out_dir + "/tables", rep_dir = out_dir + "/report";
-  std::filesystem::create_directories(rep_dir);
-  std::string gp_term, gp_version;
-  const bool have_gp = GnuplotAvailable(&gp_term, &gp_version);
-  if (options.draw && !have_gp)
-    out.warnings.push_back("gnuplot not found: figures written as .dat/.csv + .gp only (apt install gnuplot-nox)");
-
-  Page page;
-  std::vector<std::string> order;
+// The figures drawn (when `draw`) or written, each as a <figure> of the page, in `order`.
+void PlaceFigures(const ReportData& d,
+                  const std::string& fig_dir,
+                  bool draw,
+                  ReportOutput* out,
+                  Page* page,
+                  std::vector<std::string>* order) {
   for (const reports::Figure& f : MakeAllFigures(d)) {
-    const FigureFiles ff = WriteFigure(f, fig_dir, options.draw && have_gp);
-    out.figures.push_back(f.name);
-    order.push_back(f.name);
-    if (options.draw && have_gp && !ff.drawn) out.warnings.push_back(ff.message);
+    const FigureFiles ff = WriteFigure(f, fig_dir, draw);
+    out->figures.push_back(f.name);
+    order->push_back(f.name);
+    if (draw && !ff.drawn) out->warnings.push_back(ff.message);
     std::ostringstream h;
     h << "<figure id=\"fig-" << f.name << "\">\n";
     if (ff.drawn)
@@ -173,9 +167,13 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
       << (ff.pdf.empty() ? "" : "<a href=\"../figures/" + f.name + ".pdf\">PDF</a> | ") << "<a href=\"../figures/"
       << f.name << ".csv\">CSV</a> | <a href=\"../figures/" << f.name
       << ".gp\">gnuplot</a>]</span></figcaption>\n</figure>\n";
-    page.figures[f.name] = h.str();
+    page->figures[f.name] = h.str();
   }
+}
 
+// MakeTables and the page's own: the parameter subsets, the truth comparison's worst rows and
+// the settings.
+std::vector<reports::Table> PageTables(const ReportData& d) {
   std::vector<reports::Table> tables = MakeTables(d);
   const reports::Table* params = nullptr;
   for (const auto& t : tables)
@@ -207,25 +205,36 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
       tables.push_back(worst);
     }
   tables.push_back(SettingsTable(d.settings, d.result.inputs));
+  return tables;
+}
+
+// Each table with rows (and "undetermined" always) written to tab_dir and placed on the page.
+void PlaceTables(const std::vector<reports::Table>& tables, const std::string& tab_dir, ReportOutput* out, Page* page) {
   for (const reports::Table& t : tables) {
     if (t.rows.empty() && t.name != "undetermined") continue;
     WriteTable(t, tab_dir);
-    out.tables.push_back(t.name);
-    page.tables[t.name] = "<div class=\"scroll\">" + ToHtml(t) + "</div><p class=\"files\">[<a href=\"../tables/" +
-                          t.name + ".csv\">CSV</a> | <a href=\"../tables/" + t.name +
-                          ".md\">Markdown</a> | <a href=\"../tables/" + t.name + ".tex\">LaTeX</a>]</p>\n";
+    out->tables.push_back(t.name);
+    page->tables[t.name] = "<div class=\"scroll\">" + ToHtml(t) + "</div><p class=\"files\">[<a href=\"../tables/" +
+                           t.name + ".csv\">CSV</a> | <a href=\"../tables/" + t.name +
+                           ".md\">Markdown</a> | <a href=\"../tables/" + t.name + ".tex\">LaTeX</a>]</p>\n";
   }
+}
 
-  const Summary sum = MakeSummary(d);
+// The page's body and its navigation, with numbered sections.
+struct ReportSections {
   std::ostringstream body, nav;
   int section = 0;
-  auto h2 = [&](const std::string& id, const std::string& title) {
+  void H2(const std::string& id, const std::string& title) {
     ++section;
     nav << "<a href=\"#" << id << "\">" << section << ". " << HtmlEscape(title) << "</a>";
     body << "<h2 id=\"" << id << "\">" << section << ". " << HtmlEscape(title) << "</h2>\n";
-  };
+  }
+};
 
-  // 1. Summary (one screen).
+// 1. Summary (one screen): verdict, reasons, headline results, warnings and next steps.
+void WriteSummarySection(const ReportData& d, const std::string& tab_dir, std::ostringstream* out) {
+  std::ostringstream& body = *out;
+  const Summary sum = MakeSummary(d);
   body << "<div class=\"summary\" id=\"summary\">\n<div class=\"verdict " << sum.level << "\">"
        << HtmlEscape(sum.verdict) << "</div>\n";
   if (!sum.reasons.empty()) {
@@ -252,30 +261,31 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   body << "</div><div><b>What to do next</b><ul class=\"tight\">";
   for (const auto& n : sum.next_steps) body << "<li>" << HtmlEscape(n) << "</li>";
   body << "</ul></div></div>\n</div>\n";
+}
 
-  // 2. Method.
-  h2("method", "Method");
-  {
-    const std::string cmd = d.settings.value("command", std::string());
-    body << "<p>";
-    if (cmd.find("calibrate-images") != std::string::npos)
-      body << "Stereo calibration from a folder of image pairs ("
-           << HtmlEscape(d.settings.value("images", std::string())) << ") with the target "
-           << HtmlEscape(d.settings.value("target", std::string()))
-           << ": corners detected in each image, both cameras and the stereo extrinsics fitted jointly with Ceres "
-              "(board poses marginalised in the covariance). No robot was involved.";
-    else
-      body << "Robot <b>" << HtmlEscape(d.config.name)
-           << "</b>. The standard protocols moved the eyes and the neck and "
-           << "recorded each dataset; the intrinsics and stereo extrinsics were fitted from the chessboard views, the "
-              "servo maps, IPD and camera mounting from the servo sweep (one Ceres problem), and ranging, step "
-              "responses and limits were evaluated from their datasets.";
-    body << " Every number carries its standard deviation from the fit covariance; the settings are listed in the "
-            "appendix.</p>\n";
-  }
+// 2. Method.
+void WriteMethodSection(const ReportData& d, std::ostringstream* out) {
+  std::ostringstream& body = *out;
+  const std::string cmd = d.settings.value("command", std::string());
+  body << "<p>";
+  if (cmd.find("calibrate-images") != std::string::npos)
+    body << "Stereo calibration from a folder of image pairs (" << HtmlEscape(d.settings.value("images", std::string()))
+         << ") with the target " << HtmlEscape(d.settings.value("target", std::string()))
+         << ": corners detected in each image, both cameras and the stereo extrinsics fitted jointly with Ceres "
+            "(board poses marginalised in the covariance). No robot was involved.";
+  else
+    body << "Robot <b>" << HtmlEscape(d.config.name) << "</b>. The standard protocols moved the eyes and the neck and "
+         << "recorded each dataset; the intrinsics and stereo extrinsics were fitted from the chessboard views, the "
+            "servo maps, IPD and camera mounting from the servo sweep (one Ceres problem), and ranging, step "
+            "responses and limits were evaluated from their datasets.";
+  body << " Every number carries its standard deviation from the fit covariance; the settings are listed in the "
+          "appendix.</p>\n";
+}
 
-  // 3. Results, one subsection per kind of data present.
-  h2("results", "Results");
+// 3. Results, one subsection per kind of data present.
+void WriteResultsSection(const ReportData& d, const std::vector<std::string>& order, Page* p, std::ostringstream* out) {
+  std::ostringstream& body = *out;
+  Page& page = *p;
   const bool cameras = d.result.cameras[0] || d.result.cameras[1];
   if (cameras) {
     body << "<h3 id=\"intrinsics\">Camera intrinsics</h3>\n" << page.Table("intrinsics");
@@ -348,19 +358,11 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   for (const auto& n : order)
     if (!page.used.count(n)) rest += page.Figure(n);
   if (!rest.empty()) body << "<h3 id=\"other\">Other figures</h3>\n" << rest;
+}
 
-  // 4. Discussion.
-  h2("discussion", "Discussion: what the data could not determine");
-  body << "<p>Parameters the data could not determine are reported as such (no \u03c3 that hides it), with the "
-          "reason; the warnings say what else to keep in mind when using these numbers.</p>\n"
-       << page.Table("undetermined");
-
-  // Appendices.
-  h2("appendix", "Appendix");
-  body << "<h3>A. Other fitted parameters</h3>\n<p>The parameters not shown in the Results; every parameter is in "
-          "<a href=\"../tables/parameters.csv\">tables/parameters.csv</a> and results.json.</p>\n"
-       << page.Table("other_parameters") << "<h3>B. Solver summaries</h3>\n"
-       << page.Table("solver");
+// Appendix C: the files of the calibration folder.
+void WriteFilesAppendix(const ReportData& d, std::ostringstream* out) {
+  std::ostringstream& body = *out;
   body << "<h3>C. Files</h3>\n<ul class=\"tight\">"
        << "<li><a href=\"../results.json\">results.json</a>: every parameter with value, \u03c3, unit (and truth)</li>"
        << "<li><a href=\"../calibration.yaml\">calibration.yaml</a>: OpenCV, lengths in metres</li>"
@@ -379,6 +381,50 @@ ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const 
   body << "), mrcal .cameramodel with its valid-intrinsics region" << (d.result.head ? ", owl-pwm.h (C and C++)" : "")
        << "</li><li><a href=\"../figures/\">figures/</a>: PNG, SVG, PDF, tidy CSV, gnuplot data and script of each "
           "figure; <a href=\"../tables/\">tables/</a>: CSV, Markdown and LaTeX (longtable) of each table</li></ul>\n";
+}
+
+}  // namespace
+
+ReportOutput WriteReport(const ReportData& d, const std::string& out_dir, const ReportOptions& options) {
+  ReportOutput out;
+  const std::string fig_dir = out_dir + "/figures", tab_dir = out_dir + "/tables", rep_dir = out_dir + "/report";
+  std::filesystem::create_directories(rep_dir);
+  std::string gp_term, gp_version;
+  const bool have_gp = GnuplotAvailable(&gp_term, &gp_version);
+  if (options.draw && !have_gp)
+    out.warnings.push_back("gnuplot not found: figures written as .dat/.csv + .gp only (apt install gnuplot-nox)");
+
+  Page page;
+  std::vector<std::string> order;
+  PlaceFigures(d, fig_dir, options.draw && have_gp, &out, &page, &order);
+  PlaceTables(PageTables(d), tab_dir, &out, &page);
+
+  ReportSections sections;
+  std::ostringstream& body = sections.body;
+  std::ostringstream& nav = sections.nav;
+  WriteSummarySection(d, tab_dir, &body);
+
+  // 2. Method.
+  sections.H2("method", "Method");
+  WriteMethodSection(d, &body);
+
+  // 3. Results, one subsection per kind of data present.
+  sections.H2("results", "Results");
+  WriteResultsSection(d, order, &page, &body);
+
+  // 4. Discussion.
+  sections.H2("discussion", "Discussion: what the data could not determine");
+  body << "<p>Parameters the data could not determine are reported as such (no \u03c3 that hides it), with the "
+          "reason; the warnings say what else to keep in mind when using these numbers.</p>\n"
+       << page.Table("undetermined");
+
+  // Appendices.
+  sections.H2("appendix", "Appendix");
+  body << "<h3>A. Other fitted parameters</h3>\n<p>The parameters not shown in the Results; every parameter is in "
+          "<a href=\"../tables/parameters.csv\">tables/parameters.csv</a> and results.json.</p>\n"
+       << page.Table("other_parameters") << "<h3>B. Solver summaries</h3>\n"
+       << page.Table("solver");
+  WriteFilesAppendix(d, &body);
   body << "<h3>D. Settings and versions</h3>\n" << page.Table("settings");
 
   std::ostringstream h;

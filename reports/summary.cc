@@ -22,14 +22,12 @@ std::string PlusMinus(const fitting::Parameter& p) {
 
 using models::Median;
 
-}  // namespace
-
-Summary MakeSummary(const ReportData& d) {
-  Summary s;
+// Headline numbers: reprojection RMS, focal lengths, principal points, baseline, IPD, servo
+// scales, ranging, the fastest stable gain, the truth comparison.
+void AddHeadlines(const ReportData& d, Summary* out) {
+  Summary& s = *out;
   const fitting::CalibrationResult& r = d.result;
   const nlohmann::json& diag = r.diagnostics;
-
-  // Headline numbers.
   auto add = [&](const std::string& q, const std::string& name, const std::string& note = "") {
     if (const fitting::Parameter* p = r.Find(name))
       s.headlines.push_back({q, PlusMinus(*p), DisplayUnit(p->unit), note});
@@ -95,8 +93,12 @@ Summary MakeSummary(const ReportData& d) {
          "%",
          std::to_string(c.num_with_sigma) + " compared, worst " + c.worst + " (z = " + Fmt(c.worst_z, 3) + ")"});
   }
+}
 
-  // The bring-up (pipeline/bring_up.h): what the robot file got wrong, which the run corrected.
+// The bring-up (pipeline/bring_up.h): what the robot file got wrong, which the run corrected.
+void AddBringUp(const ReportData& d, Summary* out) {
+  Summary& s = *out;
+  const nlohmann::json& diag = d.result.diagnostics;
   if (diag.contains("bring_up") && diag["bring_up"].is_object()) {
     const nlohmann::json& b = diag["bring_up"];
     const size_t n = b.value("findings", nlohmann::json::array()).size();
@@ -112,9 +114,22 @@ Summary MakeSummary(const ReportData& d) {
           "centres, scales and IPD) with yours: the run used " +
           std::to_string(n) + " differences it measured (they lead the warnings).");
   }
+}
 
-  // Verdict: one a fit wrote (diagnostics.verdict: a string, or {status, reasons}), else from
-  // the solver summaries, undetermined parameters and warnings.
+// What the verdict found that the next steps depend on.
+struct SummaryVerdict {
+  int undetermined = 0;  // parameters not determined (gauges excepted)
+  bool has_set_verdict = false;
+  bool poor = false;  // the set verdict is not "good"
+};
+
+// Verdict: one a fit wrote (diagnostics.verdict: a string, or {status, reasons}), else from
+// the solver summaries, undetermined parameters and warnings.
+// The warnings shown: the first six and how many more.
+SummaryVerdict JudgeSummary(const ReportData& d, Summary* out) {
+  Summary& s = *out;
+  const fitting::CalibrationResult& r = d.result;
+  const nlohmann::json& diag = r.diagnostics;
   int undetermined = 0;
   // A parameter fixed by a gauge (the note says so) is a convention, not a gap in the data.
   for (const auto& p : r.parameters)
@@ -170,8 +185,17 @@ Summary MakeSummary(const ReportData& d) {
   for (size_t i = 0; i < r.warnings.size() && i < 6; ++i) s.warnings.push_back(r.warnings[i]);
   if (r.warnings.size() > 6)
     s.warnings.push_back(std::to_string(r.warnings.size() - 6) + " more in the Discussion section");
+  return {undetermined, has_set_verdict, poor};
+}
 
-  // What to do next.
+// What to do next.
+void AddNextSteps(const ReportData& d, const SummaryVerdict& verdict, Summary* out) {
+  Summary& s = *out;
+  const fitting::CalibrationResult& r = d.result;
+  const nlohmann::json& set_verdict = r.verdict;
+  const int undetermined = verdict.undetermined;
+  const bool has_set_verdict = verdict.has_set_verdict;
+  const bool poor = verdict.poor;
   const auto worst = WorstViews(d, 5);
   if (!worst.empty()) {
     std::string names;
@@ -248,6 +272,16 @@ Summary MakeSummary(const ReportData& d) {
         "Use calibration.yaml (OpenCV, metres) or intrinsics.xml/extrinsics.xml (the course's files, "
         "mm) in your programs; exports/ holds ROS, Kalibr and mrcal files" +
         std::string(r.head ? " and owl-pwm.h for the servo maps." : "."));
+}
+
+}  // namespace
+
+Summary MakeSummary(const ReportData& d) {
+  Summary s;
+  AddHeadlines(d, &s);
+  AddBringUp(d, &s);
+  const SummaryVerdict verdict = JudgeSummary(d, &s);
+  AddNextSteps(d, verdict, &s);
   return s;
 }
 
