@@ -172,6 +172,285 @@ std::string Num(double v, int decimals) {
   return buf;
 }
 
+// The saccades with enough measured frames and motion, each with its start, direction and
+// amplitude from its first and last frames; the others get their reason in out->saccades.
+std::vector<Prepared> PrepareSaccades(const std::vector<SaccadeTrace>& traces,
+                                      const MainSequenceFitOptions& o,
+                                      MainSequenceFit* out) {
+  std::vector<Prepared> ps;
+  for (size_t i = 0; i < traces.size(); ++i) {
+    const SaccadeTrace& tr = traces[i];
+    SaccadeMeasurement& m = out->saccades[i];
+    m.id = tr.id;
+    if (tr.t_s.size() != tr.angle_deg.size())
+      throw std::invalid_argument("FitMainSequence: saccade " + std::to_string(tr.id) + ": " +
+                                  std::to_string(tr.t_s.size()) + " times and " + std::to_string(tr.angle_deg.size()) +
+                                  " angles");
+    Prepared p;
+    p.index = int(i);
+    for (size_t k = 0; k < tr.t_s.size(); ++k)
+      if (std::isfinite(tr.angle_deg[k]) && std::isfinite(tr.t_s[k])) {
+        p.t.push_back(tr.t_s[k]);
+        p.angle.push_back(tr.angle_deg[k]);
+      }
+    m.num_frames = int(p.t.size());
+    if (int(p.t.size()) < o.rest_frames + 3) {
+      m.reason = "too few measured frames (" + std::to_string(p.t.size()) + ")";
+      continue;
+    }
+    double end = 0;
+    for (int k = 0; k < o.rest_frames; ++k) end += p.angle[p.t.size() - 1 - k];
+    end /= o.rest_frames;
+    p.theta0 = p.angle.front();
+    p.dir = end >= p.theta0 ? 1 : -1;
+    p.amp = std::abs(end - p.theta0);
+    if (p.amp < 0.1) {
+      m.reason = "no motion: the first and last frames differ by " + Num(p.amp, 3) + " deg";
+      continue;
+    }
+    ps.push_back(p);
+  }
+  return ps;
+}
+
+// Step 1, the pooled fit of every frame: a grid for the start, then the least-squares fit, its
+// sigmas from the residuals and the jackknife over saccades; updates each saccade's start and
+// amplitude. False (with the solver's message) when the fit fails.
+bool FitPooledMotion(const MainSequenceFitOptions& o,
+                     std::vector<Prepared>* prepared,
+                     PooledSaccadeMotion* motion,
+                     std::string* failed_message) {
+  std::vector<Prepared>& ps = *prepared;
+  PooledSaccadeMotion& mo = *motion;
+  double best = kUnbounded, slew = 300, lag = 0.03, delay = o.delay_min_s;
+  for (double s : {150.0, 250.0, 400.0, 650.0, 1000.0})
+    for (double l : {0.01, 0.03, 0.06})
+      for (double d = o.delay_min_s; d <= o.delay_max_s + 1e-9; d += 0.005) {
+        const double e = Sse(ps, s, l, d);
+        if (e < best) best = e, slew = s, lag = l, delay = d;
+      }
+  std::vector<double> theta0(ps.size()), amp(ps.size());
+  for (size_t i = 0; i < ps.size(); ++i) {
+    theta0[i] = ps[i].theta0;
+    amp[i] = ps[i].amp;
+  }
+  std::vector<std::vector<double>> c;
+  double cost = 0;
+  std::string failed;
+  if (!SolvePooled(ps, o, &slew, &lag, &delay, &theta0, &amp, &cost, &c, &failed)) {
+    *failed_message = failed;
+    return false;
+  }
+  const int n = mo.num_frames, np = 3 + 2 * int(ps.size());
+  const double s2 = 2 * cost / std::max(1, n - np);
+  mo.ok = true;
+  mo.slew_deg_per_s = slew;
+  mo.lag_s = lag;
+  mo.delay_s = delay;
+  mo.rms_deg = std::sqrt(2 * cost / n);
+  if (!c.empty()) {
+    mo.fit_slew_sigma_deg_per_s = std::sqrt(std::max(0.0, c[0][0] * s2));
+    mo.fit_lag_sigma_s = std::sqrt(std::max(0.0, c[1][1] * s2));
+    mo.fit_delay_sigma_s = std::sqrt(std::max(0.0, c[2][2] * s2));
+  } else {
+    mo.fit_slew_sigma_deg_per_s = mo.fit_lag_sigma_s = mo.fit_delay_sigma_s = kUnbounded;
+  }
+  // The frames of one saccade share their errors (the disc's centroid, the servo's step and
+  // backlash, where the frame clock fell): the residual-based covariance treats 16 frames as 16
+  // independent draws and is too small (default robot: the slew 381.9 +- 0.3 against 380, 6.3
+  // sigma). Jackknife over saccades: the pooled fit again without each one in turn.
+  std::vector<double> js, jl, jd;
+  for (size_t leave = 0; leave < ps.size(); ++leave) {
+    std::vector<Prepared> sub;
+    std::vector<double> th, am;
+    for (size_t i = 0; i < ps.size(); ++i)
+      if (i != leave) {
+        sub.push_back(ps[i]);
+        th.push_back(theta0[i]);
+        am.push_back(amp[i]);
+      }
+    double sl = slew, lg = lag, de = delay, co = 0;
+    if (SolvePooled(sub, o, &sl, &lg, &de, &th, &am, &co, nullptr, nullptr)) {
+      js.push_back(sl);
+      jl.push_back(lg);
+      jd.push_back(de);
+    }
+  }
+  mo.jackknife_saccades = int(js.size());
+  if (js.size() >= 3) {
+    mo.jackknife_slew_sigma_deg_per_s = JackknifeSigma(js);
+    mo.jackknife_lag_sigma_s = JackknifeSigma(jl);
+    mo.jackknife_delay_sigma_s = JackknifeSigma(jd);
+  }
+  mo.scale_slew_sigma_deg_per_s = o.angle_scale_sigma * slew;
+  mo.slew_sigma_deg_per_s = std::hypot(std::max(mo.fit_slew_sigma_deg_per_s, mo.jackknife_slew_sigma_deg_per_s),
+                                       mo.scale_slew_sigma_deg_per_s);
+  mo.lag_sigma_s = std::max(mo.fit_lag_sigma_s, mo.jackknife_lag_sigma_s);
+  mo.delay_sigma_s = std::max(mo.fit_delay_sigma_s, mo.jackknife_delay_sigma_s);
+  for (size_t i = 0; i < ps.size(); ++i) {
+    ps[i].theta0 = theta0[i];
+    ps[i].amp = amp[i];
+  }
+  mo.message = "slew " + Num(slew, 1) + " +- " + Num(mo.slew_sigma_deg_per_s, 1) + " deg/s, lag " + Num(1000 * lag, 2) +
+               " +- " + Num(1000 * mo.lag_sigma_s, 2) + " ms, delay " + Num(1000 * delay, 2) + " +- " +
+               Num(1000 * mo.delay_sigma_s, 2) + " ms (sigmas: the larger of the fit's and the jackknife's over " +
+               std::to_string(mo.jackknife_saccades) + " saccades; the slew's with " +
+               Num(100 * o.angle_scale_sigma, 1) + " % of angle scale), RMS " + Num(mo.rms_deg, 4) + " deg over " +
+               std::to_string(n) + " frames of " + std::to_string(ps.size()) + " saccades";
+  return true;
+}
+
+// Step 2, one saccade: its own slew with the pooled lag and delay, its peak velocity and duration
+// with their sigmas.
+void MeasureSaccade(const Prepared& p, const PooledSaccadeMotion& mo, double vth, SaccadeMeasurement* out) {
+  const double s2_pooled = mo.rms_deg * mo.rms_deg;
+  SaccadeMeasurement& m = *out;
+  double s = mo.slew_deg_per_s, l = mo.lag_s, d = mo.delay_s, th = p.theta0, a = p.amp;
+  ceres::Problem problem;
+  for (size_t k = 0; k < p.t.size(); ++k)
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<AngleResidual, 1, 1, 1, 1, 1, 1>(new AngleResidual{p.t[k], p.angle[k], p.dir}),
+        nullptr,
+        &s,
+        &l,
+        &d,
+        &th,
+        &a);
+  problem.SetParameterBlockConstant(&l);
+  problem.SetParameterBlockConstant(&d);
+  problem.SetParameterLowerBound(&s, 0, kSlewMin);
+  problem.SetParameterUpperBound(&s, 0, kSlewMax);
+  problem.SetParameterLowerBound(&a, 0, 0.01);
+  ceres::Solver::Summary summary;
+  ceres::Solve(SolverOptions(), &problem, &summary);
+  if (!summary.IsSolutionUsable()) {
+    m.reason = "its fit failed: " + summary.message;
+    return;
+  }
+  m.direction = p.dir;
+  m.start_deg = th;
+  m.amplitude_deg = a;
+  m.slew_deg_per_s = s;
+  m.rms_deg = std::sqrt(2 * summary.final_cost / p.t.size());
+  m.peak_deg_per_s = PeakVelocityDegPerS(a, s, l);
+  m.duration_s = DurationS(a, s, l, vth);
+  std::vector<std::vector<double>> c;
+  if (Cov(&problem, {&s, &a}, &c)) {
+    m.slew_sigma_deg_per_s = std::sqrt(std::max(0.0, c[0][0] * s2_pooled));
+    m.amplitude_sigma_deg = std::sqrt(std::max(0.0, c[1][1] * s2_pooled));
+    // Peak velocity and duration: first-order propagation of (slew, a).
+    auto prop = [&](auto f) {
+      const double hs = 1e-4 * s, ha = 1e-4 * a;
+      const double gs = (f(a, s + hs) - f(a, s - hs)) / (2 * hs);
+      const double ga = (f(a + ha, s) - f(a - ha, s)) / (2 * ha);
+      const double v = (gs * gs * c[0][0] + 2 * gs * ga * c[0][1] + ga * ga * c[1][1]) * s2_pooled;
+      return std::sqrt(std::max(0.0, v));
+    };
+    m.peak_sigma_deg_per_s = prop([&](double aa, double ss) { return PeakVelocityDegPerS(aa, ss, l); });
+    m.duration_sigma_s =
+        std::isfinite(m.duration_s) ? prop([&](double aa, double ss) { return DurationS(aa, ss, l, vth); }) : kNaN;
+  } else {
+    m.slew_sigma_deg_per_s = m.amplitude_sigma_deg = m.peak_sigma_deg_per_s = m.duration_sigma_s = kUnbounded;
+  }
+  m.ok = true;
+}
+
+// Step 3a, the main sequence V = Vmax (1 - exp(-A / C)) over the measured saccades.
+void FitPeakCurve(const std::vector<SaccadeMeasurement>& saccades,
+                  const PooledSaccadeMotion& mo,
+                  const MainSequenceFitOptions& o,
+                  MainSequenceCurve* out) {
+  MainSequenceCurve& cu = *out;
+  double vmax = 0, cdeg = 0;
+  ceres::Problem problem;
+  for (const SaccadeMeasurement& m : saccades)
+    if (m.ok) {
+      vmax = std::max(vmax, m.peak_deg_per_s);
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PeakResidual, 1, 1, 1>(new PeakResidual{m.amplitude_deg, m.peak_deg_per_s}),
+          nullptr,
+          &vmax,
+          &cdeg);
+      ++cu.num_saccades;
+    }
+  if (cu.num_saccades < 3) {
+    cu.message = "too few measured saccades (" + std::to_string(cu.num_saccades) + ")";
+  } else {
+    cdeg = vmax * mo.lag_s;
+    problem.SetParameterLowerBound(&vmax, 0, 1);
+    problem.SetParameterLowerBound(&cdeg, 0, 1e-3);
+    ceres::Solver::Summary summary;
+    ceres::Solve(SolverOptions(), &problem, &summary);
+    const int n = cu.num_saccades;
+    const double s2 = 2 * summary.final_cost / std::max(1, n - 2);
+    std::vector<std::vector<double>> c;
+    cu.ok = summary.IsSolutionUsable();
+    cu.vmax_deg_per_s = vmax;
+    cu.c_deg = cdeg;
+    cu.lag_s = cdeg / vmax;
+    cu.rms_deg_per_s = std::sqrt(2 * summary.final_cost / n);
+    if (cu.ok && Cov(&problem, {&vmax, &cdeg}, &c)) {
+      cu.vmax_sigma_deg_per_s = std::hypot(std::sqrt(std::max(0.0, c[0][0] * s2)), o.angle_scale_sigma * vmax);
+      cu.c_sigma_deg = std::hypot(std::sqrt(std::max(0.0, c[1][1] * s2)), o.angle_scale_sigma * cdeg);
+      const double gv = -cdeg / (vmax * vmax), gc = 1 / vmax;
+      cu.lag_sigma_s = std::sqrt(std::max(0.0, (gv * gv * c[0][0] + 2 * gv * gc * c[0][1] + gc * gc * c[1][1]) * s2));
+    } else {
+      cu.vmax_sigma_deg_per_s = cu.c_sigma_deg = cu.lag_sigma_s = kUnbounded;
+    }
+    cu.message = cu.ok
+                     ? "Vmax " + Num(vmax, 1) + " +- " + Num(cu.vmax_sigma_deg_per_s, 1) + " deg/s, C " + Num(cdeg, 2) +
+                           " +- " + Num(cu.c_sigma_deg, 2) + " deg over " + std::to_string(n) + " saccades"
+                     : "the fit failed: " + summary.message;
+  }
+}
+
+// Step 3b, duration against amplitude (the servo law) over the saccades with a duration.
+void FitDurationCurve(const std::vector<SaccadeMeasurement>& saccades,
+                      const PooledSaccadeMotion& mo,
+                      const MainSequenceFitOptions& o,
+                      DurationCurve* out) {
+  const double vth = o.velocity_threshold_deg_per_s;
+  DurationCurve& du = *out;
+  double s = mo.slew_deg_per_s, l = mo.lag_s;
+  ceres::Problem problem;
+  for (const SaccadeMeasurement& m : saccades)
+    if (m.ok && std::isfinite(m.duration_s)) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<DurationResidual, 1, 1, 1>(
+                                   new DurationResidual{m.amplitude_deg, m.duration_s, vth}),
+                               nullptr,
+                               &s,
+                               &l);
+      ++du.num_saccades;
+    }
+  if (du.num_saccades < 3) {
+    du.message = "too few saccades with a duration (" + std::to_string(du.num_saccades) + ")";
+  } else {
+    problem.SetParameterLowerBound(&s, 0, 2 * vth);
+    problem.SetParameterUpperBound(&s, 0, kSlewMax);
+    problem.SetParameterLowerBound(&l, 0, kLagMin);
+    problem.SetParameterUpperBound(&l, 0, kLagMax);
+    ceres::Solver::Summary summary;
+    ceres::Solve(SolverOptions(), &problem, &summary);
+    const int n = du.num_saccades;
+    const double s2 = 2 * summary.final_cost / std::max(1, n - 2);
+    du.ok = summary.IsSolutionUsable();
+    du.slew_deg_per_s = s;
+    du.lag_s = l;
+    du.rms_s = std::sqrt(2 * summary.final_cost / n);
+    std::vector<std::vector<double>> c;
+    if (du.ok && Cov(&problem, {&s, &l}, &c)) {
+      du.slew_sigma_deg_per_s = std::hypot(std::sqrt(std::max(0.0, c[0][0] * s2)), o.angle_scale_sigma * s);
+      du.lag_sigma_s = std::sqrt(std::max(0.0, c[1][1] * s2));
+    } else {
+      du.slew_sigma_deg_per_s = du.lag_sigma_s = kUnbounded;
+    }
+    du.message = du.ok ? "slew " + Num(s, 1) + " +- " + Num(du.slew_sigma_deg_per_s, 1) + " deg/s, lag " +
+                             Num(1000 * l, 2) + " +- " + Num(1000 * du.lag_sigma_s, 2) + " ms over " +
+                             std::to_string(n) + " saccades"
+                       : "the fit failed: " + summary.message;
+  }
+}
+
 }  // namespace
 
 bool MainSequenceFitOptions::Check(std::string* why) const {
@@ -211,39 +490,7 @@ MainSequenceFit FitMainSequence(const std::vector<SaccadeTrace>& traces, const M
   MainSequenceFit out;
   out.velocity_threshold_deg_per_s = o.velocity_threshold_deg_per_s;
   out.saccades.resize(traces.size());
-  std::vector<Prepared> ps;
-  for (size_t i = 0; i < traces.size(); ++i) {
-    const SaccadeTrace& tr = traces[i];
-    SaccadeMeasurement& m = out.saccades[i];
-    m.id = tr.id;
-    if (tr.t_s.size() != tr.angle_deg.size())
-      throw std::invalid_argument("FitMainSequence: saccade " + std::to_string(tr.id) + ": " +
-                                  std::to_string(tr.t_s.size()) + " times and " + std::to_string(tr.angle_deg.size()) +
-                                  " angles");
-    Prepared p;
-    p.index = int(i);
-    for (size_t k = 0; k < tr.t_s.size(); ++k)
-      if (std::isfinite(tr.angle_deg[k]) && std::isfinite(tr.t_s[k])) {
-        p.t.push_back(tr.t_s[k]);
-        p.angle.push_back(tr.angle_deg[k]);
-      }
-    m.num_frames = int(p.t.size());
-    if (int(p.t.size()) < o.rest_frames + 3) {
-      m.reason = "too few measured frames (" + std::to_string(p.t.size()) + ")";
-      continue;
-    }
-    double end = 0;
-    for (int k = 0; k < o.rest_frames; ++k) end += p.angle[p.t.size() - 1 - k];
-    end /= o.rest_frames;
-    p.theta0 = p.angle.front();
-    p.dir = end >= p.theta0 ? 1 : -1;
-    p.amp = std::abs(end - p.theta0);
-    if (p.amp < 0.1) {
-      m.reason = "no motion: the first and last frames differ by " + Num(p.amp, 3) + " deg";
-      continue;
-    }
-    ps.push_back(p);
-  }
+  std::vector<Prepared> ps = PrepareSaccades(traces, o, &out);
   PooledSaccadeMotion& mo = out.motion;
   mo.num_saccades = int(ps.size());
   for (const Prepared& p : ps) mo.num_frames += int(p.t.size());
@@ -257,224 +504,16 @@ MainSequenceFit FitMainSequence(const std::vector<SaccadeTrace>& traces, const M
   if (ps.size() < 3) return not_measured("too few saccades with measured motion (" + std::to_string(ps.size()) + ")");
 
   // 1. Pooled: a grid for the start, then the least-squares fit.
-  double best = kUnbounded, slew = 300, lag = 0.03, delay = o.delay_min_s;
-  for (double s : {150.0, 250.0, 400.0, 650.0, 1000.0})
-    for (double l : {0.01, 0.03, 0.06})
-      for (double d = o.delay_min_s; d <= o.delay_max_s + 1e-9; d += 0.005) {
-        const double e = Sse(ps, s, l, d);
-        if (e < best) best = e, slew = s, lag = l, delay = d;
-      }
-  {
-    std::vector<double> theta0(ps.size()), amp(ps.size());
-    for (size_t i = 0; i < ps.size(); ++i) {
-      theta0[i] = ps[i].theta0;
-      amp[i] = ps[i].amp;
-    }
-    std::vector<std::vector<double>> c;
-    double cost = 0;
-    std::string failed;
-    if (!SolvePooled(ps, o, &slew, &lag, &delay, &theta0, &amp, &cost, &c, &failed))
-      return not_measured("the pooled fit failed: " + failed);
-    const int n = mo.num_frames, np = 3 + 2 * int(ps.size());
-    const double s2 = 2 * cost / std::max(1, n - np);
-    mo.ok = true;
-    mo.slew_deg_per_s = slew;
-    mo.lag_s = lag;
-    mo.delay_s = delay;
-    mo.rms_deg = std::sqrt(2 * cost / n);
-    if (!c.empty()) {
-      mo.fit_slew_sigma_deg_per_s = std::sqrt(std::max(0.0, c[0][0] * s2));
-      mo.fit_lag_sigma_s = std::sqrt(std::max(0.0, c[1][1] * s2));
-      mo.fit_delay_sigma_s = std::sqrt(std::max(0.0, c[2][2] * s2));
-    } else {
-      mo.fit_slew_sigma_deg_per_s = mo.fit_lag_sigma_s = mo.fit_delay_sigma_s = kUnbounded;
-    }
-    // The frames of one saccade share their errors (the disc's centroid, the servo's step and
-    // backlash, where the frame clock fell): the residual-based covariance treats 16 frames as 16
-    // independent draws and is too small (default robot: the slew 381.9 +- 0.3 against 380, 6.3
-    // sigma). Jackknife over saccades: the pooled fit again without each one in turn.
-    std::vector<double> js, jl, jd;
-    for (size_t leave = 0; leave < ps.size(); ++leave) {
-      std::vector<Prepared> sub;
-      std::vector<double> th, am;
-      for (size_t i = 0; i < ps.size(); ++i)
-        if (i != leave) {
-          sub.push_back(ps[i]);
-          th.push_back(theta0[i]);
-          am.push_back(amp[i]);
-        }
-      double sl = slew, lg = lag, de = delay, co = 0;
-      if (SolvePooled(sub, o, &sl, &lg, &de, &th, &am, &co, nullptr, nullptr)) {
-        js.push_back(sl);
-        jl.push_back(lg);
-        jd.push_back(de);
-      }
-    }
-    mo.jackknife_saccades = int(js.size());
-    if (js.size() >= 3) {
-      mo.jackknife_slew_sigma_deg_per_s = JackknifeSigma(js);
-      mo.jackknife_lag_sigma_s = JackknifeSigma(jl);
-      mo.jackknife_delay_sigma_s = JackknifeSigma(jd);
-    }
-    mo.scale_slew_sigma_deg_per_s = o.angle_scale_sigma * slew;
-    mo.slew_sigma_deg_per_s = std::hypot(std::max(mo.fit_slew_sigma_deg_per_s, mo.jackknife_slew_sigma_deg_per_s),
-                                         mo.scale_slew_sigma_deg_per_s);
-    mo.lag_sigma_s = std::max(mo.fit_lag_sigma_s, mo.jackknife_lag_sigma_s);
-    mo.delay_sigma_s = std::max(mo.fit_delay_sigma_s, mo.jackknife_delay_sigma_s);
-    for (size_t i = 0; i < ps.size(); ++i) {
-      ps[i].theta0 = theta0[i];
-      ps[i].amp = amp[i];
-    }
-    mo.message = "slew " + Num(slew, 1) + " +- " + Num(mo.slew_sigma_deg_per_s, 1) + " deg/s, lag " +
-                 Num(1000 * lag, 2) + " +- " + Num(1000 * mo.lag_sigma_s, 2) + " ms, delay " + Num(1000 * delay, 2) +
-                 " +- " + Num(1000 * mo.delay_sigma_s, 2) +
-                 " ms (sigmas: the larger of the fit's and the jackknife's over " +
-                 std::to_string(mo.jackknife_saccades) + " saccades; the slew's with " +
-                 Num(100 * o.angle_scale_sigma, 1) + " % of angle scale), RMS " + Num(mo.rms_deg, 4) + " deg over " +
-                 std::to_string(n) + " frames of " + std::to_string(ps.size()) + " saccades";
-  }
+  std::string failed;
+  if (!FitPooledMotion(o, &ps, &mo, &failed)) return not_measured("the pooled fit failed: " + failed);
 
   // 2. Per saccade: its own slew, the pooled lag and delay.
   const double vth = o.velocity_threshold_deg_per_s;
-  const double s2_pooled = mo.rms_deg * mo.rms_deg;
-  for (Prepared& p : ps) {
-    SaccadeMeasurement& m = out.saccades[p.index];
-    double s = mo.slew_deg_per_s, l = mo.lag_s, d = mo.delay_s, th = p.theta0, a = p.amp;
-    ceres::Problem problem;
-    for (size_t k = 0; k < p.t.size(); ++k)
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AngleResidual, 1, 1, 1, 1, 1, 1>(
-                                   new AngleResidual{p.t[k], p.angle[k], p.dir}),
-                               nullptr,
-                               &s,
-                               &l,
-                               &d,
-                               &th,
-                               &a);
-    problem.SetParameterBlockConstant(&l);
-    problem.SetParameterBlockConstant(&d);
-    problem.SetParameterLowerBound(&s, 0, kSlewMin);
-    problem.SetParameterUpperBound(&s, 0, kSlewMax);
-    problem.SetParameterLowerBound(&a, 0, 0.01);
-    ceres::Solver::Summary summary;
-    ceres::Solve(SolverOptions(), &problem, &summary);
-    if (!summary.IsSolutionUsable()) {
-      m.reason = "its fit failed: " + summary.message;
-      continue;
-    }
-    m.direction = p.dir;
-    m.start_deg = th;
-    m.amplitude_deg = a;
-    m.slew_deg_per_s = s;
-    m.rms_deg = std::sqrt(2 * summary.final_cost / p.t.size());
-    m.peak_deg_per_s = PeakVelocityDegPerS(a, s, l);
-    m.duration_s = DurationS(a, s, l, vth);
-    std::vector<std::vector<double>> c;
-    if (Cov(&problem, {&s, &a}, &c)) {
-      m.slew_sigma_deg_per_s = std::sqrt(std::max(0.0, c[0][0] * s2_pooled));
-      m.amplitude_sigma_deg = std::sqrt(std::max(0.0, c[1][1] * s2_pooled));
-      // Peak velocity and duration: first-order propagation of (slew, a).
-      auto prop = [&](auto f) {
-        const double hs = 1e-4 * s, ha = 1e-4 * a;
-        const double gs = (f(a, s + hs) - f(a, s - hs)) / (2 * hs);
-        const double ga = (f(a + ha, s) - f(a - ha, s)) / (2 * ha);
-        const double v = (gs * gs * c[0][0] + 2 * gs * ga * c[0][1] + ga * ga * c[1][1]) * s2_pooled;
-        return std::sqrt(std::max(0.0, v));
-      };
-      m.peak_sigma_deg_per_s = prop([&](double aa, double ss) { return PeakVelocityDegPerS(aa, ss, l); });
-      m.duration_sigma_s =
-          std::isfinite(m.duration_s) ? prop([&](double aa, double ss) { return DurationS(aa, ss, l, vth); }) : kNaN;
-    } else {
-      m.slew_sigma_deg_per_s = m.amplitude_sigma_deg = m.peak_sigma_deg_per_s = m.duration_sigma_s = kUnbounded;
-    }
-    m.ok = true;
-  }
+  for (const Prepared& p : ps) MeasureSaccade(p, mo, vth, &out.saccades[p.index]);
 
   // 3. The main-sequence curves.
-  {
-    MainSequenceCurve& cu = out.peak;
-    double vmax = 0, cdeg = 0;
-    ceres::Problem problem;
-    for (const SaccadeMeasurement& m : out.saccades)
-      if (m.ok) {
-        vmax = std::max(vmax, m.peak_deg_per_s);
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<PeakResidual, 1, 1, 1>(new PeakResidual{m.amplitude_deg, m.peak_deg_per_s}),
-            nullptr,
-            &vmax,
-            &cdeg);
-        ++cu.num_saccades;
-      }
-    if (cu.num_saccades < 3) {
-      cu.message = "too few measured saccades (" + std::to_string(cu.num_saccades) + ")";
-    } else {
-      cdeg = vmax * mo.lag_s;
-      problem.SetParameterLowerBound(&vmax, 0, 1);
-      problem.SetParameterLowerBound(&cdeg, 0, 1e-3);
-      ceres::Solver::Summary summary;
-      ceres::Solve(SolverOptions(), &problem, &summary);
-      const int n = cu.num_saccades;
-      const double s2 = 2 * summary.final_cost / std::max(1, n - 2);
-      std::vector<std::vector<double>> c;
-      cu.ok = summary.IsSolutionUsable();
-      cu.vmax_deg_per_s = vmax;
-      cu.c_deg = cdeg;
-      cu.lag_s = cdeg / vmax;
-      cu.rms_deg_per_s = std::sqrt(2 * summary.final_cost / n);
-      if (cu.ok && Cov(&problem, {&vmax, &cdeg}, &c)) {
-        cu.vmax_sigma_deg_per_s = std::hypot(std::sqrt(std::max(0.0, c[0][0] * s2)), o.angle_scale_sigma * vmax);
-        cu.c_sigma_deg = std::hypot(std::sqrt(std::max(0.0, c[1][1] * s2)), o.angle_scale_sigma * cdeg);
-        const double gv = -cdeg / (vmax * vmax), gc = 1 / vmax;
-        cu.lag_sigma_s = std::sqrt(std::max(0.0, (gv * gv * c[0][0] + 2 * gv * gc * c[0][1] + gc * gc * c[1][1]) * s2));
-      } else {
-        cu.vmax_sigma_deg_per_s = cu.c_sigma_deg = cu.lag_sigma_s = kUnbounded;
-      }
-      cu.message = cu.ok ? "Vmax " + Num(vmax, 1) + " +- " + Num(cu.vmax_sigma_deg_per_s, 1) + " deg/s, C " +
-                               Num(cdeg, 2) + " +- " + Num(cu.c_sigma_deg, 2) + " deg over " + std::to_string(n) +
-                               " saccades"
-                         : "the fit failed: " + summary.message;
-    }
-  }
-  {
-    DurationCurve& du = out.duration;
-    double s = mo.slew_deg_per_s, l = mo.lag_s;
-    ceres::Problem problem;
-    for (const SaccadeMeasurement& m : out.saccades)
-      if (m.ok && std::isfinite(m.duration_s)) {
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<DurationResidual, 1, 1, 1>(
-                                     new DurationResidual{m.amplitude_deg, m.duration_s, vth}),
-                                 nullptr,
-                                 &s,
-                                 &l);
-        ++du.num_saccades;
-      }
-    if (du.num_saccades < 3) {
-      du.message = "too few saccades with a duration (" + std::to_string(du.num_saccades) + ")";
-    } else {
-      problem.SetParameterLowerBound(&s, 0, 2 * vth);
-      problem.SetParameterUpperBound(&s, 0, kSlewMax);
-      problem.SetParameterLowerBound(&l, 0, kLagMin);
-      problem.SetParameterUpperBound(&l, 0, kLagMax);
-      ceres::Solver::Summary summary;
-      ceres::Solve(SolverOptions(), &problem, &summary);
-      const int n = du.num_saccades;
-      const double s2 = 2 * summary.final_cost / std::max(1, n - 2);
-      du.ok = summary.IsSolutionUsable();
-      du.slew_deg_per_s = s;
-      du.lag_s = l;
-      du.rms_s = std::sqrt(2 * summary.final_cost / n);
-      std::vector<std::vector<double>> c;
-      if (du.ok && Cov(&problem, {&s, &l}, &c)) {
-        du.slew_sigma_deg_per_s = std::hypot(std::sqrt(std::max(0.0, c[0][0] * s2)), o.angle_scale_sigma * s);
-        du.lag_sigma_s = std::sqrt(std::max(0.0, c[1][1] * s2));
-      } else {
-        du.slew_sigma_deg_per_s = du.lag_sigma_s = kUnbounded;
-      }
-      du.message = du.ok ? "slew " + Num(s, 1) + " +- " + Num(du.slew_sigma_deg_per_s, 1) + " deg/s, lag " +
-                               Num(1000 * l, 2) + " +- " + Num(1000 * du.lag_sigma_s, 2) + " ms over " +
-                               std::to_string(n) + " saccades"
-                         : "the fit failed: " + summary.message;
-    }
-  }
+  FitPeakCurve(out.saccades, mo, o, &out.peak);
+  FitDurationCurve(out.saccades, mo, o, &out.duration);
   return out;
 }
 
