@@ -82,6 +82,232 @@ nlohmann::json StatsJson(const UncertaintyMap& u) {
       {"ok", true}, {"centre_px", u.centre_px}, {"median_px", u.median_px}, {"p90_px", u.p90_px}, {"max_px", u.max_px}};
 }
 
+// The verdict being built: its reasons (each makes the set unusable or poor), the advice by rank
+// (most useful first: the mirror/swap fix, tilt, where to fill, closer, more views) and the two
+// findings the general advice depends on.
+struct VerdictState {
+  SetVerdict* v = nullptr;
+  bool unusable = false, poor = false;
+  bool weak_focal = false, thin_coverage = false;
+  std::map<int, std::vector<std::string>> advice;
+
+  void Advise(int rank, const std::string& a) {
+    auto& v2 = advice[rank];
+    if (std::find(v2.begin(), v2.end(), a) == v2.end()) v2.push_back(a);
+  }
+  void AddReason(bool is_unusable, const std::string& r) {
+    (is_unusable ? unusable : poor) = true;
+    v->reasons.push_back(r);
+  }
+  // The eye's fx, fy, cx, cy are refused for `why`.
+  void RefuseFocal(int e, const std::string& why) {
+    for (const char* n : {"fx", "fy", "cx", "cy"}) v->refused.push_back({std::string(kEye[e]) + "." + n, why});
+  }
+};
+
+// Uncertainty of eye e: corners per zone, the projection uncertainty at infinity, at the boards
+// and at the judged range, the trusted region, and the focal length's and principal point's sigma.
+void JudgeEyeUncertainty(int e,
+                         const StereoFit& fit,
+                         const std::vector<calib::View> views[2],
+                         const std::vector<int>& fixed,
+                         const UncertaintyMapOptions& uo,
+                         double length_unit_m,
+                         const SetVerdictOptions& vo,
+                         VerdictState* state) {
+  VerdictState& st = *state;
+  SetVerdict& v = *st.v;
+  const std::string region = "within " + FixedOrDash(100 * vo.working_radius_fraction, 0) + " % of the half-diagonal";
+  EyeVerdictMetrics& m = v.eye[e];
+  const IntrinsicsFit& f = fit.per_eye[e];
+  const int W = f.camera.width, H = f.camera.height;
+  const std::string eye = kEye[e];
+  m.corners_per_zone.assign(9, 0);
+  for (const auto& view : views[e])
+    for (const auto& px : view.pixels) ++m.corners_per_zone[ZoneOf(px, W, H)];
+  for (const auto& u : f.undetermined)
+    if (!internal::IsHeldReason(u)) st.AddReason(false, eye + " eye: not determined: " + u);
+  m.at_infinity = ComputeUncertaintyMap(f, views[e], fixed, uo);
+  m.board_distance = MedianBoardDistance(f);
+  UncertaintyMapOptions ub = uo;
+  ub.distance_m = m.board_distance;
+  m.at_boards = ComputeUncertaintyMap(f, views[e], fixed, ub);
+  if (!m.at_infinity.ok) {
+    st.weak_focal = st.thin_coverage = true;
+    st.AddReason(false, eye + " eye: the set does not determine the lens: " + m.at_infinity.message);
+    st.RefuseFocal(e, v.reasons.back());
+    return;
+  }
+  m.working_p90_px = P90Within(m.at_infinity.pixels, m.at_infinity.sigma_px, W, H, vo.working_radius_fraction);
+  if (m.at_boards.ok)
+    m.working_p90_boards_px = P90Within(m.at_boards.pixels, m.at_boards.sigma_px, W, H, vo.working_radius_fraction);
+  int within = 0;
+  for (double x : m.at_infinity.sigma_px) within += x <= 1.0;
+  m.image_fraction_within_1px = static_cast<double>(within) / std::max<size_t>(1, m.at_infinity.sigma_px.size());
+  const auto& p = f.camera.params;
+  m.relative_focal_sigma =
+      std::max(std::sqrt(CovOf(m.at_infinity, 0)) / p[0], std::sqrt(CovOf(m.at_infinity, 1)) / p[1]);
+  m.principal_sigma_px = std::max(std::sqrt(CovOf(m.at_infinity, 2)), std::sqrt(CovOf(m.at_infinity, 3)));
+  // The trusted region: predicted uncertainty at the judged range against the observed noise.
+  m.noise_px = f.corner_sigma_px;
+  m.trust_limit_px = vo.trust_threshold_noise * m.noise_px;
+  m.judged_distance = length_unit_m > 0 ? vo.judged_range_m / length_unit_m : 0.0;
+  if (m.judged_distance > 0) {
+    UncertaintyMapOptions ur = uo;
+    ur.distance_m = m.judged_distance;
+    m.at_range = ComputeUncertaintyMap(f, views[e], fixed, ur);
+  } else {
+    m.at_range = m.at_infinity;
+  }
+  const std::string range_text =
+      m.judged_distance > 0 ? "at " + FixedOrDash(vo.judged_range_m, 2) + " m" : "at infinity";
+  if (!m.at_range.ok) {
+    st.thin_coverage = true;
+    st.AddReason(false, eye + " eye: no projection uncertainty " + range_text + ": " + m.at_range.message);
+    return;
+  }
+  const TrustedRegion t =
+      TrustedRegionOf(m.at_range.pixels, m.at_range.sigma_px, W, H, m.trust_limit_px, vo.working_radius_fraction);
+  m.trusted = t.trusted;
+  m.trusted_fraction = t.fraction;
+  m.trusted_working_fraction = t.working_fraction;
+  m.working_p90_range_px = P90Within(m.at_range.pixels, m.at_range.sigma_px, W, H, vo.working_radius_fraction);
+  if (!(m.trusted_working_fraction >= vo.min_trusted_working_fraction)) {
+    st.thin_coverage = true;
+    st.AddReason(false,
+                 eye + " eye: the model is trusted over " + FixedOrDash(100 * m.trusted_working_fraction, 0) +
+                     " % of the working region only (" + region + "; limit " +
+                     FixedOrDash(100 * vo.min_trusted_working_fraction, 0) +
+                     " %): there the predicted projection "
+                     "uncertainty " +
+                     range_text + " exceeds " + FixedOrDash(vo.trust_threshold_noise, 1) + " x the corner noise (" +
+                     FixedOrDash(m.trust_limit_px, 2) + " px; p90 " + FixedOrDash(m.working_p90_range_px, 2) + " px; " +
+                     FixedOrDash(100 * m.trusted_fraction, 0) + " % of the whole image trusted)");
+    if (m.working_p90_px > 2 * m.working_p90_boards_px) st.weak_focal = true;  // fine at the boards, not beyond
+  }
+  if (m.relative_focal_sigma > vo.max_relative_focal_sigma) {
+    st.weak_focal = true;
+    st.AddReason(false,
+                 eye + " eye: the focal length is known only to " + FixedOrDash(100 * m.relative_focal_sigma, 2) +
+                     " % (limit " + FixedOrDash(100 * vo.max_relative_focal_sigma, 2) + " %)");
+    st.RefuseFocal(e, v.reasons.back());
+  }
+  if (m.principal_sigma_px > vo.max_principal_sigma_px) {
+    st.weak_focal = true;
+    st.AddReason(false,
+                 eye + " eye: the principal point is known only to " + FixedOrDash(m.principal_sigma_px, 1) +
+                     " px (limit " + FixedOrDash(vo.max_principal_sigma_px, 1) + " px)");
+  }
+}
+
+// Cross-validation: two interleaved halves, each calibrated alone, compared per eye.
+void CrossCheckHalves(const StereoFit& fit,
+                      const std::vector<calib::View> views[2],
+                      const StereoFitOptions& options,
+                      double length_unit_m,
+                      const SetVerdictOptions& vo,
+                      VerdictState* state) {
+  VerdictState& st = *state;
+  SetVerdict& v = *st.v;
+  std::vector<int> frames = fit.paired_frames;
+  std::sort(frames.begin(), frames.end());
+  if (v.sanity.mirrored_or_swapped) {
+    v.split_message = "not cross-checked: the geometry is impossible (mirrored or swapped)";
+  } else if (static_cast<int>(frames.size()) < vo.min_pairs_to_split) {
+    v.split_message = std::to_string(frames.size()) + " pairs: too few to calibrate two halves (at least " +
+                      std::to_string(vo.min_pairs_to_split) + ")";
+    st.AddReason(false, "nothing checks the set against itself: " + v.split_message);
+    st.Advise(4, "capture 15-25 pairs, so that the set can be checked against itself");
+  } else {
+    std::set<int> half[2];
+    for (size_t i = 0; i < frames.size(); ++i) half[i % 2].insert(frames[i]);
+    StereoFit hf[2];
+    bool ok = true;
+    for (int h = 0; h < 2; ++h) {
+      std::vector<calib::View> hv[2];
+      for (int e = 0; e < 2; ++e)
+        for (const auto& view : views[e])
+          if (half[h].count(view.frame_index)) hv[e].push_back(view);
+      hf[h] = FitStereo(hv[0], hv[1], options);
+      if (!hf[h].ok && ok) {
+        ok = false;
+        v.split_message = "half " + std::string(h == 0 ? "A" : "B") + " (" + std::to_string(half[h].size()) +
+                          " pairs) cannot be calibrated alone: " + hf[h].message;
+      }
+    }
+    if (!ok) {
+      st.AddReason(false, "nothing checks the set against itself: " + v.split_message);
+      st.weak_focal = true;
+      st.Advise(4, "capture more pairs (15-25), each with the board in a new place and orientation");
+    } else {
+      v.split = true;
+      if (length_unit_m > 0) {
+        for (int h = 0; h < 2; ++h) {
+          std::vector<double> q = hf[h].cameras[0].params;
+          q.insert(q.end(), hf[h].cameras[1].params.begin(), hf[h].cameras[1].params.end());
+          const Eigen::AngleAxisd aa(hf[h].right_from_left.rotation);
+          const Eigen::Vector3d rv = aa.angle() * aa.axis();
+          for (int i = 0; i < 3; ++i) q.push_back(rv[i]);
+          for (int i = 0; i < 3; ++i) q.push_back(hf[h].right_from_left.translation[i] * length_unit_m);
+          v.half_rig.push_back(q);
+        }
+      }
+      const double ba = hf[0].right_from_left.translation.norm(), bb = hf[1].right_from_left.translation.norm();
+      v.half_baseline_diff = std::abs(ba - bb) / std::max(1e-12, fit.right_from_left.translation.norm());
+      for (int e = 0; e < 2; ++e) {
+        EyeVerdictMetrics& m = v.eye[e];
+        const std::string eye = kEye[e];
+        const int W = fit.per_eye[e].camera.width, H = fit.per_eye[e].camera.height;
+        m.halves = CompareProjection(
+            hf[0].cameras[e], hf[1].cameras[e], vo.grid_cols, vo.grid_rows, vo.working_radius_fraction);
+        const auto& pa = hf[0].cameras[e].params;
+        const auto& pb = hf[1].cameras[e].params;
+        m.half_focal_diff = std::max(std::abs(pa[0] - pb[0]) / pa[0], std::abs(pa[1] - pb[1]) / pa[1]);
+        if (m.halves.ok) {
+          m.halves_working_p90_px = P90Within(m.halves.pixels, m.halves.diff_px, W, H, vo.working_radius_fraction);
+          if (m.working_p90_px > 0) m.covariance_scale = m.halves_working_p90_px / (2 * m.working_p90_px);
+        }
+        if (!m.halves.ok || !(m.halves_working_p90_px <= vo.max_half_diff_px)) {
+          st.AddReason(false,
+                       eye + " eye: two halves of the set, calibrated alone, project " +
+                           (m.halves.ok ? FixedOrDash(m.halves_working_p90_px, 2) +
+                                              " px apart over 10 % of the working region (limit " +
+                                              FixedOrDash(vo.max_half_diff_px, 2) + " px)"
+                                        : "too differently to compare (" + m.halves.message + ")"));
+          st.Advise(4,
+                    "add views (15-25 pairs in all) that differ from each other: board near and far, in every "
+                    "part of the image, tilted several ways");
+        }
+        if (m.half_focal_diff > vo.max_half_focal_diff) {
+          st.weak_focal = true;
+          st.AddReason(false,
+                       eye + " eye: the halves' focal lengths differ by " + FixedOrDash(100 * m.half_focal_diff, 2) +
+                           " % (limit " + FixedOrDash(100 * vo.max_half_focal_diff, 1) + " %; fx " +
+                           FixedOrDash(pa[0], 1) + " vs " + FixedOrDash(pb[0], 1) + " px)");
+          st.RefuseFocal(e, v.reasons.back());
+        }
+      }
+    }
+  }
+}
+
+// Where the board never went: the 3 x 3 zones holding under 2 % of an eye's corners.
+void AdviseCoverage(const SetVerdict& v, VerdictState* state) {
+  VerdictState& st = *state;
+  for (int e = 0; e < 2; ++e) {
+    int total = 0;
+    for (int c : v.eye[e].corners_per_zone) total += c;
+    std::vector<std::string> zones;
+    for (int z = 0; z < 9; ++z)
+      if (v.eye[e].corners_per_zone[z] < 0.02 * std::max(1, total)) zones.push_back(kZone[z]);
+    if (!zones.empty())
+      st.Advise(2,
+                "fill the " + Join(zones) + " of the " + kEye[e] +
+                    " image: add views where the board reaches there (closer to the cameras, or moved off-centre)");
+  }
+  st.Advise(3, "bring the board closer so it fills more of the image in some views");
+}
+
 }  // namespace
 
 bool SetVerdictOptions::Check(std::string* why) const {
@@ -114,27 +340,18 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
   v.judged_range_m = length_unit_m > 0 ? vo.judged_range_m : 0.0;
   v.trust_threshold_noise = vo.trust_threshold_noise;
   v.working_radius_fraction = vo.working_radius_fraction;
-  bool unusable = false, poor = false;
-  // Advice, most useful first: the mirror/swap fix, tilt, where to fill, closer, more views.
-  std::map<int, std::vector<std::string>> advice;
-  auto advise = [&](int rank, const std::string& a) {
-    auto& v2 = advice[rank];
-    if (std::find(v2.begin(), v2.end(), a) == v2.end()) v2.push_back(a);
-  };
-  auto add_reason = [&](bool is_unusable, const std::string& r) {
-    (is_unusable ? unusable : poor) = true;
-    v.reasons.push_back(r);
-  };
+  VerdictState st;
+  st.v = &v;
   if (!fit.ok) {
-    add_reason(true, "the stereo fit failed: " + fit.message);
+    st.AddReason(true, "the stereo fit failed: " + fit.message);
     v.advice.push_back("capture 15-25 pairs with the whole board visible in both eyes, tilted in different directions");
     v.status = "unusable";
     return v;
   }
   if (v.num_pairs < vo.min_pairs)
-    add_reason(true,
-               "only " + std::to_string(v.num_pairs) + " pairs show the board in both eyes (< " +
-                   std::to_string(vo.min_pairs) + ")");
+    st.AddReason(true,
+                 "only " + std::to_string(v.num_pairs) + " pairs show the board in both eyes (< " +
+                     std::to_string(vo.min_pairs) + ")");
 
   // Physical sanity.
   if (vo.recognise_rig) {
@@ -146,205 +363,26 @@ SetVerdict JudgeStereoSet(const StereoFit& fit,
     }
   }
   v.sanity = CheckStereoSanity(fit.cameras, fit.right_from_left, length_unit_m, v.rig);
-  for (const auto& f : v.sanity.findings) add_reason(f.unusable, f.message);
+  for (const auto& f : v.sanity.findings) st.AddReason(f.unusable, f.message);
 
   // Uncertainty per eye.
   const auto fixed = internal::FixedIntrinsicIndices(options.intrinsics);
   UncertaintyMapOptions uo;
   uo.grid_cols = vo.grid_cols;
   uo.grid_rows = vo.grid_rows;
-  bool weak_focal = false, thin_coverage = false;
-  auto refuse_focal = [&](int e, const std::string& why) {
-    for (const char* n : {"fx", "fy", "cx", "cy"}) v.refused.push_back({std::string(kEye[e]) + "." + n, why});
-  };
-  const std::string region = "within " + FixedOrDash(100 * vo.working_radius_fraction, 0) + " % of the half-diagonal";
-  for (int e = 0; e < 2; ++e) {
-    EyeVerdictMetrics& m = v.eye[e];
-    const IntrinsicsFit& f = fit.per_eye[e];
-    const int W = f.camera.width, H = f.camera.height;
-    const std::string eye = kEye[e];
-    m.corners_per_zone.assign(9, 0);
-    for (const auto& view : views[e])
-      for (const auto& px : view.pixels) ++m.corners_per_zone[ZoneOf(px, W, H)];
-    for (const auto& u : f.undetermined)
-      if (!internal::IsHeldReason(u)) add_reason(false, eye + " eye: not determined: " + u);
-    m.at_infinity = ComputeUncertaintyMap(f, views[e], fixed, uo);
-    m.board_distance = MedianBoardDistance(f);
-    UncertaintyMapOptions ub = uo;
-    ub.distance_m = m.board_distance;
-    m.at_boards = ComputeUncertaintyMap(f, views[e], fixed, ub);
-    if (!m.at_infinity.ok) {
-      weak_focal = thin_coverage = true;
-      add_reason(false, eye + " eye: the set does not determine the lens: " + m.at_infinity.message);
-      refuse_focal(e, v.reasons.back());
-      continue;
-    }
-    m.working_p90_px = P90Within(m.at_infinity.pixels, m.at_infinity.sigma_px, W, H, vo.working_radius_fraction);
-    if (m.at_boards.ok)
-      m.working_p90_boards_px = P90Within(m.at_boards.pixels, m.at_boards.sigma_px, W, H, vo.working_radius_fraction);
-    int within = 0;
-    for (double x : m.at_infinity.sigma_px) within += x <= 1.0;
-    m.image_fraction_within_1px = static_cast<double>(within) / std::max<size_t>(1, m.at_infinity.sigma_px.size());
-    const auto& p = f.camera.params;
-    m.relative_focal_sigma =
-        std::max(std::sqrt(CovOf(m.at_infinity, 0)) / p[0], std::sqrt(CovOf(m.at_infinity, 1)) / p[1]);
-    m.principal_sigma_px = std::max(std::sqrt(CovOf(m.at_infinity, 2)), std::sqrt(CovOf(m.at_infinity, 3)));
-    // The trusted region: predicted uncertainty at the judged range against the observed noise.
-    m.noise_px = f.corner_sigma_px;
-    m.trust_limit_px = vo.trust_threshold_noise * m.noise_px;
-    m.judged_distance = length_unit_m > 0 ? vo.judged_range_m / length_unit_m : 0.0;
-    if (m.judged_distance > 0) {
-      UncertaintyMapOptions ur = uo;
-      ur.distance_m = m.judged_distance;
-      m.at_range = ComputeUncertaintyMap(f, views[e], fixed, ur);
-    } else {
-      m.at_range = m.at_infinity;
-    }
-    const std::string range_text =
-        m.judged_distance > 0 ? "at " + FixedOrDash(vo.judged_range_m, 2) + " m" : "at infinity";
-    if (!m.at_range.ok) {
-      thin_coverage = true;
-      add_reason(false, eye + " eye: no projection uncertainty " + range_text + ": " + m.at_range.message);
-      continue;
-    }
-    const TrustedRegion t =
-        TrustedRegionOf(m.at_range.pixels, m.at_range.sigma_px, W, H, m.trust_limit_px, vo.working_radius_fraction);
-    m.trusted = t.trusted;
-    m.trusted_fraction = t.fraction;
-    m.trusted_working_fraction = t.working_fraction;
-    m.working_p90_range_px = P90Within(m.at_range.pixels, m.at_range.sigma_px, W, H, vo.working_radius_fraction);
-    if (!(m.trusted_working_fraction >= vo.min_trusted_working_fraction)) {
-      thin_coverage = true;
-      add_reason(false,
-                 eye + " eye: the model is trusted over " + FixedOrDash(100 * m.trusted_working_fraction, 0) +
-                     " % of the working region only (" + region + "; limit " +
-                     FixedOrDash(100 * vo.min_trusted_working_fraction, 0) +
-                     " %): there the predicted projection "
-                     "uncertainty " +
-                     range_text + " exceeds " + FixedOrDash(vo.trust_threshold_noise, 1) + " x the corner noise (" +
-                     FixedOrDash(m.trust_limit_px, 2) + " px; p90 " + FixedOrDash(m.working_p90_range_px, 2) + " px; " +
-                     FixedOrDash(100 * m.trusted_fraction, 0) + " % of the whole image trusted)");
-      if (m.working_p90_px > 2 * m.working_p90_boards_px) weak_focal = true;  // fine at the boards, not beyond
-    }
-    if (m.relative_focal_sigma > vo.max_relative_focal_sigma) {
-      weak_focal = true;
-      add_reason(false,
-                 eye + " eye: the focal length is known only to " + FixedOrDash(100 * m.relative_focal_sigma, 2) +
-                     " % (limit " + FixedOrDash(100 * vo.max_relative_focal_sigma, 2) + " %)");
-      refuse_focal(e, v.reasons.back());
-    }
-    if (m.principal_sigma_px > vo.max_principal_sigma_px) {
-      weak_focal = true;
-      add_reason(false,
-                 eye + " eye: the principal point is known only to " + FixedOrDash(m.principal_sigma_px, 1) +
-                     " px (limit " + FixedOrDash(vo.max_principal_sigma_px, 1) + " px)");
-    }
-  }
+  for (int e = 0; e < 2; ++e) JudgeEyeUncertainty(e, fit, views, fixed, uo, length_unit_m, vo, &st);
 
   // Cross-validation: two interleaved halves, each calibrated alone.
-  std::vector<int> frames = fit.paired_frames;
-  std::sort(frames.begin(), frames.end());
-  if (v.sanity.mirrored_or_swapped) {
-    v.split_message = "not cross-checked: the geometry is impossible (mirrored or swapped)";
-  } else if (static_cast<int>(frames.size()) < vo.min_pairs_to_split) {
-    v.split_message = std::to_string(frames.size()) + " pairs: too few to calibrate two halves (at least " +
-                      std::to_string(vo.min_pairs_to_split) + ")";
-    add_reason(false, "nothing checks the set against itself: " + v.split_message);
-    advise(4, "capture 15-25 pairs, so that the set can be checked against itself");
-  } else {
-    std::set<int> half[2];
-    for (size_t i = 0; i < frames.size(); ++i) half[i % 2].insert(frames[i]);
-    StereoFit hf[2];
-    bool ok = true;
-    for (int h = 0; h < 2; ++h) {
-      std::vector<calib::View> hv[2];
-      for (int e = 0; e < 2; ++e)
-        for (const auto& view : views[e])
-          if (half[h].count(view.frame_index)) hv[e].push_back(view);
-      hf[h] = FitStereo(hv[0], hv[1], options);
-      if (!hf[h].ok && ok) {
-        ok = false;
-        v.split_message = "half " + std::string(h == 0 ? "A" : "B") + " (" + std::to_string(half[h].size()) +
-                          " pairs) cannot be calibrated alone: " + hf[h].message;
-      }
-    }
-    if (!ok) {
-      add_reason(false, "nothing checks the set against itself: " + v.split_message);
-      weak_focal = true;
-      advise(4, "capture more pairs (15-25), each with the board in a new place and orientation");
-    } else {
-      v.split = true;
-      if (length_unit_m > 0) {
-        for (int h = 0; h < 2; ++h) {
-          std::vector<double> q = hf[h].cameras[0].params;
-          q.insert(q.end(), hf[h].cameras[1].params.begin(), hf[h].cameras[1].params.end());
-          const Eigen::AngleAxisd aa(hf[h].right_from_left.rotation);
-          const Eigen::Vector3d rv = aa.angle() * aa.axis();
-          for (int i = 0; i < 3; ++i) q.push_back(rv[i]);
-          for (int i = 0; i < 3; ++i) q.push_back(hf[h].right_from_left.translation[i] * length_unit_m);
-          v.half_rig.push_back(q);
-        }
-      }
-      const double ba = hf[0].right_from_left.translation.norm(), bb = hf[1].right_from_left.translation.norm();
-      v.half_baseline_diff = std::abs(ba - bb) / std::max(1e-12, fit.right_from_left.translation.norm());
-      for (int e = 0; e < 2; ++e) {
-        EyeVerdictMetrics& m = v.eye[e];
-        const std::string eye = kEye[e];
-        const int W = fit.per_eye[e].camera.width, H = fit.per_eye[e].camera.height;
-        m.halves = CompareProjection(
-            hf[0].cameras[e], hf[1].cameras[e], vo.grid_cols, vo.grid_rows, vo.working_radius_fraction);
-        const auto& pa = hf[0].cameras[e].params;
-        const auto& pb = hf[1].cameras[e].params;
-        m.half_focal_diff = std::max(std::abs(pa[0] - pb[0]) / pa[0], std::abs(pa[1] - pb[1]) / pa[1]);
-        if (m.halves.ok) {
-          m.halves_working_p90_px = P90Within(m.halves.pixels, m.halves.diff_px, W, H, vo.working_radius_fraction);
-          if (m.working_p90_px > 0) m.covariance_scale = m.halves_working_p90_px / (2 * m.working_p90_px);
-        }
-        if (!m.halves.ok || !(m.halves_working_p90_px <= vo.max_half_diff_px)) {
-          add_reason(false,
-                     eye + " eye: two halves of the set, calibrated alone, project " +
-                         (m.halves.ok ? FixedOrDash(m.halves_working_p90_px, 2) +
-                                            " px apart over 10 % of the working region (limit " +
-                                            FixedOrDash(vo.max_half_diff_px, 2) + " px)"
-                                      : "too differently to compare (" + m.halves.message + ")"));
-          advise(4,
-                 "add views (15-25 pairs in all) that differ from each other: board near and far, in every "
-                 "part of the image, tilted several ways");
-        }
-        if (m.half_focal_diff > vo.max_half_focal_diff) {
-          weak_focal = true;
-          add_reason(false,
-                     eye + " eye: the halves' focal lengths differ by " + FixedOrDash(100 * m.half_focal_diff, 2) +
-                         " % (limit " + FixedOrDash(100 * vo.max_half_focal_diff, 1) + " %; fx " +
-                         FixedOrDash(pa[0], 1) + " vs " + FixedOrDash(pb[0], 1) + " px)");
-          refuse_focal(e, v.reasons.back());
-        }
-      }
-    }
-  }
-  if (thin_coverage) {
-    // Where the board never went: the 3 x 3 zones holding under 2 % of an eye's corners.
-    for (int e = 0; e < 2; ++e) {
-      int total = 0;
-      for (int c : v.eye[e].corners_per_zone) total += c;
-      std::vector<std::string> zones;
-      for (int z = 0; z < 9; ++z)
-        if (v.eye[e].corners_per_zone[z] < 0.02 * std::max(1, total)) zones.push_back(kZone[z]);
-      if (!zones.empty())
-        advise(2,
-               "fill the " + Join(zones) + " of the " + kEye[e] +
-                   " image: add views where the board reaches there (closer to the cameras, or moved off-centre)");
-    }
-    advise(3, "bring the board closer so it fills more of the image in some views");
-  }
-  if (weak_focal)
-    advise(1,
-           "tilt the board 30-45 deg about its horizontal axis (top edge away from the cameras, then towards "
-           "them) in some views and about its vertical axis in others: boards facing the cameras let the "
-           "focal length trade against the board's distance");
-  if (v.sanity.mirrored_or_swapped) advise(0, "calibrate again with --mirror or --swap (see the reason above)");
-  for (const auto& [rank, list] : advice) v.advice.insert(v.advice.end(), list.begin(), list.end());
-  v.status = unusable ? "unusable" : (poor ? "poor" : "good");
+  CrossCheckHalves(fit, views, options, length_unit_m, vo, &st);
+  if (st.thin_coverage) AdviseCoverage(v, &st);
+  if (st.weak_focal)
+    st.Advise(1,
+              "tilt the board 30-45 deg about its horizontal axis (top edge away from the cameras, then towards "
+              "them) in some views and about its vertical axis in others: boards facing the cameras let the "
+              "focal length trade against the board's distance");
+  if (v.sanity.mirrored_or_swapped) st.Advise(0, "calibrate again with --mirror or --swap (see the reason above)");
+  for (const auto& [rank, list] : st.advice) v.advice.insert(v.advice.end(), list.begin(), list.end());
+  v.status = st.unusable ? "unusable" : (st.poor ? "poor" : "good");
   return v;
 }
 
