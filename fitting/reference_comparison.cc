@@ -55,40 +55,18 @@ std::string FixedDigits(double v, int digits) {
   return s.str();
 }
 
-}  // namespace
-
-ReferenceComparison CompareWithReference(const std::vector<calib::View>& left_views,
-                                         const std::vector<calib::View>& right_views,
-                                         const StereoFit& fit,
-                                         const StereoFit* flat_fit,
-                                         const OpenCvStereoCalibration& reference,
-                                         const ReferenceComparisonOptions& options) {
-  ReferenceComparison c;
-  c.reference_name = options.reference_name;
-  c.reference_model = options.reference_model;
-  c.length_unit = fit.length_unit;
-  if (!fit.ok) {
-    c.message = "owlcal's stereo fit failed: nothing to compare";
-    return c;
-  }
-  if (!reference.HasIntrinsics() || !reference.HasExtrinsics()) {
-    c.message = "the reference has no " + std::string(reference.HasIntrinsics() ? "R, T" : "M1, D1, M2, D2");
-    return c;
-  }
-  c.owlcal_model = fit.cameras[0].model == models::DistortionModel::kOpenCv5 ? "opencv5" : "opencv8";
-  const cv::Size size(fit.cameras[0].width, fit.cameras[0].height);
-  if (reference.image_width > 0 && (reference.image_width != size.width || reference.image_height != size.height)) {
-    c.message = "the reference is for " + std::to_string(reference.image_width) + "x" +
-                std::to_string(reference.image_height) + " images, these are " + std::to_string(size.width) + "x" +
-                std::to_string(size.height);
-    return c;
-  }
-
-  // Pairs: the corners both eyes saw in the same frame.
-  std::map<int, const calib::View*> right_of;
-  for (const auto& v : right_views) right_of[v.frame_index] = &v;
+// The corners both eyes saw in the same frame, as OpenCV's stereoCalibrate takes them (pairs
+// with too few shared corners left out).
+struct StereoCornerPairs {
   std::vector<std::vector<cv::Point3f>> obj;
   std::vector<std::vector<cv::Point2f>> img[2];
+};
+StereoCornerPairs PairCorners(const std::vector<calib::View>& left_views, const std::vector<calib::View>& right_views) {
+  StereoCornerPairs pairs;
+  std::vector<std::vector<cv::Point3f>>& obj = pairs.obj;
+  std::vector<std::vector<cv::Point2f>>* img = pairs.img;
+  std::map<int, const calib::View*> right_of;
+  for (const auto& v : right_views) right_of[v.frame_index] = &v;
   for (const auto& l : left_views) {
     const auto it = right_of.find(l.frame_index);
     if (it == right_of.end()) continue;
@@ -110,99 +88,93 @@ ReferenceComparison CompareWithReference(const std::vector<calib::View>& left_vi
     img[0].push_back(p[0]);
     img[1].push_back(p[1]);
   }
-  c.num_pairs = int(obj.size());
-  if (c.num_pairs < 3) {
-    c.message = "only " + std::to_string(c.num_pairs) + " pairs with corners in both eyes (need 3)";
-    return c;
+  return pairs;
+}
+
+// B: the reference's program (its flags) on owlcal's corners.
+Numbers CalibrateLikeReference(const StereoCornerPairs& pairs,
+                               const cv::Size& size,
+                               const ReferenceComparisonOptions& options,
+                               const cv::TermCriteria& crit,
+                               double fit_to_display,
+                               ReferenceComparison* out) {
+  ReferenceComparison& c = *out;
+  const auto& obj = pairs.obj;
+  const auto* img = pairs.img;
+  cv::Mat m[2], dist[2], r, t, e, f;
+  for (int k = 0; k < 2; ++k) {
+    m[k] = cv::initCameraMatrix2D(obj, img[k], size, 0);
+    dist[k] = cv::Mat::zeros(1, 8, CV_64F);
   }
-  for (const auto& o : obj)
-    for (const auto& x : o)
-      if (x.z != 0) {
-        c.message = "the target is not planar: OpenCV's calibration (the reference's solver) needs a planar one";
-        return c;
-      }
+  const int flags = options.reference_flags >= 0
+                        ? options.reference_flags
+                        : cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_USE_INTRINSIC_GUESS |
+                              cv::CALIB_SAME_FOCAL_LENGTH | cv::CALIB_RATIONAL_MODEL | cv::CALIB_FIX_K3 |
+                              cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5;
+  c.rms_reference_model_px =
+      cv::stereoCalibrate(obj, img[0], img[1], m[0], dist[0], m[1], dist[1], size, r, t, e, f, flags, crit);
+  return FromOpenCv(m[0], m[1], r, t, fit_to_display);
+}
 
-  // Lengths: shown in mm when the fit is in metres, else in the fit's unit.
-  const std::string display_unit = fit.length_unit == "m" ? "mm" : fit.length_unit;
-  const double fit_to_display = LengthFactor(fit.length_unit, display_unit);
-  const double ref_to_display = LengthFactor(reference.length_unit, display_unit);
-  if (ref_to_display == 0)
-    c.notes.push_back("the reference's lengths are in '" + reference.length_unit + "', the fit's in '" +
-                      fit.length_unit + "': translations are not compared");
-
-  const cv::TermCriteria crit(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5);
-  Numbers a, b, d, cc, ee;
-  try {
-    a = FromOpenCv(reference.M1, reference.M2, reference.R, reference.T, ref_to_display);
-    // B: the reference's program on owlcal's corners.
-    {
-      cv::Mat m[2], dist[2], r, t, e, f;
-      for (int k = 0; k < 2; ++k) {
-        m[k] = cv::initCameraMatrix2D(obj, img[k], size, 0);
-        dist[k] = cv::Mat::zeros(1, 8, CV_64F);
-      }
-      const int flags = options.reference_flags >= 0
-                            ? options.reference_flags
-                            : cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_USE_INTRINSIC_GUESS |
-                                  cv::CALIB_SAME_FOCAL_LENGTH | cv::CALIB_RATIONAL_MODEL | cv::CALIB_FIX_K3 |
-                                  cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5;
-      c.rms_reference_model_px =
-          cv::stereoCalibrate(obj, img[0], img[1], m[0], dist[0], m[1], dist[1], size, r, t, e, f, flags, crit);
-      b = FromOpenCv(m[0], m[1], r, t, fit_to_display);
-    }
-    // D: owlcal's lens model in OpenCV: each eye alone (cv::calibrateCamera), then jointly.
-    {
-      const bool rational = c.owlcal_model == "opencv8";
-      const int model_flags = rational ? cv::CALIB_RATIONAL_MODEL : 0;
-      cv::Mat m[2], dist[2], r, t, e, f;
-      for (int k = 0; k < 2; ++k) {
-        std::vector<cv::Mat> rv, tv;
-        m[k] = cv::initCameraMatrix2D(obj, img[k], size, 0);
-        dist[k] = cv::Mat::zeros(1, rational ? 8 : 5, CV_64F);
-        cv::calibrateCamera(
-            obj, img[k], size, m[k], dist[k], rv, tv, model_flags | cv::CALIB_USE_INTRINSIC_GUESS, crit);
-      }
-      c.rms_owlcal_model_px = cv::stereoCalibrate(obj,
-                                                  img[0],
-                                                  img[1],
-                                                  m[0],
-                                                  dist[0],
-                                                  m[1],
-                                                  dist[1],
-                                                  size,
-                                                  r,
-                                                  t,
-                                                  e,
-                                                  f,
-                                                  model_flags | cv::CALIB_USE_INTRINSIC_GUESS,
-                                                  crit);
-      d = FromOpenCv(m[0], m[1], r, t, fit_to_display);
-    }
-  } catch (const cv::Exception& ex) {
-    c.message = std::string("OpenCV's calibration failed: ") + ex.what();
-    return c;
+// D: owlcal's lens model in OpenCV: each eye alone (cv::calibrateCamera), then jointly.
+Numbers CalibrateWithOwlcalModel(const StereoCornerPairs& pairs,
+                                 const cv::Size& size,
+                                 const cv::TermCriteria& crit,
+                                 double fit_to_display,
+                                 ReferenceComparison* out) {
+  ReferenceComparison& c = *out;
+  const auto& obj = pairs.obj;
+  const auto* img = pairs.img;
+  const bool rational = c.owlcal_model == "opencv8";
+  const int model_flags = rational ? cv::CALIB_RATIONAL_MODEL : 0;
+  cv::Mat m[2], dist[2], r, t, e, f;
+  for (int k = 0; k < 2; ++k) {
+    std::vector<cv::Mat> rv, tv;
+    m[k] = cv::initCameraMatrix2D(obj, img[k], size, 0);
+    dist[k] = cv::Mat::zeros(1, rational ? 8 : 5, CV_64F);
+    cv::calibrateCamera(obj, img[k], size, m[k], dist[k], rv, tv, model_flags | cv::CALIB_USE_INTRINSIC_GUESS, crit);
   }
-  // C: owlcal's fit; E: the same with a flat board.
-  auto from_fit = [&](const StereoFit& f) {
-    Numbers n;
-    for (int e = 0; e < 2; ++e)
-      for (int i = 0; i < 4; ++i) n.cam[e][i] = f.cameras[e].params[i];
-    const Eigen::AngleAxisd aa(f.right_from_left.rotation);
-    n.rvec_deg = aa.angle() * aa.axis() * kRadToDeg;
-    n.t = f.right_from_left.translation * fit_to_display;
-    n.has_t = true;
-    return n;
-  };
-  cc = from_fit(fit);
-  c.rms_owlcal_px = fit.rms_joint_px;
-  c.bowed = fit.board_warp_fitted;
-  const bool flat_ok = c.bowed && flat_fit && flat_fit->ok;
-  ee = flat_ok ? from_fit(*flat_fit) : cc;
-  c.rms_owlcal_flat_px = flat_ok ? flat_fit->rms_joint_px : fit.rms_joint_px;
-  if (c.bowed && !flat_ok)
-    c.notes.push_back(
-        "owlcal fitted the board's bow but no flat fit was given: the bow is counted in the estimator part");
+  c.rms_owlcal_model_px = cv::stereoCalibrate(obj,
+                                              img[0],
+                                              img[1],
+                                              m[0],
+                                              dist[0],
+                                              m[1],
+                                              dist[1],
+                                              size,
+                                              r,
+                                              t,
+                                              e,
+                                              f,
+                                              model_flags | cv::CALIB_USE_INTRINSIC_GUESS,
+                                              crit);
+  return FromOpenCv(m[0], m[1], r, t, fit_to_display);
+}
 
+// A fit's numbers in the comparison's units.
+Numbers NumbersOfFit(const StereoFit& f, double fit_to_display) {
+  Numbers n;
+  for (int e = 0; e < 2; ++e)
+    for (int i = 0; i < 4; ++i) n.cam[e][i] = f.cameras[e].params[i];
+  const Eigen::AngleAxisd aa(f.right_from_left.rotation);
+  n.rvec_deg = aa.angle() * aa.axis() * kRadToDeg;
+  n.t = f.right_from_left.translation * fit_to_display;
+  n.has_t = true;
+  return n;
+}
+
+// The rows: each eye's fx, fy, cx, cy, the rotation vector and, with translations on both sides,
+// T and the baseline; each with owlcal's sigma.
+void AddComparisonRows(const StereoFit& fit,
+                       const Numbers& a,
+                       const Numbers& b,
+                       const Numbers& d,
+                       const Numbers& cc,
+                       const Numbers& ee,
+                       const std::string& display_unit,
+                       double fit_to_display,
+                       ReferenceComparison* out) {
+  ReferenceComparison& c = *out;
   auto sigma_of = [&](const std::string& name, double scale) {
     for (size_t i = 0; i < fit.param_names.size() && i < fit.sigmas.size(); ++i)
       if (fit.param_names[i] == name) return fit.determined[i] ? fit.sigmas[i] * scale : NAN;
@@ -270,7 +242,11 @@ ReferenceComparison CompareWithReference(const std::vector<calib::View>& left_vi
     }
     c.rows.push_back(row);
   }
+}
 
+// The shares of the difference, sigma-weighted, and the message.
+void ShareDifferences(ReferenceComparison* out) {
+  ReferenceComparison& c = *out;
   // Shares, sigma-weighted (the baseline is a function of T: left out so T is not counted twice).
   double den = 0, det = 0, mod = 0, est = 0, bow = 0;
   for (const auto& r : c.rows) {
@@ -306,6 +282,86 @@ ReferenceComparison CompareWithReference(const std::vector<calib::View>& left_vi
     s << "; largest: " << worst->name << " " << FixedDigits(worst->Total(), 3) << " " << worst->unit << " ("
       << FixedDigits(worst->Total() / worst->owlcal_sigma, 1) << " sigma)";
   c.message = s.str();
+}
+
+}  // namespace
+
+ReferenceComparison CompareWithReference(const std::vector<calib::View>& left_views,
+                                         const std::vector<calib::View>& right_views,
+                                         const StereoFit& fit,
+                                         const StereoFit* flat_fit,
+                                         const OpenCvStereoCalibration& reference,
+                                         const ReferenceComparisonOptions& options) {
+  ReferenceComparison c;
+  c.reference_name = options.reference_name;
+  c.reference_model = options.reference_model;
+  c.length_unit = fit.length_unit;
+  if (!fit.ok) {
+    c.message = "owlcal's stereo fit failed: nothing to compare";
+    return c;
+  }
+  if (!reference.HasIntrinsics() || !reference.HasExtrinsics()) {
+    c.message = "the reference has no " + std::string(reference.HasIntrinsics() ? "R, T" : "M1, D1, M2, D2");
+    return c;
+  }
+  c.owlcal_model = fit.cameras[0].model == models::DistortionModel::kOpenCv5 ? "opencv5" : "opencv8";
+  const cv::Size size(fit.cameras[0].width, fit.cameras[0].height);
+  if (reference.image_width > 0 && (reference.image_width != size.width || reference.image_height != size.height)) {
+    c.message = "the reference is for " + std::to_string(reference.image_width) + "x" +
+                std::to_string(reference.image_height) + " images, these are " + std::to_string(size.width) + "x" +
+                std::to_string(size.height);
+    return c;
+  }
+
+  // Pairs: the corners both eyes saw in the same frame.
+  const StereoCornerPairs pairs = PairCorners(left_views, right_views);
+  const auto& obj = pairs.obj;
+  c.num_pairs = int(obj.size());
+  if (c.num_pairs < 3) {
+    c.message = "only " + std::to_string(c.num_pairs) + " pairs with corners in both eyes (need 3)";
+    return c;
+  }
+  for (const auto& o : obj)
+    for (const auto& x : o)
+      if (x.z != 0) {
+        c.message = "the target is not planar: OpenCV's calibration (the reference's solver) needs a planar one";
+        return c;
+      }
+
+  // Lengths: shown in mm when the fit is in metres, else in the fit's unit.
+  const std::string display_unit = fit.length_unit == "m" ? "mm" : fit.length_unit;
+  const double fit_to_display = LengthFactor(fit.length_unit, display_unit);
+  const double ref_to_display = LengthFactor(reference.length_unit, display_unit);
+  if (ref_to_display == 0)
+    c.notes.push_back("the reference's lengths are in '" + reference.length_unit + "', the fit's in '" +
+                      fit.length_unit + "': translations are not compared");
+
+  const cv::TermCriteria crit(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5);
+  Numbers a, b, d, cc, ee;
+  try {
+    a = FromOpenCv(reference.M1, reference.M2, reference.R, reference.T, ref_to_display);
+    // B: the reference's program on owlcal's corners.
+    b = CalibrateLikeReference(pairs, size, options, crit, fit_to_display, &c);
+    // D: owlcal's lens model in OpenCV: each eye alone (cv::calibrateCamera), then jointly.
+    d = CalibrateWithOwlcalModel(pairs, size, crit, fit_to_display, &c);
+  } catch (const cv::Exception& ex) {
+    c.message = std::string("OpenCV's calibration failed: ") + ex.what();
+    return c;
+  }
+  // C: owlcal's fit; E: the same with a flat board.
+  cc = NumbersOfFit(fit, fit_to_display);
+  c.rms_owlcal_px = fit.rms_joint_px;
+  c.bowed = fit.board_warp_fitted;
+  const bool flat_ok = c.bowed && flat_fit && flat_fit->ok;
+  ee = flat_ok ? NumbersOfFit(*flat_fit, fit_to_display) : cc;
+  c.rms_owlcal_flat_px = flat_ok ? flat_fit->rms_joint_px : fit.rms_joint_px;
+  if (c.bowed && !flat_ok)
+    c.notes.push_back(
+        "owlcal fitted the board's bow but no flat fit was given: the bow is counted in the estimator part");
+
+  AddComparisonRows(fit, a, b, d, cc, ee, display_unit, fit_to_display, &c);
+
+  ShareDifferences(&c);
   return c;
 }
 
