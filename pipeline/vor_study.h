@@ -75,4 +75,9 @@ nlohmann::json VorStudyJson(const VorStudy& s);
 // Writes the tables, figures, JSON and report page; draw = run gnuplot. Returns the page's path.
 std::string WriteVorStudy(const VorStudy& s, const std::string& out_dir, bool draw = true);
 
+namespace internal {
+// The frames of one trial and eye, in order (for the study and its page).
+std::vector<const VorFrame*> SelectVorFrames(const std::vector<VorFrame>& frames, int trial, int eye);
+}  // namespace internal
+
 }  // namespace owlcal::pipeline
