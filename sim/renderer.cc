@@ -1,3 +1,6 @@
+// EyeRenderer (sim/renderer.h): each pixel's ray against the scene's textured planes (targets,
+// moving ones per row for the rolling shutter, and the wall), lens shading, the socket rim and defocus;
+// and the sensor noise. The textures: sim/target_texture.cc.
 #include "sim/renderer.h"
 
 #include <algorithm>
@@ -8,8 +11,6 @@
 #include <stdexcept>
 #include <string>
 
-#include <apriltag/apriltag.h>
-#include <apriltag/tag36h11.h>
 #include <opencv2/imgproc.hpp>
 
 namespace owlcal::sim {
@@ -20,16 +21,6 @@ inline uint64_t SplitMix64(uint64_t x) {
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
   x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
   return x ^ (x >> 31);
-}
-
-// Fills the texel rectangle [x0, x1) x [y0, y1) (level-0 texel units, integers) with v.
-void FillRect(cv::Mat* m, int x0, int y0, int x1, int y1, float v) {
-  x0 = std::max(0, x0);
-  y0 = std::max(0, y0);
-  x1 = std::min(m->cols, x1);
-  y1 = std::min(m->rows, y1);
-  if (x1 <= x0 || y1 <= y0) return;
-  (*m)(cv::Rect(x0, y0, x1 - x0, y1 - y0)).setTo(v);
 }
 
 // Blurs each pixel of `grey` by a Gaussian of its own sigma [px]: the image is blurred at a
@@ -62,201 +53,197 @@ void ApplyDefocus(const cv::Mat& sigma, cv::Mat* grey) {
   }
 }
 
+// One textured plane as EyeRenderer::Render intersects it with the pixels' rays.
+struct RenderPlane {
+  float m[9];            // ray (x, y, 1) -> (u q2, v q2, q2) in level-0 texels
+  float x0, x1, y0, y1;  // bounding box in normalised ray coordinates
+  float w, h;            // texture size (level-0 texels)
+  float lod;
+  bool wrap;
+  const MipTexture* tex;
+  // Board warp (SceneTarget::warp_m): ray direction in the target frame (rows of R^T), and
+  // the parabola's centre, half spans [texels] and deflections [texels].
+  bool warped = false;
+  float rt[9];
+  float uc, vc, hu, hv, kx, ky;
+};
+
+// The plane of a target (or the wall) seen from the camera: the ray -> texel map, the bounding
+// box of its rays, the level of detail at its centre and its bow; false when seen edge-on.
+bool MakeRenderPlane(const models::Rigid3d& cam_from_base,
+                     const Eigen::Isometry3d& base_from_target,
+                     const TargetTexture& tt,
+                     bool wrap,
+                     const Eigen::Vector4d* extent,
+                     const SceneTarget* target,
+                     double fx,
+                     double fy,
+                     double blur_px,
+                     RenderPlane* out) {
+  // cam_from_target = [R | t]; a target point (a, b, 0) is on ray lambda * (x, y, 1) with
+  // (x, y, 1) ~ G (a, b, 1), G = [r1 r2 t]. Texture coords (u, v) = s * ((a, b) - origin).
+  const Eigen::Matrix4d ct = cam_from_base.Matrix() * base_from_target.matrix();
+  Eigen::Matrix3d g;
+  g.col(0) = ct.block<3, 1>(0, 0);
+  g.col(1) = ct.block<3, 1>(0, 1);
+  g.col(2) = ct.block<3, 1>(0, 3);
+  if (std::abs(g.determinant()) < 1e-12) return false;  // seen edge-on
+  Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
+  s(0, 0) = s(1, 1) = tt.texels_per_m;
+  s(0, 2) = -tt.texels_per_m * tt.origin_m.x();
+  s(1, 2) = -tt.texels_per_m * tt.origin_m.y();
+  Eigen::Matrix3d m = s * g.inverse();
+  // Normalise so the ray depth is 1 / q2 (q2 = third row . ray > 0 in front).
+  // G^-1 (x, y, 1) = (a, b, 1) / lambda already has that scale; s keeps the third row.
+  RenderPlane p;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) p.m[3 * r + c] = float(m(r, c));
+  p.w = float(tt.texture.width());
+  p.h = float(tt.texture.height());
+  p.wrap = wrap;
+  p.tex = &tt.texture;
+  p.x0 = p.y0 = -1e30f;
+  p.x1 = p.y1 = 1e30f;
+  // Level of detail at the target's centre (or straight ahead for the wall).
+  Eigen::Vector3d centre_in_cam(0, 0, 1);
+  if (extent) {
+    const Eigen::Vector4d& e = *extent;
+    bool all_in_front = true;
+    float x0 = 1e30f, x1 = -1e30f, y0 = 1e30f, y1 = -1e30f;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector4d corner(k & 1 ? e[1] : e[0], k & 2 ? e[3] : e[2], 0, 1);
+      const Eigen::Vector4d c = ct * corner;
+      if (c.z() < 1e-6) {
+        all_in_front = false;
+        break;
+      }
+      x0 = std::min(x0, float(c.x() / c.z()));
+      x1 = std::max(x1, float(c.x() / c.z()));
+      y0 = std::min(y0, float(c.y() / c.z()));
+      y1 = std::max(y1, float(c.y() / c.z()));
+    }
+    if (all_in_front) {
+      p.x0 = x0 - 1e-4f;
+      p.x1 = x1 + 1e-4f;
+      p.y0 = y0 - 1e-4f;
+      p.y1 = y1 + 1e-4f;
+    }
+    centre_in_cam = (ct * Eigen::Vector4d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0, 1)).head<3>();
+  }
+  float lod = 0.f;
+  if (centre_in_cam.z() > 1e-6) {
+    const double xn = centre_in_cam.x() / centre_in_cam.z(), yn = centre_in_cam.y() / centre_in_cam.z();
+    auto uv = [&](double x, double y) {
+      const Eigen::Vector3d q = m * Eigen::Vector3d(x, y, 1);
+      return Eigen::Vector2d(q.x() / q.z(), q.y() / q.z());
+    };
+    const Eigen::Vector2d c = uv(xn, yn);
+    const double dx = (uv(xn + 1.0 / fx, yn) - c).norm();
+    const double dy = (uv(xn, yn + 1.0 / fy) - c).norm();
+    // Optical blur: the lens and the sensor's demosaicing spread a point over more than
+    // one pixel; the texture is filtered over blur_px pixels (which also keeps detectors
+    // from locking corners to the pixel grid).
+    const double tpp = std::max(dx, dy) * blur_px;
+    if (std::isfinite(tpp) && tpp > 1.0) lod = float(std::log2(tpp));
+  }
+  p.lod = std::min(lod, float(tt.texture.num_levels() - 1));
+  if (target && (target->warp_m.x() != 0 || target->warp_m.y() != 0)) {
+    const Eigen::Vector4d span = target->WarpSpan();
+    p.warped = true;
+    const Eigen::Matrix3d rt = ct.block<3, 3>(0, 0).transpose();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) p.rt[3 * r + c] = float(rt(r, c));
+    const double s_t = tt.texels_per_m;
+    p.uc = float(s_t * ((span[0] + span[1]) / 2 - tt.origin_m.x()));
+    p.vc = float(s_t * ((span[2] + span[3]) / 2 - tt.origin_m.y()));
+    p.hu = float(std::max(1e-9, s_t * (span[1] - span[0]) / 2));
+    p.hv = float(std::max(1e-9, s_t * (span[3] - span[2]) / 2));
+    p.kx = float(s_t * target->warp_m.x());
+    p.ky = float(s_t * target->warp_m.y());
+  }
+  *out = p;
+  return true;
+}
+
+// Whether the socket rim's ramp reaches the image: true when a sampled border ray comes close to
+// its start.
+bool RimReachesImage(int width,
+                     int height,
+                     const std::vector<float>& ray_x,
+                     const std::vector<float>& ray_y,
+                     const std::vector<float>& inv_norm,
+                     float rax,
+                     float ray_,
+                     float raz,
+                     float cos_start) {
+  bool rim_active = false;
+  for (int i = 0; i < 2 * (width + height) && !rim_active; i += 4) {
+    int x, y;
+    if (i < width)
+      x = i, y = 0;
+    else if (i < 2 * width)
+      x = i - width, y = height - 1;
+    else if (i < 2 * width + height)
+      x = 0, y = i - 2 * width;
+    else
+      x = width - 1, y = i - 2 * width - height;
+    const size_t k = size_t(y) * width + x;
+    const float c = (rax * ray_x[k] + ray_ * ray_y[k] + raz) * inv_norm[k];
+    rim_active = c < cos_start + 0.02f;
+  }
+  return rim_active;
+}
+
+// The nearest of the `active` planes the ray (rx, ry, 1) hits inside its texture (or wrapped):
+// its index (-1 for none), its q2 (1 / depth) and texel (u, v).
+int NearestPlaneHit(const std::vector<RenderPlane>& planes,
+                    const std::vector<int>& active,
+                    float rx,
+                    float ry,
+                    float* q2_out,
+                    float* u_out,
+                    float* v_out) {
+  const int np = int(active.size());
+  int best = -1;
+  float& best_q2 = *q2_out;
+  float& bu = *u_out;
+  float& bv = *v_out;
+  best_q2 = bu = bv = 0.f;
+  for (int j = 0; j < np; ++j) {
+    const int i = active[j];
+    const RenderPlane& p = planes[i];
+    if (rx < p.x0 || rx > p.x1 || ry < p.y0 || ry > p.y1) continue;
+    const float q2 = p.m[6] * rx + p.m[7] * ry + p.m[8];
+    if (q2 <= best_q2) continue;  // behind the camera or farther than the best hit
+    const float inv = 1.f / q2;
+    const float u = (p.m[0] * rx + p.m[1] * ry + p.m[2]) * inv;
+    const float v = (p.m[3] * rx + p.m[4] * ry + p.m[5]) * inv;
+    if (!p.wrap && (u < 0.f || v < 0.f || u >= p.w || v >= p.h)) continue;
+    best = i;
+    best_q2 = q2;
+    bu = u;
+    bv = v;
+  }
+  return best;
+}
+
+// A bowed board: the texel (u, v) where the ray meets the bowed surface instead of the plane.
+void WarpTexel(const RenderPlane& p, float rx, float ry, float* bu, float* bv) {
+  // The surface z = -(kx (1 - un^2) + ky (1 - vn^2)) (towards the camera for k > 0):
+  // the ray meets it s = z / d_z further along, (u, v) moves by s (d_x, d_y) (first
+  // order in the deflection; a second-order error below 0.01 px at millimetre warps).
+  const float dx = p.rt[0] * rx + p.rt[1] * ry + p.rt[2];
+  const float dy = p.rt[3] * rx + p.rt[4] * ry + p.rt[5];
+  const float dz = p.rt[6] * rx + p.rt[7] * ry + p.rt[8];
+  if (dz > 1e-6f) {
+    const float un = (*bu - p.uc) / p.hu, vn = (*bv - p.vc) / p.hv;
+    const float z = -(p.kx * (1.f - un * un) + p.ky * (1.f - vn * vn));
+    *bu += z / dz * dx;
+    *bv += z / dz * dy;
+  }
+}
+
 }  // namespace
-
-MipTexture::MipTexture(const cv::Mat& level0, bool wrap) : width_(level0.cols), height_(level0.rows), wrap_(wrap) {
-  if (level0.type() != CV_32F || level0.empty())
-    throw std::invalid_argument("MipTexture: level 0 must be a non-empty CV_32F image");
-  if (wrap && ((width_ & (width_ - 1)) || (height_ & (height_ - 1)))) {
-    throw std::invalid_argument("MipTexture: a wrapping texture needs power-of-two sizes, got " +
-                                std::to_string(width_) + "x" + std::to_string(height_));
-  }
-  Level l0{width_, height_, {}};
-  l0.texels.assign(size_t(width_) * height_, 0.f);
-  for (int y = 0; y < height_; ++y)
-    for (int x = 0; x < width_; ++x) l0.texels[size_t(y) * width_ + x] = level0.at<float>(y, x);
-  levels_.push_back(std::move(l0));
-  // Level L+1 texel (i, j) = mean of level L texels (2i..2i+1, 2j..2j+1); an odd last
-  // column/row is padded with the edge value (clamp) or wraps.
-  while (levels_.back().w > 1 || levels_.back().h > 1) {
-    const Level& p = levels_.back();
-    Level n{(p.w + 1) / 2, (p.h + 1) / 2, {}};
-    n.texels.resize(size_t(n.w) * n.h);
-    for (int y = 0; y < n.h; ++y) {
-      const int y0 = 2 * y, y1 = std::min(2 * y + 1, p.h - 1);
-      for (int x = 0; x < n.w; ++x) {
-        const int x0 = 2 * x, x1 = std::min(2 * x + 1, p.w - 1);
-        n.texels[size_t(y) * n.w + x] = 0.25f * (p.texels[size_t(y0) * p.w + x0] + p.texels[size_t(y0) * p.w + x1] +
-                                                 p.texels[size_t(y1) * p.w + x0] + p.texels[size_t(y1) * p.w + x1]);
-      }
-    }
-    levels_.push_back(std::move(n));
-    if (levels_.size() > 14) break;
-  }
-}
-
-float MipTexture::Sample(float u, float v, int level) const {
-  level = std::clamp(level, 0, int(levels_.size()) - 1);
-  const Level& l = levels_[level];
-  const float scale = 1.f / float(1 << level);
-  // Texel centres sit at integer + 0.5.
-  const float su = u * scale - 0.5f, sv = v * scale - 0.5f;
-  // floor without the libm call (coordinates are far inside the int range).
-  int x0 = int(su), y0 = int(sv);
-  x0 -= su < float(x0);
-  y0 -= sv < float(y0);
-  const float ax = su - float(x0), ay = sv - float(y0);
-  int x1 = x0 + 1, y1 = y0 + 1;
-  if (wrap_) {
-    x0 &= l.w - 1;
-    x1 &= l.w - 1;
-    y0 &= l.h - 1;
-    y1 &= l.h - 1;
-  } else {
-    x0 = std::clamp(x0, 0, l.w - 1);
-    x1 = std::clamp(x1, 0, l.w - 1);
-    y0 = std::clamp(y0, 0, l.h - 1);
-    y1 = std::clamp(y1, 0, l.h - 1);
-  }
-  const float* r0 = &l.texels[size_t(y0) * l.w];
-  const float* r1 = &l.texels[size_t(y1) * l.w];
-  const float top = r0[x0] + ax * (r0[x1] - r0[x0]);
-  const float bottom = r1[x0] + ax * (r1[x1] - r1[x0]);
-  return top + ay * (bottom - top);
-}
-
-float MipTexture::SampleLod(float u, float v, float lod) const {
-  if (lod <= 0.f) return Sample(u, v, 0);
-  const int l0 = int(lod);
-  const float f = lod - float(l0);
-  const float a = Sample(u, v, l0);
-  if (f < 1e-3f || l0 + 1 >= int(levels_.size())) return a;
-  return a + f * (Sample(u, v, l0 + 1) - a);
-}
-
-TargetTexture MakeTargetTexture(const calib::TargetDefinition& def) {
-  TargetTexture t;
-  switch (def.kind) {
-    case calib::TargetKind::kChessboard: {
-      // 128 texels per square (0.6 px per texel at 0.2 m: the texture, not its resolution,
-      // is what a near board shows; farther, the mip levels are the 32-texel board's exactly);
-      // squares from -1 .. cols (x) and -1 .. rows (y), inner corners at multiples of the
-      // square; one white square of margin all round.
-      const int k = 128;
-      const int nx = def.cols + 3, ny = def.rows + 3;
-      cv::Mat img(ny * k, nx * k, CV_32F, cv::Scalar(1.f));
-      for (int j = -1; j < def.rows; ++j)
-        for (int i = -1; i < def.cols; ++i)
-          if (((i + j) & 1) == 0) FillRect(&img, (i + 2) * k, (j + 2) * k, (i + 3) * k, (j + 3) * k, 0.f);
-      t.texels_per_m = k / def.square_m;
-      t.origin_m = Eigen::Vector2d(-2 * def.square_m, -2 * def.square_m);
-      t.texture = MipTexture(img, false);
-      break;
-    }
-    case calib::TargetKind::kAprilGrid: {
-      if (def.family != "tag36h11")
-        throw std::invalid_argument("MakeTargetTexture: family '" + def.family + "' (only tag36h11)");
-      // Texels per bit: m * 2^k with 8 m (1 + spacing) an integer, so every tag corner lies
-      // on a texel boundary; >= 16 texels per bit.
-      int m = 1;
-      for (int c = 1; c <= 10; ++c) {
-        const double p = 8.0 * c * (1.0 + def.tag_spacing);
-        if (std::abs(p - std::round(p)) < 1e-6) {
-          m = c;
-          break;
-        }
-      }
-      int bit = m;
-      while (bit < 16) bit *= 2;
-      const double bit_m = def.tag_size_m / 8.0;
-      t.texels_per_m = bit / bit_m;
-      const int pitch = int(std::lround(8.0 * bit * (1.0 + def.tag_spacing)));
-      const int margin = int(std::lround(8.0 * bit * def.tag_spacing)) + 2 * bit;  // spacing + 2 bits of paper
-      const int w = 2 * margin + (def.tag_cols - 1) * pitch + 8 * bit;
-      const int h = 2 * margin + (def.tag_rows - 1) * pitch + 8 * bit;
-      cv::Mat img(h, w, CV_32F, cv::Scalar(1.f));
-      apriltag_family_t* fam = tag36h11_create();
-      for (int r = 0; r < def.tag_rows; ++r)
-        for (int c = 0; c < def.tag_cols; ++c) {
-          const int id = def.first_id + r * def.tag_cols + c;
-          if (id < 0 || id >= int(fam->ncodes)) {
-            tag36h11_destroy(fam);
-            throw std::invalid_argument("MakeTargetTexture: tag id " + std::to_string(id) + " outside tag36h11");
-          }
-          image_u8_t* tag = apriltag_to_image(fam, id);
-          // tag image: total_width bits with the black border's outer corner at
-          // (b, b) = ((total_width - width_at_border) / 2).
-          const int b = (fam->total_width - fam->width_at_border) / 2;
-          const int x0 = margin + c * pitch - b * bit, y0 = margin + r * pitch - b * bit;
-          for (int y = 0; y < tag->height; ++y)
-            for (int x = 0; x < tag->width; ++x)
-              if (tag->buf[y * tag->stride + x] < 128) {
-                FillRect(&img, x0 + x * bit, y0 + y * bit, x0 + (x + 1) * bit, y0 + (y + 1) * bit, 0.f);
-              }
-          // image_u8_destroy is not exported by Debian's libapriltag; it frees these two.
-          free(tag->buf);
-          free(tag);
-        }
-      tag36h11_destroy(fam);
-      t.origin_m = Eigen::Vector2d(-margin / t.texels_per_m, -margin / t.texels_per_m);
-      t.texture = MipTexture(img, false);
-      break;
-    }
-    case calib::TargetKind::kFixation: {
-      // A black disc of radius r on a white square of side 4 r; area coverage by 8x8
-      // supersampling per texel.
-      const int n = 256;
-      const double r = def.fixation_radius_m;
-      t.texels_per_m = n / (4 * r);
-      t.origin_m = Eigen::Vector2d(-2 * r, -2 * r);
-      cv::Mat img(n, n, CV_32F);
-      const double rt = r * t.texels_per_m, c = n / 2.0;
-      for (int y = 0; y < n; ++y)
-        for (int x = 0; x < n; ++x) {
-          int inside = 0;
-          for (int sy = 0; sy < 8; ++sy)
-            for (int sx = 0; sx < 8; ++sx) {
-              const double dx = x + (sx + 0.5) / 8 - c, dy = y + (sy + 0.5) / 8 - c;
-              inside += dx * dx + dy * dy < rt * rt;
-            }
-          img.at<float>(y, x) = 1.f - inside / 64.f;
-        }
-      t.texture = MipTexture(img, false);
-      break;
-    }
-  }
-  return t;
-}
-
-TargetTexture MakeBackgroundTexture(const Background& bg) {
-  // Periodic random texture: a sum of sinusoids with integer frequencies (so it wraps
-  // seamlessly) and 1/f amplitudes, plus a few random blobs of constant grey.
-  const int n = 512;
-  std::mt19937_64 rng(bg.seed);
-  std::uniform_real_distribution<double> uni(0, 1);
-  cv::Mat img(n, n, CV_32F, cv::Scalar(0.f));
-  std::vector<double> row(n);
-  for (int k = 0; k < 48; ++k) {
-    const int fx = int(uni(rng) * 41) - 20, fy = int(uni(rng) * 41) - 20;
-    if (fx == 0 && fy == 0) continue;
-    const double f = std::hypot(fx, fy);
-    const double amp = 1.0 / f, phase = uni(rng) * 2 * M_PI;
-    for (int y = 0; y < n; ++y) {
-      float* p = img.ptr<float>(y);
-      for (int x = 0; x < n; ++x) p[x] += float(amp * std::sin(2 * M_PI * (fx * x + fy * y) / n + phase));
-    }
-  }
-  cv::Scalar mean, stddev;
-  cv::meanStdDev(img, mean, stddev);
-  img = (img - mean[0]) * (bg.contrast / 2.0 / std::max(1e-9, stddev[0])) + bg.grey;
-  cv::min(img, 1.0, img);
-  cv::max(img, 0.0, img);
-  TargetTexture t;
-  t.texels_per_m = 1.0 / bg.texel_m;
-  t.origin_m = Eigen::Vector2d::Zero();
-  t.texture = MipTexture(img, true);
-  return t;
-}
 
 EyeRenderer::EyeRenderer(const models::CameraIntrinsics& k, const StreamTruth& stream)
     : width_(k.width),
@@ -317,107 +304,15 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
                          cv::Mat* grey,
                          cv::Mat* depth_z_m,
                          const RowTiming& timing) const {
-  struct Plane {
-    float m[9];            // ray (x, y, 1) -> (u q2, v q2, q2) in level-0 texels
-    float x0, x1, y0, y1;  // bounding box in normalised ray coordinates
-    float w, h;            // texture size (level-0 texels)
-    float lod;
-    bool wrap;
-    const MipTexture* tex;
-    // Board warp (SceneTarget::warp_m): ray direction in the target frame (rows of R^T), and
-    // the parabola's centre, half spans [texels] and deflections [texels].
-    bool warped = false;
-    float rt[9];
-    float uc, vc, hu, hv, kx, ky;
-  };
-  std::vector<Plane> planes;
+  std::vector<RenderPlane> planes;
   auto add_plane = [&](const Eigen::Isometry3d& base_from_target,
                        const TargetTexture& tt,
                        bool wrap,
                        const Eigen::Vector4d* extent,
                        const SceneTarget* target = nullptr) {
-    // cam_from_target = [R | t]; a target point (a, b, 0) is on ray lambda * (x, y, 1) with
-    // (x, y, 1) ~ G (a, b, 1), G = [r1 r2 t]. Texture coords (u, v) = s * ((a, b) - origin).
-    const Eigen::Matrix4d ct = cam_from_base.Matrix() * base_from_target.matrix();
-    Eigen::Matrix3d g;
-    g.col(0) = ct.block<3, 1>(0, 0);
-    g.col(1) = ct.block<3, 1>(0, 1);
-    g.col(2) = ct.block<3, 1>(0, 3);
-    if (std::abs(g.determinant()) < 1e-12) return;  // seen edge-on
-    Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
-    s(0, 0) = s(1, 1) = tt.texels_per_m;
-    s(0, 2) = -tt.texels_per_m * tt.origin_m.x();
-    s(1, 2) = -tt.texels_per_m * tt.origin_m.y();
-    Eigen::Matrix3d m = s * g.inverse();
-    // Normalise so the ray depth is 1 / q2 (q2 = third row . ray > 0 in front).
-    // G^-1 (x, y, 1) = (a, b, 1) / lambda already has that scale; s keeps the third row.
-    Plane p;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) p.m[3 * r + c] = float(m(r, c));
-    p.w = float(tt.texture.width());
-    p.h = float(tt.texture.height());
-    p.wrap = wrap;
-    p.tex = &tt.texture;
-    p.x0 = p.y0 = -1e30f;
-    p.x1 = p.y1 = 1e30f;
-    // Level of detail at the target's centre (or straight ahead for the wall).
-    Eigen::Vector3d centre_in_cam(0, 0, 1);
-    if (extent) {
-      const Eigen::Vector4d& e = *extent;
-      bool all_in_front = true;
-      float x0 = 1e30f, x1 = -1e30f, y0 = 1e30f, y1 = -1e30f;
-      for (int k = 0; k < 4; ++k) {
-        const Eigen::Vector4d corner(k & 1 ? e[1] : e[0], k & 2 ? e[3] : e[2], 0, 1);
-        const Eigen::Vector4d c = ct * corner;
-        if (c.z() < 1e-6) {
-          all_in_front = false;
-          break;
-        }
-        x0 = std::min(x0, float(c.x() / c.z()));
-        x1 = std::max(x1, float(c.x() / c.z()));
-        y0 = std::min(y0, float(c.y() / c.z()));
-        y1 = std::max(y1, float(c.y() / c.z()));
-      }
-      if (all_in_front) {
-        p.x0 = x0 - 1e-4f;
-        p.x1 = x1 + 1e-4f;
-        p.y0 = y0 - 1e-4f;
-        p.y1 = y1 + 1e-4f;
-      }
-      centre_in_cam = (ct * Eigen::Vector4d((e[0] + e[1]) / 2, (e[2] + e[3]) / 2, 0, 1)).head<3>();
-    }
-    float lod = 0.f;
-    if (centre_in_cam.z() > 1e-6) {
-      const double xn = centre_in_cam.x() / centre_in_cam.z(), yn = centre_in_cam.y() / centre_in_cam.z();
-      auto uv = [&](double x, double y) {
-        const Eigen::Vector3d q = m * Eigen::Vector3d(x, y, 1);
-        return Eigen::Vector2d(q.x() / q.z(), q.y() / q.z());
-      };
-      const Eigen::Vector2d c = uv(xn, yn);
-      const double dx = (uv(xn + 1.0 / fx_, yn) - c).norm();
-      const double dy = (uv(xn, yn + 1.0 / fy_) - c).norm();
-      // Optical blur: the lens and the sensor's demosaicing spread a point over more than
-      // one pixel; the texture is filtered over blur_px pixels (which also keeps detectors
-      // from locking corners to the pixel grid).
-      const double tpp = std::max(dx, dy) * blur_px_;
-      if (std::isfinite(tpp) && tpp > 1.0) lod = float(std::log2(tpp));
-    }
-    p.lod = std::min(lod, float(tt.texture.num_levels() - 1));
-    if (target && (target->warp_m.x() != 0 || target->warp_m.y() != 0)) {
-      const Eigen::Vector4d span = target->WarpSpan();
-      p.warped = true;
-      const Eigen::Matrix3d rt = ct.block<3, 3>(0, 0).transpose();
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) p.rt[3 * r + c] = float(rt(r, c));
-      const double s_t = tt.texels_per_m;
-      p.uc = float(s_t * ((span[0] + span[1]) / 2 - tt.origin_m.x()));
-      p.vc = float(s_t * ((span[2] + span[3]) / 2 - tt.origin_m.y()));
-      p.hu = float(std::max(1e-9, s_t * (span[1] - span[0]) / 2));
-      p.hv = float(std::max(1e-9, s_t * (span[3] - span[2]) / 2));
-      p.kx = float(s_t * target->warp_m.x());
-      p.ky = float(s_t * target->warp_m.y());
-    }
-    planes.push_back(p);
+    RenderPlane p;
+    if (MakeRenderPlane(cam_from_base, base_from_target, tt, wrap, extent, target, fx_, fy_, blur_px_, &p))
+      planes.push_back(p);
   };
   // Still targets once; moving ones (rolling shutter) per row below.
   struct Moving {
@@ -454,21 +349,7 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
   const double start = (socket.rim_half_angle_deg - socket.rim_softness_deg) * M_PI / 180.0;
   const float cos_start = float(std::cos(start));
   const float cos_end = float(std::cos(socket.rim_half_angle_deg * M_PI / 180.0));
-  bool rim_active = false;
-  for (int i = 0; i < 2 * (width_ + height_) && !rim_active; i += 4) {
-    int x, y;
-    if (i < width_)
-      x = i, y = 0;
-    else if (i < 2 * width_)
-      x = i - width_, y = height_ - 1;
-    else if (i < 2 * width_ + height_)
-      x = 0, y = i - 2 * width_;
-    else
-      x = width_ - 1, y = i - 2 * width_ - height_;
-    const size_t k = size_t(y) * width_ + x;
-    const float c = (rax * ray_x_[k] + ray_ * ray_y_[k] + raz) * inv_norm_[k];
-    rim_active = c < cos_start + 0.02f;
-  }
+  const bool rim_active = RimReachesImage(width_, height_, ray_x_, ray_y_, inv_norm_, rax, ray_, raz, cos_start);
   const float rim_floor = float(socket.rim_floor);
 
   grey->create(height_, width_, CV_8U);
@@ -492,27 +373,11 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
     active.clear();
     for (int i = 0; i < int(planes.size()); ++i)
       if (planes[i].y0 <= row_ray_y_max_[y] && planes[i].y1 >= row_ray_y_min_[y]) active.push_back(i);
-    const int np = int(active.size());
     for (int x = 0; x < width_; ++x) {
       const size_t k = row + x;
       const float rx = ray_x_[k], ry = ray_y_[k];
-      int best = -1;
-      float best_q2 = 0.f, bu = 0.f, bv = 0.f;
-      for (int j = 0; j < np; ++j) {
-        const int i = active[j];
-        const Plane& p = planes[i];
-        if (rx < p.x0 || rx > p.x1 || ry < p.y0 || ry > p.y1) continue;
-        const float q2 = p.m[6] * rx + p.m[7] * ry + p.m[8];
-        if (q2 <= best_q2) continue;  // behind the camera or farther than the best hit
-        const float inv = 1.f / q2;
-        const float u = (p.m[0] * rx + p.m[1] * ry + p.m[2]) * inv;
-        const float v = (p.m[3] * rx + p.m[4] * ry + p.m[5]) * inv;
-        if (!p.wrap && (u < 0.f || v < 0.f || u >= p.w || v >= p.h)) continue;
-        best = i;
-        best_q2 = q2;
-        bu = u;
-        bv = v;
-      }
+      float best_q2, bu, bv;
+      const int best = NearestPlaneHit(planes, active, rx, ry, &best_q2, &bu, &bv);
       // The hit point is lambda * (rx, ry, 1) with lambda = 1 / q2: its camera z is 1 / q2.
       if (depth_out)
         depth_out[x] = best >= 0 && inv_norm_[k] > 0 ? 1.f / best_q2 : std::numeric_limits<float>::quiet_NaN();
@@ -521,21 +386,8 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
             best >= 0 && inv_norm_[k] > 0 ? float(DefocusSigmaPx(stream_, fx_, 1.0 / best_q2)) : 0.f;
       float t = 0.5f;
       if (best >= 0) {
-        const Plane& p = planes[best];
-        if (p.warped) {
-          // The surface z = -(kx (1 - un^2) + ky (1 - vn^2)) (towards the camera for k > 0):
-          // the ray meets it s = z / d_z further along, (u, v) moves by s (d_x, d_y) (first
-          // order in the deflection; a second-order error below 0.01 px at millimetre warps).
-          const float dx = p.rt[0] * rx + p.rt[1] * ry + p.rt[2];
-          const float dy = p.rt[3] * rx + p.rt[4] * ry + p.rt[5];
-          const float dz = p.rt[6] * rx + p.rt[7] * ry + p.rt[8];
-          if (dz > 1e-6f) {
-            const float un = (bu - p.uc) / p.hu, vn = (bv - p.vc) / p.hv;
-            const float z = -(p.kx * (1.f - un * un) + p.ky * (1.f - vn * vn));
-            bu += z / dz * dx;
-            bv += z / dz * dy;
-          }
-        }
+        const RenderPlane& p = planes[best];
+        if (p.warped) WarpTexel(p, rx, ry, &bu, &bv);
         t = p.wrap ? p.tex->Sample(bu, bv, int(p.lod + 0.5f)) : p.tex->SampleLod(bu, bv, p.lod);
       }
       float value = (black_ + (white_ - black_) * t) * gain_[k];
