@@ -25,82 +25,103 @@ const fitting::Parameter* Determined(const fitting::CalibrationResult& r, int se
 
 constexpr int kPixelGridStepPx = 40;
 
-}  // namespace
-
-std::string OwlPwmHeader(const fitting::CalibrationResult& r,
-                         const models::RobotConfig& config,
-                         const fitting::LimitsEvaluation* limits) {
-  bool any_map = false;
-  for (int s = 0; s < models::kNumServos; ++s) any_map = any_map || Determined(r, s, "deg_per_us");
-  if (!r.head || !any_map)
-    throw std::runtime_error("owl-pwm.h: no servo map was fitted (no servo sweep in this calibration)");
-  const models::HeadModel& h = *r.head;
+// Each servo's limits (the limits run's recommendation, else the robot file's) and centre (fitted,
+// else configured), with where each came from.
+struct OwlServoEnds {
   int lo[models::kNumServos], hi[models::kNumServos], centre[models::kNumServos];
   std::string centre_note[models::kNumServos], limit_note[models::kNumServos];
+  // The guide names ends by direction: R/L = the robot's right/left (pan), T/B = top/bottom.
+  int End(const models::RobotConfig& config, int s, bool positive_angle) const {
+    return (config.servos[s].direction > 0) == positive_angle ? hi[s] : lo[s];
+  }
+};
+
+OwlServoEnds OwlServoEndsOf(const fitting::CalibrationResult& r,
+                            const models::RobotConfig& config,
+                            const fitting::LimitsEvaluation* limits) {
+  OwlServoEnds e;
   for (int s = 0; s < models::kNumServos; ++s) {
-    lo[s] = config.servos[s].min_us;
-    hi[s] = config.servos[s].max_us;
-    limit_note[s] = "low configured, high configured";
+    e.lo[s] = config.servos[s].min_us;
+    e.hi[s] = config.servos[s].max_us;
+    e.limit_note[s] = "low configured, high configured";
     if (limits) {
       for (const auto& l : limits->servos) {
         if (l.servo != s) continue;
-        lo[s] = l.recommended_min_us;
-        hi[s] = l.recommended_max_us;
-        limit_note[s] = std::string("low ") +
-                        (l.measured_min_us ? std::string("measured (") + fitting::LimitCauseName(l.min_cause) + ")"
-                                           : std::string("configured")) +
-                        ", high " +
-                        (l.measured_max_us ? std::string("measured (") + fitting::LimitCauseName(l.max_cause) + ")"
-                                           : std::string("configured"));
+        e.lo[s] = l.recommended_min_us;
+        e.hi[s] = l.recommended_max_us;
+        e.limit_note[s] = std::string("low ") +
+                          (l.measured_min_us ? std::string("measured (") + fitting::LimitCauseName(l.min_cause) + ")"
+                                             : std::string("configured")) +
+                          ", high " +
+                          (l.measured_max_us ? std::string("measured (") + fitting::LimitCauseName(l.max_cause) + ")"
+                                             : std::string("configured"));
       }
     }
-    centre[s] = config.servos[s].centre_us;
-    centre_note[s] = "configured";
+    e.centre[s] = config.servos[s].centre_us;
+    e.centre_note[s] = "configured";
     if (const fitting::Parameter* p = Determined(r, s, "centre_us")) {
-      centre[s] = int(std::lround(p->value));
-      centre_note[s] = "fitted " + Fmt(p->value, 6) + " +/- " + Fmt(p->sigma, 2) + " us";
+      e.centre[s] = int(std::lround(p->value));
+      e.centre_note[s] = "fitted " + Fmt(p->value, 6) + " +/- " + Fmt(p->sigma, 2) + " us";
     }
   }
-  // The guide names ends by direction: R/L = the robot's right/left (pan), T/B = top/bottom.
-  auto end = [&](int s, bool positive_angle) {
-    return (config.servos[s].direction > 0) == positive_angle ? hi[s] : lo[s];
-  };
+  return e;
+}
+
+// The header's comment and the course's range constants.
+void WriteOwlRanges(const fitting::CalibrationResult& r,
+                    const models::RobotConfig& config,
+                    const OwlServoEnds& ends,
+                    std::ostringstream* out) {
+  std::ostringstream& o = *out;
   using models::kLx;
   using models::kLy;
   using models::kNeck;
   using models::kRx;
   using models::kRy;
-  std::ostringstream o;
   o << "/* owl-pwm.h: servo limits, centres and PWM <-> angle maps of this Owl (" << config.name
     << "), measured by owlcal " << r.software_version << ".\n"
     << " * Valid C (C99) and C++; include it from as many files as you like (static const objects and\n"
     << " * static inline functions only). The first block uses the course's names (Owl user guide, code\n"
     << " * snippet 5): include this header instead of the hand-set values.\n";
   for (int s = 0; s < models::kNumServos; ++s)
-    o << " *   " << models::kServoNames[s] << ": limits " << limit_note[s] << "; centre " << centre_note[s] << "\n";
+    o << " *   " << models::kServoNames[s] << ": limits " << ends.limit_note[s] << "; centre " << ends.centre_note[s]
+      << "\n";
   o << " */\n#ifndef OWL_PWM_H\n#define OWL_PWM_H\n\n/* OWL eye ranges (course naming) */\n"
-    << "static const int RyB = " << end(kRy, false) << "; /* (bottom) to */\n"
-    << "static const int RyT = " << end(kRy, true) << "; /* (top) */\n"
-    << "static const int RxR = " << end(kRx, true) << "; /* (right) to */\n"
-    << "static const int RxL = " << end(kRx, false) << "; /* (left) */\n"
-    << "static const int LyB = " << end(kLy, false) << "; /* (bottom) to */\n"
-    << "static const int LyT = " << end(kLy, true) << "; /* (top) */\n"
-    << "static const int LxR = " << end(kLx, true) << "; /* (right) to */\n"
-    << "static const int LxL = " << end(kLx, false) << "; /* (left) */\n"
-    << "static const int NeckR = " << end(kNeck, true) << ";\n"
-    << "static const int NeckL = " << end(kNeck, false) << ";\n"
-    << "static const int RxC = " << centre[kRx] << ";\n"
-    << "static const int RyC = " << centre[kRy] << ";\n"
-    << "static const int LxC = " << centre[kLx] << ";\n"
-    << "static const int LyC = " << centre[kLy] << ";\n"
-    << "static const int NeckC = " << centre[kNeck] << ";\n"
+    << "static const int RyB = " << ends.End(config, kRy, false) << "; /* (bottom) to */\n"
+    << "static const int RyT = " << ends.End(config, kRy, true) << "; /* (top) */\n"
+    << "static const int RxR = " << ends.End(config, kRx, true) << "; /* (right) to */\n"
+    << "static const int RxL = " << ends.End(config, kRx, false) << "; /* (left) */\n"
+    << "static const int LyB = " << ends.End(config, kLy, false) << "; /* (bottom) to */\n"
+    << "static const int LyT = " << ends.End(config, kLy, true) << "; /* (top) */\n"
+    << "static const int LxR = " << ends.End(config, kLx, true) << "; /* (right) to */\n"
+    << "static const int LxL = " << ends.End(config, kLx, false) << "; /* (left) */\n"
+    << "static const int NeckR = " << ends.End(config, kNeck, true) << ";\n"
+    << "static const int NeckL = " << ends.End(config, kNeck, false) << ";\n"
+    << "static const int RxC = " << ends.centre[kRx] << ";\n"
+    << "static const int RyC = " << ends.centre[kRy] << ";\n"
+    << "static const int LxC = " << ends.centre[kLx] << ";\n"
+    << "static const int LyC = " << ends.centre[kLy] << ";\n"
+    << "static const int NeckC = " << ends.centre[kNeck] << ";\n"
     << "/* The ranges as the course computes them (written out: C needs constant initialisers). */\n"
-    << "static const int RyRange = " << end(kRy, true) - end(kRy, false) << "; /* RyT - RyB */\n"
-    << "static const int RxRange = " << end(kRx, true) - end(kRx, false) << "; /* RxR - RxL */\n"
-    << "static const int LyRange = " << end(kLy, true) - end(kLy, false)
+    << "static const int RyRange = " << ends.End(config, kRy, true) - ends.End(config, kRy, false)
+    << "; /* RyT - RyB */\n"
+    << "static const int RxRange = " << ends.End(config, kRx, true) - ends.End(config, kRx, false)
+    << "; /* RxR - RxL */\n"
+    << "static const int LyRange = " << ends.End(config, kLy, true) - ends.End(config, kLy, false)
     << "; /* LyT - LyB (reflected so negative) */\n"
-    << "static const int LxRange = " << end(kLx, true) - end(kLx, false) << "; /* LxR - LxL */\n"
-    << "static const int NeckRange = " << end(kNeck, false) - end(kNeck, true) << "; /* NeckL - NeckR */\n\n";
+    << "static const int LxRange = " << ends.End(config, kLx, true) - ends.End(config, kLx, false)
+    << "; /* LxR - LxL */\n"
+    << "static const int NeckRange = " << ends.End(config, kNeck, false) - ends.End(config, kNeck, true)
+    << "; /* NeckL - NeckR */\n\n";
+}
+
+// The servo maps (OwlServoMap), the IPD and the map functions.
+void WriteOwlServoMaps(const fitting::CalibrationResult& r,
+                       const models::RobotConfig& config,
+                       const OwlServoEnds& ends,
+                       std::ostringstream* out) {
+  std::ostringstream& o = *out;
+  const models::HeadModel& h = *r.head;
   o << "/* The fitted map of each servo (owlcal models/servo_map.h). Angles in degrees, positive to the\n"
     << " * robot's right (pan, neck) and up (tilt):\n"
     << " *   x         = (pwm_us - centre_us) / norm_us\n"
@@ -122,9 +143,9 @@ std::string OwlPwmHeader(const fitting::CalibrationResult& r,
     const int dir = fitted ? h.directions[s] : config.servos[s].direction;
     o << "static const OwlServoMap Owl" << models::kServoNames[s] << " = {\"" << models::kServoNames[s] << "\", " << dir
       << ", " << FloatLiteral(c) << ", " << FloatLiteral(k) << ", " << FloatLiteral(q) << ", " << FloatLiteral(cu)
-      << ", " << FloatLiteral(models::ServoMap::kNormUs) << ", " << FloatLiteral(hy) << ", " << lo[s] << ", " << hi[s]
-      << ", " << (fitted ? 1 : 0) << "};";
-    if (fitted && !models::ServoMap::IsMonotone(p.data(), dir, lo[s], hi[s]))
+      << ", " << FloatLiteral(models::ServoMap::kNormUs) << ", " << FloatLiteral(hy) << ", " << ends.lo[s] << ", "
+      << ends.hi[s] << ", " << (fitted ? 1 : 0) << "};";
+    if (fitted && !models::ServoMap::IsMonotone(p.data(), dir, ends.lo[s], ends.hi[s]))
       o << " /* not monotone over its limits: OwlDegToPwm returns one of the solutions */";
     o << "\n";
   }
@@ -155,7 +176,11 @@ std::string OwlPwmHeader(const fitting::CalibrationResult& r,
     << "  u = (int)(0.5 * (lo + hi) + 0.5);\n"
     << "  return u < m->min_us ? m->min_us : (u > m->max_us ? m->max_us : u);\n"
     << "}\n\n";
-  // The pixel -> PWM map (fitting/pixel_pwm_map.h) as a grid of pulse-width changes.
+}
+
+// The pixel -> PWM map (fitting/pixel_pwm_map.h) as a grid of pulse-width changes.
+void WriteOwlPixelGrid(const models::HeadModel& h, const models::RobotConfig& config, std::ostringstream* out) {
+  std::ostringstream& o = *out;
   const fitting::PixelPwmGrid g = fitting::MakePixelPwmGrid(h, config, kPixelGridStepPx);
   o << "/* Pixel -> PWM (the course's \"calibrate servo to cameras ... give a map\"): the change of an eye's\n"
     << " * pan and tilt pulse widths [us] that brings what the eye sees at pixel (x, y) to its image centre\n"
@@ -210,6 +235,23 @@ std::string OwlPwmHeader(const fitting::CalibrationResult& r,
     << "  *pan_us = OwlClampUs(pan, pan_now_us + d[0]);\n"
     << "  *tilt_us = OwlClampUs(tilt, tilt_now_us + d[1]);\n"
     << "}\n\n#endif /* OWL_PWM_H */\n";
+}
+
+}  // namespace
+
+std::string OwlPwmHeader(const fitting::CalibrationResult& r,
+                         const models::RobotConfig& config,
+                         const fitting::LimitsEvaluation* limits) {
+  bool any_map = false;
+  for (int s = 0; s < models::kNumServos; ++s) any_map = any_map || Determined(r, s, "deg_per_us");
+  if (!r.head || !any_map)
+    throw std::runtime_error("owl-pwm.h: no servo map was fitted (no servo sweep in this calibration)");
+  const models::HeadModel& h = *r.head;
+  const OwlServoEnds ends = OwlServoEndsOf(r, config, limits);
+  std::ostringstream o;
+  WriteOwlRanges(r, config, ends, &o);
+  WriteOwlServoMaps(r, config, ends, &o);
+  WriteOwlPixelGrid(h, config, &o);
   return o.str();
 }
 
