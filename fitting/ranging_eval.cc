@@ -355,29 +355,18 @@ double RangeVariance(const models::HeadModel& head,
   return var;
 }
 
-}  // namespace
-
-RangingEvaluation EvaluateRanging(const models::HeadModel& head,
-                                  const NamedCovariance& cov,
-                                  const models::RobotConfig& config,
-                                  const std::vector<Fixation>& fixations,
-                                  const RangingOptions& options,
-                                  const std::vector<double>& theory_distances_m) {
-  std::string why;
-  if (!options.Check(&why)) throw std::invalid_argument(why);
-  if (cov.matrix.rows() != int(cov.names.size()) || cov.matrix.cols() != int(cov.names.size()))
-    throw std::invalid_argument("EvaluateRanging: covariance is " + std::to_string(cov.matrix.rows()) + "x" +
-                                std::to_string(cov.matrix.cols()) + " for " + std::to_string(cov.names.size()) +
-                                " names");
-  RangingEvaluation ev;
-  ev.propagated = cov.names;
-  if (cov.names.empty()) ev.notes.push_back("no parameter covariance: sigma holds only the pixel/PWM noise");
-  double sum2 = 0, sum_abs = 0, nom2 = 0;
-  int within = 0, num_nom = 0;
-  // The size check's radius for fixations without a known one: the median of the radii their
-  // apparent sizes imply at their own vergence fixes (all of one target), when at least
-  // kMinSizePeers measured a size; a fixation locked onto something else implies another radius.
-  std::vector<RangeFix> fixes(fixations.size());
+// Each ok fixation's range fix; and the size check's radius for fixations without a known one: the
+// median of the radii their apparent sizes imply at their own vergence fixes (all of one target),
+// when at least kMinSizePeers measured a size (a fixation locked onto something else implies
+// another radius). What was (not) checked goes to ev->notes.
+std::optional<double> FixAndSharedRadius(const models::HeadModel& head,
+                                         const std::vector<Fixation>& fixations,
+                                         const RangingOptions& options,
+                                         std::vector<RangeFix>* fixes_out,
+                                         RangingEvaluation* out) {
+  RangingEvaluation& ev = *out;
+  std::vector<RangeFix>& fixes = *fixes_out;
+  fixes.assign(fixations.size(), RangeFix());
   std::vector<double> implied;
   std::vector<int> unknown_size;  // ok fixations that measured a size but know no radius
   for (size_t i = 0; i < fixations.size(); ++i) {
@@ -409,6 +398,62 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
                        ": the target's radius is not given and fewer than " + std::to_string(kMinSizePeers) +
                        " fixations measured its size to compare (a lock onto the background is not caught)");
   }
+  return shared_radius;
+}
+
+// Theory: symmetric straight-ahead fixation at each distance, with the nominal method's errors
+// for a small pulse-width and pixel error and the calibrated head's sigma.
+void AddRangingTheory(const models::HeadModel& head,
+                      const NamedCovariance& cov,
+                      const RangingOptions& options,
+                      const std::vector<double>& theory_distances_m,
+                      RangingEvaluation* out) {
+  RangingEvaluation& ev = *out;
+  const double ipd = 0.065, k = models::ServoMap::kNominalDegPerUs * kDeg;
+  const double f_px = 0.5 * (head.intrinsics[0].params[0] + head.intrinsics[1].params[0]);
+  for (double D : theory_distances_m) {
+    RangingTheoryRow t;
+    t.distance_m = D;
+    const double theta = std::atan(0.5 * ipd / D);
+    // The larger of +1 us and -1 us on one eye (the error is asymmetric at long range).
+    const double z_in = models::TangentDepth(ipd, theta + k, theta);
+    const double z_out = models::TangentDepth(ipd, theta - k, theta);
+    t.nominal_1us_rel = std::max(std::abs(z_in - D), std::abs(z_out - D)) / D;
+    const double dth = 0.5 / f_px;
+    const double z2_in = models::TangentDepth(ipd, theta + dth, theta + dth);
+    const double z2_out = models::TangentDepth(ipd, theta - dth, theta - dth);
+    t.nominal_half_px_rel = std::max(std::abs(z2_in - D), std::abs(z2_out - D)) / D;
+    const double neck_us = head.servo_params[models::kNeck][0];
+    const auto fx = SyntheticFixation(
+        head,
+        Eigen::Vector3d(0, 0, D + 0.5 * (head.geometry.centre_in_head[0].z() + head.geometry.centre_in_head[1].z())),
+        neck_us);
+    t.calibrated_sigma_rel = fx ? std::sqrt(RangeVariance(head, cov, *fx, options)) / fx->true_distance_m : kNaN;
+    ev.theory.push_back(t);
+  }
+}
+
+}  // namespace
+
+RangingEvaluation EvaluateRanging(const models::HeadModel& head,
+                                  const NamedCovariance& cov,
+                                  const models::RobotConfig& config,
+                                  const std::vector<Fixation>& fixations,
+                                  const RangingOptions& options,
+                                  const std::vector<double>& theory_distances_m) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument(why);
+  if (cov.matrix.rows() != int(cov.names.size()) || cov.matrix.cols() != int(cov.names.size()))
+    throw std::invalid_argument("EvaluateRanging: covariance is " + std::to_string(cov.matrix.rows()) + "x" +
+                                std::to_string(cov.matrix.cols()) + " for " + std::to_string(cov.names.size()) +
+                                " names");
+  RangingEvaluation ev;
+  ev.propagated = cov.names;
+  if (cov.names.empty()) ev.notes.push_back("no parameter covariance: sigma holds only the pixel/PWM noise");
+  double sum2 = 0, sum_abs = 0, nom2 = 0;
+  int within = 0, num_nom = 0;
+  std::vector<RangeFix> fixes;
+  const std::optional<double> shared_radius = FixAndSharedRadius(head, fixations, options, &fixes, &ev);
   for (size_t i = 0; i < fixations.size(); ++i) {
     const Fixation& f = fixations[i];
     RangingRow row;
@@ -485,29 +530,7 @@ RangingEvaluation EvaluateRanging(const models::HeadModel& head,
   }
   ev.nominal_rms_rel_error = num_nom > 0 ? std::sqrt(nom2 / num_nom) : kNaN;
 
-  // Theory: symmetric straight-ahead fixation at each distance.
-  const double ipd = 0.065, k = models::ServoMap::kNominalDegPerUs * kDeg;
-  const double f_px = 0.5 * (head.intrinsics[0].params[0] + head.intrinsics[1].params[0]);
-  for (double D : theory_distances_m) {
-    RangingTheoryRow t;
-    t.distance_m = D;
-    const double theta = std::atan(0.5 * ipd / D);
-    // The larger of +1 us and -1 us on one eye (the error is asymmetric at long range).
-    const double z_in = models::TangentDepth(ipd, theta + k, theta);
-    const double z_out = models::TangentDepth(ipd, theta - k, theta);
-    t.nominal_1us_rel = std::max(std::abs(z_in - D), std::abs(z_out - D)) / D;
-    const double dth = 0.5 / f_px;
-    const double z2_in = models::TangentDepth(ipd, theta + dth, theta + dth);
-    const double z2_out = models::TangentDepth(ipd, theta - dth, theta - dth);
-    t.nominal_half_px_rel = std::max(std::abs(z2_in - D), std::abs(z2_out - D)) / D;
-    const double neck_us = head.servo_params[models::kNeck][0];
-    const auto fx = SyntheticFixation(
-        head,
-        Eigen::Vector3d(0, 0, D + 0.5 * (head.geometry.centre_in_head[0].z() + head.geometry.centre_in_head[1].z())),
-        neck_us);
-    t.calibrated_sigma_rel = fx ? std::sqrt(RangeVariance(head, cov, *fx, options)) / fx->true_distance_m : kNaN;
-    ev.theory.push_back(t);
-  }
+  AddRangingTheory(head, cov, options, theory_distances_m, &ev);
   return ev;
 }
 
