@@ -50,6 +50,147 @@ SettlingSpread Predict(
   return s;
 }
 
+// The P-loop trials by (gain, amplitude).
+using SettlingGroups = std::map<std::pair<double, double>, std::vector<const StepTrace*>>;
+
+// The course's ideal P loop with d frames of delay: its 2 % settling time [s] at `gain` (NaN when
+// it does not settle) and whether it is stable.
+double IdealSettlingS(
+    double gain, int ideal_delay_frames, const LoopModel& model, const SettlingOptions& o, bool* stable) {
+  const double period = 1.0 / model.fps;
+  const std::vector<GainSettling> g = SettlingVersusGain({gain}, ideal_delay_frames, model.fps, o.frames);
+  *stable = g[0].stable;
+  return g[0].settled ? (g[0].settling_frames + ideal_delay_frames) * period : kNaN;
+}
+
+// Agreement of a row's measured trials with the loop model's spread `p`.
+std::string SettlingAgreement(const SettlingRow& r, const SettlingSpread& p, double period) {
+  if (r.num_ok == 0) {
+    return "no measurement";
+  } else if (r.num_settled == 0 && p.settled < p.runs) {
+    return p.settled == 0 ? "agrees (neither settles)"
+                          : "agrees (the model too settles in only " + std::to_string(p.settled) + " of " +
+                                std::to_string(p.runs) + " runs)";
+  } else if (r.num_settled == 0) {
+    return "measured did not settle";
+  } else if (p.settled == 0) {
+    return "model does not settle";
+  } else if (r.measured_median_s >= p.lo - period - 1e-9 && r.measured_median_s <= p.hi + period + 1e-9) {
+    return "agrees";
+  } else {
+    return r.measured_median_s > p.hi ? "measured slower" : "measured faster";
+  }
+}
+
+// Why: the course model against the loop model, part by part, and what the measurement says.
+std::string SettlingWhy(const SettlingRow& r,
+                        const SettlingSpread& p,
+                        const LoopModel& model,
+                        int ideal_delay_frames,
+                        const SettlingOptions& o) {
+  const double period = 1.0 / model.fps;
+  const double kcrit = CriticalGain(ideal_delay_frames);
+  std::string w;
+  if (!r.ideal_stable) {
+    w += "The course model (d = " + std::to_string(ideal_delay_frames) + ") calls K = " + F(r.gain, 3) +
+         " unstable (K_crit " + F(kcrit, 3) + ")";
+    w += p.settled > 0 ? "; the loop model settles: its dead zone of " + F(model.DeadZonePx(), 2) +
+                             " px stops the correction once the error is small, so a slowly growing oscillation "
+                             "does not start. "
+                       : " and the loop model agrees. ";
+  } else if (std::isfinite(r.ideal_s) && std::isfinite(p.median)) {
+    w += "Course model " + F(r.ideal_s, 3) + " s, loop model " + F(p.median, 3) + " s";
+    if (std::isfinite(r.no_servo_dynamics_s))
+      w += " (" + F(r.no_servo_dynamics_s, 3) + " s with an ideal servo: slew and lag change it by " +
+           F(p.median - r.no_servo_dynamics_s, 3) + " s";
+    if (std::isfinite(r.no_dead_zone_s))
+      w += std::string(std::isfinite(r.no_servo_dynamics_s) ? "; " : " (") + F(r.no_dead_zone_s, 3) +
+           " s without dead zone, PWM step and noise";
+    if (std::isfinite(r.no_servo_dynamics_s) || std::isfinite(r.no_dead_zone_s)) w += ")";
+    w += ". ";
+    if (std::isfinite(r.no_servo_dynamics_s) && r.no_servo_dynamics_s > p.median + 0.5 * period &&
+        r.gain <= MonotoneGain(ideal_delay_frames) * 1.5)
+      w += "An ideal servo settles later, and that is real: below the gain without overshoot the servo's "
+           "slew and lag act as extra delay, so the command runs ahead of the image and the target enters the "
+           "band sooner (the course model itself: K = 0.1 settles in 22 frames with d = 3, in 15 with d = 4). ";
+  }
+  if (r.agreement == "measured slower" || r.agreement == "measured faster") {
+    w += "The measured median (" + F(r.measured_median_s, 3) + " s) is outside the model's " + F(p.lo, 3) + "-" +
+         F(p.hi, 3) + " s: " +
+         (r.agreement == "measured slower"
+              ? "the robot is slower than the fitted slew/lag/latency say (a larger lag near the target, "
+                "backlash not taken up, or a latency longer than the latency protocol measured)."
+              : "the robot settles sooner than the model (noise pushed a trial into the band early, or the "
+                "latency is shorter than measured).");
+  } else if (r.agreement == "measured did not settle") {
+    w += "No trial settled within the band: look at the traces (limit cycle between two pulses, lost target).";
+  } else if (r.agreement == "model does not settle") {
+    w += "The model does not settle within " + std::to_string(o.frames) + " frames but the robot did.";
+  }
+  if (r.num_ok < r.num_trials) {
+    const std::string n = std::to_string(r.num_trials - r.num_ok), of = std::to_string(r.num_trials);
+    w += ' ';
+    w += n + " of " + of + " trials did not run to the end: lost target or skipped (see the step trials table).";
+  }
+  return w;
+}
+
+// The curve: the loop model over a gain grid for every measured amplitude.
+void AddSettlingCurve(const SettlingGroups& groups,
+                      const LoopModel& model,
+                      const ServoMotionFit& motion,
+                      int ideal_delay_frames,
+                      double deg_per_us,
+                      const SettlingOptions& o,
+                      SettlingStudy* st) {
+  std::vector<double> amps;
+  for (const auto& [key, trials] : groups)
+    if (std::find(amps.begin(), amps.end(), key.second) == amps.end()) amps.push_back(key.second);
+  if (amps.empty()) amps = {10.0};
+  SettlingOptions co = o;
+  co.noise_seeds = 1;
+  for (double a : amps)
+    for (double g : o.curve_gains) {
+      SettlingCurvePoint c;
+      c.gain = g;
+      c.amplitude_deg = a;
+      const SettlingSpread p = Predict(model, g, a / deg_per_us, co, motion.exposure_delay_sigma_s);
+      c.median_s = p.median;
+      c.lo_s = p.lo;
+      c.hi_s = p.hi;
+      bool stable = false;
+      c.ideal_s = IdealSettlingS(g, ideal_delay_frames, model, o, &stable);
+      st->curve.push_back(c);
+    }
+}
+
+// The notes: the loop model's numbers and the course model's delay.
+void AddSettlingNotes(const LoopModel& model,
+                      const ServoMotionFit& motion,
+                      int ideal_delay_frames,
+                      double latency_ms,
+                      double deg_per_us,
+                      SettlingStudy* st) {
+  const double kcrit = CriticalGain(ideal_delay_frames);
+  st->notes.push_back("loop model: exposure delay " + F(1000 * model.exposure_delay_s, 1) + " ms, slew " +
+                      F(model.slew_us_per_s * deg_per_us, 0) + " deg/s" +
+                      (motion.slew_from_prior    ? " (a prior: the steps do not determine it)"
+                       : !motion.slew_determined ? " (not determined by the steps)"
+                                                 : "") +
+                      ", lag " + F(1000 * model.lag_s, 1) + " ms" +
+                      (motion.lag_from_prior    ? " (a prior: the steps do not determine it)"
+                       : !motion.lag_determined ? " (not determined by the steps)"
+                                                : "") +
+                      ", dead zone " + F(model.DeadZonePx(), 2) + " px, PWM step " +
+                      std::to_string(model.resolution.step_us) + " us, dead band " +
+                      std::to_string(model.resolution.dead_band_us) + " us, backlash " + F(model.hysteresis_us, 1) +
+                      " us, noise " + F(model.noise_px, 2) + " px");
+  st->notes.push_back("course model: d = " + std::to_string(ideal_delay_frames) +
+                      " frames (the latency protocol's first "
+                      "motion " +
+                      F(latency_ms, 1) + " ms after the command = frame d + 1), K_crit " + F(kcrit, 3));
+}
+
 }  // namespace
 
 bool SettlingOptions::Check(std::string* why) const {
@@ -83,14 +224,8 @@ SettlingStudy CompareSettling(const LoopModel& model,
   st.slew_source = source(motion.slew_from_prior, motion.slew_determined);
   st.lag_source = source(motion.lag_from_prior, motion.lag_determined);
   const double period = 1.0 / model.fps;
-  const double kcrit = CriticalGain(ideal_delay_frames);
-  auto ideal = [&](double gain, bool* stable) {
-    const std::vector<GainSettling> g = SettlingVersusGain({gain}, ideal_delay_frames, model.fps, o.frames);
-    *stable = g[0].stable;
-    return g[0].settled ? (g[0].settling_frames + ideal_delay_frames) * period : kNaN;
-  };
   // Group the P-loop trials by (gain, amplitude).
-  std::map<std::pair<double, double>, std::vector<const StepTrace*>> groups;
+  SettlingGroups groups;
   for (const StepTrace& s : measured)
     if (s.controller == "p-loop" && !s.simulated) groups[{s.gain, std::abs(s.amplitude_deg)}].push_back(&s);
   LoopModel ideal_servo = model;
@@ -129,111 +264,18 @@ SettlingStudy CompareSettling(const LoopModel& model,
     r.predicted_settled = p.settled;
     r.predicted_runs = p.runs;
     if (r.num_ok == 0) r.band = SettlingBand(model, amp_us * model.px_per_us);
-    r.ideal_s = ideal(r.gain, &r.ideal_stable);
+    r.ideal_s = IdealSettlingS(r.gain, ideal_delay_frames, model, o, &r.ideal_stable);
     // The variants over the same exposure delays and noise seeds as the loop model: one noisy run
     // against a median compared a single draw (whether it stopped just outside the band and
     // crawled) with the spread's middle.
     r.no_servo_dynamics_s = Predict(ideal_servo, r.gain, amp_us, o, motion.exposure_delay_sigma_s).median;
     r.no_dead_zone_s = Predict(no_dead_zone, r.gain, amp_us, o, motion.exposure_delay_sigma_s).median;
-    // Agreement.
-    if (r.num_ok == 0) {
-      r.agreement = "no measurement";
-    } else if (r.num_settled == 0 && p.settled < p.runs) {
-      r.agreement = p.settled == 0 ? "agrees (neither settles)"
-                                   : "agrees (the model too settles in only " + std::to_string(p.settled) + " of " +
-                                         std::to_string(p.runs) + " runs)";
-    } else if (r.num_settled == 0) {
-      r.agreement = "measured did not settle";
-    } else if (p.settled == 0) {
-      r.agreement = "model does not settle";
-    } else if (r.measured_median_s >= p.lo - period - 1e-9 && r.measured_median_s <= p.hi + period + 1e-9) {
-      r.agreement = "agrees";
-    } else {
-      r.agreement = r.measured_median_s > p.hi ? "measured slower" : "measured faster";
-    }
-    // Why: the course model against the loop model, part by part.
-    std::string w;
-    if (!r.ideal_stable) {
-      w += "The course model (d = " + std::to_string(ideal_delay_frames) + ") calls K = " + F(r.gain, 3) +
-           " unstable (K_crit " + F(kcrit, 3) + ")";
-      w += p.settled > 0 ? "; the loop model settles: its dead zone of " + F(model.DeadZonePx(), 2) +
-                               " px stops the correction once the error is small, so a slowly growing oscillation "
-                               "does not start. "
-                         : " and the loop model agrees. ";
-    } else if (std::isfinite(r.ideal_s) && std::isfinite(p.median)) {
-      w += "Course model " + F(r.ideal_s, 3) + " s, loop model " + F(p.median, 3) + " s";
-      if (std::isfinite(r.no_servo_dynamics_s))
-        w += " (" + F(r.no_servo_dynamics_s, 3) + " s with an ideal servo: slew and lag change it by " +
-             F(p.median - r.no_servo_dynamics_s, 3) + " s";
-      if (std::isfinite(r.no_dead_zone_s))
-        w += std::string(std::isfinite(r.no_servo_dynamics_s) ? "; " : " (") + F(r.no_dead_zone_s, 3) +
-             " s without dead zone, PWM step and noise";
-      if (std::isfinite(r.no_servo_dynamics_s) || std::isfinite(r.no_dead_zone_s)) w += ")";
-      w += ". ";
-      if (std::isfinite(r.no_servo_dynamics_s) && r.no_servo_dynamics_s > p.median + 0.5 * period &&
-          r.gain <= MonotoneGain(ideal_delay_frames) * 1.5)
-        w += "An ideal servo settles later, and that is real: below the gain without overshoot the servo's "
-             "slew and lag act as extra delay, so the command runs ahead of the image and the target enters the "
-             "band sooner (the course model itself: K = 0.1 settles in 22 frames with d = 3, in 15 with d = 4). ";
-    }
-    if (r.agreement == "measured slower" || r.agreement == "measured faster") {
-      w += "The measured median (" + F(r.measured_median_s, 3) + " s) is outside the model's " + F(p.lo, 3) + "-" +
-           F(p.hi, 3) + " s: " +
-           (r.agreement == "measured slower"
-                ? "the robot is slower than the fitted slew/lag/latency say (a larger lag near the target, "
-                  "backlash not taken up, or a latency longer than the latency protocol measured)."
-                : "the robot settles sooner than the model (noise pushed a trial into the band early, or the "
-                  "latency is shorter than measured).");
-    } else if (r.agreement == "measured did not settle") {
-      w += "No trial settled within the band: look at the traces (limit cycle between two pulses, lost target).";
-    } else if (r.agreement == "model does not settle") {
-      w += "The model does not settle within " + std::to_string(o.frames) + " frames but the robot did.";
-    }
-    if (r.num_ok < r.num_trials) {
-      const std::string n = std::to_string(r.num_trials - r.num_ok), of = std::to_string(r.num_trials);
-      w += ' ';
-      w += n + " of " + of + " trials did not run to the end: lost target or skipped (see the step trials table).";
-    }
-    r.why = w;
+    r.agreement = SettlingAgreement(r, p, period);
+    r.why = SettlingWhy(r, p, model, ideal_delay_frames, o);
     st.rows.push_back(r);
   }
-  // The curve: the loop model over a gain grid for every measured amplitude.
-  std::vector<double> amps;
-  for (const auto& [key, trials] : groups)
-    if (std::find(amps.begin(), amps.end(), key.second) == amps.end()) amps.push_back(key.second);
-  if (amps.empty()) amps = {10.0};
-  SettlingOptions co = o;
-  co.noise_seeds = 1;
-  for (double a : amps)
-    for (double g : o.curve_gains) {
-      SettlingCurvePoint c;
-      c.gain = g;
-      c.amplitude_deg = a;
-      const SettlingSpread p = Predict(model, g, a / deg_per_us, co, motion.exposure_delay_sigma_s);
-      c.median_s = p.median;
-      c.lo_s = p.lo;
-      c.hi_s = p.hi;
-      bool stable = false;
-      c.ideal_s = ideal(g, &stable);
-      st.curve.push_back(c);
-    }
-  st.notes.push_back("loop model: exposure delay " + F(1000 * model.exposure_delay_s, 1) + " ms, slew " +
-                     F(model.slew_us_per_s * deg_per_us, 0) + " deg/s" +
-                     (motion.slew_from_prior    ? " (a prior: the steps do not determine it)"
-                      : !motion.slew_determined ? " (not determined by the steps)"
-                                                : "") +
-                     ", lag " + F(1000 * model.lag_s, 1) + " ms" +
-                     (motion.lag_from_prior    ? " (a prior: the steps do not determine it)"
-                      : !motion.lag_determined ? " (not determined by the steps)"
-                                               : "") +
-                     ", dead zone " + F(model.DeadZonePx(), 2) + " px, PWM step " +
-                     std::to_string(model.resolution.step_us) + " us, dead band " +
-                     std::to_string(model.resolution.dead_band_us) + " us, backlash " + F(model.hysteresis_us, 1) +
-                     " us, noise " + F(model.noise_px, 2) + " px");
-  st.notes.push_back("course model: d = " + std::to_string(ideal_delay_frames) +
-                     " frames (the latency protocol's first "
-                     "motion " +
-                     F(latency_ms, 1) + " ms after the command = frame d + 1), K_crit " + F(kcrit, 3));
+  AddSettlingCurve(groups, model, motion, ideal_delay_frames, deg_per_us, o, &st);
+  AddSettlingNotes(model, motion, ideal_delay_frames, latency_ms, deg_per_us, &st);
   return st;
 }
 
