@@ -23,8 +23,7 @@ protocols::CalibratedMaps ControllerCalibration(const fitting::CalibrationRun& r
     c.exposure_delay_s = run.settling->model.exposure_delay_s;
   }
   for (const fitting::ServoResolutionResult& r : run.resolution)
-    if (r.fit.ok && r.fit.determined && r.servo >= 0 && r.servo < models::kNumServos)
-    {
+    if (r.fit.ok && r.fit.determined && r.servo >= 0 && r.servo < models::kNumServos) {
       c.resolution_us[r.servo] = std::max(r.fit.resolution.step_us, r.fit.resolution.dead_band_us);
       c.pwm_step_us[r.servo] = r.fit.resolution.step_us;
     }
