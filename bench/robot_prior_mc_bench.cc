@@ -11,8 +11,16 @@
 // quiet 2-core machine.
 //
 // Usage: robot_prior_mc_bench [num_robots=30] [first_seed=1] [protocol ...]
+//        robot_prior_mc_bench reassembled [num_robots=30] [first_seed=1] [protocol ...]
+//        robot_prior_mc_bench slow [num_robots=30] [first_seed=1] [protocol ...]
 //        robot_prior_mc_bench shipped [seeds_per_robot=1] [first_seed=1] [protocol ...]
 //        robot_prior_mc_bench shipped+rim [seeds_per_robot=1] [first_seed=1] [protocol ...]
+// `reassembled` and `slow`: robots of the prior's other kinds (sim/robot_prior.h RobotKind: a
+// reversed horn, centres and stops off the robot file's; slow servos, a slow stream, a wide
+// rational lens), drawn from the same seeds as the prior's robots, which their robot file does
+// not describe. Their default protocols start with `limits`, the bring-up
+// (pipeline/bring_up.h): it learns the directions and the stops, and the later protocols run on
+// what it learned; the scoring is the same.
 // `shipped`: the three robots in data/sim (default, variant a, variant b) instead of drawn ones;
 // `shipped+rim` adds tests/data/robots/owl_narrow_rim_truth.yaml (the rim hides the chessboard
 // near the pan ends; the tag sheets carry the sweep there).
@@ -56,25 +64,36 @@ int main(int argc, char** argv) {
   using namespace owlcal;
   const bool with_rim = argc > 1 && std::string(argv[1]) == "shipped+rim";
   const bool shipped = argc > 1 && (std::string(argv[1]) == "shipped" || with_rim);
+  sim::RobotKind kind = sim::RobotKind::kPrior;
+  for (const sim::RobotKind k : {sim::RobotKind::kReassembled, sim::RobotKind::kSlow})
+    if (argc > 1 && std::string(argv[1]) == sim::RobotKindName(k)) kind = k;
+  const bool drawn_kind = kind != sim::RobotKind::kPrior;
+  // Arguments before the robot count: the mode word, if any.
+  const int mode_args = (shipped || drawn_kind) ? 1 : 0;
   const std::string kShipped[4] = {std::string(OWLCAL_SOURCE_DIR) + "/data/sim/owl_default_truth.yaml",
                                    std::string(OWLCAL_SOURCE_DIR) + "/data/sim/owl_variant_a_truth.yaml",
                                    std::string(OWLCAL_SOURCE_DIR) + "/data/sim/owl_variant_b_truth.yaml",
                                    std::string(OWLCAL_SOURCE_DIR) + "/tests/data/robots/owl_narrow_rim_truth.yaml"};
   const int num_shipped = with_rim ? 4 : 3;
   const int per_robot = shipped ? (argc > 2 ? std::atoi(argv[2]) : 1) : 1;
-  const int num_robots = shipped ? num_shipped * per_robot : (argc > 1 ? std::atoi(argv[1]) : 30);
-  const uint64_t first_seed = argc > 2 + shipped ? std::strtoull(argv[2 + shipped], nullptr, 10) : 1;
+  const int num_robots =
+      shipped ? num_shipped * per_robot : (argc > 1 + mode_args ? std::atoi(argv[1 + mode_args]) : 30);
+  const uint64_t first_seed = argc > 2 + mode_args ? std::strtoull(argv[2 + mode_args], nullptr, 10) : 1;
   if (num_robots < 1) {
     std::fprintf(stderr, "robot_prior_mc_bench: need at least one robot\n");
     return 2;
   }
   std::vector<std::string> protocols;
-  for (int i = 3 + shipped; i < argc; ++i) protocols.push_back(argv[i]);
+  for (int i = 3 + mode_args; i < argc; ++i) protocols.push_back(argv[i]);
+  // The other kinds' robot files are wrong about them: the bring-up first.
+  if (protocols.empty() && drawn_kind) protocols = {"limits", "intrinsics", "stereo", "servo_sweep"};
   if (protocols.empty()) protocols = {"intrinsics", "stereo", "servo_sweep"};
-  // The shipped robots' runs in their own folder: a `shipped` run after a prior run with the same
-  // first seed removed the prior robots' kept results.
-  const fs::path root =
-      fs::temp_directory_path() / ((shipped ? "owlcal_shipped_mc_" : "owlcal_prior_mc_") + std::to_string(first_seed));
+  // The shipped robots' and each kind's runs in their own folder: a `shipped` run after a prior
+  // run with the same first seed removed the prior robots' kept results.
+  const std::string folder = shipped      ? "owlcal_shipped_mc_"
+                             : drawn_kind ? "owlcal_" + std::string(sim::RobotKindName(kind)) + "_mc_"
+                                          : "owlcal_prior_mc_";
+  const fs::path root = fs::temp_directory_path() / (folder + std::to_string(first_seed));
   fs::remove_all(root);
   fs::create_directories(root);
 
@@ -93,8 +112,8 @@ int main(int argc, char** argv) {
     RobotRun out;
     const uint64_t seed = first_seed + uint64_t(shipped ? i % per_robot : i);
     std::mt19937_64 rng(seed * 7919 + 17);
-    std::string name = "prior-" + std::to_string(seed);
-    sim::DrawnRobot robot = sim::DrawRobot(&rng, name);
+    std::string name = std::string(sim::RobotKindName(kind)) + "-" + std::to_string(seed);
+    sim::DrawnRobot robot = sim::DrawRobot(&rng, name, kind);
     if (shipped) {
       const std::string file = kShipped[i / per_robot];
       robot.truth = sim::LoadRobotTruth(file);
@@ -265,9 +284,12 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
   }
   for (auto& w : workers) w.join();
+  const std::string population = shipped      ? "runs of the shipped robots"
+                                 : drawn_kind ? std::string(sim::RobotKindName(kind)) + " robots from the prior"
+                                              : "robots from the prior";
   std::printf("\n== robot_prior_mc_bench: %d %s (seeds %llu..%llu), protocols",
               num_robots,
-              shipped ? "runs of the shipped robots" : "robots from the prior",
+              population.c_str(),
               (unsigned long long)first_seed,
               (unsigned long long)(first_seed + (shipped ? per_robot : num_robots) - 1));
   for (const auto& p : protocols) std::printf(" %s", p.c_str());

@@ -1,12 +1,108 @@
 #include "sim/robot_prior.h"
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
+#include <vector>
 
 #include "models/servo_map.h"
 
 namespace owlcal::sim {
+namespace {
 
-DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name) {
+using Uniform = std::function<double(double, double)>;
+
+// Gives servo `s` a new nonlinearity, drawn as the prior draws it, until its map is monotone over
+// its end-stops again (the other kinds move the centre and the stops after the prior's check).
+void KeepPriorServoMonotone(ServoTruth* s, const Uniform& uni) {
+  for (int attempt = 0;; ++attempt) {
+    const auto p = s->MapParams();
+    if (models::ServoMap::IsMonotone(p.data(), s->direction, s->endstop_lo_us - 50, s->endstop_hi_us + 50)) return;
+    if (attempt > 100) {  // as in the prior: a linear map rather than a loop
+      s->quad_deg = s->cubic_deg = 0;
+      return;
+    }
+    s->quad_deg = uni(-1.5, 1.5);
+    s->cubic_deg = uni(-1.5, 1.5);
+  }
+}
+
+// kReassembled's values over a prior robot (robot_prior.h): one reversed horn, centres and stops
+// off the file's, 5 us PWM, another IPD.
+void ReassemblePriorRobot(RobotTruth* t, const Uniform& uni) {
+  // The reversed servo: the four eye servos equally, the neck less often.
+  const double pick = uni(0, 1);
+  const int reversed = pick < 0.9 ? std::min(int(pick / 0.225), int(models::kLy)) : int(models::kNeck);
+  for (int i = 0; i < models::kNumServos; ++i) {
+    const bool neck = i == models::kNeck;
+    const models::ServoConfig& c = t->robot.servos[i];
+    ServoTruth& s = t->servos[i];
+    s.direction = i == reversed ? -c.direction : c.direction;
+    const double sign = uni(0, 1) < 0.5 ? -1 : 1;
+    s.centre_us = c.centre_us + sign * (neck ? uni(40, 70) : uni(50, 90));
+    s.endstop_lo_us = c.min_us + (neck ? uni(55, 75) : uni(35, 90));
+    s.endstop_hi_us = c.max_us - (neck ? uni(55, 75) : uni(35, 90));
+    s.quantum_us = 5;
+    KeepPriorServoMonotone(&s, uni);
+  }
+  // The prior's eye centres moved apart symmetrically along x to the new IPD [m].
+  Eigen::Vector3d& left = t->geometry.centre_in_head[models::kLeftEye];
+  Eigen::Vector3d& right = t->geometry.centre_in_head[models::kRightEye];
+  const double widen = (uni(0.062, 0.069) - (right.x() - left.x())) / 2;
+  left.x() -= widen;
+  right.x() += widen;
+}
+
+// kSlow's values over a prior robot (robot_prior.h): slow servos, a slow stream, a wide rational
+// lens and wide sockets.
+void SlowPriorRobot(RobotTruth* t, const Uniform& uni) {
+  for (int i = 0; i < models::kNumServos; ++i) {
+    const bool neck = i == models::kNeck;
+    const models::ServoConfig& c = t->robot.servos[i];
+    ServoTruth& s = t->servos[i];
+    s.slew_deg_per_s = uni(150, 250);
+    s.lag_s = uni(0.06, 0.14);
+    s.hysteresis_us = neck ? uni(5, 7) : uni(2.5, 4);
+    s.dead_band_us = uni(3, 7);
+    if (neck) {
+      s.endstop_lo_us = c.min_us + uni(30, 50);
+      s.endstop_hi_us = c.max_us - uni(30, 50);
+      KeepPriorServoMonotone(&s, uni);
+    }
+  }
+  StreamTruth& st = t->stream;
+  st.fps = uni(0, 1) < 0.5 ? 15 : 20;
+  st.latency_ms = uni(180, 260);
+  st.eye_offset_ms = uni(15, 30);
+  st.rolling_shutter_ms = uni(30, 45);
+  for (int e = 0; e < 2; ++e) {
+    models::CameraIntrinsics& k = t->intrinsics[e];
+    // params: fx fy cx cy k1 k2 p1 p2 k3 k4 k5 k6; cx, cy, p1, p2 stay the prior's.
+    const std::vector<double> prior = k.params;
+    const double fx = uni(500, 530);
+    const double k1 = uni(6, 8);
+    k.model = models::DistortionModel::kOpenCv8;
+    k.params = {
+        fx, fx * (1 + uni(-0.003, 0.003)), prior[2], prior[3], k1, 0, prior[6], prior[7], 0, k1 + uni(0.8, 1.2), 0, 0};
+  }
+  t->socket.rim_half_angle_deg = uni(70, 78);
+}
+
+}  // namespace
+
+const char* RobotKindName(RobotKind kind) {
+  switch (kind) {
+    case RobotKind::kPrior:
+      return "prior";
+    case RobotKind::kReassembled:
+      return "reassembled";
+    case RobotKind::kSlow:
+      return "slow";
+  }
+  return "?";
+}
+
+DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name, RobotKind kind) {
   std::uniform_real_distribution<double> u01(0, 1);
   auto uni = [&](double lo, double hi) { return lo + (hi - lo) * u01(*rng); };
   DrawnRobot out;
@@ -83,6 +179,9 @@ DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name) {
   out.scene = DefaultScene();
   if (SceneTarget* board = out.scene.Find("chessboard"))
     board->warp_m = Eigen::Vector2d(uni(0, 1.2e-3), uni(-3e-4, 3e-4));
+  // The other kinds' numbers come after all of the prior's, so a kPrior robot is drawn as before.
+  if (kind == RobotKind::kReassembled) ReassemblePriorRobot(&t, uni);
+  if (kind == RobotKind::kSlow) SlowPriorRobot(&t, uni);
   t.Validate("drawn robot " + name);
   return out;
 }

@@ -29,9 +29,37 @@
 //   board (scene)                   the chessboard bows 0-1.2 mm along x, -0.3..0.3 mm along y
 // Deterministic for a seed. Every drawn truth passes RobotTruth::Validate.
 //
+// Two other kinds of robot (issue 34) start from a prior robot, drawn with the same numbers as
+// kPrior, and then draw more numbers from the same generator that replace some of its values;
+// the rest is the prior's. kPrior draws exactly as before: these extra numbers are drawn only
+// for the other kinds. Hand-written examples: tests/data/robots/owl_reassembled*_truth.yaml
+// and owl_slow_servos*_truth.yaml.
+//   kReassembled: a student took the head apart and put it back together
+//     reversed horn                   one servo's truth direction is the opposite of the robot
+//                                     file's; Rx, Ry, Lx, Ly 22.5 % each, the neck 10 %
+//     centres                         the file's +- 50-90 us on the eyes, +- 40-70 us on the neck
+//                                     (the sign random per servo)
+//     end-stops                       every one 35-90 us inside the file's limit (the neck's 55-75)
+//     PWM quantum (all five)          5 us (pigpio's default sampling)
+//     eye centres                     IPD 62-69 mm (the prior's offsets kept)
+//   kSlow: cheap, slow servos and a slow stream
+//     servos (all five)               slew 150-250 deg/s, lag 60-140 ms, dead band 3-7 us,
+//                                     hysteresis 2.5-4 us on the eyes and 5-7 us on the neck
+//     neck end-stops                  each 30-50 us inside the file's limit
+//     stream                          15 or 20 fps (even odds), latency 180-260 ms, eye offset
+//                                     15-30 ms (the right eye after the left), rolling shutter
+//                                     30-45 ms
+//     intrinsics (OpenCV 8, rational) a wide replacement lens: fx 500-530 px, fy = fx * (1
+//                                     +-0.003), k1 6-8, k4 = k1 + 0.8..1.2, k2 k3 k5 k6 0; cx, cy,
+//                                     p1, p2 the prior's
+//     socket                          rim half-angle 70-78 deg (a wider view needs a wider socket)
+// A servo whose map is no longer monotone over its new end-stops gets new quad_deg and cubic_deg
+// (the prior's ranges), as the prior draws them.
+//
 // Usage:
 //   std::mt19937_64 rng(seed);
 //   DrawnRobot r = DrawRobot(&rng, "prior-7");
+//   DrawnRobot s = DrawRobot(&rng, "slow-7", RobotKind::kSlow);
 //   VirtualOwlOptions o;  o.truth = r.truth;  o.scene = r.scene;
 #include <cstdint>
 #include <random>
@@ -56,6 +84,18 @@ struct DrawnRobot {
   }
 };
 
-DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name);
+// Which population DrawRobot draws from (the header comment's ranges).
+enum class RobotKind {
+  kPrior,        // robots like real Owls, as the robot file describes them
+  kReassembled,  // a reversed horn, centres and stops off the file's, 5 us PWM
+  kSlow,         // slow laggy backlashed servos, a slow stream, a wide rational lens
+};
+
+// The kind's name as the bench spells it ("prior", "reassembled", "slow").
+const char* RobotKindName(RobotKind kind);
+
+// Draws one robot truth named `name` of `kind`. Throws std::invalid_argument (from
+// RobotTruth::Validate) if a drawn truth is unphysical, which the ranges above rule out.
+DrawnRobot DrawRobot(std::mt19937_64* rng, const std::string& name, RobotKind kind = RobotKind::kPrior);
 
 }  // namespace owlcal::sim
