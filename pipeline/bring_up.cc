@@ -75,7 +75,8 @@ std::vector<fitting::LimitMeasurement> LimitMeasurements(const std::vector<proto
 BringUp LearnFromLimits(const models::RobotConfig& file,
                         const std::vector<protocols::LimitRow>& rows,
                         int margin_us,
-                        int stop_error_us) {
+                        int stop_error_us,
+                        int grid_us) {
   BringUp b;
   b.file = file;
   b.learned = file;
@@ -161,7 +162,8 @@ BringUp LearnFromLimits(const models::RobotConfig& file,
                             : int(std::floor(*at)) - margin_us - stop_error_us;
       // Rounded inward to pigpio's 5 us grid: poses the protocols derive from a limit (servo_sweep's
       // min+30) are then pulses a 5 us servo applies as commanded, not rounded by up to 2.5 us.
-      safe = inward > 0 ? (safe + 4) / 5 * 5 : safe / 5 * 5;
+      const int g = std::max(1, grid_us);
+      safe = inward > 0 ? (safe + g - 1) / g * g : safe / g * g;
       if ((safe - *us) * inward <= 0) return;  // the file's limit is already inside it
       const int stop = int(std::lround(*at));
       b.findings.push_back(l.name + " " + end + " limit: your robot file says " + std::to_string(*us) +
@@ -242,8 +244,8 @@ double RobotTimeOfDataset(const std::string& dataset) {
   return any ? (last - first) * 1e-9 : 0.0;
 }
 
-BringUp LearnFromLimitsDataset(const models::RobotConfig& file, const std::string& dataset) {
-  BringUp b = LearnFromLimits(file, protocols::ReadLimitsCsv(dataset));
+BringUp LearnFromLimitsDataset(const models::RobotConfig& file, const std::string& dataset, int grid_us) {
+  BringUp b = LearnFromLimits(file, protocols::ReadLimitsCsv(dataset), 10, 5, grid_us);
   b.robot_time_s = RobotTimeOfDataset(dataset);
   return b;
 }

@@ -49,14 +49,17 @@ std::vector<fitting::LimitMeasurement> LimitMeasurements(const std::vector<proto
 
 // Learns from the limits protocol's rows (any subset of servos and ends).
 // margin_us: kept from a measured end-stop beyond the search's stop_error_us
-// (protocols/limits_search.h finds stops within 5 us).
+// (protocols/limits_search.h finds stops within 5 us). grid_us: the learned limits are rounded
+// inward to multiples of it (5: pigpio's grid; 1: as recorded before the rounding, for refits of
+// older datasets).
 BringUp LearnFromLimits(const models::RobotConfig& file,
                         const std::vector<protocols::LimitRow>& rows,
                         int margin_us = 10,
-                        int stop_error_us = 5);
+                        int stop_error_us = 5,
+                        int grid_us = 5);
 
 // The same from a limits dataset folder (limits.csv; robot time from events.log).
-BringUp LearnFromLimitsDataset(const models::RobotConfig& file, const std::string& dataset);
+BringUp LearnFromLimitsDataset(const models::RobotConfig& file, const std::string& dataset, int grid_us = 5);
 
 // The robot file a calibration run suggests (robot_corrected.yaml beside results.json): the
 // configuration the run used (the bring-up's) with each servo's fitted centre (rounded to 1 us,

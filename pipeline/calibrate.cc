@@ -215,7 +215,21 @@ fitting::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOpt
   fit.config = RobotConfigFromManifest(mf, file_manifest);
   const std::optional<sim::RobotTruth> truth = TruthFromManifest(mf, file_manifest);
   std::optional<BringUp> bring_up;
-  if (limits != datasets.end()) bring_up = LearnFromLimitsDataset(fit.config, limits->second);
+  if (limits != datasets.end()) {
+    bring_up = LearnFromLimitsDataset(fit.config, limits->second);
+    // Datasets recorded before the learned limits were rounded to the 5 us grid carry the
+    // unrounded ones: the bring-up is learned as they were recorded.
+    const BringUp legacy = LearnFromLimitsDataset(fit.config, limits->second, 1);
+    for (const auto& [name, dataset] : datasets) {
+      if (dataset == file_dataset) continue;
+      const models::RobotConfig c =
+          RobotConfigFromManifest(protocols::ReadManifest(dataset), dataset + "/manifest.json");
+      if (SameConfig(c, legacy.learned) && !SameConfig(c, bring_up->learned)) {
+        bring_up = legacy;
+        break;
+      }
+    }
+  }
   bool on_learned = false, on_file = false;
   for (const auto& [name, dataset] : datasets) {
     const nlohmann::json m = protocols::ReadManifest(dataset);

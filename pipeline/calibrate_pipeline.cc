@@ -724,8 +724,20 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
       const nlohmann::json pz = fits[0]
                                     .result.diagnostics.value("head", nlohmann::json::object())
                                     .value("pan_zero", nlohmann::json::object());
-      if (fits[0].ok && pz.contains("sigma_deg") && pz["sigma_deg"].is_number())
-        fused_options.pan_zero_sigma_floor_deg = pz["sigma_deg"].get<double>();
+      if (fits[0].ok && pz.contains("sigma_deg") && pz["sigma_deg"].is_number()) {
+        const double floor_deg = pz["sigma_deg"].get<double>();
+        // A sigma of ten degrees or more is no floor: the chessboard fit did not determine the pan
+        // zero (a lens model whose coefficients the data cannot separate). The fused fit keeps
+        // its own, and the run says so.
+        if (std::isfinite(floor_deg) && floor_deg < 10) {
+          fused_options.pan_zero_sigma_floor_deg = floor_deg;
+        } else {
+          d.result.warnings.push_back("pan zero: the chessboard-only head fit did not determine it (sigma " +
+                                      Fmt(floor_deg, 3) +
+                                      " deg), so it does not floor the fused fit's; the pans' absolute angles "
+                                      "carry the fused fit's own sigma");
+        }
+      }
       fit(1);
     } else {
       // Two independent single-threaded fits, run at once.

@@ -113,9 +113,10 @@ void AppendTruthComparisonTable(const ReportData& d, bool any_truth, std::vector
 
 void AppendServoMapTruthTable(const ReportData& d, std::vector<Table>* out) {
   if (!d.truth || !d.result.head) return;
-  // Whole maps, not just their parameters: fitted minus true angle over the configured range.
+  // Whole maps, not just their parameters: fitted minus true angle over the range the run used.
   Table t{"servo_map_truth",
-          "Virtual Owl: fitted servo maps vs the truth over each servo's configured range",
+          "Virtual Owl: fitted servo maps vs the truth over the range the run used (the measured stops minus "
+          "the margin after the limits protocol, else the robot file's)",
           {"servo", "range [\u00b5s]", "RMS [deg]", "max |error| [deg]", "mean error [deg]"},
           {}};
   for (int s = 0; s < models::kNumServos; ++s) {
