@@ -16,10 +16,11 @@
 //      the held-out error also tests the extrinsics), and its corners' pixel errors are pooled;
 //   4. held-out RMS = sqrt(sum |e|^2 / corners) over every held-out corner of every fold.
 // The simpler model wins unless the richer one's held-out RMS is better by more than
-// `min_relative_gain` (a tie is parsimony's) AND by more than twice the difference's standard
-// error (from the per-frame differences of the squared error sums): on 8 stereo views one frame's
-// extrapolation had made the rational model win by one standard error with k1 k2 k4 k5
-// undetermined.
+// `min_relative_gain` (a tie is parsimony's) AND the gain is more than noise: larger than twice
+// the difference's standard error (from the per-frame differences of the squared error sums), or
+// the rational model predicts more than n/2 + sqrt(n) of the n held-out frames better (a sign
+// test at two standard deviations: a wide lens's edge frames make the standard error large
+// exactly where the simpler model fails most).
 //
 // Each candidate is also fitted on all views (fit RMS, and the cameras, for comparisons such as
 // the difference from a reference calibration); the caller's final fit uses `chosen`.
@@ -78,6 +79,8 @@ struct LensModelChoice {
   std::vector<LensModelScore> scores;  // [opencv5, opencv8] when cross-validated
   double gain_px = 0;                  // heldout RMS opencv5 - opencv8
   double gain_se_px = 0;               // its standard error (delta method over frames)
+  int frames_better = 0;               // held-out frames the rational model predicts better
+  int frames_compared = 0;             // held-out frames both models placed
   double time_s = 0;
 
   const LensModelScore* Score(models::DistortionModel m) const;
