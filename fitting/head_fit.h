@@ -105,6 +105,10 @@ struct HeadFitOptions {
   // Prior covariance of each eye's intrinsics params (fx fy cx cy dist..., physical units),
   // used when fit_intrinsics; empty = no prior (intrinsics free).
   std::optional<Eigen::MatrixXd> intrinsics_prior_covariance[2];
+  // Radial coefficients (1..6) held at their initial values in an opencv8 camera (the same hold
+  // as IntrinsicsFitOptions::rational_fix_radial, so the head fit refines the lens the stereo fit
+  // determined); empty: all fitted.
+  std::vector<int> rational_fix_radial;
   // Floor of each eye's intrinsics covariance (same units; used when fit_intrinsics; empty = none).
   // The sweep's many views of a few board placements share the detector's corner bias with the
   // views the floor came from (the stereo fit's), so they make the intrinsics no more certain

@@ -181,6 +181,16 @@ bool HoldWhatTheDataCannotDetermine(const std::vector<calib::View>& views,
   if (!options.fit_intrinsics) {
     for (int e = 0; e < 2; ++e) s.camera[e].FixAll("held at the given intrinsics (fit_intrinsics = false)");
   }
+  // The rational model's inseparable radial terms (HeadFitOptions::rational_fix_radial); the
+  // parameter order is fx fy cx cy k1 k2 p1 p2 k3 k4 k5 k6.
+  constexpr int kRadialIndex[7] = {-1, 4, 5, 8, 9, 10, 11};
+  for (int e = 0; e < 2; ++e)
+    if (s.camera_model[e] == models::DistortionModel::kOpenCv8)
+      for (int k : options.rational_fix_radial)
+        if (k >= 1 && k <= 6)
+          s.camera[e].Fix(kRadialIndex[k],
+                          "held: the rational model's k" + std::to_string(k) +
+                              " trades against its other radial terms (rational_fix_radial)");
   return neck_moved;
 }
 

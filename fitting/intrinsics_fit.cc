@@ -21,6 +21,15 @@
 #include "models/units.h"
 
 namespace owlcal::fitting {
+
+IntrinsicsFitOptions WithModel(IntrinsicsFitOptions o, models::DistortionModel model) {
+  o.model = model;
+  if (model == models::DistortionModel::kOpenCv8)
+    for (int k : o.rational_fix_radial)
+      if (std::find(o.fix_radial.begin(), o.fix_radial.end(), k) == o.fix_radial.end()) o.fix_radial.push_back(k);
+  return o;
+}
+
 namespace {
 
 using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;

@@ -34,6 +34,10 @@ namespace owlcal::fitting {
 
 enum class RobustLoss { kNone, kHuber, kCauchy };
 
+struct IntrinsicsFitOptions;
+// `options` with `model`, and for opencv8 its rational_fix_radial added to fix_radial.
+IntrinsicsFitOptions WithModel(IntrinsicsFitOptions options, models::DistortionModel model);
+
 struct IntrinsicsFitOptions {
   models::DistortionModel model = models::DistortionModel::kOpenCv5;
   bool fix_aspect_ratio = false;     // fy = fx (CALIB_FIX_ASPECT_RATIO with ratio 1)
@@ -42,6 +46,10 @@ struct IntrinsicsFitOptions {
   // Radial coefficients held at 0 by number, 1..6 (CALIB_FIX_K1 ... CALIB_FIX_K6); a number the
   // model does not have (k4..k6 of opencv5) holds nothing.
   std::vector<int> fix_radial;
+  // Radial coefficients held at 0 when the model is opencv8 only (the rational model's numerator
+  // and denominator terms trade against each other: {2, 3, 5, 6} leaves (1 + k1 r^2) / (1 +
+  // k4 r^2)); empty: all six fitted, as OpenCV's CALIB_RATIONAL_MODEL.
+  std::vector<int> rational_fix_radial;
   bool fix_tangential = false;  // p1 = p2 = 0 (CALIB_ZERO_TANGENT_DIST)
   double corner_sigma_px = 0;   // corner noise; 0 = estimate from the residuals
   RobustLoss loss = RobustLoss::kNone;

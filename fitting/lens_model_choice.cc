@@ -22,7 +22,7 @@ constexpr DistortionModel kCandidates[2] = {DistortionModel::kOpenCv5, Distortio
 
 // Held-out frames both candidates placed, and of them those where the second predicts better
 // (smaller sum of squared errors over both eyes).
-void CountFramesBetter(const std::map<int, FrameError> per_frame[2], int* better, int* compared) {
+void CountFramesBetter(const std::map<int, internal::FrameError> per_frame[2], int* better, int* compared) {
   *better = *compared = 0;
   for (const auto& [f, e0] : per_frame[0]) {
     const auto it = per_frame[1].find(f);
@@ -156,7 +156,7 @@ LensModelChoice ChooseStereoLensModel(const std::vector<calib::View>& left_views
   const std::vector<calib::View>* views[2] = {&left_views, &right_views};
   auto opts = [&](DistortionModel m, bool covariance) {
     StereoFitOptions so = options;
-    so.intrinsics.model = m;
+    so.intrinsics = WithModel(so.intrinsics, m);
     so.intrinsics.compute_covariance = covariance;
     if (!covariance) so.intrinsics.solver_tolerance = internal::kRefitTolerance;
     return so;
@@ -183,8 +183,7 @@ LensModelChoice ChooseIntrinsicsLensModel(const std::vector<calib::View>& views_
   const std::vector<calib::View> none;
   const std::vector<calib::View>* views[2] = {&views_in, &none};
   auto opts = [&](DistortionModel m, bool covariance) {
-    IntrinsicsFitOptions io = options;
-    io.model = m;
+    IntrinsicsFitOptions io = WithModel(options, m);
     io.compute_covariance = covariance;
     if (!covariance) io.solver_tolerance = internal::kRefitTolerance;
     return io;

@@ -414,6 +414,8 @@ std::vector<fitting::StepTrace> ReadStepTraces(const std::string& dataset) {
 fitting::StereoFitOptions CalibratePipelineOptions::CalibrateStereoFitOptions() {
   fitting::StereoFitOptions so;
   so.fit_board_warp = true;  // a real course board bows by about 1 mm
+  // The rational lens as (1 + k1 r^2) / (1 + k4 r^2): its six radial terms trade against each other.
+  so.intrinsics.rational_fix_radial = {2, 3, 5, 6};
   return so;
 }
 
@@ -428,6 +430,7 @@ fitting::HeadFitOptions CalibratePipelineOptions::CalibrateHeadFitOptions() {
   ho.robust_sigma_factor = 1.0;
   ho.intrinsics_floor_carry = "servo_maps";  // a focal-length error scales every angle the maps give
   ho.pan_zero_sigma_factor = 1.25;           // the head-yaw gauge's eye-depth difference
+  ho.rational_fix_radial = {2, 3, 5, 6};     // the stereo fit's rational lens form
   return ho;
 }
 
@@ -617,7 +620,7 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
       }
       if (!stereo) {
         fitting::StereoFitOptions so = o.stereo;
-        if (lens) so.intrinsics.model = lens->chosen;
+        so.intrinsics = fitting::WithModel(so.intrinsics, lens ? lens->chosen : so.intrinsics.model);
         stereo = fitting::FitStereo(l, r, so);
       }
       if (lens) fitting::AppendLensModelChoiceToResult(*lens, &d.result);
