@@ -18,6 +18,7 @@
 // under OUT/NAME (`owlcal report OUT/NAME` draws its report).
 // Usage: adaptation_bench [OUT=/tmp/owlcal_adaptation] [ROBOT_TRUTH_FILE ...]
 // (default: the reassembled and slow-servo robots of tests/data/robots)
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -31,6 +32,7 @@
 #include "owlcal_version.h"
 #include "pipeline/bring_up.h"
 #include "pipeline/calibrate.h"
+#include "protocols/protocol.h"
 #include "reports/report_data.h"
 #include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
@@ -121,9 +123,7 @@ Row RunRobot(const std::string& truth_file, const std::string& out_root) {
   if (st.value("slew_source", "") == "prior") {
     row.slew = "prior";
   } else if (st.contains("slew_deg_per_s") && st.contains("servo")) {
-    int s = models::kRx;
-    for (int i = 0; i < models::kNumServos; ++i)
-      if (st["servo"].get<std::string>() == models::kServoNames[i]) s = i;
+    const int s = std::max(0, protocols::ServoIndexFromName(st["servo"].get<std::string>()));
     char b[32];
     std::snprintf(b, sizeof b, "%.2fx", st["slew_deg_per_s"].get<double>() / truth.servos[s].slew_deg_per_s);
     row.slew = b;

@@ -6,6 +6,7 @@
 #include "calib/trial_status.h"
 #include "fitting/step_response.h"
 #include "models/head_model.h"
+#include "models/units.h"
 #include "protocols/dataset_tables.h"
 #include "protocols/protocol.h"
 #include "reports/table.h"
@@ -45,22 +46,21 @@ void AddSaccadeEvaluation(const std::string& dataset, const CalibratePipelineOpt
   // band) plus twice the image noise when that is wider: no command can put the target closer.
   double half_pulse_px = 0, noise_px = 0.05, focal_px = 0;
   if (servo >= 0) {
-    const models::HeadModel head = run->result.head ? *run->result.head : models::NominalHeadModel(run->config);
+    // The head and the resolution the controller was given (ControllerCalibration above).
+    const protocols::CalibratedMaps cal = ControllerCalibration(*run, "");
+    const models::HeadModel& head = cal.head;
     const int eye = servo == models::kPanServo[models::kLeftEye] || servo == models::kTiltServo[models::kLeftEye]
                         ? models::kLeftEye
                         : models::kRightEye;
-    double res_us = 0;
-    for (const fitting::ServoResolutionResult& r : run->resolution)
-      if (r.servo == servo && r.fit.ok && r.fit.determined)
-        res_us = std::max(r.fit.resolution.step_us, r.fit.resolution.dead_band_us);
     focal_px = head.intrinsics[eye].params[0];
-    half_pulse_px = 0.5 * res_us * focal_px * std::tan(std::abs(head.servo_params[servo][1]) * M_PI / 180);
+    half_pulse_px =
+        0.5 * cal.resolution_us[servo] * focal_px * std::tan(std::abs(head.servo_params[servo][1]) * kDegToRad);
     if (run->settling) noise_px = std::max(noise_px, run->settling->model.noise_px);
   }
   for (fitting::StepTrace& t : traces) {
     t.controller = "saccade";
     t.eye_axis = "saccade";
-    const double step_px = focal_px * std::tan(std::min(80.0, std::abs(t.amplitude_deg)) * M_PI / 180);
+    const double step_px = focal_px * std::tan(std::min(80.0, std::abs(t.amplitude_deg)) * kDegToRad);
     if (t.t_s.size() >= 3 && step_px > 0) {
       const double band = std::max(0.02, (half_pulse_px + 2 * noise_px) / step_px);
       if (band > 0.02) {
