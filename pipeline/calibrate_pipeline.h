@@ -8,7 +8,9 @@
 // It sits above protocols/ (the dataset readers) and fitting/ (the fits and evaluations); it
 // moves nothing and writes nothing (apps/ write the files).
 //
-// Steps, each on the datasets present (a protocol that did not run is skipped, and said so):
+// Steps, each on the datasets present (a protocol that did not run is skipped, and said so), one
+// file each (pipeline/calibrate_stages.h: stage_lens_stereo, stage_head, stage_truth,
+// stage_ranging, stage_controller):
 //   1. intrinsics + stereo from `intrinsics` (eyes moving: each eye's intrinsics only) and
 //      `stereo` (eyes fixed: left and right paired), the lens model chosen by cross-validation
 //      over those views, with the physical sanity of the rig;
