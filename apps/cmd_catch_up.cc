@@ -2,51 +2,21 @@
 // Runs the standard `catch_up` protocol on the virtual Owl (it moves the target) with the eye on
 // calibrate's fitted head (--calib) or the robot file's nominal head, and evaluates it; or
 // evaluates a recorded one (--dataset).
-#include <filesystem>
 #include <iostream>
-#include <memory>
 
 #include "apps/command_registry.h"
 #include "apps/experiment_recording.h"
-#include "apps/robot_factory.h"
-#include "apps/robot_options.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/catch_up_study.h"
-#include "pipeline/saccade_study.h"
-#include "protocols/protocol.h"
-#include "protocols/runner.h"
-#include "reports/report_data.h"
 
 namespace owlcal::apps {
 namespace {
 
-struct CatchUpCmdOptions {
-  RobotOptions robot;
-  std::string out;
-  std::string dataset;
-  std::string calib;
-  std::string protocol = "catch_up";
-  bool no_figures = false;
-  bool quiet = false;
-  std::string tracker;
-};
-
-int RunCatchUp(const CatchUpCmdOptions& o) {
-  const std::optional<std::string> recorded = RecordOrUseDataset({"catch-up",
-                                                                  o.protocol,
-                                                                  "catch_up",
-                                                                  "the eye moves on the robot file's NOMINAL maps",
-                                                                  o.robot,
-                                                                  o.out,
-                                                                  o.dataset,
-                                                                  o.calib,
-                                                                  o.quiet,
-                                                                  o.tracker});
-  if (!recorded) return kExitFailed;
-  const std::string& dir = *recorded;
+int RunCatchUp(const ExperimentInput& in) {
+  const std::string& dir = in.dataset;
   const pipeline::CatchUpStudy study = pipeline::EvaluateCatchUpDataset(dir);
-  const std::string page = pipeline::WriteCatchUpStudy(study, o.out, !o.no_figures);
+  const std::string page = pipeline::WriteCatchUpStudy(study, in.out, in.figures);
   std::cout << "eye on the " << study.map << "\n";
   for (const pipeline::CatchUpTrial& t : study.trials) {
     std::cout << io::FixedText(t.speed_deg_per_s, 1) << " deg/s: " << t.status;
@@ -64,30 +34,20 @@ int RunCatchUp(const CatchUpCmdOptions& o) {
   return study.num_ok == study.num_trials ? kExitOk : kExitFailed;
 }
 
-const bool kCatchUpRegistered = RegisterCommand(
-    "catch-up",
-    "Catch-up saccades (course notes: a target faster than about 30 deg/s needs them): the target moves at\n"
-    "10, 20 and 30 deg/s across the eye's view (the virtual Owl moves it; a real robot cannot, and every trial\n"
-    "is then a skipped row); the eye pursues with a P loop on calibrate's fitted maps (--calib; else the robot\n"
-    "file's nominal maps) and makes a catch-up saccade, leading the target, when the retinal error passes the\n"
-    "threshold. Counts the catch-up saccades, the retinal error before and after each and its response time,\n"
-    "and the RMS error per speed (on the virtual Owl also the true error). Runs the standard `catch_up` protocol\n"
-    "(or --protocol FILE), or evaluates a recording (--dataset). Writes OUT/tables/catch_up_*, OUT/figures/\n"
-    "catch_up_trace.*, OUT/catch_up.json and OUT/report/index.html. Exit 1 when a trial failed.",
-    [](CLI::App* cmd) {
-      auto o = std::make_shared<CatchUpCmdOptions>();
-      AddRobotOptions(cmd, &o->robot);
-      cmd->add_option("--out", o->out, "output folder")->required();
-      cmd->add_option("--dataset", o->dataset, "evaluate this recorded catch-up dataset (no robot)")
-          ->check(CLI::ExistingDirectory);
-      cmd->add_option("--calib", o->calib, "calibrate output folder whose fitted head the eye uses")
-          ->check(CLI::ExistingDirectory);
-      cmd->add_option("--protocol", o->protocol, "protocol name or file (default: the standard catch_up)");
-      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
-      cmd->add_flag("--quiet", o->quiet, "no progress output");
-      AddTrackerOption(cmd, &o->tracker);
-      return [o] { return RunCatchUp(*o); };
-    });
+const bool kCatchUpRegistered = RegisterExperiment(
+    {"catch-up",
+     "Catch-up saccades (course notes: a target faster than about 30 deg/s needs them): the target moves at\n"
+     "10, 20 and 30 deg/s across the eye's view (the virtual Owl moves it; a real robot cannot, and every trial\n"
+     "is then a skipped row); the eye pursues with a P loop on calibrate's fitted maps (--calib; else the robot\n"
+     "file's nominal maps) and makes a catch-up saccade, leading the target, when the retinal error passes the\n"
+     "threshold. Counts the catch-up saccades, the retinal error before and after each and its response time,\n"
+     "and the RMS error per speed (on the virtual Owl also the true error). Runs the standard `catch_up` protocol\n"
+     "(or --protocol FILE), or evaluates a recording (--dataset). Writes OUT/tables/catch_up_*, OUT/figures/\n"
+     "catch_up_trace.*, OUT/catch_up.json and OUT/report/index.html. Exit 1 when a trial failed.",
+     "catch_up",
+     "the eye moves on the robot file's NOMINAL maps",
+     "",
+     RunCatchUp});
 
 }  // namespace
 }  // namespace owlcal::apps

@@ -2,52 +2,21 @@
 // Runs the standard `main-sequence` protocol on the robot (the virtual Owl by default) with the
 // eye on calibrate's fitted head (--calib) or the robot file's nominal head, and evaluates it; or
 // evaluates a recorded one (--dataset).
-#include <filesystem>
 #include <iostream>
-#include <memory>
 
 #include "apps/command_registry.h"
 #include "apps/experiment_recording.h"
-#include "apps/robot_factory.h"
-#include "apps/robot_options.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/main_sequence_study.h"
-#include "pipeline/saccade_study.h"
-#include "protocols/protocol.h"
-#include "protocols/runner.h"
-#include "reports/report_data.h"
 
 namespace owlcal::apps {
 namespace {
 
-struct MainSequenceCmdOptions {
-  RobotOptions robot;
-  std::string out;
-  std::string dataset;
-  std::string calib;
-  std::string protocol = "main_sequence";
-  bool no_figures = false;
-  bool quiet = false;
-  std::string tracker;
-};
-
-int RunMainSequence(const MainSequenceCmdOptions& o) {
-  const std::optional<std::string> recorded =
-      RecordOrUseDataset({"main-sequence",
-                          o.protocol,
-                          "main_sequence",
-                          "the eye moves on the robot file's NOMINAL maps (angles from its nominal lens)",
-                          o.robot,
-                          o.out,
-                          o.dataset,
-                          o.calib,
-                          o.quiet,
-                          o.tracker});
-  if (!recorded) return kExitFailed;
-  const std::string& dir = *recorded;
+int RunMainSequence(const ExperimentInput& in) {
+  const std::string& dir = in.dataset;
   const pipeline::MainSequenceStudy study = pipeline::EvaluateMainSequenceDataset(dir);
-  const std::string page = pipeline::WriteMainSequenceStudy(study, o.out, !o.no_figures);
+  const std::string page = pipeline::WriteMainSequenceStudy(study, in.out, in.figures);
   const fitting::MainSequenceFit& f = study.fit;
   std::cout << "eye on the " << study.map << "\n";
   std::cout << "pooled motion of " << study.servo << ": " << f.motion.message << "\n";
@@ -68,31 +37,21 @@ int RunMainSequence(const MainSequenceCmdOptions& o) {
   return study.num_ok == study.num_saccades && f.peak.ok ? kExitOk : kExitFailed;
 }
 
-const bool kMainSequenceRegistered = RegisterCommand(
-    "main-sequence",
-    "The saccade main sequence: the eye's pan makes saccades of 2-40 deg across a fixation disc, each command\n"
-    "at a different phase of the frame clock, on calibrate's fitted maps (--calib) or the robot file's nominal\n"
-    "maps (the report says so). From the frames (the eye's angle from the disc's pixel) it fits the servo's slew,\n"
-    "lag and the command-to-frame delay over all saccades, each saccade's amplitude, peak angular velocity and\n"
-    "duration, and the main sequence V = Vmax (1 - exp(-A / C)) and duration against amplitude, with sigma; on\n"
-    "the virtual Owl also the truth. Runs the standard `main_sequence` protocol (or --protocol FILE) on the robot,\n"
-    "or evaluates a recording (--dataset). Writes OUT/tables/main_sequence_*.{csv,md,tex},\n"
-    "OUT/figures/main_sequence_*, OUT/main_sequence.json and OUT/report/index.html; every saccade is a row with\n"
-    "its status. Exit 1 when a saccade failed or the main sequence could not be fitted.",
-    [](CLI::App* cmd) {
-      auto o = std::make_shared<MainSequenceCmdOptions>();
-      AddRobotOptions(cmd, &o->robot);
-      cmd->add_option("--out", o->out, "output folder")->required();
-      cmd->add_option("--dataset", o->dataset, "evaluate this recorded main-sequence dataset (no robot)")
-          ->check(CLI::ExistingDirectory);
-      cmd->add_option("--calib", o->calib, "calibrate output folder whose fitted head the eye uses")
-          ->check(CLI::ExistingDirectory);
-      cmd->add_option("--protocol", o->protocol, "protocol name or file (default: the standard main_sequence)");
-      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
-      cmd->add_flag("--quiet", o->quiet, "no progress output");
-      AddTrackerOption(cmd, &o->tracker);
-      return [o] { return RunMainSequence(*o); };
-    });
+const bool kMainSequenceRegistered = RegisterExperiment(
+    {"main-sequence",
+     "The saccade main sequence: the eye's pan makes saccades of 2-40 deg across a fixation disc, each command\n"
+     "at a different phase of the frame clock, on calibrate's fitted maps (--calib) or the robot file's nominal\n"
+     "maps (the report says so). From the frames (the eye's angle from the disc's pixel) it fits the servo's slew,\n"
+     "lag and the command-to-frame delay over all saccades, each saccade's amplitude, peak angular velocity and\n"
+     "duration, and the main sequence V = Vmax (1 - exp(-A / C)) and duration against amplitude, with sigma; on\n"
+     "the virtual Owl also the truth. Runs the standard `main_sequence` protocol (or --protocol FILE) on the robot,\n"
+     "or evaluates a recording (--dataset). Writes OUT/tables/main_sequence_*.{csv,md,tex},\n"
+     "OUT/figures/main_sequence_*, OUT/main_sequence.json and OUT/report/index.html; every saccade is a row with\n"
+     "its status. Exit 1 when a saccade failed or the main sequence could not be fitted.",
+     "main_sequence",
+     "the eye moves on the robot file's NOMINAL maps (angles from its nominal lens)",
+     "",
+     RunMainSequence});
 
 }  // namespace
 }  // namespace owlcal::apps

@@ -2,59 +2,24 @@
 // standard `sharpness` protocol on the robot (the virtual Owl by default) and evaluates it, or
 // evaluates a recorded one (--dataset), or image pairs at known distances (--images CSV, e.g.
 // the course's kit2020 distance set).
-#include <filesystem>
 #include <iostream>
-#include <memory>
 
 #include "apps/command_registry.h"
-#include "apps/robot_factory.h"
-#include "apps/robot_options.h"
+#include "apps/experiment_recording.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/sharpness_study.h"
-#include "protocols/protocol.h"
-#include "protocols/runner.h"
 
 namespace owlcal::apps {
 namespace {
 
-struct SharpnessCmdOptions {
-  RobotOptions robot;
-  std::string out;
-  std::string dataset;
-  std::string images;
-  bool no_figures = false;
-  bool quiet = false;
-};
-
 std::string Distance(double m) { return std::isfinite(m) ? io::FixedText(m, 2) + " m" : "infinity"; }
 
-int RunSharpness(const SharpnessCmdOptions& o) {
-  if (!o.dataset.empty() && !o.images.empty()) throw UsageError("give --dataset or --images, not both");
-  pipeline::SharpnessStudy study;
-  if (!o.images.empty()) {
-    study = pipeline::MeasureSharpnessPairs(pipeline::ReadSharpnessPairsCsv(o.images), o.images);
-  } else {
-    std::string dir = o.dataset;
-    if (dir.empty()) {
-      dir = o.out + "/datasets/sharpness";
-      protocols::RunOptions ro;
-      ro.out_dir = dir;
-      o.robot.FillRunOptions(&ro);
-      ro.progress = o.quiet ? nullptr : &std::cout;
-      ro.stop_flag = protocols::InstallStopSignals();
-      std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
-      const protocols::Protocol p = protocols::LoadProtocolFile(protocols::ResolveProtocolPath("sharpness"));
-      const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
-      if (s.status != "complete") {
-        std::cerr << "owlcal sharpness: " << s.status << ": " << s.message << "\n"
-                  << "the dataset in " << dir << " is closed; evaluate what it holds with --dataset " << dir << "\n";
-        return kExitFailed;
-      }
-    }
-    study = pipeline::MeasureSharpnessDataset(dir);
-  }
-  const std::string page = pipeline::WriteSharpnessStudy(study, o.out, !o.no_figures);
+int RunSharpness(const ExperimentInput& in) {
+  const pipeline::SharpnessStudy study =
+      in.images.empty() ? pipeline::MeasureSharpnessDataset(in.dataset)
+                        : pipeline::MeasureSharpnessPairs(pipeline::ReadSharpnessPairsCsv(in.images), in.images);
+  const std::string page = pipeline::WriteSharpnessStudy(study, in.out, in.figures);
   for (int e = 0; e < 2; ++e) {
     const fitting::FocusFit& f = study.fit[e];
     std::cout << models::kEyeNames[e] << " eye: ";
@@ -83,27 +48,19 @@ int RunSharpness(const SharpnessCmdOptions& o) {
   return kExitOk;
 }
 
-const bool kSharpnessRegistered = RegisterCommand(
-    "sharpness",
-    "Lens sharpness against distance: the edge blur (Gaussian-equivalent sigma of isolated edges) per eye\n"
-    "and distance, the fixed-focus lens's fitted focus and depth of field (blur <= sqrt 2 x the in-focus\n"
-    "blur) with sigma, and on the virtual Owl its truth. Runs the standard `sharpness` protocol (a chessboard\n"
-    "at 0.2-2 m) on the robot, or evaluates a recording (--dataset) or image pairs at known distances\n"
-    "(--images CSV: left,right,distance_cm[,roi_x,roi_y,roi_w,roi_h], e.g.\n"
-    "data/owl-real/kit2020-distance-target1/distances.csv). Writes OUT/tables/sharpness*.{csv,md,tex},\n"
-    "OUT/figures/sharpness.*, OUT/sharpness.json and OUT/report/index.html; failed images are rows with a reason.",
-    [](CLI::App* cmd) {
-      auto o = std::make_shared<SharpnessCmdOptions>();
-      AddRobotOptions(cmd, &o->robot);
-      cmd->add_option("--out", o->out, "output folder")->required();
-      cmd->add_option("--dataset", o->dataset, "evaluate this recorded sharpness dataset (no robot)")
-          ->check(CLI::ExistingDirectory);
-      cmd->add_option("--images", o->images, "evaluate image pairs listed in this CSV (no robot)")
-          ->check(CLI::ExistingFile);
-      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
-      cmd->add_flag("--quiet", o->quiet, "no progress output");
-      return [o] { return RunSharpness(*o); };
-    });
+const bool kSharpnessRegistered = RegisterExperiment(
+    {"sharpness",
+     "Lens sharpness against distance: the edge blur (Gaussian-equivalent sigma of isolated edges) per eye\n"
+     "and distance, the fixed-focus lens's fitted focus and depth of field (blur <= sqrt 2 x the in-focus\n"
+     "blur) with sigma, and on the virtual Owl its truth. Runs the standard `sharpness` protocol (a chessboard\n"
+     "at 0.2-2 m) on the robot, or evaluates a recording (--dataset) or image pairs at known distances\n"
+     "(--images CSV: left,right,distance_cm[,roi_x,roi_y,roi_w,roi_h], e.g.\n"
+     "data/owl-real/kit2020-distance-target1/distances.csv). Writes OUT/tables/sharpness*.{csv,md,tex},\n"
+     "OUT/figures/sharpness.*, OUT/sharpness.json and OUT/report/index.html; failed images are rows with a reason.",
+     "sharpness",
+     "",
+     "evaluate image pairs listed in this CSV (no robot)",
+     RunSharpness});
 
 }  // namespace
 }  // namespace owlcal::apps

@@ -2,49 +2,20 @@
 // protocol on the robot (the virtual Owl by default) and evaluates it, or evaluates a recorded one
 // (--dataset).
 #include <iostream>
-#include <memory>
 
 #include "apps/command_registry.h"
-#include "apps/robot_factory.h"
-#include "apps/robot_options.h"
+#include "apps/experiment_recording.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/tracking_study.h"
-#include "protocols/protocol.h"
-#include "protocols/runner.h"
 
 namespace owlcal::apps {
 namespace {
 
-struct TrackCmdOptions {
-  RobotOptions robot;
-  std::string out;
-  std::string dataset;
-  std::string protocol = "track";
-  bool no_figures = false;
-  bool quiet = false;
-};
-
-int RunTrack(const TrackCmdOptions& o) {
-  std::string dir = o.dataset;
-  if (dir.empty()) {
-    dir = o.out + "/datasets/track";
-    protocols::RunOptions ro;
-    ro.out_dir = dir;
-    o.robot.FillRunOptions(&ro);
-    ro.progress = o.quiet ? nullptr : &std::cout;
-    ro.stop_flag = protocols::InstallStopSignals();
-    std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
-    const protocols::Protocol p = protocols::LoadProtocolFile(protocols::ResolveProtocolPath(o.protocol));
-    const protocols::RunSummary s = protocols::RunProtocols({p}, *robot, ro);
-    if (s.status != "complete") {
-      std::cerr << "owlcal track: " << s.status << ": " << s.message << "\n"
-                << "the dataset in " << dir << " is closed; evaluate what it holds with --dataset " << dir << "\n";
-      return kExitFailed;
-    }
-  }
+int RunTrack(const ExperimentInput& in) {
+  const std::string& dir = in.dataset;
   const pipeline::TrackingStudy study = pipeline::EvaluateTrackingDataset(dir);
-  const std::string page = pipeline::WriteTrackingStudy(study, o.out, !o.no_figures);
+  const std::string page = pipeline::WriteTrackingStudy(study, in.out, in.figures);
   for (const pipeline::TrackerSummary& t : study.summaries) {
     std::cout << t.tracker << ", " << models::kEyeNames[t.eye] << " eye: " << t.num_lost << " of " << t.num_frames
               << " frames lost (" << t.num_lost_in_view << " with the target in view), " << t.num_reacquired
@@ -68,30 +39,23 @@ int RunTrack(const TrackCmdOptions& o) {
   return ok ? kExitOk : kExitFailed;
 }
 
-const bool kTrackRegistered = RegisterCommand(
-    "track",
-    "Salience targets and tracking (course notes: Itti & Koch's salience model, Lucas-Kanade tracking in\n"
-    "Annex 7): a salience map of the right eye (intensity, colour and orientation difference-of-Gaussians\n"
-    "channels) picks the next fixation targets and the right eye fixates each with a Lucas-Kanade tracker;\n"
-    "then the eyes move through a figure of eight and look away while the target is tracked in both eyes by\n"
-    "the fixation locator and by LK (pyramidal calcOpticalFlowPyrLK with a forward-backward check). On the\n"
-    "virtual Owl every tracked pixel is compared with the target's true pixel: error RMS and max, and how\n"
-    "often track is lost (n of N, with reasons); every salience candidate with the scene object it lies on.\n"
-    "Runs the standard `track` protocol (or --protocol FILE) on the robot, or evaluates a recording\n"
-    "(--dataset). Writes OUT/tables/track_*.{csv,md,tex}, salience_candidates, track_frames.csv,\n"
-    "OUT/figures/track_error.*, salience_map.*, OUT/track.json and OUT/report/index.html. Exit 1 when the\n"
-    "tracking run stopped early.",
-    [](CLI::App* cmd) {
-      auto o = std::make_shared<TrackCmdOptions>();
-      AddRobotOptions(cmd, &o->robot);
-      cmd->add_option("--out", o->out, "output folder")->required();
-      cmd->add_option("--dataset", o->dataset, "evaluate this recorded track dataset (no robot)")
-          ->check(CLI::ExistingDirectory);
-      cmd->add_option("--protocol", o->protocol, "protocol name or file (default: the standard track)");
-      cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
-      cmd->add_flag("--quiet", o->quiet, "no progress output");
-      return [o] { return RunTrack(*o); };
-    });
+const bool kTrackRegistered = RegisterExperiment(
+    {"track",
+     "Salience targets and tracking (course notes: Itti & Koch's salience model, Lucas-Kanade tracking in\n"
+     "Annex 7): a salience map of the right eye (intensity, colour and orientation difference-of-Gaussians\n"
+     "channels) picks the next fixation targets and the right eye fixates each with a Lucas-Kanade tracker;\n"
+     "then the eyes move through a figure of eight and look away while the target is tracked in both eyes by\n"
+     "the fixation locator and by LK (pyramidal calcOpticalFlowPyrLK with a forward-backward check). On the\n"
+     "virtual Owl every tracked pixel is compared with the target's true pixel: error RMS and max, and how\n"
+     "often track is lost (n of N, with reasons); every salience candidate with the scene object it lies on.\n"
+     "Runs the standard `track` protocol (or --protocol FILE) on the robot, or evaluates a recording\n"
+     "(--dataset). Writes OUT/tables/track_*.{csv,md,tex}, salience_candidates, track_frames.csv,\n"
+     "OUT/figures/track_error.*, salience_map.*, OUT/track.json and OUT/report/index.html. Exit 1 when the\n"
+     "tracking run stopped early.",
+     "track",
+     "",
+     "",
+     RunTrack});
 
 }  // namespace
 }  // namespace owlcal::apps

@@ -58,7 +58,7 @@ std::optional<std::string> RecordOrUseDataset(const ExperimentRecording& e) {
     const fitting::CalibrationRun run = reports::ReadReportData(e.calib);
     ro.calibration = pipeline::ControllerCalibration(run, e.calib);
     if (!e.quiet) std::cout << "eyes on the calibration in " << ro.calibration->source << "\n";
-  } else if (!e.quiet) {
+  } else if (!e.quiet && !e.nominal_note.empty()) {
     std::cout << "no --calib: " << e.nominal_note << "\n";
   }
   std::unique_ptr<robot::RobotInterface> robot = MakeRobot(e.robot.robot, e.robot.Factory());
@@ -74,6 +74,58 @@ std::optional<std::string> RecordOrUseDataset(const ExperimentRecording& e) {
     return std::nullopt;
   }
   return dir;
+}
+
+namespace {
+
+struct ExperimentOptions {
+  RobotOptions robot;
+  std::string out, dataset, calib, images, protocol, tracker;
+  bool no_figures = false;
+  bool quiet = false;
+};
+
+int RunExperiment(const ExperimentCommand& c, const ExperimentOptions& o) {
+  ExperimentInput in;
+  in.out = o.out;
+  in.figures = !o.no_figures;
+  if (!o.images.empty()) {
+    if (!o.dataset.empty()) throw UsageError("give --dataset or --images, not both");
+    in.images = o.images;
+    return c.evaluate(in);
+  }
+  const std::string dataset_name = c.protocol;  // OUT/datasets/<standard protocol>, whatever --protocol says
+  const std::optional<std::string> recorded = RecordOrUseDataset(
+      {c.name, o.protocol, dataset_name, c.nominal_note, o.robot, o.out, o.dataset, o.calib, o.quiet, o.tracker});
+  if (!recorded) return kExitFailed;
+  in.dataset = *recorded;
+  return c.evaluate(in);
+}
+
+}  // namespace
+
+bool RegisterExperiment(ExperimentCommand c) {
+  const auto command = std::make_shared<const ExperimentCommand>(std::move(c));
+  return RegisterCommand(command->name, command->help, [command](CLI::App* cmd) {
+    auto o = std::make_shared<ExperimentOptions>();
+    o->protocol = command->protocol;
+    AddRobotOptions(cmd, &o->robot);
+    cmd->add_option("--out", o->out, "output folder")->required();
+    cmd->add_option("--dataset", o->dataset, "evaluate this recorded " + command->name + " dataset (no robot)")
+        ->check(CLI::ExistingDirectory);
+    if (!command->images_help.empty())
+      cmd->add_option("--images", o->images, command->images_help)->check(CLI::ExistingFile);
+    else
+      cmd->add_option(
+          "--protocol", o->protocol, "protocol name or file (default: the standard " + command->protocol + ")");
+    if (!command->nominal_note.empty())
+      cmd->add_option("--calib", o->calib, "calibrate output folder whose fitted head the eyes use")
+          ->check(CLI::ExistingDirectory);
+    cmd->add_flag("--no-figures", o->no_figures, "write figure data and scripts without running gnuplot");
+    cmd->add_flag("--quiet", o->quiet, "no progress output");
+    if (!command->nominal_note.empty()) AddTrackerOption(cmd, &o->tracker);
+    return [command, o] { return RunExperiment(*command, *o); };
+  });
 }
 
 }  // namespace owlcal::apps
