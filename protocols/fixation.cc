@@ -159,173 +159,230 @@ Eigen::Vector2d OffsetToPulseError(const Eigen::Vector2d& offset_px,
                          tilt.direction * tilt_deg / tilt.nominal_deg_per_us);
 }
 
-FixationResult RunFixation(const FixationOptions& o,
-                           const models::RobotConfig& robot,
-                           TargetLocator& locator,
-                           const FixationIo& io) {
-  FixationResult r;
-  std::string why;
-  if (!o.Check(&why)) {
-    r.message = why;
-    return r;
+namespace {
+
+// The target seen in one frame: the sample, whether every controlled eye found it, and each
+// eye's largest controlled offset [px].
+struct FixationLook {
+  FixationSample sample;
+  bool all_found = true;
+  double eye_err[2] = {0, 0};
+};
+
+// The loop of RunFixation, one stage per method; its state is what carries from frame to frame:
+// the command as a real number, the command sent, the error trackers per eye and axis, and the
+// counters of lost, still and waiting frames.
+class FixationLoop {
+ public:
+  using Outcome = FixationResult::Outcome;
+
+  FixationLoop(const FixationOptions& o, const models::RobotConfig& robot, TargetLocator& locator, const FixationIo& io)
+      : o_(o), robot_(robot), locator_(locator), io_(io), sent_(io.command()) {
+    for (int i = 0; i < models::kNumServos; ++i) state_[i] = sent_[i];
   }
-  const models::PwmVector start = io.command();
-  std::array<double, models::kNumServos> state;
-  for (int i = 0; i < models::kNumServos; ++i) state[i] = start[i];
-  models::PwmVector sent = start;
-  PeakTracker peaks[2][2];
-  CrossingTracker crossings[2][2];
-  double initial_err[2] = {-1, -1};
-  int lost = 0, still = 0, wait = 0;
-  std::array<int, models::kNumServos> last_dir{};  // sign of each servo's last command change
-  for (int k = 0; k < o.max_iterations; ++k) {
-    const robot::StereoFrame frame = io.grab();
-    if (k == 0 && !locator.Prepare(frame, &why)) {
-      r.outcome = FixationResult::Outcome::kNotStarted;
-      r.message = why;
-      r.final_pwm_us = sent;
-      return r;
+
+  FixationResult Run() {
+    std::string why;
+    for (int k = 0; k < o_.max_iterations; ++k) {
+      const robot::StereoFrame frame = io_.grab();
+      if (k == 0 && !locator_.Prepare(frame, &why)) return Stop(Outcome::kNotStarted, why);
+      const FixationLook look = Observe(frame, k);
+      if (!look.all_found) {
+        if (++lost_ >= o_.lost_frames) return Stop(Outcome::kLost, LostMessage(look.sample));
+        continue;
+      }
+      lost_ = 0;
+      if (const auto diverged = Divergence(look)) return Stop(Outcome::kDiverged, *diverged);
+      if (wait_ > 0) {
+        --wait_;
+        continue;
+      }
+      const models::PwmVector next = ProportionalUpdate(look.sample);
+      if (const auto limit = LimitStop(next)) return Stop(Outcome::kLimit, *limit);
+      const bool unchanged = next == sent_;
+      if (unchanged && WithinDeadZones(look.sample)) {
+        if (++still_ >= o_.still_frames && o_.stop_when_converged) return Converge(k + 1);
+      } else {
+        still_ = 0;
+      }
+      if (!unchanged) Send(next);
     }
-    FixationSample s;
+    r_.final_pwm_us = sent_;
+    r_.outcome = still_ >= o_.still_frames ? Outcome::kConverged : Outcome::kMaxIterations;
+    r_.message = r_.outcome == Outcome::kConverged
+                     ? "converged (ran all frames)"
+                     : "not converged in " + std::to_string(o_.max_iterations) + " frames";
+    return r_;
+  }
+
+ private:
+  // Axis a (0 pan, 1 tilt) is under control.
+  bool Controlled(int a) const { return a == 0 ? o_.pan : o_.tilt; }
+
+  FixationResult Stop(Outcome outcome, const std::string& message) {
+    r_.outcome = outcome;
+    r_.message = message;
+    r_.final_pwm_us = sent_;
+    return r_;
+  }
+
+  // Locates the target in each controlled eye of frame k and feeds the offsets to the result
+  // and the trackers.
+  FixationLook Observe(const robot::StereoFrame& frame, int k) {
+    FixationLook look;
+    FixationSample& s = look.sample;
     s.k = k;
     s.stamp_ns = frame.stamp_ns;
-    s.pwm_us = sent;
-    bool all_found = true;
-    double eye_err[2] = {0, 0};
+    s.pwm_us = sent_;
     for (int e = 0; e < 2; ++e) {
-      if (!o.eyes[e]) continue;
+      if (!o_.eyes[e]) continue;
       const cv::Mat img = e == models::kLeftEye ? frame.left : frame.right;
-      const auto p = locator.Locate(img, e);
+      const auto p = locator_.Locate(img, e);
       if (!p) {
-        all_found = false;
+        look.all_found = false;
         continue;
       }
       s.found[e] = true;
       s.offset_px[e] = *p - Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
-      s.radius_px[e] = locator.LastRadiusPx(e);
-      r.found[e] = true;
-      r.residual_px[e] = s.offset_px[e];
-      r.radius_px[e] = s.radius_px[e];
+      s.radius_px[e] = locator_.LastRadiusPx(e);
+      r_.found[e] = true;
+      r_.residual_px[e] = s.offset_px[e];
+      r_.radius_px[e] = s.radius_px[e];
       const double err =
-          std::max(o.pan ? std::abs(s.offset_px[e].x()) : 0.0, o.tilt ? std::abs(s.offset_px[e].y()) : 0.0);
-      eye_err[e] = err;
-      if (initial_err[e] < 0) initial_err[e] = err;
-      peaks[e][0].Add(s.offset_px[e].x(), o.tolerance_px);
-      peaks[e][1].Add(s.offset_px[e].y(), o.tolerance_px);
-      for (int a = 0; a < 2; ++a) crossings[e][a].Add(s.offset_px[e][a], std::max(3 * o.tolerance_px, 16.0));
+          std::max(o_.pan ? std::abs(s.offset_px[e].x()) : 0.0, o_.tilt ? std::abs(s.offset_px[e].y()) : 0.0);
+      look.eye_err[e] = err;
+      if (initial_err_[e] < 0) initial_err_[e] = err;
+      peaks_[e][0].Add(s.offset_px[e].x(), o_.tolerance_px);
+      peaks_[e][1].Add(s.offset_px[e].y(), o_.tolerance_px);
+      for (int a = 0; a < 2; ++a) crossings_[e][a].Add(s.offset_px[e][a], std::max(3 * o_.tolerance_px, 16.0));
     }
-    r.trace.push_back(s);
-    r.iterations = k + 1;
-    if (!all_found) {
-      if (++lost >= o.lost_frames) {
-        r.outcome = FixationResult::Outcome::kLost;
-        r.message = "target not found in " + std::to_string(lost) + " consecutive frames";
-        // The locator's own reason (an LK track says why it was lost).
-        for (int e = 0; e < 2; ++e)
-          if (o.eyes[e] && !s.found[e])
-            if (const std::string why_lost = locator.LastReason(e); !why_lost.empty())
-              r.message += std::string(" (") + models::kEyeNames[e] + " eye: " + why_lost + ")";
-        r.final_pwm_us = sent;
-        return r;
-      }
-      continue;
-    }
-    lost = 0;
-    // Divergence: growing oscillation or error far beyond its start.
+    r_.trace.push_back(s);
+    r_.iterations = k + 1;
+    return look;
+  }
+
+  // Why the target counts as lost, with the locator's own reason (an LK track says why).
+  std::string LostMessage(const FixationSample& s) const {
+    std::string message = "target not found in " + std::to_string(lost_) + " consecutive frames";
+    for (int e = 0; e < 2; ++e)
+      if (o_.eyes[e] && !s.found[e])
+        if (const std::string why_lost = locator_.LastReason(e); !why_lost.empty())
+          message += std::string(" (") + models::kEyeNames[e] + " eye: " + why_lost + ")";
+    return message;
+  }
+
+  // Divergence: a growing oscillation or an error far beyond its start; nullopt when neither.
+  std::optional<std::string> Divergence(const FixationLook& look) const {
     for (int e = 0; e < 2; ++e) {
-      if (!o.eyes[e]) continue;
+      if (!o_.eyes[e]) continue;
       for (int a = 0; a < 2; ++a) {
-        if ((a == 0 && !o.pan) || (a == 1 && !o.tilt)) continue;
-        if (peaks[e][a].Growing(3 * o.tolerance_px)) {
-          r.outcome = FixationResult::Outcome::kDiverged;
-          r.message = std::string(models::kEyeNames[e]) + (a == 0 ? " pan" : " tilt") +
-                      ": oscillation does not decay (half-cycle peaks " +
-                      std::to_string(peaks[e][a].peaks[peaks[e][a].peaks.size() - 2]) + " -> " +
-                      std::to_string(peaks[e][a].peaks.back()) + " px) at gain " + std::to_string(o.gain);
-          r.final_pwm_us = sent;
-          return r;
-        }
+        if (!Controlled(a) || !peaks_[e][a].Growing(3 * o_.tolerance_px)) continue;
+        const std::vector<double>& p = peaks_[e][a].peaks;
+        return std::string(models::kEyeNames[e]) + (a == 0 ? " pan" : " tilt") +
+               ": oscillation does not decay (half-cycle peaks " + std::to_string(p[p.size() - 2]) + " -> " +
+               std::to_string(p.back()) + " px) at gain " + std::to_string(o_.gain);
       }
-      if (initial_err[e] >= 0 && eye_err[e] > 2 * std::max(initial_err[e], 10.0)) {
-        r.outcome = FixationResult::Outcome::kDiverged;
-        r.message = std::string(models::kEyeNames[e]) + " error grew to " + std::to_string(eye_err[e]) + " px from " +
-                    std::to_string(initial_err[e]) + " px at gain " + std::to_string(o.gain);
-        r.final_pwm_us = sent;
-        return r;
-      }
+      if (initial_err_[e] >= 0 && look.eye_err[e] > 2 * std::max(initial_err_[e], 10.0))
+        return std::string(models::kEyeNames[e]) + " error grew to " + std::to_string(look.eye_err[e]) + " px from " +
+               std::to_string(initial_err_[e]) + " px at gain " + std::to_string(o_.gain);
     }
-    if (wait > 0) {
-      --wait;
-      continue;
-    }
-    // Proportional update.
-    models::PwmVector next = sent;
+    return std::nullopt;
+  }
+
+  // The proportional update of every controlled axis outside its dead zone: an axis already
+  // within the tolerance is left alone (with backlash an integrating loop would otherwise chase
+  // it in a limit cycle), widened to what the servo can resolve once the target was seen to
+  // jump across the centre.
+  models::PwmVector ProportionalUpdate(const FixationSample& s) {
+    models::PwmVector next = sent_;
     for (int e = 0; e < 2; ++e) {
-      if (!o.eyes[e]) continue;
-      const Eigen::Vector2d err_us = OffsetToPulseError(s.offset_px[e], e, robot, o.focal_px);
+      if (!o_.eyes[e]) continue;
+      const Eigen::Vector2d err_us = OffsetToPulseError(s.offset_px[e], e, robot_, o_.focal_px);
       const int servos[2] = {models::kPanServo[e], models::kTiltServo[e]};
       for (int a = 0; a < 2; ++a) {
-        if ((a == 0 && !o.pan) || (a == 1 && !o.tilt)) continue;
-        // Dead zone: an axis already within the tolerance is left alone (with backlash an
-        // integrating loop would otherwise chase it in a limit cycle); widened to what the
-        // servo can resolve once the target was seen to jump across the centre.
-        if (std::abs(s.offset_px[e][a]) <= crossings[e][a].DeadZone(o.tolerance_px)) continue;
-        const double step = std::clamp(o.gain * err_us[a], -double(o.max_step_us), double(o.max_step_us));
-        state[servos[a]] += step;
-        next[servos[a]] = static_cast<int>(std::lround(state[servos[a]]));
+        if (!Controlled(a)) continue;
+        if (std::abs(s.offset_px[e][a]) <= crossings_[e][a].DeadZone(o_.tolerance_px)) continue;
+        const double step = std::clamp(o_.gain * err_us[a], -double(o_.max_step_us), double(o_.max_step_us));
+        state_[servos[a]] += step;
+        next[servos[a]] = static_cast<int>(std::lround(state_[servos[a]]));
       }
     }
-    // Heading for a limit: stop before sending.
+    return next;
+  }
+
+  // Heading for a limit: why the loop stops before sending next; nullopt when it need not.
+  std::optional<std::string> LimitStop(const models::PwmVector& next) const {
     for (int i = 0; i < models::kNumServos; ++i) {
-      if (next[i] == sent[i]) continue;
-      const models::ServoConfig& c = robot.servos[i];
-      if (next[i] < c.min_us + o.limit_margin_us || next[i] > c.max_us - o.limit_margin_us) {
-        r.outcome = FixationResult::Outcome::kLimit;
-        r.message = std::string(models::kServoNames[i]) + " would go to " + std::to_string(next[i]) + " us, within " +
-                    std::to_string(o.limit_margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
-                    std::to_string(c.max_us) + "]: stopped before sending";
-        r.final_pwm_us = sent;
-        return r;
-      }
+      if (next[i] == sent_[i]) continue;
+      const models::ServoConfig& c = robot_.servos[i];
+      if (next[i] < c.min_us + o_.limit_margin_us || next[i] > c.max_us - o_.limit_margin_us)
+        return std::string(models::kServoNames[i]) + " would go to " + std::to_string(next[i]) + " us, within " +
+               std::to_string(o_.limit_margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
+               std::to_string(c.max_us) + "]: stopped before sending";
     }
-    const bool unchanged = next == sent;
+    return std::nullopt;
+  }
+
+  bool WithinDeadZones(const FixationSample& s) const {
     bool within = true;
     for (int e = 0; e < 2; ++e)
       for (int a = 0; a < 2; ++a)
-        if (o.eyes[e] && ((a == 0 && o.pan) || (a == 1 && o.tilt)))
-          within &= std::abs(s.offset_px[e][a]) <= crossings[e][a].DeadZone(o.tolerance_px);
-    if (unchanged && within) {
-      if (++still >= o.still_frames && o.stop_when_converged) {
-        r.outcome = FixationResult::Outcome::kConverged;
-        r.message = "converged in " + std::to_string(k + 1) + " frames";
-        for (int e = 0; e < 2; ++e)
-          for (int a = 0; a < 2; ++a)
-            if (crossings[e][a].DeadZone(o.tolerance_px) > o.tolerance_px)
-              r.message += std::string(", ") + models::kEyeNames[e] + (a == 0 ? " pan" : " tilt") + " within " +
-                           std::to_string(crossings[e][a].DeadZone(o.tolerance_px)).substr(0, 4) +
-                           " px (the target jumps across the centre by " +
-                           std::to_string(crossings[e][a].min_jump).substr(0, 4) + " px: PWM step or dead band)";
-        r.final_pwm_us = sent;
-        if (o.seat_grid_us > 0) SeatCommand(o, robot, locator, io, last_dir, &r);
-        return r;
-      }
-    } else {
-      still = 0;
-    }
-    if (!unchanged) {
-      for (int i = 0; i < models::kNumServos; ++i)
-        if (next[i] != sent[i]) last_dir[i] = next[i] > sent[i] ? 1 : -1;
-      io.send(next);
-      sent = io.command();
-      wait = o.latency_frames;
-    }
+        if (o_.eyes[e] && Controlled(a))
+          within &= std::abs(s.offset_px[e][a]) <= crossings_[e][a].DeadZone(o_.tolerance_px);
+    return within;
   }
-  r.final_pwm_us = sent;
-  r.outcome = still >= o.still_frames ? FixationResult::Outcome::kConverged : FixationResult::Outcome::kMaxIterations;
-  r.message = r.outcome == FixationResult::Outcome::kConverged
-                  ? "converged (ran all frames)"
-                  : "not converged in " + std::to_string(o.max_iterations) + " frames";
-  return r;
+
+  // Converged after `frames` frames: the message names every axis whose dead zone a limit cycle
+  // widened; the command is then seated (FixationOptions seat_*).
+  FixationResult Converge(int frames) {
+    std::string message = "converged in " + std::to_string(frames) + " frames";
+    for (int e = 0; e < 2; ++e)
+      for (int a = 0; a < 2; ++a)
+        if (crossings_[e][a].DeadZone(o_.tolerance_px) > o_.tolerance_px)
+          message += std::string(", ") + models::kEyeNames[e] + (a == 0 ? " pan" : " tilt") + " within " +
+                     std::to_string(crossings_[e][a].DeadZone(o_.tolerance_px)).substr(0, 4) +
+                     " px (the target jumps across the centre by " +
+                     std::to_string(crossings_[e][a].min_jump).substr(0, 4) + " px: PWM step or dead band)";
+    Stop(Outcome::kConverged, message);
+    if (o_.seat_grid_us > 0) SeatCommand(o_, robot_, locator_, io_, last_dir_, &r_);
+    return r_;
+  }
+
+  void Send(const models::PwmVector& next) {
+    for (int i = 0; i < models::kNumServos; ++i)
+      if (next[i] != sent_[i]) last_dir_[i] = next[i] > sent_[i] ? 1 : -1;
+    io_.send(next);
+    sent_ = io_.command();
+    wait_ = o_.latency_frames;
+  }
+
+  const FixationOptions& o_;
+  const models::RobotConfig& robot_;
+  TargetLocator& locator_;
+  const FixationIo& io_;
+  FixationResult r_;
+  models::PwmVector sent_;
+  std::array<double, models::kNumServos> state_;  // the command as a real number [us]
+  PeakTracker peaks_[2][2];
+  CrossingTracker crossings_[2][2];
+  double initial_err_[2] = {-1, -1};
+  int lost_ = 0, still_ = 0, wait_ = 0;
+  std::array<int, models::kNumServos> last_dir_{};  // sign of each servo's last command change
+};
+
+}  // namespace
+
+FixationResult RunFixation(const FixationOptions& o,
+                           const models::RobotConfig& robot,
+                           TargetLocator& locator,
+                           const FixationIo& io) {
+  std::string why;
+  if (!o.Check(&why)) {
+    FixationResult r;
+    r.message = why;
+    return r;
+  }
+  return FixationLoop(o, robot, locator, io).Run();
 }
 
 }  // namespace owlcal::protocols
