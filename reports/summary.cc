@@ -116,6 +116,22 @@ void AddBringUp(const ReportData& d, Summary* out) {
   }
 }
 
+// The person's work (pipeline/calibrate_work.h): placements and robot time, counted from the
+// datasets, beside what the protocols planned.
+void AddPersonWork(const ReportData& d, Summary* out) {
+  const nlohmann::json& diag = d.result.diagnostics;
+  if (!diag.contains("person_work") || !diag["person_work"].contains("counted_total")) return;
+  const nlohmann::json& c = diag["person_work"]["counted_total"];
+  const nlohmann::json p = diag["person_work"].value("planned_total", nlohmann::json::object());
+  out->headlines.push_back(
+      {"the person's work: target placements; the robot's time",
+       std::to_string(c.value("placements", 0)) + " placements; " + Fmt(c.value("robot_time_s", 0.0) / 60, 3) + " min",
+       "",
+       "counted from the datasets (planned: " + std::to_string(p.value("placements", 0)) + " placements, " +
+           Fmt(p.value("robot_time_s", 0.0) / 60, 3) + " min of open-loop steps + " +
+           std::to_string(p.value("closed_loop_steps", 0)) + " closed-loop steps); per protocol: table person_work"});
+}
+
 // What the verdict found that the next steps depend on.
 struct SummaryVerdict {
   int undetermined = 0;  // parameters not determined (gauges excepted)
@@ -280,6 +296,7 @@ Summary MakeSummary(const ReportData& d) {
   Summary s;
   AddHeadlines(d, &s);
   AddBringUp(d, &s);
+  AddPersonWork(d, &s);
   const SummaryVerdict verdict = JudgeSummary(d, &s);
   AddNextSteps(d, verdict, &s);
   return s;
