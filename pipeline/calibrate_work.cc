@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 
 #include "pipeline/calibrate_pipeline.h"
 #include "protocols/dataset.h"
@@ -45,28 +46,42 @@ std::vector<protocols::ProtocolWork> PlanCalibrateWork(const std::vector<protoco
 
 nlohmann::json CalibrateWorkJson(const std::map<std::string, std::string>& datasets,
                                  std::vector<protocols::ProtocolWork>* counted_out) {
+  // A dataset that cannot be counted (no protocol text, unreadable tables) is a row with its
+  // reason, never a failed run.
+  nlohmann::json not_counted = nlohmann::json::array();
   std::vector<std::pair<int64_t, std::string>> order;
-  for (const auto& [name, dir] : datasets) order.emplace_back(FirstStepNs(dir), dir);
+  for (const auto& [name, dir] : datasets) {
+    try {
+      order.emplace_back(FirstStepNs(dir), dir);
+    } catch (const std::exception& e) {
+      not_counted.push_back({{"dataset", dir}, {"status", "not counted"}, {"reason", e.what()}});
+    }
+  }
   std::sort(order.begin(), order.end());
   protocols::SceneState planned_scene, counted_scene;
   std::vector<protocols::ProtocolWork> planned, counted;
   for (const auto& [first_ns, dir] : order) {
-    const nlohmann::json m = protocols::ReadManifest(dir);
-    const models::RobotConfig config = RobotConfigFromManifest(m, dir + "/manifest.json");
-    std::vector<protocols::ProtocolWork> parts;
-    std::string name;
-    for (const auto& entry : m.value("protocols", nlohmann::json::array())) {
-      if (!entry.contains("text") || !entry["text"].is_string()) continue;
-      parts.push_back(
-          protocols::PlanWork(protocols::ParseProtocolYaml(entry["text"].get<std::string>(), dir + "/manifest.json"),
-                              config,
-                              &planned_scene));
-      name += (name.empty() ? "" : "+") + parts.back().protocol;
+    try {
+      const nlohmann::json m = protocols::ReadManifest(dir);
+      const models::RobotConfig config = RobotConfigFromManifest(m, dir + "/manifest.json");
+      std::vector<protocols::ProtocolWork> parts;
+      std::string name;
+      for (const auto& entry : m.value("protocols", nlohmann::json::array())) {
+        if (!entry.contains("text") || !entry["text"].is_string()) continue;
+        parts.push_back(
+            protocols::PlanWork(protocols::ParseProtocolYaml(entry["text"].get<std::string>(), dir + "/manifest.json"),
+                                config,
+                                &planned_scene));
+        name += (name.empty() ? "" : "+") + parts.back().protocol;
+      }
+      const protocols::ProtocolWork done = protocols::CountWork(dir, &counted_scene);
+      protocols::ProtocolWork plan = protocols::TotalWork(parts);
+      plan.protocol = name;
+      planned.push_back(plan);
+      counted.push_back(done);
+    } catch (const std::exception& e) {
+      not_counted.push_back({{"dataset", dir}, {"status", "not counted"}, {"reason", e.what()}});
     }
-    protocols::ProtocolWork plan = protocols::TotalWork(parts);
-    plan.protocol = name;
-    planned.push_back(plan);
-    counted.push_back(protocols::CountWork(dir, &counted_scene));
   }
   nlohmann::json j = {{"planned", nlohmann::json::array()},
                       {"counted", nlohmann::json::array()},
@@ -79,6 +94,7 @@ nlohmann::json CalibrateWorkJson(const std::map<std::string, std::string>& datas
                        "decide)"}};
   for (const auto& w : planned) j["planned"].push_back(protocols::WorkJson(w));
   for (const auto& w : counted) j["counted"].push_back(protocols::WorkJson(w));
+  j["not_counted"] = not_counted;
   if (counted_out) *counted_out = counted;
   return j;
 }

@@ -34,9 +34,10 @@ std::vector<protocols::ProtocolWork> PlanCalibrateWork(const std::vector<protoco
 // diagnostics.person_work of a calibrate run's datasets (protocol name -> folder), in the order
 // they were recorded (the robot clock of each one's first step): {"planned": [rows], "counted":
 // [rows], "planned_total", "counted_total", "note"}, rows of protocols::WorkJson. "planned" is
-// planned on each dataset's own recorded configuration and protocol texts. Throws
-// std::runtime_error naming the file when a dataset cannot be read. *counted (when given): the
-// counted rows.
+// planned on each dataset's own recorded configuration and protocol texts. A dataset that cannot
+// be read (no protocol text, an unreadable table) is a row of "not_counted" with the reason,
+// {"dataset", "status": "not counted", "reason"}, and left out of the rest. *counted (when
+// given): the counted rows.
 nlohmann::json CalibrateWorkJson(const std::map<std::string, std::string>& datasets,
                                  std::vector<protocols::ProtocolWork>* counted = nullptr);
 

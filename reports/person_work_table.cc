@@ -38,6 +38,16 @@ void AppendPersonWorkTable(const ReportData& d, std::vector<Table>* out) {
   };
   const nlohmann::json& counted = pw["counted"];
   for (size_t i = 0; i < counted.size(); ++i) row(counted[i], i < planned.size() ? planned[i] : nlohmann::json());
+  for (const auto& n : pw.value("not_counted", nlohmann::json::array()))
+    t.rows.push_back({n.value("dataset", std::string()),
+                      n.value("status", std::string()) + ": " + n.value("reason", std::string()),
+                      "",
+                      "",
+                      "",
+                      "",
+                      "",
+                      "",
+                      ""});
   if (pw.contains("counted_total")) row(pw["counted_total"], pw.value("planned_total", nlohmann::json()));
   out->push_back(t);
 }
