@@ -7,6 +7,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "pipeline/calibrate_work.h"
 #include "pipeline/saccade_study.h"
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
@@ -19,12 +20,6 @@ namespace owlcal::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-
-bool UsesCalibration(const protocols::Protocol& p) {
-  return std::any_of(p.steps.begin(), p.steps.end(), [](const protocols::Step& st) {
-    return st.kind() == protocols::StepKind::kSaccade;
-  });
-}
 
 // Records one protocol into `dir`; its summary goes into *runs and a run that did not complete
 // into *warnings. A user's stop throws.
@@ -140,7 +135,7 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
     const std::string& name = names[i];
     const protocols::Protocol& p = loaded[i];
     const std::string dir = o.out + "/datasets/" + fs::path(name).stem().string();
-    if (UsesCalibration(p)) {
+    if (RunsAfterFit(p)) {
       after_fit.emplace_back(p, dir);
       continue;
     }
@@ -171,6 +166,12 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
     datasets[p.name] = dir;
   }
   FinishCalibration(datasets, fit, &run);
+  std::vector<protocols::ProtocolWork> work;
+  run.result.diagnostics["person_work"] = CalibrateWorkJson(datasets, &work);
+  if (o.progress) {
+    o.progress("the person's work and the robot's time, counted from the datasets:");
+    for (const std::string& line : protocols::WorkLines(work, false)) o.progress(line);
+  }
   run.result.warnings.insert(run.result.warnings.begin(), warnings.begin(), warnings.end());
   run.settings = o.settings;
   run.settings["runs"] = runs;
@@ -259,7 +260,9 @@ fitting::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOpt
   std::string why;
   if (!fit.Check(&why)) throw std::invalid_argument("fit options: " + why);
   if (o.progress) o.progress("robot: " + fit.config.name + (truth ? " (virtual Owl, truth from the manifest)" : ""));
-  return CalibrateFromDatasets(datasets, fit);
+  fitting::CalibrationRun run = CalibrateFromDatasets(datasets, fit);
+  run.result.diagnostics["person_work"] = CalibrateWorkJson(datasets);
+  return run;
 }
 
 }  // namespace owlcal::pipeline

@@ -164,6 +164,7 @@ std::vector<Table> MakeTables(const ReportData& d) {
   internal::AppendSaccadeTable(d, &out);
   internal::AppendGainStudyTable(d, &out);
   internal::AppendLimitsTable(d, &out);
+  internal::AppendPersonWorkTable(d, &out);
   return out;
 }
 

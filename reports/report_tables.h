@@ -39,6 +39,8 @@ void AppendSettlingTable(const ReportData& d, std::vector<Table>* out);
 void AppendSaccadeTable(const ReportData& d, std::vector<Table>* out);
 // gain_study: the incremental P loop's gain limits (model).
 void AppendGainStudyTable(const ReportData& d, std::vector<Table>* out);
+// person_work: the placements and the robot's time per protocol (reports/person_work_table.cc).
+void AppendPersonWorkTable(const ReportData& d, std::vector<Table>* out);
 // limits: servo limits, configured against measured.
 void AppendLimitsTable(const ReportData& d, std::vector<Table>* out);
 

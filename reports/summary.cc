@@ -22,6 +22,25 @@ std::string PlusMinus(const fitting::Parameter& p) {
 
 using models::Median;
 
+}  // namespace
+
+std::optional<fitting::ValidIntrinsicsRegion> ValidRegion(const ReportData& d, int e) {
+  const fitting::CalibrationResult& r = d.result;
+  std::vector<fitting::CornerResidual> res;
+  double s2 = 0;
+  for (const auto& p : d.residuals)
+    if (p.eye == e) {
+      res.push_back({p.x, p.y, p.dx, p.dy});
+      s2 += p.dx * p.dx + p.dy * p.dy;
+    }
+  const models::CameraIntrinsics* cam = r.cameras[e] ? &*r.cameras[e] : (r.head ? &r.head->intrinsics[e] : nullptr);
+  if (!cam || res.empty()) return std::nullopt;
+  return fitting::ComputeValidIntrinsicsRegion(
+      *cam, fitting::IntrinsicsCovariance(r, e), res, std::sqrt(s2 / (2.0 * res.size())));
+}
+
+namespace {
+
 // Headline numbers: reprojection RMS, focal lengths, principal points, baseline, IPD, servo
 // scales, ranging, the fastest stable gain, the truth comparison.
 void AddHeadlines(const ReportData& d, Summary* out) {
@@ -42,6 +61,16 @@ void AddHeadlines(const ReportData& d, Summary* out) {
   for (const char* eye : {"left", "right"}) {
     add(std::string(eye) + " focal length fx", std::string(eye) + ".fx");
     add(std::string(eye) + " principal point cx", std::string(eye) + ".cx");
+  }
+  // Where each lens model is trusted (mrcal's valid-intrinsics region); a set verdict states its own.
+  if (!(r.verdict.is_object() && r.verdict.contains("metrics"))) {
+    const auto left = ValidRegion(d, 0), right = ValidRegion(d, 1);
+    if (left && right)
+      s.headlines.push_back({"lens model trusted over, left / right (valid-intrinsics region)",
+                             Fmt(100 * left->valid_fraction, 3) + " / " + Fmt(100 * right->valid_fraction, 3),
+                             "% of the image",
+                             "projection uncertainty below the corner noise, and the residuals unbiased, where "
+                             "corners were seen"});
   }
   add("stereo baseline", "stereo.baseline_mm");
   add("inter-pupillary distance (head fit)", "head.ipd_mm");
@@ -114,6 +143,22 @@ void AddBringUp(const ReportData& d, Summary* out) {
           "centres, scales and IPD) with yours: the run used " +
           std::to_string(n) + " differences it measured (they lead the warnings).");
   }
+}
+
+// The person's work (pipeline/calibrate_work.h): placements and robot time, counted from the
+// datasets, beside what the protocols planned.
+void AddPersonWork(const ReportData& d, Summary* out) {
+  const nlohmann::json& diag = d.result.diagnostics;
+  if (!diag.contains("person_work") || !diag["person_work"].contains("counted_total")) return;
+  const nlohmann::json& c = diag["person_work"]["counted_total"];
+  const nlohmann::json p = diag["person_work"].value("planned_total", nlohmann::json::object());
+  out->headlines.push_back(
+      {"the person's work: target placements; the robot's time",
+       std::to_string(c.value("placements", 0)) + " placements; " + Fmt(c.value("robot_time_s", 0.0) / 60, 3) + " min",
+       "",
+       "counted from the datasets (planned: " + std::to_string(p.value("placements", 0)) + " placements, " +
+           Fmt(p.value("robot_time_s", 0.0) / 60, 3) + " min of open-loop steps + " +
+           std::to_string(p.value("closed_loop_steps", 0)) + " closed-loop steps); per protocol: table person_work"});
 }
 
 // What the verdict found that the next steps depend on.
@@ -212,14 +257,6 @@ void AddNextSteps(const ReportData& d, const SummaryVerdict& verdict, Summary* o
         " undetermined parameters (listed in the Discussion): boards tilted by 30\u201345\u00b0, near "
         "the image corners and at several distances.");
   for (int e = 0; e < 2; ++e) {
-    std::vector<fitting::CornerResidual> res;
-    double s2 = 0;
-    for (const auto& p : d.residuals)
-      if (p.eye == e) {
-        res.push_back({p.x, p.y, p.dx, p.dy});
-        s2 += p.dx * p.dx + p.dy * p.dy;
-      }
-    const models::CameraIntrinsics* cam = r.cameras[e] ? &*r.cameras[e] : (r.head ? &r.head->intrinsics[e] : nullptr);
     // With a set verdict, its trusted region is the one figure (fitting/set_verdict.h): the same
     // numbers the verdict judged, so the summary never contradicts it.
     const nlohmann::json* tr = nullptr;
@@ -245,12 +282,10 @@ void AddNextSteps(const ReportData& d, const SummaryVerdict& verdict, Summary* o
             "board reaches them.");
       continue;
     }
-    if (!cam || res.empty()) continue;
-    const auto v = fitting::ComputeValidIntrinsicsRegion(
-        *cam, fitting::IntrinsicsCovariance(r, e), res, std::sqrt(s2 / (2.0 * res.size())));
-    if (v.valid_fraction < 0.6)
+    const std::optional<fitting::ValidIntrinsicsRegion> v = ValidRegion(d, e);
+    if (v && v->valid_fraction < 0.6)
       s.next_steps.push_back(std::string("The ") + models::kEyeNames[e] + " model is trusted over " +
-                             Fmt(100 * v.valid_fraction, 2) +
+                             Fmt(100 * v->valid_fraction, 2) +
                              " % of the image only (valid-intrinsics region): add "
                              "views whose board reaches the edges and corners.");
   }
@@ -280,6 +315,7 @@ Summary MakeSummary(const ReportData& d) {
   Summary s;
   AddHeadlines(d, &s);
   AddBringUp(d, &s);
+  AddPersonWork(d, &s);
   const SummaryVerdict verdict = JudgeSummary(d, &s);
   AddNextSteps(d, verdict, &s);
   return s;

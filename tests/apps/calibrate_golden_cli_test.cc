@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -41,16 +42,32 @@ nlohmann::json Digest(const fs::path& cal) {
   return {{"parameters", params}, {"ranging", ranging}, {"warnings", r.at("warnings")}};
 }
 
-TEST(CalibrateGolden, AFixedSeedRunGivesTheRecordedParameters) {
-  ASSERT_FALSE(test_cli::OwlcalBinary().empty()) << "the owlcal binary is not built";
-  const fs::path root = fs::temp_directory_path() / ("owlcal_golden_" + std::to_string(::getpid()));
-  fs::remove_all(root);
-  const auto cal = RunOwlcal("calibrate --quiet --no-figures --seed 3 --protocols stereo '" + kProtocols +
-                             "servo_sweep_small.yaml' '" + kProtocols + "vergence_short.yaml' --out '" +
-                             (root / "cal").string() + "'");
-  ASSERT_EQ(cal.exit_code, 0) << cal.output;
-  const nlohmann::json now = Digest(root / "cal");
-  fs::remove_all(root);
+// One fixed-seed run, shared by the tests below.
+class CalibrateGolden : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("owlcal_golden_" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    const auto cal = RunOwlcal("calibrate --quiet --no-figures --seed 3 --protocols " + kRunProtocols + " --out '" +
+                               (root_ / "cal").string() + "'");
+    exit_code_ = cal.exit_code;
+    output_ = cal.output;
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+  void SetUp() override {
+    ASSERT_FALSE(test_cli::OwlcalBinary().empty()) << "the owlcal binary is not built";
+    ASSERT_EQ(exit_code_, 0) << output_;
+  }
+
+  static inline const std::string kRunProtocols =
+      "stereo '" + kProtocols + "servo_sweep_small.yaml' '" + kProtocols + "vergence_short.yaml'";
+  static inline fs::path root_;
+  static inline int exit_code_ = -1;
+  static inline std::string output_;
+};
+
+TEST_F(CalibrateGolden, AFixedSeedRunGivesTheRecordedParameters) {
+  const nlohmann::json now = Digest(root_ / "cal");
   if (std::getenv("OWLCAL_UPDATE_GOLDEN")) {
     fs::create_directories(fs::path(kGolden).parent_path());
     std::ofstream(kGolden) << now.dump(1) << "\n";
@@ -86,6 +103,44 @@ TEST(CalibrateGolden, AFixedSeedRunGivesTheRecordedParameters) {
     }
   }
   EXPECT_EQ(now.at("warnings"), golden.at("warnings"));
+}
+
+TEST_F(CalibrateGolden, TheDryRunPlansThePlacementsAndOpenLoopTimeTheDatasetsCount) {
+  const auto plan = RunOwlcal("calibrate --dry-run --seed 3 --protocols " + kRunProtocols);
+  ASSERT_EQ(plan.exit_code, 0) << plan.output;
+  std::ifstream rf(root_ / "cal" / "results.json");
+  const nlohmann::json pw = nlohmann::json::parse(rf).at("diagnostics").at("person_work");
+  const nlohmann::json& counted = pw.at("counted");
+  ASSERT_EQ(counted.size(), 3u) << pw.dump(1);
+  // Per protocol, the dry-run's line: "  NAME  N placements (M place-target steps)  T s robot time".
+  for (const nlohmann::json& c : counted) {
+    const std::string name = c.at("protocol").get<std::string>();
+    const size_t at = plan.output.find("  " + name + " ");
+    ASSERT_NE(at, std::string::npos) << name << " is not in the dry-run:\n" << plan.output;
+    std::istringstream line(plan.output.substr(at, plan.output.find('\n', at) - at));
+    std::string word, steps_word;
+    int placements = -1, steps = -1;
+    double seconds = -1;
+    line >> word >> placements >> word >> steps_word;
+    if (steps_word == "(")
+      line >> steps;
+    else
+      steps = std::stoi(steps_word.substr(1));
+    line >> word >> word >> seconds;
+    EXPECT_EQ(placements, c.at("placements").get<int>()) << name;
+    EXPECT_EQ(steps, c.at("placement_steps").get<int>()) << name;
+    // The open-loop steps take what was planned, to a frame period per step (the stream's phase);
+    // the closed-loop ones (vergence's fixations) the time their images decide, on top.
+    const double open_loop = c.at("robot_time_s").get<double>() - c.at("closed_loop_s").get<double>();
+    EXPECT_NEAR(open_loop, seconds, 0.05 + 0.002 * open_loop) << name;
+    if (c.at("closed_loop_steps").get<int>() > 0) {
+      EXPECT_GT(c.at("closed_loop_s").get<double>(), 0.5) << name;
+      EXPECT_NE(plan.output.find("closed-loop steps (their time is decided at run time)", at), std::string::npos);
+    }
+  }
+  // The planned rows in results.json, from the datasets' recorded protocols, are the dry-run's.
+  EXPECT_EQ(pw.at("planned_total").at("placements"), pw.at("counted_total").at("placements"));
+  EXPECT_GE(pw.at("counted_total").at("placements").get<int>(), 3);
 }
 
 }  // namespace
