@@ -23,15 +23,9 @@ void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
   r->head = h.head;
   if (h.result.diagnostics.contains("head")) r->diagnostics["head"] = h.result.diagnostics["head"];
   for (auto it = h.result.inputs.begin(); it != h.result.inputs.end(); ++it) r->inputs[it.key()] = it.value();
-  if (h.covariance.rows() == int(h.param_names.size()) && !h.param_names.empty()) {
-    nlohmann::json m = nlohmann::json::array();
-    for (int i = 0; i < h.covariance.rows(); ++i) {
-      std::vector<double> row(h.covariance.cols());
-      for (int j = 0; j < h.covariance.cols(); ++j)
-        row[j] = std::isfinite(h.covariance(i, j)) ? h.covariance(i, j) : 0.0;
-      m.push_back(row);
-    }
-    r->diagnostics["covariance"] = {{"names", h.param_names}, {"matrix", m}, {"source", "head fit"}};
+  if (nlohmann::json c = HeadCovarianceJson(h); !c.is_null()) {
+    c["source"] = "head fit";
+    r->diagnostics["covariance"] = c;
   }
 }
 

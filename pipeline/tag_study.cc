@@ -23,16 +23,7 @@ std::string ClassOf(const calib::View& v, const std::map<std::string, std::strin
 fitting::CalibrationResult ResultOf(const fitting::HeadFit& h) {
   fitting::CalibrationResult r = h.result;
   r.head = h.head;
-  if (h.covariance.rows() == int(h.param_names.size()) && !h.param_names.empty()) {
-    nlohmann::json m = nlohmann::json::array();
-    for (int i = 0; i < h.covariance.rows(); ++i) {
-      std::vector<double> row(h.covariance.cols());
-      for (int j = 0; j < h.covariance.cols(); ++j)
-        row[j] = std::isfinite(h.covariance(i, j)) ? h.covariance(i, j) : 0.0;
-      m.push_back(row);
-    }
-    r.diagnostics["covariance"] = {{"names", h.param_names}, {"matrix", m}};
-  }
+  if (const nlohmann::json c = HeadCovarianceJson(h); !c.is_null()) r.diagnostics["covariance"] = c;
   return r;
 }
 
@@ -54,6 +45,20 @@ std::map<std::string, double> TagSizesOfDataset(const std::string& dataset) {
   for (const auto& [name, def] : protocols::TargetsOfDataset(dataset))
     if (def.kind == calib::TargetKind::kAprilGrid) out[name] = def.tag_size_m;
   return out;
+}
+
+nlohmann::json HeadCovarianceJson(const fitting::HeadFit& h) {
+  if (h.covariance.rows() == int(h.param_names.size()) && !h.param_names.empty()) {
+    nlohmann::json m = nlohmann::json::array();
+    for (int i = 0; i < h.covariance.rows(); ++i) {
+      std::vector<double> row(h.covariance.cols());
+      for (int j = 0; j < h.covariance.cols(); ++j)
+        row[j] = std::isfinite(h.covariance(i, j)) ? h.covariance(i, j) : 0.0;
+      m.push_back(row);
+    }
+    return {{"names", h.param_names}, {"matrix", m}};
+  }
+  return nullptr;
 }
 
 std::vector<calib::View> WithoutTags(const std::vector<calib::View>& views,

@@ -34,6 +34,10 @@ std::map<std::string, std::string> NoiseClassesOfDataset(const std::string& data
 // corners are compared with the detector's straight-edge corners, fitting/tag_edge_corner.h).
 std::map<std::string, double> TagSizesOfDataset(const std::string& dataset);
 
+// A head fit's joint covariance as results.json's diagnostics.covariance ({names, matrix}, a
+// non-finite entry as 0); null when the fit has none.
+nlohmann::json HeadCovarianceJson(const fitting::HeadFit& h);
+
 // The views of the boards no noise class names "apriltag" (the chessboard-only fit's input).
 std::vector<calib::View> WithoutTags(const std::vector<calib::View>& views,
                                      const std::map<std::string, std::string>& noise_class_of_board);
