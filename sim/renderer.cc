@@ -16,6 +16,9 @@
 namespace owlcal::sim {
 namespace {
 
+// Pixels per block of a row whose rays' bounding box lets a plane skip the whole block.
+constexpr int kRayBlock = 32;
+
 inline uint64_t SplitMix64(uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
@@ -39,15 +42,17 @@ void ApplyDefocus(const cv::Mat& sigma, cv::Mat* grey) {
   grey->convertTo(rung[0], CV_32F);
   for (int r = 1; r <= top; ++r)
     cv::GaussianBlur(rung[0], rung[size_t(r)], cv::Size(0, 0), kRungs[r], kRungs[r], cv::BORDER_REFLECT);
+  std::vector<const float*> rows(size_t(top) + 1);
   for (int y = 0; y < grey->rows; ++y) {
     uint8_t* out = grey->ptr<uint8_t>(y);
     const float* s = sigma.ptr<float>(y);
+    for (int r = 0; r <= top; ++r) rows[size_t(r)] = rung[size_t(r)].ptr<float>(y);
     for (int x = 0; x < grey->cols; ++x) {
       const float sg = std::min(s[x], kRungs[top]);
       int r = 0;
       while (r + 1 < top && kRungs[r + 1] <= sg) ++r;
       const float f = std::clamp((sg - kRungs[r]) / (kRungs[r + 1] - kRungs[r]), 0.f, 1.f);
-      const float a = rung[size_t(r)].at<float>(y, x), b = rung[size_t(r) + 1].at<float>(y, x);
+      const float a = rows[size_t(r)][x], b = rows[size_t(r) + 1][x];
       out[x] = uint8_t(std::clamp(a + f * (b - a) + 0.5f, 0.f, 255.f));
     }
   }
@@ -61,6 +66,11 @@ struct RenderPlane {
   float lod;
   bool wrap;
   const MipTexture* tex;
+  // What SamplePlane reads, fixed by lod: the level (wrap: the nearest; else the one below lod),
+  // and for a trilinear blend the level above and its weight.
+  MipTexture::LevelView level_a, level_b;
+  bool trilinear = false;
+  float lod_frac = 0.f;
   // Board warp (SceneTarget::warp_m): ray direction in the target frame (rows of R^T), and
   // the parabola's centre, half spans [texels] and deflections [texels].
   bool warped = false;
@@ -147,6 +157,18 @@ bool MakeRenderPlane(const models::Rigid3d& cam_from_base,
     if (std::isfinite(tpp) && tpp > 1.0) lod = float(std::log2(tpp));
   }
   p.lod = std::min(lod, float(tt.texture.num_levels() - 1));
+  // The levels MipTexture::Sample (wrap) or SampleLod would pick for this lod.
+  if (wrap) {
+    p.level_a = tt.texture.View(int(p.lod + 0.5f));
+  } else if (p.lod <= 0.f) {
+    p.level_a = tt.texture.View(0);
+  } else {
+    const int l0 = int(p.lod);
+    p.lod_frac = p.lod - float(l0);
+    p.level_a = tt.texture.View(l0);
+    p.trilinear = !(p.lod_frac < 1e-3f || l0 + 1 >= tt.texture.num_levels());
+    if (p.trilinear) p.level_b = tt.texture.View(l0 + 1);
+  }
   if (target && (target->warp_m.x() != 0 || target->warp_m.y() != 0)) {
     const Eigen::Vector4d span = target->WarpSpan();
     p.warped = true;
@@ -194,37 +216,80 @@ bool RimReachesImage(int width,
   return rim_active;
 }
 
-// The nearest of the `active` planes the ray (rx, ry, 1) hits inside its texture (or wrapped):
-// its index (-1 for none), its q2 (1 / depth) and texel (u, v).
-int NearestPlaneHit(const std::vector<RenderPlane>& planes,
-                    const std::vector<int>& active,
-                    float rx,
-                    float ry,
-                    float* q2_out,
-                    float* u_out,
-                    float* v_out) {
-  const int np = int(active.size());
-  int best = -1;
-  float& best_q2 = *q2_out;
-  float& bu = *u_out;
-  float& bv = *v_out;
-  best_q2 = bu = bv = 0.f;
-  for (int j = 0; j < np; ++j) {
-    const int i = active[j];
-    const RenderPlane& p = planes[i];
-    if (rx < p.x0 || rx > p.x1 || ry < p.y0 || ry > p.y1) continue;
-    const float q2 = p.m[6] * rx + p.m[7] * ry + p.m[8];
-    if (q2 <= best_q2) continue;  // behind the camera or farther than the best hit
+// One image row as EyeRenderer::Render shades it, pixel by pixel: the nearest plane the ray
+// hits (-1 for none), its q2 (1 / depth), the texel (u, v) and the texture value t there; per
+// tried plane (in the order of the active list) the first and one past the last pixel it won.
+struct RowHits {
+  std::vector<int> plane;
+  std::vector<float> q2, u, v, t;
+  std::vector<int> first, last;
+  explicit RowHits(int width)
+      : plane(size_t(width)), q2(size_t(width)), u(size_t(width)), v(size_t(width)), t(size_t(width)) {}
+};
+
+// One plane tried on the pixels [x0, x1) of a row: where the ray (rx, ry, 1) meets it nearer than
+// the best hit so far (and inside its texture unless it wraps), it becomes the pixel's hit.
+// kBounded: test the plane's bounding box (an unbounded plane's box holds every ray).
+template <bool kBounded>
+void TryPlaneOnSpan(const RenderPlane& p,
+                    int index,
+                    const float* rx,
+                    const float* ry,
+                    int x0,
+                    int x1,
+                    RowHits* h,
+                    int* first,
+                    int* last) {
+  int* plane = h->plane.data();
+  float *best_q2 = h->q2.data(), *bu = h->u.data(), *bv = h->v.data();
+  for (int x = x0; x < x1; ++x) {
+    if (kBounded && (rx[x] < p.x0 || rx[x] > p.x1 || ry[x] < p.y0 || ry[x] > p.y1)) continue;
+    const float q2 = p.m[6] * rx[x] + p.m[7] * ry[x] + p.m[8];
+    if (q2 <= best_q2[x]) continue;  // behind the camera or farther than the best hit
     const float inv = 1.f / q2;
-    const float u = (p.m[0] * rx + p.m[1] * ry + p.m[2]) * inv;
-    const float v = (p.m[3] * rx + p.m[4] * ry + p.m[5]) * inv;
+    const float u = (p.m[0] * rx[x] + p.m[1] * ry[x] + p.m[2]) * inv;
+    const float v = (p.m[3] * rx[x] + p.m[4] * ry[x] + p.m[5]) * inv;
     if (!p.wrap && (u < 0.f || v < 0.f || u >= p.w || v >= p.h)) continue;
-    best = i;
-    best_q2 = q2;
-    bu = u;
-    bv = v;
+    plane[x] = index;
+    best_q2[x] = q2;
+    bu[x] = u;
+    bv[x] = v;
+    *first = std::min(*first, x);
+    *last = x + 1;
   }
-  return best;
+}
+
+// For every pixel of a row, the nearest of the `active` planes its ray hits. The planes are tried
+// one after another over the whole row, in the order of `active`, so each pixel sees them in the
+// same order as a loop over planes per pixel would (the first of equally near planes wins). A
+// bounded plane skips the blocks of kRayBlock pixels whose rays' box (`blocks`: min/max x, min/max
+// y per block) misses its own, where every pixel would fail its test.
+void NearestPlaneHits(const std::vector<RenderPlane>& planes,
+                      const std::vector<int>& active,
+                      const float* rx,
+                      const float* ry,
+                      const float* blocks,
+                      int n,
+                      RowHits* h) {
+  std::fill(h->plane.begin(), h->plane.begin() + n, -1);
+  std::fill(h->q2.begin(), h->q2.begin() + n, 0.f);
+  std::fill(h->u.begin(), h->u.begin() + n, 0.f);
+  std::fill(h->v.begin(), h->v.begin() + n, 0.f);
+  h->first.assign(active.size(), n);
+  h->last.assign(active.size(), 0);
+  for (size_t j = 0; j < active.size(); ++j) {
+    const int i = active[j];
+    const RenderPlane& p = planes[size_t(i)];
+    if (p.x0 == -1e30f && p.x1 == 1e30f && p.y0 == -1e30f && p.y1 == 1e30f) {
+      TryPlaneOnSpan<false>(p, i, rx, ry, 0, n, h, &h->first[j], &h->last[j]);
+      continue;
+    }
+    for (int x0 = 0, b = 0; x0 < n; x0 += kRayBlock, ++b) {
+      const float* box = blocks + 4 * b;
+      if (box[1] < p.x0 || box[0] > p.x1 || box[3] < p.y0 || box[2] > p.y1) continue;
+      TryPlaneOnSpan<true>(p, i, rx, ry, x0, std::min(n, x0 + kRayBlock), h, &h->first[j], &h->last[j]);
+    }
+  }
 }
 
 // A bowed board: the texel (u, v) where the ray meets the bowed surface instead of the plane.
@@ -240,6 +305,92 @@ void WarpTexel(const RenderPlane& p, float rx, float ry, float* bu, float* bv) {
     const float z = -(p.kx * (1.f - un * un) + p.ky * (1.f - vn * vn));
     *bu += z / dz * dx;
     *bv += z / dz * dy;
+  }
+}
+
+// The texture value t of every pixel of a row whose hit is plane `index`: the bowed board's
+// texel first (kWarped), then MipTexture::Sample at the nearest level for the wrapping wall
+// (kWrap) or SampleLod's blend of the levels around the plane's lod (kTrilinear: two levels).
+template <bool kWarped, bool kWrap, bool kTrilinear>
+void SamplePlaneOnRow(const RenderPlane& p, int index, const float* rx, const float* ry, int x0, int x1, RowHits* h) {
+  const int* plane = h->plane.data();
+  const float *u = h->u.data(), *v = h->v.data();
+  float* t = h->t.data();
+  for (int x = x0; x < x1; ++x) {
+    if (plane[x] != index) continue;
+    float bu = u[x], bv = v[x];
+    if constexpr (kWarped) WarpTexel(p, rx[x], ry[x], &bu, &bv);
+    if constexpr (kWrap) {
+      t[x] = MipTexture::SampleView<true>(p.level_a, bu, bv);
+    } else {
+      const float a = MipTexture::SampleView<false>(p.level_a, bu, bv);
+      t[x] = kTrilinear ? a + p.lod_frac * (MipTexture::SampleView<false>(p.level_b, bu, bv) - a) : a;
+    }
+  }
+}
+
+// The texture value of every pixel of a row (0.5 where no plane is hit), one plane at a time
+// over the pixels it won.
+void SampleRow(const std::vector<RenderPlane>& planes,
+               const std::vector<int>& active,
+               const float* rx,
+               const float* ry,
+               int n,
+               RowHits* h) {
+  std::fill(h->t.begin(), h->t.begin() + n, 0.5f);
+  for (size_t j = 0; j < active.size(); ++j) {
+    const int i = active[j], x0 = h->first[j], x1 = h->last[j];
+    if (x0 >= x1) continue;
+    const RenderPlane& p = planes[size_t(i)];
+    auto sample = p.wrap ? (p.warped ? SamplePlaneOnRow<true, true, false> : SamplePlaneOnRow<false, true, false>)
+                  : p.trilinear
+                      ? (p.warped ? SamplePlaneOnRow<true, false, true> : SamplePlaneOnRow<false, false, true>)
+                      : (p.warped ? SamplePlaneOnRow<true, false, false> : SamplePlaneOnRow<false, false, false>);
+    sample(p, i, rx, ry, x0, x1, h);
+  }
+}
+
+// Each pixel's defocus sigma [px] (0 where no plane is hit or no ray): DefocusSigmaPx of the hit's
+// depth 1 / q2, k = aperture [m] * fx and inv_focus = 1 / focus_m given (the same arithmetic).
+void DefocusSigmaRow(const RowHits& h, const float* inv_norm, int n, double k, double inv_focus, float* sigma) {
+  for (int x = 0; x < n; ++x) {
+    const double depth_m = 1.0 / h.q2[size_t(x)];
+    sigma[x] = h.plane[size_t(x)] >= 0 && inv_norm[x] > 0 ? float(k * std::abs(1.0 / depth_m - inv_focus) / 4.0) : 0.f;
+  }
+}
+
+// The socket rim as Render darkens the image: off when no border ray reaches its ramp.
+struct RimShade {
+  bool active = false;
+  float ax = 0, ay = 0, az = 1;  // the socket axis in the camera frame (unit)
+  float cos_start = 0, cos_end = 0, floor = 1;
+};
+
+// Grey levels of one row from its texture values: paper/ink levels, lens shading `gain`, the
+// socket rim (by each ray's angle from the socket axis), rounded and clamped to 0..255.
+void ShadeRow(const float* t,
+              const float* gain,
+              const float* rx,
+              const float* ry,
+              const float* inv_norm,
+              float black,
+              float white,
+              const RimShade& rim,
+              int n,
+              uint8_t* out) {
+  for (int x = 0; x < n; ++x) {
+    float value = (black + (white - black) * t[x]) * gain[x];
+    if (rim.active) {
+      const float c = (rim.ax * rx[x] + rim.ay * ry[x] + rim.az) * inv_norm[x];
+      if (c < rim.cos_start) {
+        // Smooth ramp from 1 at the start angle to rim_floor at the rim.
+        float f = (rim.cos_start - c) / std::max(1e-6f, rim.cos_start - rim.cos_end);
+        f = std::min(1.f, f);
+        f = f * f * (3.f - 2.f * f);
+        value *= 1.f - (1.f - rim.floor) * f;
+      }
+    }
+    out[x] = uint8_t(std::clamp(value + 0.5f, 0.f, 255.f));
   }
 }
 
@@ -283,6 +434,22 @@ EyeRenderer::EyeRenderer(const models::CameraIntrinsics& k, const StreamTruth& s
       // Lens shading: brightness falls by `lens_shading` at the image corner, ~ r^2.
       const double pr2 = std::pow((x - cx) / fx_, 2) + std::pow((y - cy) / fy_, 2);
       gain_[i] = float(1.0 - lens_shading * pr2 / r_corner2);
+    }
+  // Each row's blocks of kRayBlock pixels: the box of their rays (no-ray pixels as stored).
+  const int num_blocks = (width_ + kRayBlock - 1) / kRayBlock;
+  ray_blocks_.resize(size_t(height_) * 4 * num_blocks);
+  for (int y = 0; y < height_; ++y)
+    for (int b = 0; b < num_blocks; ++b) {
+      float* box = &ray_blocks_[(size_t(y) * num_blocks + b) * 4];
+      box[0] = box[2] = 1e30f;
+      box[1] = box[3] = -1e30f;
+      for (int x = b * kRayBlock; x < std::min(width_, (b + 1) * kRayBlock); ++x) {
+        const size_t k = size_t(y) * width_ + x;
+        box[0] = std::min(box[0], ray_x_[k]);
+        box[1] = std::max(box[1], ray_x_[k]);
+        box[2] = std::min(box[2], ray_y_[k]);
+        box[3] = std::max(box[3], ray_y_[k]);
+      }
     }
   row_ray_y_min_.assign(height_, 1e30f);
   row_ray_y_max_.assign(height_, -1e30f);
@@ -345,24 +512,31 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
   // Socket rim: darkening once the ray's angle from the socket axis exceeds
   // half_angle - softness; skipped when no image border ray reaches it.
   const Eigen::Vector3d ax = rim_axis_in_cam.normalized();
-  const float rax = float(ax.x()), ray_ = float(ax.y()), raz = float(ax.z());
+  RimShade rim;
+  rim.ax = float(ax.x());
+  rim.ay = float(ax.y());
+  rim.az = float(ax.z());
   const double start = (socket.rim_half_angle_deg - socket.rim_softness_deg) * M_PI / 180.0;
-  const float cos_start = float(std::cos(start));
-  const float cos_end = float(std::cos(socket.rim_half_angle_deg * M_PI / 180.0));
-  const bool rim_active = RimReachesImage(width_, height_, ray_x_, ray_y_, inv_norm_, rax, ray_, raz, cos_start);
-  const float rim_floor = float(socket.rim_floor);
+  rim.cos_start = float(std::cos(start));
+  rim.cos_end = float(std::cos(socket.rim_half_angle_deg * M_PI / 180.0));
+  rim.active = RimReachesImage(width_, height_, ray_x_, ray_y_, inv_norm_, rim.ax, rim.ay, rim.az, rim.cos_start);
+  rim.floor = float(socket.rim_floor);
 
   grey->create(height_, width_, CV_8U);
   if (depth_z_m) depth_z_m->create(height_, width_, CV_32F);
   std::vector<int> active;
   active.reserve(planes.size());
+  RowHits hits(width_);
+  const int num_blocks = (width_ + kRayBlock - 1) / kRayBlock;
   // Per-pixel defocus sigma (only when the lens has an aperture).
   const bool defocus = stream_.aperture_mm > 0;
   cv::Mat defocus_sigma;
   if (defocus) defocus_sigma.create(height_, width_, CV_32F);
+  // DefocusSigmaPx's factors: aperture * fx and 1 / focus.
+  const double defocus_k = stream_.aperture_mm * 1e-3 * fx_, defocus_inv_focus = 1.0 / stream_.focus_m;
+  // Row by row, in passes over the row (hits, texture, depth, shading): short loops whose pixels
+  // are independent, with the same arithmetic per pixel as one loop over the pixels.
   for (int y = 0; y < height_; ++y) {
-    uint8_t* out = grey->ptr<uint8_t>(y);
-    float* depth_out = depth_z_m ? depth_z_m->ptr<float>(y) : nullptr;
     const size_t row = size_t(y) * width_;
     if (!moving.empty()) {
       planes.resize(num_still);
@@ -373,36 +547,18 @@ void EyeRenderer::Render(const models::Rigid3d& cam_from_base,
     active.clear();
     for (int i = 0; i < int(planes.size()); ++i)
       if (planes[i].y0 <= row_ray_y_max_[y] && planes[i].y1 >= row_ray_y_min_[y]) active.push_back(i);
-    for (int x = 0; x < width_; ++x) {
-      const size_t k = row + x;
-      const float rx = ray_x_[k], ry = ray_y_[k];
-      float best_q2, bu, bv;
-      const int best = NearestPlaneHit(planes, active, rx, ry, &best_q2, &bu, &bv);
-      // The hit point is lambda * (rx, ry, 1) with lambda = 1 / q2: its camera z is 1 / q2.
-      if (depth_out)
-        depth_out[x] = best >= 0 && inv_norm_[k] > 0 ? 1.f / best_q2 : std::numeric_limits<float>::quiet_NaN();
-      if (defocus)
-        defocus_sigma.at<float>(y, x) =
-            best >= 0 && inv_norm_[k] > 0 ? float(DefocusSigmaPx(stream_, fx_, 1.0 / best_q2)) : 0.f;
-      float t = 0.5f;
-      if (best >= 0) {
-        const RenderPlane& p = planes[best];
-        if (p.warped) WarpTexel(p, rx, ry, &bu, &bv);
-        t = p.wrap ? p.tex->Sample(bu, bv, int(p.lod + 0.5f)) : p.tex->SampleLod(bu, bv, p.lod);
-      }
-      float value = (black_ + (white_ - black_) * t) * gain_[k];
-      if (rim_active) {
-        const float c = (rax * rx + ray_ * ry + raz) * inv_norm_[k];
-        if (c < cos_start) {
-          // Smooth ramp from 1 at the start angle to rim_floor at the rim.
-          float f = (cos_start - c) / std::max(1e-6f, cos_start - cos_end);
-          f = std::min(1.f, f);
-          f = f * f * (3.f - 2.f * f);
-          value *= 1.f - (1.f - rim_floor) * f;
-        }
-      }
-      out[x] = uint8_t(std::clamp(value + 0.5f, 0.f, 255.f));
+    const float *rx = &ray_x_[row], *ry = &ray_y_[row], *inv_norm = &inv_norm_[row];
+    NearestPlaneHits(planes, active, rx, ry, &ray_blocks_[size_t(y) * 4 * num_blocks], width_, &hits);
+    SampleRow(planes, active, rx, ry, width_, &hits);
+    // The hit point is lambda * (rx, ry, 1) with lambda = 1 / q2: its camera z is 1 / q2.
+    if (depth_z_m) {
+      float* depth_out = depth_z_m->ptr<float>(y);
+      for (int x = 0; x < width_; ++x)
+        depth_out[x] = hits.plane[size_t(x)] >= 0 && inv_norm[x] > 0 ? 1.f / hits.q2[size_t(x)]
+                                                                     : std::numeric_limits<float>::quiet_NaN();
     }
+    if (defocus) DefocusSigmaRow(hits, inv_norm, width_, defocus_k, defocus_inv_focus, defocus_sigma.ptr<float>(y));
+    ShadeRow(hits.t.data(), &gain_[row], rx, ry, inv_norm, black_, white_, rim, width_, grey->ptr<uint8_t>(y));
   }
   if (defocus) ApplyDefocus(defocus_sigma, grey);
 }

@@ -16,6 +16,7 @@
 // (SceneTarget::motion) is drawn at its pose at each row's time, so a held board is sheared
 // and stretched as a real rolling-shutter sensor sees it; still targets and the camera pose
 // are those of the frame.
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -43,6 +44,19 @@ class MipTexture {
   // Trilinear sample for level of detail `lod` (log2 of level-0 texels per pixel).
   float SampleLod(float u, float v, float lod) const;
 
+  // One level as the renderer's inner loop reads it: w x h texels, row-major; scale = 2^-level
+  // (level-0 texel coordinates to this level's).
+  struct LevelView {
+    const float* texels = nullptr;
+    int w = 0, h = 0;
+    float scale = 1.f;
+  };
+  LevelView View(int level) const;  // level clamped to the pyramid
+  // Bilinear sample of one level at level-0 texel coordinates (u, v), repeating (kWrap) or
+  // clamping at the edges: the same arithmetic as Sample, inline for the renderer.
+  template <bool kWrap>
+  [[gnu::always_inline]] static inline float SampleView(const LevelView& l, float u, float v);
+
  private:
   struct Level {
     int w, h;
@@ -52,6 +66,34 @@ class MipTexture {
   int width_ = 0, height_ = 0;
   bool wrap_ = false;
 };
+
+template <bool kWrap>
+inline float MipTexture::SampleView(const LevelView& l, float u, float v) {
+  // Texel centres sit at integer + 0.5.
+  const float su = u * l.scale - 0.5f, sv = v * l.scale - 0.5f;
+  // floor without the libm call (coordinates are far inside the int range).
+  int x0 = int(su), y0 = int(sv);
+  x0 -= su < float(x0);
+  y0 -= sv < float(y0);
+  const float ax = su - float(x0), ay = sv - float(y0);
+  int x1 = x0 + 1, y1 = y0 + 1;
+  if constexpr (kWrap) {
+    x0 &= l.w - 1;
+    x1 &= l.w - 1;
+    y0 &= l.h - 1;
+    y1 &= l.h - 1;
+  } else {
+    x0 = std::clamp(x0, 0, l.w - 1);
+    x1 = std::clamp(x1, 0, l.w - 1);
+    y0 = std::clamp(y0, 0, l.h - 1);
+    y1 = std::clamp(y1, 0, l.h - 1);
+  }
+  const float* r0 = l.texels + size_t(y0) * l.w;
+  const float* r1 = l.texels + size_t(y1) * l.w;
+  const float top = r0[x0] + ax * (r0[x1] - r0[x0]);
+  const float bottom = r1[x0] + ax * (r1[x1] - r1[x0]);
+  return top + ay * (bottom - top);
+}
 
 // A target's printed pattern as a texture: texels_per_m and the target-frame position of
 // texel (0, 0)'s outer corner.
@@ -112,6 +154,8 @@ class EyeRenderer {
   float black_, white_;
   std::vector<float> ray_x_, ray_y_, inv_norm_, gain_;
   std::vector<float> row_ray_y_min_, row_ray_y_max_;  // per image row
+  // Per row, per block of 32 pixels (kRayBlock in the .cc): min and max ray x, min and max ray y.
+  std::vector<float> ray_blocks_;
 };
 
 // Adds zero-mean, approximately Gaussian noise of sigma grey levels (sum of four uniform

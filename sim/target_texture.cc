@@ -58,34 +58,14 @@ MipTexture::MipTexture(const cv::Mat& level0, bool wrap) : width_(level0.cols), 
   }
 }
 
-float MipTexture::Sample(float u, float v, int level) const {
+MipTexture::LevelView MipTexture::View(int level) const {
   level = std::clamp(level, 0, int(levels_.size()) - 1);
-  const Level& l = levels_[level];
-  const float scale = 1.f / float(1 << level);
-  // Texel centres sit at integer + 0.5.
-  const float su = u * scale - 0.5f, sv = v * scale - 0.5f;
-  // floor without the libm call (coordinates are far inside the int range).
-  int x0 = int(su), y0 = int(sv);
-  x0 -= su < float(x0);
-  y0 -= sv < float(y0);
-  const float ax = su - float(x0), ay = sv - float(y0);
-  int x1 = x0 + 1, y1 = y0 + 1;
-  if (wrap_) {
-    x0 &= l.w - 1;
-    x1 &= l.w - 1;
-    y0 &= l.h - 1;
-    y1 &= l.h - 1;
-  } else {
-    x0 = std::clamp(x0, 0, l.w - 1);
-    x1 = std::clamp(x1, 0, l.w - 1);
-    y0 = std::clamp(y0, 0, l.h - 1);
-    y1 = std::clamp(y1, 0, l.h - 1);
-  }
-  const float* r0 = &l.texels[size_t(y0) * l.w];
-  const float* r1 = &l.texels[size_t(y1) * l.w];
-  const float top = r0[x0] + ax * (r0[x1] - r0[x0]);
-  const float bottom = r1[x0] + ax * (r1[x1] - r1[x0]);
-  return top + ay * (bottom - top);
+  const Level& l = levels_[size_t(level)];
+  return {l.texels.data(), l.w, l.h, 1.f / float(1 << level)};
+}
+
+float MipTexture::Sample(float u, float v, int level) const {
+  return wrap_ ? SampleView<true>(View(level), u, v) : SampleView<false>(View(level), u, v);
 }
 
 float MipTexture::SampleLod(float u, float v, float lod) const {
