@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <future>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 
 #include <yaml-cpp/yaml.h>
@@ -54,6 +56,46 @@ void Record(const protocols::Protocol& p,
                std::to_string(s.num_clamped) + " clamped commands");
   if (s.status == "aborted") throw std::runtime_error("stopped by the user; datasets so far are in " + o.out);
   if (s.status != "complete") warnings->push_back("protocol " + p.name + ": " + s.status + ": " + s.message);
+}
+
+// FitGeometry's result with the progress lines it said while protocols were recording: they are
+// said in one block when the fit is joined, so the terminal never interleaves two streams.
+struct BufferedGeometryFit {
+  fitting::CalibrationRun run;
+  std::vector<std::string> lines;
+  fitting::CalibrationRun Flush(const std::function<void(const std::string&)>& progress) {
+    if (progress)
+      for (const std::string& line : lines) progress(line);
+    return std::move(run);
+  }
+};
+
+// True when no protocol after loaded[i] records a dataset FitGeometry reads (and none of them is
+// run after the fit, which never records one either).
+bool NoGeometryDatasetAfter(const std::vector<protocols::Protocol>& loaded, size_t i) {
+  for (size_t j = i + 1; j < loaded.size(); ++j)
+    if (GeometryDatasetNames().count(loaded[j].name)) return false;
+  return true;
+}
+
+// FitGeometry on a thread of its own: it reads recorded datasets only (never the robot), so the
+// protocols after them record while it runs; on a real robot its CPU time hides in the person's
+// placements.
+std::future<BufferedGeometryFit> StartGeometryFit(const std::map<std::string, std::string>& datasets,
+                                                  CalibratePipelineOptions fit) {
+  return std::async(std::launch::async, [datasets, fit]() mutable {
+    BufferedGeometryFit out;
+    const bool say = static_cast<bool>(fit.progress);
+    std::mutex m;
+    fit.progress = nullptr;
+    if (say)
+      fit.progress = [&out, &m](const std::string& line) {
+        std::lock_guard<std::mutex> lock(m);
+        out.lines.push_back(line);
+      };
+    out.run = FitGeometry(datasets, fit);
+    return out;
+  });
 }
 
 // Equal in everything the manifests record of a configuration.
@@ -127,6 +169,7 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
   std::vector<std::pair<protocols::Protocol, std::string>> after_fit;
   robot::RobotInterface* current = &robot;  // after the bring-up: the robot on what it learned
   std::unique_ptr<robot::ReconfiguredRobot> learned;
+  std::future<BufferedGeometryFit> geometry;  // the lens, stereo and head fits, beside the later protocols
   // Every protocol is read before the robot moves: a typo in the last one costs no robot time.
   std::vector<protocols::Protocol> loaded;
   for (const std::string& name : names)
@@ -151,10 +194,12 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
         o.progress("  bring-up: " + std::to_string(fit.bring_up->findings.size()) +
                    " differences from the robot file, applied to the protocols after it");
     }
+    if (!geometry.valid() && NoGeometryDatasetAfter(loaded, i)) geometry = StartGeometryFit(datasets, fit);
   }
 
   // 2) The fit, 3) the protocols that use it, 4) the evaluations of everything recorded.
-  fitting::CalibrationRun run = FitCalibration(datasets, fit);
+  fitting::CalibrationRun run = geometry.valid() ? geometry.get().Flush(fit.progress) : FitGeometry(datasets, fit);
+  FitEvaluations(datasets, fit, &run);
   for (const auto& [p, dir] : after_fit) {
     Record(p,
            dir,

@@ -22,6 +22,7 @@ namespace fs = std::filesystem;
 void WarnOfUnknownDatasets(const stages::Inputs& in, fitting::CalibrationResult* result) {
   static const std::set<std::string> kKnown = {
       "intrinsics", "stereo", "servo_sweep", "vergence", "latency", "step_response", "limits", "alignment", "saccade"};
+  size_t unknown = 0;  // the warnings go first, in the datasets' order, whatever ran before
   for (const auto& [name, dir] : in.datasets) {
     if (kKnown.count(name)) continue;
     std::string known;
@@ -31,7 +32,7 @@ void WarnOfUnknownDatasets(const stages::Inputs& in, fitting::CalibrationResult*
     }
     const std::string w = "dataset " + dir + " skipped: its manifest names protocol '" + name +
                           "', which no calibration step reads (known: " + known + ")";
-    result->warnings.push_back(w);
+    result->warnings.insert(result->warnings.begin() + (unknown++), w);
     if (in.options.warning)
       in.options.warning(w);
     else
@@ -203,21 +204,39 @@ bool SetLensModel(const std::string& value, CalibratePipelineOptions* o, std::st
   return true;
 }
 
-fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
-                                       const CalibratePipelineOptions& o) {
+const std::set<std::string>& GeometryDatasetNames() {
+  static const std::set<std::string> kNames = {"limits", "intrinsics", "stereo", "servo_sweep"};
+  return kNames;
+}
+
+fitting::CalibrationRun FitGeometry(const std::map<std::string, std::string>& datasets,
+                                    const CalibratePipelineOptions& o) {
   std::string why;
   if (!o.Check(&why)) throw std::invalid_argument("calibrate pipeline options: " + why);
   const stages::Inputs in{datasets, o};
   fitting::CalibrationRun run;
   run.config = o.config;
-  WarnOfUnknownDatasets(in, &run.result);
   AddBringUp(in, &run.result);
   const std::optional<fitting::StereoFit> stereo = stages::FitLensAndStereo(in, &run);
   const stages::HeadStage head = stages::FitHeadFromSweep(in, stereo, &run);
   stages::CompareWithTruth(in, head, &run);
   stages::AddTagStudy(in, head, &run);
-  stages::EvaluateResolutionAndRanging(in, &run);
-  stages::EvaluateSteps(in, &run);
+  return run;
+}
+
+void FitEvaluations(const std::map<std::string, std::string>& datasets,
+                    const CalibratePipelineOptions& o,
+                    fitting::CalibrationRun* run) {
+  const stages::Inputs in{datasets, o};
+  WarnOfUnknownDatasets(in, &run->result);
+  stages::EvaluateResolutionAndRanging(in, run);
+  stages::EvaluateSteps(in, run);
+}
+
+fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
+                                       const CalibratePipelineOptions& o) {
+  fitting::CalibrationRun run = FitGeometry(datasets, o);
+  FitEvaluations(datasets, o, &run);
   return run;
 }
 

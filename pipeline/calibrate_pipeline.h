@@ -29,6 +29,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -126,6 +127,18 @@ fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::s
 // and the inputs. CalibrateFromDatasets(d, o) is FitCalibration(d, o) then FinishCalibration(d, o).
 fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
                                        const CalibratePipelineOptions& options);
+
+// FitCalibration in two parts: FitGeometry (the bring-up's findings, lens, stereo, head, truth
+// comparison and tag study) reads only the datasets GeometryDatasetNames() lists, so
+// pipeline::Calibrate runs it while the protocols after those record; FitEvaluations then adds
+// the unknown-dataset warnings (first of result.warnings), resolution, ranging and steps.
+// FitCalibration(d, o) is FitGeometry(d, o) then FitEvaluations(d, o).
+const std::set<std::string>& GeometryDatasetNames();
+fitting::CalibrationRun FitGeometry(const std::map<std::string, std::string>& datasets,
+                                    const CalibratePipelineOptions& options);
+void FitEvaluations(const std::map<std::string, std::string>& datasets,
+                    const CalibratePipelineOptions& options,
+                    fitting::CalibrationRun* run);
 void FinishCalibration(const std::map<std::string, std::string>& datasets,
                        const CalibratePipelineOptions& options,
                        fitting::CalibrationRun* run);
