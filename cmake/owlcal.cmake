@@ -148,8 +148,30 @@ function(owlcal_tests folder)
     owlcal_unity(${exe})
     # Each build folder gets its own TMPDIR: suites of several checkouts (or a CI and a developer)
     # running at once never share std::filesystem::temp_directory_path() folders.
-    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60
+    # A suite of OWLCAL_ONE_PROCESS_SUITES records (or calibrates) once in SetUpTestSuite for all
+    # its tests: it is one ctest test running the whole suite, not one process per test that
+    # would each record it again.
+    set(whole_suites)
+    foreach(src ${${tier}_srcs})
+      foreach(suite ${OWLCAL_ONE_PROCESS_SUITES})
+        file(STRINGS ${src} uses REGEX "^TEST_F\\(${suite},")
+        if(uses)
+          list(APPEND whole_suites ${suite})
+        endif()
+      endforeach()
+    endforeach()
+    set(filter "*")
+    if(whole_suites)
+      list(JOIN whole_suites ".*:" negative)
+      set(filter "-${negative}.*")
+    endif()
+    gtest_discover_tests(${exe} DISCOVERY_TIMEOUT 60 TEST_FILTER ${filter}
                          PROPERTIES ENVIRONMENT "TMPDIR=${OWLCAL_TEST_TMPDIR}" LABELS ${tier} TIMEOUT ${timeout} COST ${cost})
+    foreach(suite ${whole_suites})
+      add_test(NAME ${suite}.AllTests COMMAND ${exe} --gtest_filter=${suite}.*)
+      set_tests_properties(${suite}.AllTests PROPERTIES ENVIRONMENT "TMPDIR=${OWLCAL_TEST_TMPDIR}" LABELS ${tier}
+                           TIMEOUT ${timeout} COST ${cost})
+    endforeach()
     list(APPEND targets ${exe})
   endforeach()
   set(OWLCAL_TEST_TARGETS_${folder} ${targets} PARENT_SCOPE)
