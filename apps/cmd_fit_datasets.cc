@@ -29,6 +29,8 @@ struct FitDatasetsCommand {
   bool no_figures = false;
   bool quiet = false;
   std::string lens_model = "auto";
+  std::string covariance_clusters;  // --covariance-clusters, parsed into fit.fit.head
+  std::string floor_carry;          // --floor-carry, parsed into fit.fit.head
 };
 
 int RunFitDatasets(FitDatasetsCommand o) {
@@ -40,7 +42,9 @@ int RunFitDatasets(FitDatasetsCommand o) {
   head.fit_intrinsics = !o.hold_intrinsics;
   head.fit_nonlinear = !o.no_nonlinear;
   head.fit_hysteresis = !o.no_hysteresis;
-  if (head.covariance_clusters == "model") head.covariance_clusters.clear();
+  // The CLI checks both spellings; an unparsable one cannot reach here.
+  head.covariance_clusters = *fitting::CovarianceClusters::Parse(o.covariance_clusters);
+  head.intrinsics_floor_carry = *fitting::ParseFloorCarry(o.floor_carry);
   std::string why;
   if (!pipeline::SetLensModel(o.lens_model, &po, &why) || !po.Check(&why)) throw UsageError(why);
   o.fit.progress = progress;
@@ -60,9 +64,9 @@ int RunFitDatasets(FitDatasetsCommand o) {
                   {"no_hysteresis", o.no_hysteresis},
                   {"hysteresis_floor", head.hysteresis_sigma_floor_us},
                   {"view_outlier_factor", head.view_outlier_factor},
-                  {"covariance_clusters", head.covariance_clusters.empty() ? "model" : head.covariance_clusters},
+                  {"covariance_clusters", o.covariance_clusters},
                   {"robust_sigma_factor", head.robust_sigma_factor},
-                  {"floor_carry", head.intrinsics_floor_carry},
+                  {"floor_carry", o.floor_carry},
                   {"tag_sigma_factor", po.tag_sigma_factor},
                   {"pan_zero_factor", head.pan_zero_sigma_factor},
                   {"fuse_tags", po.fuse_tags},
@@ -87,6 +91,9 @@ const bool kFitDatasetsRegistered = RegisterCommand(
     [](CLI::App* cmd) {
       auto o = std::make_shared<FitDatasetsCommand>();
       pipeline::CalibratePipelineOptions& po = o->fit.fit;
+      const fitting::CovarianceClusters& clusters = po.head.covariance_clusters;
+      o->covariance_clusters = clusters.kind == fitting::CovarianceClusters::Kind::kModel ? "model" : clusters.Spec();
+      o->floor_carry = fitting::FloorCarryName(po.head.intrinsics_floor_carry);
       cmd->add_option("DIR", o->dir, "a folder owlcal calibrate wrote (holds datasets/)")
           ->required()
           ->check(CLI::ExistingDirectory);
@@ -107,14 +114,13 @@ const bool kFitDatasetsRegistered = RegisterCommand(
           ->check(CLI::Range(0.0, 1e6));
       cmd->add_option(
              "--covariance-clusters",
-             po.head.covariance_clusters,
+             o->covariance_clusters,
              "head fit: sigma from the residuals, clustered by view, placement or cell:B (the views of a placement "
              "whose commands share a B us cell; fitting/observability.h ClusterRobustCovariance), or model "
              "(the model covariance alone)")
           ->capture_default_str()
           ->check([](const std::string& v) {
-            if (v == "model" || v == "view" || v == "placement") return std::string();
-            if (fitting::HeadFitOptions::CellOfClusters(v) >= 1) return std::string();
+            if (fitting::CovarianceClusters::Parse(v)) return std::string();
             return std::string("must be model, view, placement or cell:B (B >= 1 us)");
           });
       cmd->add_option("--robust-sigma-factor",
@@ -123,7 +129,7 @@ const bool kFitDatasetsRegistered = RegisterCommand(
           ->capture_default_str()
           ->check(CLI::Range(1.0, 10.0));
       cmd->add_option("--floor-carry",
-                      po.head.intrinsics_floor_carry,
+                      o->floor_carry,
                       "head fit: where the intrinsics floor (the stereo fit's covariance) is carried beyond the "
                       "intrinsics: none, centres (servo centres) or servo_maps (every servo map coordinate)")
           ->capture_default_str()

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -108,11 +109,11 @@ void WriteHeadDiagnostics(const HeadFitOptions& options,
   d["reciprocal_condition"] = cov.analysis.reciprocal_condition;
   d["covariance_source"] = cov.analysis.ok ? "fitting/observability.h: Schur complement of J^T J, boards eliminated"
                                            : "none: " + cov.analysis.message;
-  if (!options.covariance_clusters.empty()) {
-    nlohmann::json r = {{"clusters", options.covariance_clusters}, {"num_clusters", cov.num_clusters}};
+  if (options.covariance_clusters.kind != CovarianceClusters::Kind::kModel) {
+    nlohmann::json r = {{"clusters", options.covariance_clusters.Spec()}, {"num_clusters", cov.num_clusters}};
     if (cov.robust_sigma_ratio.size() > 0) {
       d["covariance_source"] = "fitting/observability.h ClusterRobustCovariance: clustered by " +
-                               options.covariance_clusters + " (" + std::to_string(cov.num_clusters) +
+                               options.covariance_clusters.Spec() + " (" + std::to_string(cov.num_clusters) +
                                "), never below white noise at the measured sigma, x " +
                                std::to_string(options.robust_sigma_factor) + " for the bias every view shares";
       nlohmann::json ratio = nlohmann::json::object();
@@ -130,11 +131,50 @@ void WriteHeadDiagnostics(const HeadFitOptions& options,
 
 }  // namespace
 
-double HeadFitOptions::CellOfClusters(const std::string& spec) {
-  if (spec.rfind("cell:", 0) != 0) return 0.0;
+std::string CovarianceClusters::Spec() const {
+  switch (kind) {
+    case Kind::kModel:
+      return "";
+    case Kind::kView:
+      return "view";
+    case Kind::kPlacement:
+      return "placement";
+    case Kind::kCell: {
+      std::ostringstream s;
+      s << "cell:" << cell_us;
+      return s.str();
+    }
+  }
+  return "";
+}
+
+std::optional<CovarianceClusters> CovarianceClusters::Parse(const std::string& spec) {
+  if (spec.empty() || spec == "model") return CovarianceClusters{};
+  if (spec == "view") return CovarianceClusters{Kind::kView, 0};
+  if (spec == "placement") return CovarianceClusters{Kind::kPlacement, 0};
+  if (spec.rfind("cell:", 0) != 0) return std::nullopt;
   char* end = nullptr;
   const double b = std::strtod(spec.c_str() + 5, &end);
-  return end != spec.c_str() + 5 && *end == '\0' && b >= 1 ? b : NAN;
+  if (end == spec.c_str() + 5 || *end != '\0' || !(b >= 1)) return std::nullopt;
+  return Cell(b);
+}
+
+std::string FloorCarryName(FloorCarry carry) {
+  switch (carry) {
+    case FloorCarry::kNone:
+      return "none";
+    case FloorCarry::kCentres:
+      return "centres";
+    case FloorCarry::kServoMaps:
+      return "servo_maps";
+  }
+  return "none";
+}
+
+std::optional<FloorCarry> ParseFloorCarry(const std::string& name) {
+  for (const FloorCarry c : {FloorCarry::kNone, FloorCarry::kCentres, FloorCarry::kServoMaps})
+    if (FloorCarryName(c) == name) return c;
+  return std::nullopt;
 }
 
 bool HeadFitOptions::Check(std::string* why) const {
@@ -148,10 +188,9 @@ bool HeadFitOptions::Check(std::string* why) const {
     return fail("min_corner_sigma_px = " + std::to_string(min_corner_sigma_px) + " must be in [0, 10)");
   if (!(measured_sigma_factor >= 1 && measured_sigma_factor <= 10))
     return fail("measured_sigma_factor = " + std::to_string(measured_sigma_factor) + " must be in [1, 10]");
-  if (!(covariance_clusters.empty() || covariance_clusters == "view" || covariance_clusters == "placement" ||
-        CellOfClusters(covariance_clusters) >= 1))
-    return fail("covariance_clusters = '" + covariance_clusters +
-                "' must be empty, view, placement or cell:B with B >= 1 us");
+  if (covariance_clusters.kind == CovarianceClusters::Kind::kCell && !(covariance_clusters.cell_us >= 1))
+    return fail("covariance_clusters: a cell of " + std::to_string(covariance_clusters.cell_us) +
+                " us; it must be >= 1 us");
   for (int e = 0; e < 2; ++e) {
     const auto& f = principal_point_covariance_floor[e];
     if (f && (f->rows() != 2 || f->cols() != 2 || !f->allFinite() || !((*f)(0, 0) >= 0) || !((*f)(1, 1) >= 0)))
@@ -164,8 +203,6 @@ bool HeadFitOptions::Check(std::string* why) const {
     return fail("focal_scale_sigma_floor = " + std::to_string(focal_scale_sigma_floor) + " must be in [0, 0.1)");
   if (!(pan_zero_sigma_factor >= 1 && pan_zero_sigma_factor < 100))
     return fail("pan_zero_sigma_factor = " + std::to_string(pan_zero_sigma_factor) + " must be in [1, 100)");
-  if (intrinsics_floor_carry != "none" && intrinsics_floor_carry != "centres" && intrinsics_floor_carry != "servo_maps")
-    return fail("intrinsics_floor_carry = '" + intrinsics_floor_carry + "' must be none, centres or servo_maps");
   if (!(hysteresis_sigma_floor_us >= 0 && hysteresis_sigma_floor_us < 100))
     return fail("hysteresis_sigma_floor_us = " + std::to_string(hysteresis_sigma_floor_us) + " must be in [0, 100)");
   if (!(view_outlier_factor == 0 || view_outlier_factor >= 1.5))

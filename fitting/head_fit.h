@@ -41,6 +41,36 @@
 
 namespace owlcal::fitting {
 
+// HeadFitOptions::covariance_clusters: which corners may share an error in the covariance from
+// the residuals (fitting/observability.h ClusterRobustCovariance).
+struct CovarianceClusters {
+  enum class Kind {
+    kModel,      // none: the model covariance alone
+    kView,       // each view is a cluster
+    kPlacement,  // each board placement seen by one eye
+    kCell,       // the views of one placement whose five commands fall in one cell_us cell, both eyes
+  };
+  Kind kind = Kind::kModel;
+  double cell_us = 0;  // kCell: the cell's size [us], >= 1
+
+  static CovarianceClusters Cell(double us) { return {Kind::kCell, us}; }
+  // As results.json and --covariance-clusters write it: "" (kModel), "view", "placement", "cell:B".
+  std::string Spec() const;
+  // The inverse of Spec (also "model" for kModel); nullopt for anything else, "cell:B" with B < 1
+  // or not a number included. The one parser of the spec (the head fit, owlcal fit-datasets).
+  static std::optional<CovarianceClusters> Parse(const std::string& spec);
+};
+
+// HeadFitOptions::intrinsics_floor_carry: where the intrinsics floor's shortfall is carried.
+enum class FloorCarry {
+  kNone,       // the intrinsics alone
+  kCentres,    // and each servo's centre_us
+  kServoMaps,  // and every servo map coordinate
+};
+// "none", "centres", "servo_maps" (results.json, --floor-carry); ParseFloorCarry is its inverse.
+std::string FloorCarryName(FloorCarry carry);
+std::optional<FloorCarry> ParseFloorCarry(const std::string& name);
+
 // The noise class of boards HeadFitOptions::noise_class_of_board does not list.
 inline constexpr const char* kDefaultNoiseClass = "board";
 
@@ -63,12 +93,12 @@ struct HeadFitOptions {
   // Covariance from the residuals themselves (fitting/observability.h ClusterRobustCovariance):
   // the corners of one cluster may share an error; "view": each view is a cluster, "placement":
   // each board placement seen by one eye (10 clusters for the standard sweep: too few for the
-  // ~80 parameters); "cell:B": the views of one placement whose five commands fall in the same
-  // B us cell, both eyes together (a bias neighbouring views share counts once per cell; owlcal
-  // calibrate: cell:100); "" (default): the model covariance alone. The result is never below the
-  // white-noise covariance at the measured sigma (the model covariance divided by
+  // ~80 parameters); a cell: the views of one placement whose five commands fall in the same
+  // cell, both eyes together (a bias neighbouring views share counts once per cell; owlcal
+  // calibrate: 100 us cells); kModel (default): the model covariance alone. The result is never
+  // below the white-noise covariance at the measured sigma (the model covariance divided by
   // measured_sigma_factor^2), and it does not depend on measured_sigma_factor otherwise.
-  std::string covariance_clusters;
+  CovarianceClusters covariance_clusters;
   // The clustered covariance times this squared: the residuals cannot show a corner bias that
   // every view shares (it moves the fit, not the residuals), so sigma is widened for it (1: none).
   double robust_sigma_factor = 1.0;
@@ -120,9 +150,9 @@ struct HeadFitOptions {
   // 6-robot Monte-Carlo test's 8 stereo views: 90 and 97 % within 1 sigma).
   std::optional<Eigen::MatrixXd> intrinsics_covariance_floor[2];
   // Where else the shortfall goes, as the fit's covariance says those parameters move with the
-  // intrinsics (fitting/head_fit.cc says why): "none", "centres" (each servo's centre_us) or
-  // "servo_maps" (every servo map coordinate: a focal-length error scales every angle the maps give).
-  std::string intrinsics_floor_carry = "none";
+  // intrinsics (fitting/head_fit.cc says why): kServoMaps because a focal-length error scales
+  // every angle the maps give.
+  FloorCarry intrinsics_floor_carry = FloorCarry::kNone;
   // Widening of the pan zero (the head-yaw gauge, fitting/head_gauge.h item 2): the sigma of the
   // two pan maps' mean angle at the robot file's centres times this factor (>= 1; 1 = none),
   // added along the direction that shifts both pan maps by one angle (ShiftServoMapAngle), so
@@ -164,9 +194,6 @@ struct HeadFitOptions {
   int num_threads = 1;
 
   bool Check(std::string* why) const;
-  // covariance_clusters "cell:B": B [us]; 0 for any other spec, NaN for "cell:" with B < 1 or
-  // not a number. The one parser of the spec (Check, the head fit, owlcal fit-datasets).
-  static double CellOfClusters(const std::string& spec);
 };
 
 struct HeadOutlier {

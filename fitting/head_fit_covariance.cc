@@ -197,10 +197,10 @@ void FloorIntrinsics(const HeadState& s, const HeadFitOptions& options, HeadCova
     const int n = int(c.rows());
     std::vector<bool> carry(n, false);
     for (int t : tangent) carry[t] = true;
-    if (options.intrinsics_floor_carry != "none") {
+    if (options.intrinsics_floor_carry != FloorCarry::kNone) {
       for (const Block& servo : s.servo) {
         for (int a = 0; a < servo.size(); ++a) {
-          if (a != 0 && options.intrinsics_floor_carry == "centres") continue;  // 0: centre_us
+          if (a != 0 && options.intrinsics_floor_carry == FloorCarry::kCentres) continue;  // 0: centre_us
           auto it = cov.tangent_of.find({&servo, a});
           if (it != cov.tangent_of.end()) carry[it->second] = true;
         }
@@ -244,14 +244,14 @@ HeadCovariance AnalyseHead(ceres::Problem* problem,
   c.names = names;
   if (offset == 0) return c;
   c.analysis = AnalyseObservability(problem, globals, locals, names, options.rank_tolerance);
-  if (options.covariance_clusters.empty() || !c.analysis.ok) return c;
+  if (options.covariance_clusters.kind == CovarianceClusters::Kind::kModel || !c.analysis.ok) return c;
   // The covariance the residuals show, clustered (HeadFitOptions::covariance_clusters), never
   // below white noise at the measured sigma.
-  auto sandwich = [&](const std::string& spec) {
-    // "view": one residual block per view; "placement": the views of one board placement by one
-    // eye; "cell:B": the views of one board placement whose five commands fall in the same B us
-    // cell (both eyes' views of a frame together).
-    const double cell_us = HeadFitOptions::CellOfClusters(spec);
+  auto sandwich = [&](const CovarianceClusters& spec) {
+    // kView: one residual block per view; kPlacement: the views of one board placement by one
+    // eye; kCell: the views of one board placement whose five commands fall in the same cell
+    // (both eyes' views of a frame together).
+    const double cell_us = spec.kind == CovarianceClusters::Kind::kCell ? spec.cell_us : 0.0;
     std::map<std::pair<const double*, const double*>, int> placement;
     std::map<ceres::ResidualBlockId, int> view_index;
     std::map<std::pair<const double*, std::array<long, models::kNumServos>>, int> cell;
@@ -259,7 +259,8 @@ HeadCovariance AnalyseHead(ceres::Problem* problem,
       std::vector<double*> blocks;
       problem->GetParameterBlocksForResidualBlock(id, &blocks);
       if (blocks.size() != 8) return -1;  // a prior
-      if (spec == "view") return view_index.try_emplace(id, int(view_index.size())).first->second;
+      if (spec.kind == CovarianceClusters::Kind::kView)
+        return view_index.try_emplace(id, int(view_index.size())).first->second;
       if (cell_us > 0) {
         const calib::View& v = views.at(s->input_view_of_residual.at(id));
         std::array<long, models::kNumServos> key{};

@@ -82,11 +82,11 @@ fitting::HeadFitOptions CalibratePipelineOptions::CalibrateHeadFitOptions() {
   ho.estimate_corner_sigma = true;  // whiten by the noise the residuals show, per eye
   ho.measured_sigma_factor = 1.4;   // the detector bias neighbouring views share
   ho.hysteresis_sigma_floor_us = 0;
-  ho.covariance_clusters = "cell:100";  // sandwich covariance over placement x 100 us cells
+  ho.covariance_clusters = fitting::CovarianceClusters::Cell(100);  // sandwich over placement x 100 us cells
   ho.robust_sigma_factor = 1.0;
-  ho.intrinsics_floor_carry = "servo_maps";  // a focal-length error scales every angle the maps give
-  ho.pan_zero_sigma_factor = 1.25;           // the head-yaw gauge's eye-depth difference
-  ho.rational_fix_radial = {2, 3, 5, 6};     // the stereo fit's rational lens form
+  ho.intrinsics_floor_carry = fitting::FloorCarry::kServoMaps;  // a focal-length error scales every angle the maps give
+  ho.pan_zero_sigma_factor = 1.25;                              // the head-yaw gauge's eye-depth difference
+  ho.rational_fix_radial = {2, 3, 5, 6};                        // the stereo fit's rational lens form
   return ho;
 }
 
@@ -124,9 +124,9 @@ nlohmann::json CalibratePipelineOptions::ToJson() const {
       {"measured_sigma_factor", head.measured_sigma_factor},
       {"min_corner_sigma_px", head.min_corner_sigma_px},
       {"hysteresis_sigma_floor_us", head.hysteresis_sigma_floor_us},
-      {"covariance_clusters", head.covariance_clusters},
+      {"covariance_clusters", head.covariance_clusters.Spec()},
       {"robust_sigma_factor", head.robust_sigma_factor},
-      {"intrinsics_floor_carry", head.intrinsics_floor_carry},
+      {"intrinsics_floor_carry", fitting::FloorCarryName(head.intrinsics_floor_carry)},
       {"pan_zero_sigma_factor", head.pan_zero_sigma_factor},
       {"view_outlier_factor", head.view_outlier_factor},
       {"noise_class_of_board", head.noise_class_of_board},

@@ -72,30 +72,32 @@ int ExpectAccurate(const HeadFit& fit, const models::HeadModel& truth_canonical,
   return compared;
 }
 
-// The cluster spec has one parser (HeadFitOptions::CellOfClusters), used by Check, the fit and
-// owlcal fit-datasets; a malformed cell is refused, not read as 0 (no cells) or as its prefix.
+// The cluster spec has one parser (CovarianceClusters::Parse), used by owlcal fit-datasets and
+// inverted by Spec (what results.json records); a malformed cell is refused, not read as no
+// cells or as its prefix, and a cell below 1 us set in code fails Check.
 TEST(HeadFitOptions, CovarianceClusterSpecsAreParsedOnceAndMalformedOnesRefused) {
-  EXPECT_EQ(HeadFitOptions::CellOfClusters("cell:100"), 100.0);
-  EXPECT_EQ(HeadFitOptions::CellOfClusters("cell:2.5"), 2.5);
-  EXPECT_EQ(HeadFitOptions::CellOfClusters("view"), 0.0);
-  EXPECT_TRUE(std::isnan(HeadFitOptions::CellOfClusters("cell:")));
-  EXPECT_TRUE(std::isnan(HeadFitOptions::CellOfClusters("cell:0.5")));
-  EXPECT_TRUE(std::isnan(HeadFitOptions::CellOfClusters("cell:100us")));
+  using Kind = CovarianceClusters::Kind;
+  ASSERT_TRUE(CovarianceClusters::Parse("cell:100"));
+  EXPECT_EQ(CovarianceClusters::Parse("cell:100")->kind, Kind::kCell);
+  EXPECT_EQ(CovarianceClusters::Parse("cell:100")->cell_us, 100.0);
+  EXPECT_EQ(CovarianceClusters::Parse("cell:2.5")->cell_us, 2.5);
+  EXPECT_EQ(CovarianceClusters::Parse("view")->kind, Kind::kView);
+  EXPECT_EQ(CovarianceClusters::Parse("model")->kind, Kind::kModel);
+  EXPECT_EQ(CovarianceClusters::Parse("")->kind, Kind::kModel);
+  for (const char* spec : {"", "view", "placement", "cell:100", "cell:2.5"})
+    EXPECT_EQ(CovarianceClusters::Parse(spec)->Spec(), spec);
+  for (const char* bad : {"cell:", "cell:0", "cell:0.5", "cell:100us", "frame"})
+    EXPECT_FALSE(CovarianceClusters::Parse(bad)) << bad;
   HeadFitOptions o;
   std::string why;
-  for (const char* ok : {"", "view", "placement", "cell:100"}) {
-    o.covariance_clusters = ok;
-    EXPECT_TRUE(o.Check(&why)) << ok << ": " << why;
-  }
-  for (const char* bad : {"cell:", "cell:0", "cell:100us", "frame"}) {
-    o.covariance_clusters = bad;
-    EXPECT_FALSE(o.Check(&why)) << bad;
-    EXPECT_NE(why.find("covariance_clusters"), std::string::npos) << why;
-  }
-  o.covariance_clusters = "";
-  o.intrinsics_floor_carry = "scales";
+  o.covariance_clusters = CovarianceClusters::Cell(100);
+  EXPECT_TRUE(o.Check(&why)) << why;
+  o.covariance_clusters = CovarianceClusters::Cell(0.5);
   EXPECT_FALSE(o.Check(&why));
-  EXPECT_NE(why.find("intrinsics_floor_carry"), std::string::npos) << why;
+  EXPECT_NE(why.find("covariance_clusters"), std::string::npos) << why;
+  for (const FloorCarry c : {FloorCarry::kNone, FloorCarry::kCentres, FloorCarry::kServoMaps})
+    EXPECT_EQ(ParseFloorCarry(FloorCarryName(c)), c);
+  EXPECT_FALSE(ParseFloorCarry("scales"));
 }
 
 // A perturbed default robot and its synthetic sweep (4 x 4 corner grids).
