@@ -54,33 +54,37 @@ const char* const kViridis =
     "6 '#35b779', 7 '#6ece58', 8 '#b5de2b', 9 '#fde725')";
 
 namespace {
+// Asked once per process (a thread-safe static: figures are drawn on several threads).
 bool HavePdfCairo() {
-  static int cached = -1;
-  if (cached < 0) {
+  static const bool have = [] {
     int st = 0;
-    const std::string terms = RunCapture("echo 'set terminal' | gnuplot 2>&1", &st);
-    cached = terms.find("pdfcairo") != std::string::npos ? 1 : 0;
-  }
-  return cached == 1;
+    return RunCapture("echo 'set terminal' | gnuplot 2>&1", &st).find("pdfcairo") != std::string::npos;
+  }();
+  return have;
 }
 }  // namespace
 
 bool GnuplotAvailable(std::string* png_terminal, std::string* version) {
-  static int cached = -1;
-  static std::string term, ver;
-  if (cached < 0) {
+  struct Found {
+    bool have = false;
+    std::string term, version;
+  };
+  // Asked once per process (a thread-safe static: figures are drawn on several threads).
+  static const Found found = [] {
+    Found f;
     int st = 0;
-    ver = RunCapture("gnuplot --version 2>/dev/null", &st);
-    while (!ver.empty() && (ver.back() == '\n' || ver.back() == '\r')) ver.pop_back();
-    cached = (st == 0 && !ver.empty()) ? 1 : 0;
-    if (cached) {
+    f.version = RunCapture("gnuplot --version 2>/dev/null", &st);
+    while (!f.version.empty() && (f.version.back() == '\n' || f.version.back() == '\r')) f.version.pop_back();
+    f.have = st == 0 && !f.version.empty();
+    if (f.have) {
       const std::string terms = RunCapture("echo 'set terminal' | gnuplot 2>&1", &st);
-      term = terms.find("pngcairo") != std::string::npos ? "pngcairo" : "png";
+      f.term = terms.find("pngcairo") != std::string::npos ? "pngcairo" : "png";
     }
-  }
-  if (png_terminal) *png_terminal = term;
-  if (version) *version = ver;
-  return cached == 1;
+    return f;
+  }();
+  if (png_terminal) *png_terminal = found.term;
+  if (version) *version = found.version;
+  return found.have;
 }
 
 std::string GnuplotQuote(const std::string& text) { return Quote(text); }

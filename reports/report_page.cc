@@ -5,6 +5,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <map>
 #include <set>
 #include <sstream>
@@ -151,8 +152,21 @@ void PlaceFigures(const ReportData& d,
                   ReportOutput* out,
                   Page* page,
                   std::vector<std::string>* order) {
-  for (const reports::Figure& f : MakeAllFigures(d)) {
-    const FigureFiles ff = WriteFigure(f, fig_dir, draw);
+  // Each figure is one gnuplot process: two are drawn at a time (figures_in_flight), then placed
+  // in their order.
+  constexpr size_t figures_in_flight = 2;
+  const std::vector<reports::Figure> figures = MakeAllFigures(d);
+  std::filesystem::create_directories(fig_dir);
+  std::vector<std::future<FigureFiles>> drawn(figures.size());
+  auto start = [&](size_t i) {
+    drawn[i] = std::async(std::launch::async,
+                          [&figures, &fig_dir, draw, i] { return WriteFigure(figures[i], fig_dir, draw); });
+  };
+  for (size_t i = 0; i < std::min(figures_in_flight, figures.size()); ++i) start(i);
+  for (size_t i = 0; i < figures.size(); ++i) {
+    const reports::Figure& f = figures[i];
+    const FigureFiles ff = drawn[i].get();
+    if (i + figures_in_flight < figures.size()) start(i + figures_in_flight);
     out->figures.push_back(f.name);
     order->push_back(f.name);
     if (draw && !ff.drawn) out->warnings.push_back(ff.message);
