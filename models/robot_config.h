@@ -46,6 +46,25 @@ struct RobotConfig {
   }
 };
 
+// "" when every servo of `target` is at least margin_us [us] inside `robot`'s configured limits
+// (servos at their value in *unchanged_from are not checked, when given); else which servo would
+// come within the margin, ending with `then` (what the caller does instead of sending).
+inline std::string OutsideMargin(const RobotConfig& robot,
+                                 const PwmVector& target,
+                                 int margin_us,
+                                 const std::string& then,
+                                 const PwmVector* unchanged_from = nullptr) {
+  for (int i = 0; i < kNumServos; ++i) {
+    if (unchanged_from && target[i] == (*unchanged_from)[i]) continue;
+    const ServoConfig& c = robot.servos[i];
+    if (target[i] < c.min_us + margin_us || target[i] > c.max_us - margin_us)
+      return std::string(kServoNames[i]) + " would go to " + std::to_string(target[i]) + " us, within " +
+             std::to_string(margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
+             std::to_string(c.max_us) + "]: " + then;
+  }
+  return "";
+}
+
 // The robot of the Owl user guide (code snippets 4 and 5).
 inline RobotConfig DefaultRobotConfig() {
   RobotConfig r;

@@ -265,32 +265,15 @@ class CatchUpRun {
   }
 
   std::string OutsideMargin(const PwmVector& target) const {
-    for (int i = 0; i < kNumServos; ++i) {
-      const models::ServoConfig& c = run_.config().servos[i];
-      if (target[i] < c.min_us + s_.limit_margin_us || target[i] > c.max_us - s_.limit_margin_us)
-        return std::string(models::kServoNames[i]) + " would go to " + std::to_string(target[i]) + " us, within " +
-               std::to_string(s_.limit_margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
-               std::to_string(c.max_us) + "]: stopped before sending";
-    }
-    return "";
+    return models::OutsideMargin(run_.config(), target, s_.limit_margin_us, "stopped before sending");
   }
 
  private:
   std::optional<Eigen::Vector2d> Locate(const robot::StereoFrame& f) {
     return loc_->Locate(eye_ == models::kLeftEye ? f.left : f.right, eye_);
   }
-  static Eigen::Vector2d Centre(const robot::StereoFrame& f) {
-    return Eigen::Vector2d((f.left.cols - 1) / 2.0, (f.left.rows - 1) / 2.0);
-  }
-  models::JointAngles Angles(const PwmVector& c) const {
-    std::array<double, kNumServos> u{};
-    std::array<int, kNumServos> ap{};
-    for (int i = 0; i < kNumServos; ++i) {
-      u[i] = c[i];
-      ap[i] = run_.approach()[i];
-    }
-    return head_.Angles(u, ap);
-  }
+  static Eigen::Vector2d Centre(const robot::StereoFrame& f) { return ImageCentre(f.left); }
+  models::JointAngles Angles(const PwmVector& c) const { return run_.AnglesAt(head_, c); }
 
   RunContext& run_;
   const Protocol& p_;

@@ -243,7 +243,7 @@ class FixationLoop {
         continue;
       }
       s.found[e] = true;
-      s.offset_px[e] = *p - Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
+      s.offset_px[e] = *p - ImageCentre(img);
       s.radius_px[e] = locator_.LastRadiusPx(e);
       r_.found[e] = true;
       r_.residual_px[e] = s.offset_px[e];
@@ -312,15 +312,9 @@ class FixationLoop {
 
   // Heading for a limit: why the loop stops before sending next; nullopt when it need not.
   std::optional<std::string> LimitStop(const models::PwmVector& next) const {
-    for (int i = 0; i < models::kNumServos; ++i) {
-      if (next[i] == sent_[i]) continue;
-      const models::ServoConfig& c = robot_.servos[i];
-      if (next[i] < c.min_us + o_.limit_margin_us || next[i] > c.max_us - o_.limit_margin_us)
-        return std::string(models::kServoNames[i]) + " would go to " + std::to_string(next[i]) + " us, within " +
-               std::to_string(o_.limit_margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
-               std::to_string(c.max_us) + "]: stopped before sending";
-    }
-    return std::nullopt;
+    std::string why = models::OutsideMargin(robot_, next, o_.limit_margin_us, "stopped before sending", &sent_);
+    if (why.empty()) return std::nullopt;
+    return why;
   }
 
   bool WithinDeadZones(const FixationSample& s) const {

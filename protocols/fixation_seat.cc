@@ -52,7 +52,7 @@ void SeatCommand(const FixationOptions& o,
         const cv::Mat img = e == models::kLeftEye ? frame.left : frame.right;
         if (const auto p = locator.Locate(img, e)) {
           s.found[e] = true;
-          s.offset_px[e] = *p - Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
+          s.offset_px[e] = *p - ImageCentre(img);
           s.radius_px[e] = locator.LastRadiusPx(e);
         }
       }

@@ -8,6 +8,7 @@
 
 #include "calib/csv.h"
 #include "calib/trial_status.h"
+#include "models/joint_solve.h"
 #include "models/saccade.h"
 #include "models/units.h"
 #include "protocols/fixate_step.h"
@@ -29,30 +30,6 @@ constexpr const char* kMainSequenceFrameColumns =
 constexpr const char* kMainSequenceTrialColumns =
     "step_index,saccade,amplitude_deg,repeat,direction,eye,servo,from_us,to_us,map_amplitude_deg,phase_ms,frames,"
     "measured,map,true_slew_deg_per_s,true_lag_s,status,reason";
-
-// The pan angle of `eye` that projects x_in_base to pixel column x_px with the other joints at
-// `a`: Newton on the column; nullopt when it does not converge.
-std::optional<double> SolvePan(const models::HeadModel& head,
-                               models::Eye eye,
-                               models::JointAngles a,
-                               const Eigen::Vector3d& x_in_base,
-                               double x_px) {
-  double& q = a.pan_rad[eye];
-  for (int it = 0; it < 20; ++it) {
-    Eigen::Vector2d p0, p1;
-    if (!head.Project(eye, a, x_in_base, &p0)) return std::nullopt;
-    const double r = p0.x() - x_px;
-    if (std::abs(r) < 1e-6) return q;
-    q += 1e-6;
-    const bool ok = head.Project(eye, a, x_in_base, &p1);
-    q -= 1e-6;
-    if (!ok) return std::nullopt;
-    const double d = (p1.x() - p0.x()) / 1e-6;
-    if (std::abs(d) < 1e-9) return std::nullopt;
-    q -= std::clamp(r / d, -0.2, 0.2);
-  }
-  return std::nullopt;
-}
 
 struct Truth {
   double slew_deg_per_s = NAN, lag_s = NAN;
@@ -141,14 +118,7 @@ class MainSequenceRun {
   }
 
   std::string OutsideMargin(const PwmVector& target) const {
-    for (int i = 0; i < kNumServos; ++i) {
-      const models::ServoConfig& c = run_.config().servos[i];
-      if (target[i] < c.min_us + s_.limit_margin_us || target[i] > c.max_us - s_.limit_margin_us)
-        return std::string(models::kServoNames[i]) + " would go to " + std::to_string(target[i]) + " us, within " +
-               std::to_string(s_.limit_margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
-               std::to_string(c.max_us) + "]: not sent";
-    }
-    return "";
+    return models::OutsideMargin(run_.config(), target, s_.limit_margin_us, "not sent");
   }
 
   struct FrameRow {
@@ -172,7 +142,8 @@ class MainSequenceRun {
     if (px) {
       r.found = true;
       r.px = *px;
-      if (const auto q = SolvePan(head_, models::Eye(eye_), Angles(run_.cmd()), x_in_base_, px->x()))
+      if (const auto q = models::SolveJointForColumn(
+              head_, models::Eye(eye_), Angles(run_.cmd()), x_in_base_, px->x(), models::ColumnJoint::kPan))
         r.angle_deg = *q / kDeg;
     }
     if (robot::SceneControl* sc = run_.robot().Scene())
@@ -186,18 +157,8 @@ class MainSequenceRun {
   void Prepare(const robot::StereoFrame& f) { loc_->Prepare(f, nullptr); }
 
  private:
-  static Eigen::Vector2d Centre(const robot::StereoFrame& f) {
-    return Eigen::Vector2d((f.left.cols - 1) / 2.0, (f.left.rows - 1) / 2.0);
-  }
-  models::JointAngles Angles(const PwmVector& c) const {
-    std::array<double, kNumServos> u{};
-    std::array<int, kNumServos> ap{};
-    for (int i = 0; i < kNumServos; ++i) {
-      u[i] = c[i];
-      ap[i] = run_.approach()[i];
-    }
-    return head_.Angles(u, ap);
-  }
+  static Eigen::Vector2d Centre(const robot::StereoFrame& f) { return ImageCentre(f.left); }
+  models::JointAngles Angles(const PwmVector& c) const { return run_.AnglesAt(head_, c); }
 
   RunContext& run_;
   const MainSequenceStep& s_;

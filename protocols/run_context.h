@@ -57,6 +57,16 @@ class RunContext {
   // The last command sent (after the limits guard) and the sign of each servo's last move.
   const models::PwmVector& cmd() const { return cmd_; }
   const std::array<int8_t, models::kNumServos>& approach() const { return approach_; }
+  // The joint angles `head` gives for the command `cmd` with each servo's last approach side.
+  models::JointAngles AnglesAt(const models::HeadModel& head, const models::PwmVector& cmd) const {
+    std::array<double, models::kNumServos> u{};
+    std::array<int, models::kNumServos> ap{};
+    for (int i = 0; i < models::kNumServos; ++i) {
+      u[i] = cmd[i];
+      ap[i] = approach_[i];
+    }
+    return head.Angles(u, ap);
+  }
   int step_index() const { return step_index_; }
   const std::string& step_name() const { return step_name_; }
   // The placement in force (placements.csv row), -1 before the first place-target step.

@@ -117,7 +117,7 @@ class SaccadeController {
         loc_->Prepare(frame, &why);
         px = loc_->Locate(img, eye_);
       }
-      const Eigen::Vector2d centre((img.cols - 1) / 2.0, (img.rows - 1) / 2.0);
+      const Eigen::Vector2d centre = ImageCentre(img);
       if (px) {
         smp.found = true;
         smp.offset_px = *px - centre;
@@ -261,15 +261,7 @@ class SaccadeController {
   bool Shaped(int a) const { return s_.shape && Known(a); }
 
   std::string OutsideMargin(const PwmVector& target) const {
-    for (int i = 0; i < kNumServos; ++i) {
-      const models::ServoConfig& c = run_.config().servos[i];
-      if (target[i] == run_.cmd()[i]) continue;
-      if (target[i] < c.min_us + s_.limit_margin_us || target[i] > c.max_us - s_.limit_margin_us)
-        return std::string(models::kServoNames[i]) + " would go to " + std::to_string(target[i]) + " us, within " +
-               std::to_string(s_.limit_margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
-               std::to_string(c.max_us) + "]: stopped before sending";
-    }
-    return "";
+    return models::OutsideMargin(run_.config(), target, s_.limit_margin_us, "stopped before sending", &run_.cmd());
   }
 
   // Sends the move (shaped when it is the first and the motion is known); returns the time the

@@ -18,6 +18,10 @@
 
 namespace owlcal::protocols {
 
+// The image's centre pixel (OpenCV convention: pixel centres at integers), where a fixated target
+// is held.
+inline Eigen::Vector2d ImageCentre(const cv::Mat& img) { return {(img.cols - 1) / 2.0, (img.rows - 1) / 2.0}; }
+
 // Where is the target in one eye image (pixels, OpenCV convention)?
 class TargetLocator {
  public:

@@ -96,7 +96,7 @@ class TemplateLocator : public TargetLocator {
       if (why) *why = "template locator: the first frame has no right image";
       return false;
     }
-    templ_ = calib::CutTemplate(img, Eigen::Vector2d((img.cols - 1) / 2.0, (img.rows - 1) / 2.0), half_);
+    templ_ = calib::CutTemplate(img, ImageCentre(img), half_);
     cv::Scalar mean, sd;
     cv::meanStdDev(templ_, mean, sd);
     if (sd[0] < 5) {

@@ -93,14 +93,7 @@ const ObjectView* ObjectAt(const std::vector<ObjectView>& objects, const Eigen::
 }
 
 std::string OutsideMargin(const RunContext& run, const PwmVector& target, int margin) {
-  for (int i = 0; i < kNumServos; ++i) {
-    const models::ServoConfig& c = run.config().servos[i];
-    if (target[i] < c.min_us + margin || target[i] > c.max_us - margin)
-      return std::string(models::kServoNames[i]) + " would go to " + std::to_string(target[i]) + " us, within " +
-             std::to_string(margin) + " us of its limit [" + std::to_string(c.min_us) + ", " +
-             std::to_string(c.max_us) + "]: stopped before sending";
-  }
-  return "";
+  return models::OutsideMargin(run.config(), target, margin, "stopped before sending");
 }
 
 void RestAt(RunContext& run, const PwmVector& pose) {

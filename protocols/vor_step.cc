@@ -6,6 +6,7 @@
 
 #include "calib/csv.h"
 #include "calib/trial_status.h"
+#include "models/joint_solve.h"
 #include "models/saccade.h"
 #include "models/units.h"
 #include "protocols/fixate_step.h"
@@ -61,31 +62,6 @@ struct FrameSample {
 };
 
 std::string Cell(const std::optional<double>& v, int decimals) { return v ? calib::CsvFixed(*v, decimals) : ""; }
-
-// The joint angle (axis 0: neck, 1: the eye's pan) that projects x_in_base to pixel column
-// `x_px` with the other joints at `a`: Newton on the column, nullopt when it does not converge.
-std::optional<double> SolveJoint(const models::HeadModel& head,
-                                 models::Eye eye,
-                                 models::JointAngles a,
-                                 const Eigen::Vector3d& x_in_base,
-                                 double x_px,
-                                 bool neck) {
-  double& q = neck ? a.neck_rad : a.pan_rad[eye];
-  for (int it = 0; it < 20; ++it) {
-    Eigen::Vector2d p0, p1;
-    if (!head.Project(eye, a, x_in_base, &p0)) return std::nullopt;
-    const double r = p0.x() - x_px;
-    if (std::abs(r) < 1e-6) return q;
-    q += 1e-6;
-    const bool ok = head.Project(eye, a, x_in_base, &p1);
-    q -= 1e-6;
-    if (!ok) return std::nullopt;
-    const double d = (p1.x() - p0.x()) / 1e-6;
-    if (std::abs(d) < 1e-9) return std::nullopt;
-    q -= std::clamp(r / d, -0.2, 0.2);
-  }
-  return std::nullopt;
-}
 
 class VorRun {
  public:
@@ -210,14 +186,17 @@ class VorRun {
           if (head_.intrinsics[e].Unproject(px->data(), ray.data()))
             es.gaze_err_deg = std::atan2(ray.x(), ray.z()) / kDeg;
           if (!vor) {
-            if (auto n = SolveJoint(head_, eye, a, x_in_base_[e], px->x(), true)) es.neck_deg = *n / kDeg;
+            if (auto n = models::SolveJointForColumn(head_, eye, a, x_in_base_[e], px->x(), models::ColumnJoint::kNeck))
+              es.neck_deg = *n / kDeg;
             es.pan_deg = a.pan_rad[e] / kDeg;
           } else if (still && k < int(still->size())) {
             if (const std::optional<double> n = NeckOf((*still)[k])) {
               models::JointAngles b = a;
               b.neck_rad = *n * kDeg;
               es.neck_deg = *n;
-              if (auto q = SolveJoint(head_, eye, b, x_in_base_[e], px->x(), false)) es.pan_deg = *q / kDeg;
+              if (auto q =
+                      models::SolveJointForColumn(head_, eye, b, x_in_base_[e], px->x(), models::ColumnJoint::kPan))
+                es.pan_deg = *q / kDeg;
             }
           }
         }
@@ -271,27 +250,10 @@ class VorRun {
   std::optional<Eigen::Vector2d> Locate(const robot::StereoFrame& f, int e) {
     return loc_->Locate(e == models::kLeftEye ? f.left : f.right, e);
   }
-  static Eigen::Vector2d Centre(const robot::StereoFrame& f) {
-    return Eigen::Vector2d((f.left.cols - 1) / 2.0, (f.left.rows - 1) / 2.0);
-  }
-  models::JointAngles Angles(const PwmVector& c) const {
-    std::array<double, kNumServos> u{};
-    std::array<int, kNumServos> ap{};
-    for (int i = 0; i < kNumServos; ++i) {
-      u[i] = c[i];
-      ap[i] = run_.approach()[i];
-    }
-    return head_.Angles(u, ap);
-  }
+  static Eigen::Vector2d Centre(const robot::StereoFrame& f) { return ImageCentre(f.left); }
+  models::JointAngles Angles(const PwmVector& c) const { return run_.AnglesAt(head_, c); }
   std::string OutsideMargin(const PwmVector& target) const {
-    for (int i = 0; i < kNumServos; ++i) {
-      const models::ServoConfig& c = run_.config().servos[i];
-      if (target[i] < c.min_us + s_.limit_margin_us || target[i] > c.max_us - s_.limit_margin_us)
-        return std::string(models::kServoNames[i]) + " would go to " + std::to_string(target[i]) + " us, within " +
-               std::to_string(s_.limit_margin_us) + " us of its limit [" + std::to_string(c.min_us) + ", " +
-               std::to_string(c.max_us) + "]: stopped before sending";
-    }
-    return "";
+    return models::OutsideMargin(run_.config(), target, s_.limit_margin_us, "stopped before sending");
   }
 
   RunContext& run_;
