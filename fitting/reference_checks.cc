@@ -8,14 +8,12 @@
 #include <Eigen/Dense>
 
 #include "fitting/intrinsics_fit.h"
+#include "io/json_strict.h"
 #include "models/slew_lag.h"
 #include "models/units.h"
 
 namespace owlcal::fitting {
 namespace {
-
-nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
-nlohmann::json Num(const std::optional<double>& v) { return v ? Num(*v) : nlohmann::json(nullptr); }
 
 struct CheckSpread {
   int n = 0;
@@ -305,26 +303,27 @@ FovCheck CheckFieldOfView(const CalibrationResult& result,
 nlohmann::json ToJson(const LatencyCheck& c) {
   nlohmann::json groups = nlohmann::json::array();
   for (const auto& g : c.groups)
-    groups.push_back({{"servo", g.servo},
-                      {"num_trials", g.num_trials},
-                      {"num_ok", g.num_ok},
-                      {"mean_ms", Num(g.mean_ms)},
-                      {"sigma_ms", Num(g.sigma_ms)},
-                      {"median_ms", Num(g.median_ms)},
-                      {"min_ms", Num(g.min_ms)},
-                      {"max_ms", Num(g.max_ms)},
-                      {"truth_mean_ms", Num(g.truth_mean_ms)},
-                      {"error_ms", g.truth_mean_ms ? Num(g.mean_ms - *g.truth_mean_ms) : nlohmann::json(nullptr)},
-                      {"max_abs_trial_error_ms", Num(g.max_abs_error_ms)},
-                      {"num_with_truth", g.num_with_truth},
-                      {"num_on_predicted_frame", g.num_on_predicted_frame}});
+    groups.push_back(
+        {{"servo", g.servo},
+         {"num_trials", g.num_trials},
+         {"num_ok", g.num_ok},
+         {"mean_ms", io::JsonNumber(g.mean_ms)},
+         {"sigma_ms", io::JsonNumber(g.sigma_ms)},
+         {"median_ms", io::JsonNumber(g.median_ms)},
+         {"min_ms", io::JsonNumber(g.min_ms)},
+         {"max_ms", io::JsonNumber(g.max_ms)},
+         {"truth_mean_ms", io::JsonNumber(g.truth_mean_ms)},
+         {"error_ms", g.truth_mean_ms ? io::JsonNumber(g.mean_ms - *g.truth_mean_ms) : nlohmann::json(nullptr)},
+         {"max_abs_trial_error_ms", io::JsonNumber(g.max_abs_error_ms)},
+         {"num_with_truth", g.num_with_truth},
+         {"num_on_predicted_frame", g.num_on_predicted_frame}});
   return {{"what",
            "command -> first received frame whose image moved by the threshold (latency protocol), mean and sample "
            "standard deviation over the trials; truth (virtual Owl): the reading its stream latency, frame timing "
            "and servo slew and lag predict for each trial"},
           {"groups", groups},
-          {"stream_latency_truth_ms", Num(c.stream_latency_truth_ms)},
-          {"fps", Num(c.fps)},
+          {"stream_latency_truth_ms", io::JsonNumber(c.stream_latency_truth_ms)},
+          {"fps", io::JsonNumber(c.fps)},
           {"notes", c.notes}};
 }
 
@@ -333,13 +332,13 @@ nlohmann::json ToJson(const AlignmentCheck& c) {
           {"num_roll", c.num_roll},
           {"num_vertical", c.num_vertical},
           {"method", c.method},
-          {"roll_deg", Num(c.roll_deg)},
-          {"roll_sigma_deg", Num(c.roll_sigma_deg)},
-          {"vertical_offset_px", Num(c.vertical_px)},
-          {"vertical_offset_sigma_px", Num(c.vertical_sigma_px)},
-          {"horizontal_offset_px", Num(c.horizontal_px)},
-          {"tolerance_roll_deg", Num(c.tolerance_roll_deg)},
-          {"tolerance_vertical_px", Num(c.tolerance_vertical_px)},
+          {"roll_deg", io::JsonNumber(c.roll_deg)},
+          {"roll_sigma_deg", io::JsonNumber(c.roll_sigma_deg)},
+          {"vertical_offset_px", io::JsonNumber(c.vertical_px)},
+          {"vertical_offset_sigma_px", io::JsonNumber(c.vertical_sigma_px)},
+          {"horizontal_offset_px", io::JsonNumber(c.horizontal_px)},
+          {"tolerance_roll_deg", io::JsonNumber(c.tolerance_roll_deg)},
+          {"tolerance_vertical_px", io::JsonNumber(c.tolerance_vertical_px)},
           {"tolerance_source", c.tolerance_source},
           {"verdict", c.verdict},
           {"advice", c.advice}};
@@ -349,25 +348,25 @@ nlohmann::json ToJson(const FovCheck& c) {
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& r : c.rows)
     rows.push_back({{"eye", r.eye},
-                    {"fx_px", Num(r.fx)},
-                    {"fx_sigma_px", Num(r.fx_sigma)},
-                    {"fy_px", Num(r.fy)},
-                    {"fy_sigma_px", Num(r.fy_sigma)},
-                    {"hfov_deg", Num(r.hfov_deg)},
-                    {"hfov_sigma_deg", Num(r.hfov_sigma_deg)},
-                    {"vfov_deg", Num(r.vfov_deg)},
-                    {"vfov_sigma_deg", Num(r.vfov_sigma_deg)},
-                    {"pinhole_hfov_deg", Num(r.pinhole_hfov_deg)},
-                    {"pinhole_vfov_deg", Num(r.pinhole_vfov_deg)},
-                    {"datasheet_f_px", Num(r.datasheet_f_px)},
-                    {"datasheet_hfov_deg", Num(r.datasheet_hfov_deg)},
-                    {"datasheet_vfov_deg", Num(r.datasheet_vfov_deg)},
-                    {"f_minus_datasheet_px", Num(r.fx - r.datasheet_f_px)},
-                    {"hfov_minus_datasheet_deg", Num(r.hfov_deg - r.datasheet_hfov_deg)},
-                    {"vfov_minus_datasheet_deg", Num(r.vfov_deg - r.datasheet_vfov_deg)},
-                    {"truth_fx_px", Num(r.truth_fx)},
-                    {"truth_hfov_deg", Num(r.truth_hfov_deg)},
-                    {"truth_vfov_deg", Num(r.truth_vfov_deg)}});
+                    {"fx_px", io::JsonNumber(r.fx)},
+                    {"fx_sigma_px", io::JsonNumber(r.fx_sigma)},
+                    {"fy_px", io::JsonNumber(r.fy)},
+                    {"fy_sigma_px", io::JsonNumber(r.fy_sigma)},
+                    {"hfov_deg", io::JsonNumber(r.hfov_deg)},
+                    {"hfov_sigma_deg", io::JsonNumber(r.hfov_sigma_deg)},
+                    {"vfov_deg", io::JsonNumber(r.vfov_deg)},
+                    {"vfov_sigma_deg", io::JsonNumber(r.vfov_sigma_deg)},
+                    {"pinhole_hfov_deg", io::JsonNumber(r.pinhole_hfov_deg)},
+                    {"pinhole_vfov_deg", io::JsonNumber(r.pinhole_vfov_deg)},
+                    {"datasheet_f_px", io::JsonNumber(r.datasheet_f_px)},
+                    {"datasheet_hfov_deg", io::JsonNumber(r.datasheet_hfov_deg)},
+                    {"datasheet_vfov_deg", io::JsonNumber(r.datasheet_vfov_deg)},
+                    {"f_minus_datasheet_px", io::JsonNumber(r.fx - r.datasheet_f_px)},
+                    {"hfov_minus_datasheet_deg", io::JsonNumber(r.hfov_deg - r.datasheet_hfov_deg)},
+                    {"vfov_minus_datasheet_deg", io::JsonNumber(r.vfov_deg - r.datasheet_vfov_deg)},
+                    {"truth_fx_px", io::JsonNumber(r.truth_fx)},
+                    {"truth_hfov_deg", io::JsonNumber(r.truth_hfov_deg)},
+                    {"truth_vfov_deg", io::JsonNumber(r.truth_vfov_deg)}});
   return {{"what",
            "field of view through the image's outer edges (lens model included) and focal length of each fitted "
            "camera, against the Pi camera datasheet"},

@@ -6,6 +6,7 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "io/json_strict.h"
 #include "models/units.h"
 
 namespace owlcal::fitting {
@@ -385,7 +386,7 @@ nlohmann::json ReferenceComparisonToJson(const ReferenceComparison& c) {
                 {"bow", c.share_bow}};
   j["chi2_total"] = c.chi2_total;
   j["num_weighted"] = c.num_weighted;
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  const auto num = [](double v) { return io::JsonNumber(v); };
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& r : c.rows)
     rows.push_back({{"name", r.name},

@@ -14,7 +14,6 @@ namespace {
 
 using nlohmann::json;
 
-json JsonNum(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 double NumOr(const json& j, const char* key, double dflt = std::numeric_limits<double>::quiet_NaN()) {
   if (!j.contains(key) || j.at(key).is_null()) return dflt;
   return j.at(key).get<double>();
@@ -126,11 +125,11 @@ json ToJson(const CalibrationResult& r) {
   j["parameters"] = json::array();
   for (const Parameter& p : r.parameters) {
     json jp = {{"name", p.name},
-               {"value", JsonNum(p.value)},
-               {"sigma", JsonNum(p.sigma)},
+               {"value", io::JsonNumber(p.value)},
+               {"sigma", io::JsonNumber(p.sigma)},
                {"unit", p.unit},
                {"determined", p.determined}};
-    if (p.truth) jp["truth"] = JsonNum(*p.truth);
+    if (p.truth) jp["truth"] = io::JsonNumber(*p.truth);
     if (!p.note.empty()) jp["note"] = p.note;
     if (p.held) jp["held"] = true;
     j["parameters"].push_back(jp);
@@ -140,11 +139,11 @@ json ToJson(const CalibrationResult& r) {
     j["solver"].push_back({{"problem", s.problem},
                            {"termination", s.termination},
                            {"message", s.message},
-                           {"initial_cost", JsonNum(s.initial_cost)},
-                           {"final_cost", JsonNum(s.final_cost)},
+                           {"initial_cost", io::JsonNumber(s.initial_cost)},
+                           {"final_cost", io::JsonNumber(s.final_cost)},
                            {"iterations", s.iterations},
-                           {"time_s", JsonNum(s.time_s)},
-                           {"rms_px", JsonNum(s.rms_px)},
+                           {"time_s", io::JsonNumber(s.time_s)},
+                           {"rms_px", io::JsonNumber(s.rms_px)},
                            {"num_residuals", s.num_residuals},
                            {"num_outliers", s.num_outliers},
                            {"usable", s.usable}});

@@ -1,5 +1,7 @@
 #include "io/json_strict.h"
 
+#include <cmath>
+
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -61,5 +63,8 @@ nlohmann::json ReadJsonFileStrict(const std::string& path) {
   s << in.rdbuf();
   return ParseJsonStrict(s.str(), path);
 }
+
+nlohmann::json JsonNumber(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json JsonNumber(const std::optional<double>& v) { return v ? JsonNumber(*v) : nlohmann::json(nullptr); }
 
 }  // namespace owlcal::io

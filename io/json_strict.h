@@ -9,6 +9,7 @@
 //   const nlohmann::json j = io::ParseJsonStrict(text, path);
 //   const nlohmann::json k = io::ReadJsonFileStrict(path);   // "PATH: cannot open" if unreadable
 // Errors throw std::runtime_error.
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -16,6 +17,11 @@
 namespace owlcal::io {
 
 nlohmann::json ParseJsonStrict(const std::string& text, const std::string& source);
+
+// `v` as a JSON number, or null when it is not finite (JSON has no NaN or infinity: a value a
+// trial did not give is written as null and read back as NaN).
+nlohmann::json JsonNumber(double v);
+nlohmann::json JsonNumber(const std::optional<double>& v);  // null when empty
 nlohmann::json ReadJsonFileStrict(const std::string& path);
 
 }  // namespace owlcal::io

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "calib/csv.h"
+#include "io/json_strict.h"
 #include "io/number_text.h"
 #include "models/statistics.h"
 #include "pipeline/study_cells.h"
@@ -171,7 +172,7 @@ nlohmann::json CatchUpStudyJson(const CatchUpStudy& s) {
   j["num_ok"] = s.num_ok;
   j["has_truth"] = s.has_truth;
   j["notes"] = s.notes;
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  const auto num = [](double v) { return io::JsonNumber(v); };
   j["trials"] = nlohmann::json::array();
   for (const CatchUpTrial& t : s.trials)
     j["trials"].push_back({{"trial", t.trial},

@@ -11,6 +11,7 @@
 #include "calib/detector.h"
 #include "calib/observation_io.h"
 #include "fitting/range_images_ranging.h"
+#include "io/json_strict.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/calibrate_pipeline.h"
@@ -518,7 +519,7 @@ SharpnessStudy MeasureSharpnessPairs(const std::vector<SharpnessPair>& pairs,
 }
 
 nlohmann::json SharpnessStudyJson(const SharpnessStudy& s) {
-  auto num = [](double v) -> nlohmann::json { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  const auto num = [](double v) { return io::JsonNumber(v); };
   nlohmann::json j;
   j["source"] = s.source;
   j["num_ok"] = s.num_ok;

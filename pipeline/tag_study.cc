@@ -6,6 +6,7 @@
 
 #include "fitting/board_warp.h"
 #include "fitting/servo_map_eval.h"
+#include "io/json_strict.h"
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
 
@@ -26,8 +27,6 @@ fitting::CalibrationResult ResultOf(const fitting::HeadFit& h) {
   if (const nlohmann::json c = HeadCovarianceJson(h); !c.is_null()) r.diagnostics["covariance"] = c;
   return r;
 }
-
-nlohmann::json NumberOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 }  // namespace
 
@@ -123,14 +122,14 @@ nlohmann::json TagStudy(const std::vector<calib::View>& views,
       nlohmann::json e = {{"servo", models::kServoNames[s]},
                           {"end", k == 0 ? "min" : "max"},
                           {"pwm_us", a[k].pwm_us},
-                          {"sigma_with_tags_deg", NumberOrNull(a[k].sigma_deg)},
+                          {"sigma_with_tags_deg", io::JsonNumber(a[k].sigma_deg)},
                           {"sigma_without_tags_deg", nullptr},
                           {"error_with_tags_deg", nullptr},
                           {"error_without_tags_deg", nullptr}};
-      if (k < b.size()) e["sigma_without_tags_deg"] = NumberOrNull(b[k].sigma_deg);
+      if (k < b.size()) e["sigma_without_tags_deg"] = io::JsonNumber(b[k].sigma_deg);
       if (truth) {
-        e["error_with_tags_deg"] = NumberOrNull(a[k].angle_deg - a[k].truth_deg);
-        if (k < b.size()) e["error_without_tags_deg"] = NumberOrNull(b[k].angle_deg - b[k].truth_deg);
+        e["error_with_tags_deg"] = io::JsonNumber(a[k].angle_deg - a[k].truth_deg);
+        if (k < b.size()) e["error_without_tags_deg"] = io::JsonNumber(b[k].angle_deg - b[k].truth_deg);
       }
       ends.push_back(e);
     }

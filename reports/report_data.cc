@@ -16,12 +16,11 @@ namespace {
 
 using nlohmann::json;
 
-json JsonNum(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 double Get(const json& j, const char* k, double dflt = kNaN) {
   if (!j.contains(k) || j.at(k).is_null()) return dflt;
   return j.at(k).get<double>();
 }
-json OptNum(const std::optional<double>& v) { return v ? JsonNum(*v) : json(nullptr); }
+json OptNum(const std::optional<double>& v) { return v ? io::JsonNumber(*v) : json(nullptr); }
 std::optional<double> GetOpt(const json& j, const char* k) {
   if (!j.contains(k) || j.at(k).is_null()) return std::nullopt;
   return j.at(k).get<double>();
@@ -34,22 +33,22 @@ std::vector<double> Vec(const json& j, const char* k) {
 }
 json VecJson(const std::vector<double>& v) {
   json a = json::array();
-  for (double x : v) a.push_back(JsonNum(x));
+  for (double x : v) a.push_back(io::JsonNumber(x));
   return a;
 }
 
 json StepInfoJson(const fitting::StepInfo& s) {
-  return {{"y_init", JsonNum(s.y_init)},
-          {"y_final", JsonNum(s.y_final)},
-          {"rise_time", JsonNum(s.rise_time)},
-          {"settling_time", JsonNum(s.settling_time)},
+  return {{"y_init", io::JsonNumber(s.y_init)},
+          {"y_final", io::JsonNumber(s.y_final)},
+          {"rise_time", io::JsonNumber(s.rise_time)},
+          {"settling_time", io::JsonNumber(s.settling_time)},
           {"settling_index", s.settling_index},
           {"settled", s.settled},
-          {"overshoot_pct", JsonNum(s.overshoot_pct)},
-          {"undershoot_pct", JsonNum(s.undershoot_pct)},
-          {"peak", JsonNum(s.peak)},
-          {"peak_time", JsonNum(s.peak_time)},
-          {"steady_state_error", JsonNum(s.steady_state_error)}};
+          {"overshoot_pct", io::JsonNumber(s.overshoot_pct)},
+          {"undershoot_pct", io::JsonNumber(s.undershoot_pct)},
+          {"peak", io::JsonNumber(s.peak)},
+          {"peak_time", io::JsonNumber(s.peak_time)},
+          {"steady_state_error", io::JsonNumber(s.steady_state_error)}};
 }
 fitting::StepInfo StepInfoFromJson(const json& j) {
   fitting::StepInfo s;
@@ -72,8 +71,8 @@ json GainJson(const fitting::GainSettling& g) {
           {"stable", g.stable},
           {"settled", g.settled},
           {"settling_frames", g.settling_frames},
-          {"overshoot_pct", JsonNum(g.overshoot_pct)},
-          {"settling_time_s", JsonNum(g.settling_time_s)}};
+          {"overshoot_pct", io::JsonNumber(g.overshoot_pct)},
+          {"settling_time_s", io::JsonNumber(g.settling_time_s)}};
 }
 fitting::GainSettling GainFromJson(const json& j) {
   fitting::GainSettling g;
@@ -98,27 +97,27 @@ void AddRangingJson(const ReportData& d, json* out) {
                       {"ok", x.ok},
                       {"status", calib::TrialStatusName(x.status)},
                       {"reason", x.reason},
-                      {"range_m", JsonNum(x.range_m)},
-                      {"error_m", JsonNum(x.error_m)},
-                      {"rel_error", JsonNum(x.rel_error)},
-                      {"sigma_m", JsonNum(x.sigma_m)},
-                      {"gap_m", JsonNum(x.gap_m)},
+                      {"range_m", io::JsonNumber(x.range_m)},
+                      {"error_m", io::JsonNumber(x.error_m)},
+                      {"rel_error", io::JsonNumber(x.rel_error)},
+                      {"sigma_m", io::JsonNumber(x.sigma_m)},
+                      {"gap_m", io::JsonNumber(x.gap_m)},
                       {"nominal_m", OptNum(x.nominal_m)},
-                      {"nominal_rel_error", JsonNum(x.nominal_rel_error)}});
+                      {"nominal_rel_error", io::JsonNumber(x.nominal_rel_error)}});
     json theory = json::array();
     for (const auto& t : r.theory)
       theory.push_back({{"distance_m", t.distance_m},
-                        {"nominal_1us_rel", JsonNum(t.nominal_1us_rel)},
-                        {"nominal_half_px_rel", JsonNum(t.nominal_half_px_rel)},
-                        {"calibrated_sigma_rel", JsonNum(t.calibrated_sigma_rel)}});
+                        {"nominal_1us_rel", io::JsonNumber(t.nominal_1us_rel)},
+                        {"nominal_half_px_rel", io::JsonNumber(t.nominal_half_px_rel)},
+                        {"calibrated_sigma_rel", io::JsonNumber(t.calibrated_sigma_rel)}});
     j["ranging"] = {{"rows", rows},
                     {"theory", theory},
                     {"num_ok", r.num_ok},
-                    {"rms_rel_error", JsonNum(r.rms_rel_error)},
-                    {"mean_abs_rel_error", JsonNum(r.mean_abs_rel_error)},
-                    {"max_abs_rel_error", JsonNum(r.max_abs_rel_error)},
-                    {"fraction_within_2sigma", JsonNum(r.fraction_within_2sigma)},
-                    {"nominal_rms_rel_error", JsonNum(r.nominal_rms_rel_error)},
+                    {"rms_rel_error", io::JsonNumber(r.rms_rel_error)},
+                    {"mean_abs_rel_error", io::JsonNumber(r.mean_abs_rel_error)},
+                    {"max_abs_rel_error", io::JsonNumber(r.max_abs_rel_error)},
+                    {"fraction_within_2sigma", io::JsonNumber(r.fraction_within_2sigma)},
+                    {"nominal_rms_rel_error", io::JsonNumber(r.nominal_rms_rel_error)},
                     {"propagated", r.propagated},
                     {"notes", r.notes}};
   }
@@ -139,14 +138,14 @@ void AddLimitsJson(const ReportData& d, json* out) {
                         {"measured_max_us", OptNum(s.measured_max_us)},
                         {"min_cause", fitting::LimitCauseName(s.min_cause)},
                         {"max_cause", fitting::LimitCauseName(s.max_cause)},
-                        {"configured_min_deg", JsonNum(s.configured_min_deg)},
-                        {"configured_max_deg", JsonNum(s.configured_max_deg)},
-                        {"measured_min_deg", JsonNum(s.measured_min_deg)},
-                        {"measured_max_deg", JsonNum(s.measured_max_deg)},
+                        {"configured_min_deg", io::JsonNumber(s.configured_min_deg)},
+                        {"configured_max_deg", io::JsonNumber(s.configured_max_deg)},
+                        {"measured_min_deg", io::JsonNumber(s.measured_min_deg)},
+                        {"measured_max_deg", io::JsonNumber(s.measured_max_deg)},
                         {"recommended_min_us", s.recommended_min_us},
                         {"recommended_max_us", s.recommended_max_us},
-                        {"min_excess_us", JsonNum(s.min_excess_us)},
-                        {"max_excess_us", JsonNum(s.max_excess_us)}});
+                        {"min_excess_us", io::JsonNumber(s.min_excess_us)},
+                        {"max_excess_us", io::JsonNumber(s.max_excess_us)}});
     j["limits"] = {{"servos", servos}, {"notes", d.limits->notes}};
   }
 }
@@ -182,24 +181,28 @@ void AddSettlingJson(const ReportData& d, json* out) {
                       {"num_trials", r.num_trials},
                       {"num_ok", r.num_ok},
                       {"num_settled", r.num_settled},
-                      {"measured_median_s", JsonNum(r.measured_median_s)},
-                      {"measured_lo_s", JsonNum(r.measured_lo_s)},
-                      {"measured_hi_s", JsonNum(r.measured_hi_s)},
+                      {"measured_median_s", io::JsonNumber(r.measured_median_s)},
+                      {"measured_lo_s", io::JsonNumber(r.measured_lo_s)},
+                      {"measured_hi_s", io::JsonNumber(r.measured_hi_s)},
                       {"predicted_settled", r.predicted_settled},
                       {"predicted_runs", r.predicted_runs},
-                      {"predicted_median_s", JsonNum(r.predicted_median_s)},
-                      {"predicted_lo_s", JsonNum(r.predicted_lo_s)},
-                      {"predicted_hi_s", JsonNum(r.predicted_hi_s)},
-                      {"ideal_s", JsonNum(r.ideal_s)},
+                      {"predicted_median_s", io::JsonNumber(r.predicted_median_s)},
+                      {"predicted_lo_s", io::JsonNumber(r.predicted_lo_s)},
+                      {"predicted_hi_s", io::JsonNumber(r.predicted_hi_s)},
+                      {"ideal_s", io::JsonNumber(r.ideal_s)},
                       {"ideal_stable", r.ideal_stable},
                       {"band", r.band},
-                      {"no_servo_dynamics_s", JsonNum(r.no_servo_dynamics_s)},
-                      {"no_dead_zone_s", JsonNum(r.no_dead_zone_s)},
+                      {"no_servo_dynamics_s", io::JsonNumber(r.no_servo_dynamics_s)},
+                      {"no_dead_zone_s", io::JsonNumber(r.no_dead_zone_s)},
                       {"agreement", r.agreement},
                       {"why", r.why}});
     for (const auto& c : st.curve)
-      curve.push_back(
-          {c.gain, c.amplitude_deg, JsonNum(c.median_s), JsonNum(c.lo_s), JsonNum(c.hi_s), JsonNum(c.ideal_s)});
+      curve.push_back({c.gain,
+                       c.amplitude_deg,
+                       io::JsonNumber(c.median_s),
+                       io::JsonNumber(c.lo_s),
+                       io::JsonNumber(c.hi_s),
+                       io::JsonNumber(c.ideal_s)});
     j["settling"] = {{"model",
                       {{"fps", st.model.fps},
                        {"exposure_delay_s", st.model.exposure_delay_s},
@@ -214,7 +217,7 @@ void AddSettlingJson(const ReportData& d, json* out) {
                        {"latency_frames", st.model.latency_frames}}},
                      {"slew_source", st.slew_source},
                      {"lag_source", st.lag_source},
-                     {"latency_ms", JsonNum(st.latency_ms)},
+                     {"latency_ms", io::JsonNumber(st.latency_ms)},
                      {"ideal_delay_frames", st.ideal_delay_frames},
                      {"deg_per_us", st.deg_per_us},
                      {"servo", st.servo},
@@ -230,22 +233,22 @@ void AddSaccadeJson(const ReportData& d, json* out) {
   if (d.saccade) {
     const auto& sa = *d.saccade;
     j["saccade"] = {{"amplitude_deg", sa.amplitude_deg},
-                    {"slew_deg_per_s", JsonNum(sa.slew_deg_per_s)},
-                    {"exposure_delay_s", JsonNum(sa.exposure_delay_s)},
+                    {"slew_deg_per_s", io::JsonNumber(sa.slew_deg_per_s)},
+                    {"exposure_delay_s", io::JsonNumber(sa.exposure_delay_s)},
                     {"fps", sa.fps},
-                    {"bound_s", JsonNum(sa.bound_s)},
+                    {"bound_s", io::JsonNumber(sa.bound_s)},
                     {"num_trials", sa.num_trials},
                     {"num_ok", sa.num_ok},
                     {"num_settled", sa.num_settled},
-                    {"median_s", JsonNum(sa.median_s)},
-                    {"lo_s", JsonNum(sa.lo_s)},
-                    {"hi_s", JsonNum(sa.hi_s)},
-                    {"ratio_to_bound", JsonNum(sa.ratio_to_bound)},
+                    {"median_s", io::JsonNumber(sa.median_s)},
+                    {"lo_s", io::JsonNumber(sa.lo_s)},
+                    {"hi_s", io::JsonNumber(sa.hi_s)},
+                    {"ratio_to_bound", io::JsonNumber(sa.ratio_to_bound)},
                     {"ploop_gain", sa.ploop_gain},
                     {"ploop_trials", sa.ploop_trials},
                     {"ploop_settled", sa.ploop_settled},
-                    {"ploop_median_s", JsonNum(sa.ploop_median_s)},
-                    {"speedup_vs_ploop", JsonNum(sa.speedup_vs_ploop)},
+                    {"ploop_median_s", io::JsonNumber(sa.ploop_median_s)},
+                    {"speedup_vs_ploop", io::JsonNumber(sa.speedup_vs_ploop)},
                     {"notes", sa.notes}};
   }
 }
@@ -476,7 +479,7 @@ json EvaluationToJson(const ReportData& d) {
                      {"eye_axis", s.eye_axis},
                      {"t_s", VecJson(s.t_s)},
                      {"y", VecJson(s.y)},
-                     {"residual_px", JsonNum(s.residual_px)},
+                     {"residual_px", io::JsonNumber(s.residual_px)},
                      {"info", StepInfoJson(s.info)},
                      {"simulated", s.simulated},
                      {"status", calib::TrialStatusName(s.status)},
@@ -497,7 +500,7 @@ json EvaluationToJson(const ReportData& d) {
     views.push_back({{"eye", v.eye},
                      {"frame", v.frame},
                      {"name", v.name},
-                     {"rms_px", JsonNum(v.rms_px)},
+                     {"rms_px", io::JsonNumber(v.rms_px)},
                      {"corners", v.num_corners},
                      {"over_1px", v.num_over_1px}});
   j["views"] = views;
