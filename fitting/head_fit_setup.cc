@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 
 #include <opencv2/calib3d.hpp>
@@ -27,6 +28,9 @@ std::vector<PreparedView> PrepareViews(const std::vector<calib::View>& views,
                                        const HeadFitOptions& options,
                                        std::vector<std::string>* warnings) {
   std::vector<PreparedView> prepared;
+  // Views with too few corners: one warning line for all of them (a tag sheet's edge views are
+  // many and alike), counted per target, each view named in it.
+  std::map<std::string, std::vector<std::string>> too_few;
   for (size_t i = 0; i < views.size(); ++i) {
     const calib::View& v = views[i];
     const std::string where = "view " + std::to_string(i) + " (frame " + std::to_string(v.frame_index) + ")";
@@ -40,8 +44,7 @@ std::vector<PreparedView> PrepareViews(const std::vector<calib::View>& views,
       continue;
     }
     if (static_cast<int>(v.pixels.size()) < options.min_corners_per_view) {
-      warnings->push_back(where + ": " + std::to_string(v.pixels.size()) + " corners < " +
-                          std::to_string(options.min_corners_per_view) + "; dropped");
+      too_few[v.target_id].push_back(where + ", " + std::to_string(v.pixels.size()) + " corners");
       continue;
     }
     PreparedView p;
@@ -54,6 +57,18 @@ std::vector<PreparedView> PrepareViews(const std::vector<calib::View>& views,
     p.pixels = v.pixels;
     p.inlier.assign(v.pixels.size(), true);
     prepared.push_back(std::move(p));
+  }
+  if (!too_few.empty()) {
+    size_t n = 0;
+    std::string per_target, named;
+    for (const auto& [target, list] : too_few) {
+      n += list.size();
+      per_target += (per_target.empty() ? "" : ", ") + target + " " + std::to_string(list.size());
+      for (const std::string& v : list) named += (named.empty() ? "" : "; ") + v;
+    }
+    warnings->push_back(std::to_string(n) + " view" + (n == 1 ? "" : "s") + " with fewer than " +
+                        std::to_string(options.min_corners_per_view) + " corners dropped (" + per_target +
+                        "): " + named);
   }
   return prepared;
 }

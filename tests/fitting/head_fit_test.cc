@@ -419,7 +419,8 @@ TEST(FitHead, NoViewsOrBadOptionsFailWithAMessage) {
   const HeadFit few = FitHead({tiny}, robot, models::NominalHeadModel(robot), HeadFitOptions());
   EXPECT_FALSE(few.ok);
   EXPECT_NE(few.message.find("no usable view"), std::string::npos);
-  EXPECT_TRUE(HasWarning(few.result, "frame 4", "3 corners < 6")) << AllWarnings(few.result);
+  EXPECT_TRUE(HasWarning(few.result, "1 view with fewer than 6 corners dropped (board 1)", "(frame 4), 3 corners"))
+      << AllWarnings(few.result);
 }
 
 TEST(FitHead, RejectsGrossCornerOutliers) {
