@@ -255,7 +255,8 @@ HeadFit FitHead(const std::vector<calib::View>& views,
   }
 
   // 1. Build: views, initial blocks, what the data cannot determine, board poses.
-  std::vector<PreparedView> prepared = internal::PrepareViews(views, robot, options, &fit.result.warnings);
+  std::vector<PreparedView> prepared =
+      internal::PrepareViews(views, robot, options, &fit.result.warnings, &fit.result.notes);
   if (prepared.empty())
     return fail("head fit: no usable view (" + std::to_string(views.size()) + " given); nothing can be determined");
   const std::vector<std::string> classes = internal::AssignNoiseClasses(options, &prepared);

@@ -26,10 +26,11 @@ using models::kRightEye;
 std::vector<PreparedView> PrepareViews(const std::vector<calib::View>& views,
                                        const models::RobotConfig& robot,
                                        const HeadFitOptions& options,
-                                       std::vector<std::string>* warnings) {
+                                       std::vector<std::string>* warnings,
+                                       std::vector<std::string>* notes) {
   std::vector<PreparedView> prepared;
-  // Views with too few corners: one warning line for all of them (a tag sheet's edge views are
-  // many and alike), counted per target, each view named in it.
+  // Views with too few corners: one note for all of them (a tag sheet's edge views are many and
+  // alike, and nothing is to be done), counted per target, each view named in it.
   std::map<std::string, std::vector<std::string>> too_few;
   for (size_t i = 0; i < views.size(); ++i) {
     const calib::View& v = views[i];
@@ -66,9 +67,8 @@ std::vector<PreparedView> PrepareViews(const std::vector<calib::View>& views,
       per_target += (per_target.empty() ? "" : ", ") + target + " " + std::to_string(list.size());
       for (const std::string& v : list) named += (named.empty() ? "" : "; ") + v;
     }
-    warnings->push_back(std::to_string(n) + " view" + (n == 1 ? "" : "s") + " with fewer than " +
-                        std::to_string(options.min_corners_per_view) + " corners dropped (" + per_target +
-                        "): " + named);
+    notes->push_back(std::to_string(n) + " view" + (n == 1 ? "" : "s") + " with fewer than " +
+                     std::to_string(options.min_corners_per_view) + " corners dropped (" + per_target + "): " + named);
   }
   return prepared;
 }

@@ -131,12 +131,13 @@ int BuildHeadProblem(HeadState* s,
 ceres::Solver::Summary SolveHeadProblem(ceres::Problem* problem, const HeadFitOptions& options, double tolerance);
 
 // Set-up phases of FitHead (fitting/head_fit_setup.cc).
-// Views with a valid eye, matching pixels/points and enough corners; the others are named in
-// `warnings`.
+// Views with a valid eye, matching pixels/points and enough corners; the malformed ones are named
+// in `warnings`, those with too few corners in one line of `notes`.
 std::vector<PreparedView> PrepareViews(const std::vector<calib::View>& views,
                                        const models::RobotConfig& robot,
                                        const HeadFitOptions& options,
-                                       std::vector<std::string>* warnings);
+                                       std::vector<std::string>* warnings,
+                                       std::vector<std::string>* notes);
 // Blocks from `initial`; neck centre from the robot file.
 HeadState InitialState(const models::HeadModel& initial, const models::RobotConfig& robot);
 // Holds, with the reason, what the data cannot determine before the solve (eyes without views,

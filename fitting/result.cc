@@ -149,6 +149,7 @@ json ToJson(const CalibrationResult& r) {
                            {"usable", s.usable}});
   }
   j["warnings"] = r.warnings;
+  j["notes"] = r.notes;
   if (!r.verdict.is_null()) j["verdict"] = r.verdict;
   for (int e = 0; e < 2; ++e)
     if (r.cameras[e]) j["cameras"][models::kEyeNames[e]] = CameraJson(*r.cameras[e]);
@@ -209,6 +210,7 @@ CalibrationResult ResultFromJson(const json& j) {
     }
   }
   if (j.contains("warnings")) r.warnings = j.at("warnings").get<std::vector<std::string>>();
+  if (j.contains("notes")) r.notes = j.at("notes").get<std::vector<std::string>>();
   if (j.contains("verdict")) r.verdict = j.at("verdict");
   if (j.contains("cameras"))
     for (int e = 0; e < 2; ++e)

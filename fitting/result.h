@@ -67,6 +67,9 @@ struct CalibrationResult {
   std::vector<Parameter> parameters;
   std::vector<SolveSummary> summaries;
   std::vector<std::string> warnings;  // e.g. "k3 not determined: all views fronto-parallel"
+  // What a fit dropped or worked around that asks nothing of the user (e.g. the views with too few
+  // corners, grouped): counted and listed in the report's appendix, never in the verdict.
+  std::vector<std::string> notes;
   std::optional<models::CameraIntrinsics> cameras[2];
   std::optional<StereoEstimate> stereo;
   std::optional<models::HeadModel> head;

@@ -20,6 +20,7 @@ void MergeHead(const fitting::HeadFit& h, fitting::CalibrationResult* r) {
   for (const auto& p : h.result.parameters) r->Set(p);
   for (const auto& s : h.result.summaries) r->summaries.push_back(s);
   for (const auto& w : h.result.warnings) r->warnings.push_back(w);
+  for (const auto& n : h.result.notes) r->notes.push_back(n);
   r->head = h.head;
   if (h.result.diagnostics.contains("head")) r->diagnostics["head"] = h.result.diagnostics["head"];
   for (auto it = h.result.inputs.begin(); it != h.result.inputs.end(); ++it) r->inputs[it.key()] = it.value();

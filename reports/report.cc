@@ -87,6 +87,7 @@ void AppendUndeterminedTable(const ReportData& d, std::vector<Table>* out) {
   for (const auto& p : d.result.parameters)
     if (!p.determined && !p.held) t.rows.push_back({p.name, p.note});
   for (const auto& w : d.result.warnings) t.rows.push_back({"warning", w});
+  for (const auto& n : d.result.notes) t.rows.push_back({"note", n});
   out->push_back(t);
 }
 

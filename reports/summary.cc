@@ -227,6 +227,9 @@ SummaryVerdict JudgeSummary(const ReportData& d, Summary* out) {
                                    : "Usable, with " + std::to_string(r.warnings.size()) + " warnings to read";
     s.level = r.warnings.empty() ? "ok" : "warn";
   }
+  if (!r.notes.empty())
+    s.verdict += " (" + std::to_string(r.notes.size()) + (r.notes.size() == 1 ? " note" : " notes") +
+                 " in the Discussion: what was dropped, nothing to do)";
   for (size_t i = 0; i < r.warnings.size() && i < 6; ++i) s.warnings.push_back(r.warnings[i]);
   if (r.warnings.size() > 6)
     s.warnings.push_back(std::to_string(r.warnings.size() - 6) + " more in the Discussion section");
