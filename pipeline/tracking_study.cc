@@ -168,23 +168,7 @@ std::vector<TrackerSummary> SummariseTrackers(const std::vector<TrackFrame>& fra
 // fixated, and a note per candidate whose fixation was not ok.
 void ReadSalience(const std::string& path, TrackingStudy* s) {
   const calib::CsvTable t = protocols::ReadAppendedCsv(path);
-  t.RequireColumns({"rank",
-                    "x_px",
-                    "y_px",
-                    "score",
-                    "intensity",
-                    "colour",
-                    "orientation",
-                    "object",
-                    "object_distance_px",
-                    "object_radius_px",
-                    "fix_status",
-                    "fix_reason",
-                    "fix_iterations",
-                    "fix_dx_px",
-                    "fix_dy_px",
-                    "fixated_object",
-                    "fixated_distance_px"});
+  for (const char* column : kSalienceRowColumns) t.RequireColumns({column});  // names the first missing one
   for (size_t r = 0; r < t.NumRows(); ++r) {
     SalienceRow c;
     c.rank = t.Int(r, "rank", 1, 1000);

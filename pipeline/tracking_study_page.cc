@@ -76,23 +76,7 @@ reports::Table SalienceTable(const TrackingStudy& s) {
                      "Salience candidates of the right eye, strongest first: pixel, score and its channels, the scene "
                      "object it lies on (truth) with the distance to that object's centre (to the nearest object when "
                      "it lies on none), and the right eye's fixation of it with the LK tracker",
-                     {"rank",
-                      "x_px",
-                      "y_px",
-                      "score",
-                      "intensity",
-                      "colour",
-                      "orientation",
-                      "object",
-                      "object_distance_px",
-                      "object_radius_px",
-                      "fix_status",
-                      "fix_reason",
-                      "fix_iterations",
-                      "fix_dx_px",
-                      "fix_dy_px",
-                      "fixated_object",
-                      "fixated_distance_px"},
+                     {kSalienceRowColumns.begin(), kSalienceRowColumns.end()},
                      {}};
   for (const SalienceRow& c : s.salience)
     sal.rows.push_back({std::to_string(c.rank),
