@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -83,9 +84,9 @@ nlohmann::json RoiJson(const fitting::RoiDepth& d) {
           {"sigma_calib_m", num(d.sigma_calib_m)}};
 }
 
-int RunDepth(const DepthCmdOptions& a) {
-  std::string why;
-  if (!a.depth.Check(&why)) throw UsageError(why);
+// The pairs to measure, from the inputs (LEFT RIGHT, one frame, or a folder with --truth) and
+// --roi; throws UsageError for a bad combination.
+std::vector<PairJob> PlanDepthJobs(const DepthCmdOptions& a) {
   cv::Rect roi_opt;
   if (!a.roi.empty()) {
     if (a.roi.size() != 4 || a.roi[2] <= 0 || a.roi[3] <= 0)
@@ -114,164 +115,236 @@ int RunDepth(const DepthCmdOptions& a) {
   }
   if (roi_opt.area() > 0)
     for (PairJob& j : jobs) j.roi = roi_opt;
+  return jobs;
+}
 
+// depth.json without its pairs: the calibration, the rectified geometry and the SGBM settings.
+nlohmann::json DepthReportHeader(const DepthCmdOptions& a,
+                                 const fitting::StereoRig& rig,
+                                 const fitting::Rectification& rect) {
+  return {{"calibration", rig.source},
+          {"rectified_focal_px", rect.focal_px},
+          {"baseline_m", rect.baseline_m},
+          {"frame", "left rectified camera: x right, y down, z forward [m]"},
+          {"sgbm",
+           {{"min_disparity", a.depth.sgbm.min_disparity},
+            {"num_disparities", a.depth.sgbm.num_disparities},
+            {"block_size", a.depth.sgbm.block_size},
+            {"P1", a.depth.sgbm.P1()},
+            {"P2", a.depth.sgbm.P2()},
+            {"disp12_max_diff", a.depth.sgbm.disp12_max_diff},
+            {"pre_filter_cap", a.depth.sgbm.pre_filter_cap},
+            {"uniqueness_ratio", a.depth.sgbm.uniqueness_ratio},
+            {"speckle_window_size", a.depth.sgbm.speckle_window_size},
+            {"speckle_range", a.depth.sgbm.speckle_range},
+            {"mode", a.depth.sgbm.mode}}},
+          {"rectify_alpha", a.depth.rectify_alpha},
+          {"pairs", nlohmann::json::array()}};
+}
+
+// One pair measured: the depth at its ROI and, with a true distance, range-images' template
+// ranging on the same ROI.
+struct PairDepth {
+  fitting::RoiDepth roi;
+  std::optional<fitting::RangeMeasurement> templ;  // with a true distance only
+  nlohmann::json json;                             // its entry in depth.json's pairs
+};
+
+// Rectifies one pair, writes its images (and cloud.ply) into dir and measures the depth at its
+// ROI (default: 64 x 48 px at the image centre, as range-images); prints one line.
+PairDepth MeasurePairDepth(const PairJob& j,
+                           const DepthCmdOptions& a,
+                           const fitting::StereoRig& rig,
+                           const fitting::Rectification& rect,
+                           const fs::path& dir) {
+  cv::Mat l, r;
+  Load(j, a, &l, &r);
+  const fitting::DepthMaps maps = fitting::ComputeDepth(l, r, rect, a.depth);
+  fs::create_directories(dir);
+  WriteImage(dir / "left_rect.png", maps.left_rect);
+  WriteImage(dir / "right_rect.png", maps.right_rect);
+  cv::Mat d16;  // 16-bit PNG of 16 d (invalid = 0), what the students read
+  maps.disparity16.convertTo(d16, CV_16U);
+  WriteImage(dir / "disparity16.png", d16);
+  WriteImage(dir / "disparity.png", fitting::ColourDisparity(maps, a.depth.sgbm));
+  WriteImage(dir / "depth_mm.png", fitting::DepthMillimetres16(maps.depth_m));
+  WriteImage(dir / "depth.png", fitting::ColourDepth(maps.depth_m, a.near_m, a.far_m));
+  int num_points = 0;
+  if (a.ply)
+    num_points = reports::WritePointCloudPly((dir / "cloud.ply").string(), maps, a.depth.max_depth_m, rig.source);
+  cv::Rect roi = j.roi;
+  if (roi.area() <= 0) roi = cv::Rect(maps.depth_m.cols / 2 - 32, maps.depth_m.rows / 2 - 24, 64, 48);
+  PairDepth p;
+  p.roi = fitting::DepthAtRoi(maps, roi, rig, rect, a.depth);
+  const fitting::RoiDepth& d = p.roi;
+  p.json = {{"name", j.name},
+            {"left", j.left_path},
+            {"right", j.right_path},
+            {"valid_fraction_image", double(maps.num_valid) / maps.depth_m.total()},
+            {"points", num_points},
+            {"roi_depth", RoiJson(d)}};
+  if (std::isfinite(j.true_m)) {
+    p.json["true_m"] = j.true_m;
+    fitting::RangeOptions ro;
+    ro.match.template_roi = d.roi;
+    ro.match.max_disparity = a.depth.sgbm.min_disparity + a.depth.sgbm.num_disparities;
+    fitting::RangeMeasurement m = fitting::RangePair(l, r, rig, rect, ro);
+    m.name = j.name;
+    m.true_m = j.true_m;
+    p.json["template_range_m"] = m.ok ? nlohmann::json(m.range_m) : nlohmann::json(nullptr);
+    p.json["template_message"] = m.message;
+    p.templ = m;
+  }
+  std::cout << j.name << ": " << int(100.0 * maps.num_valid / maps.depth_m.total()) << " % of pixels with depth; ROI ("
+            << d.roi.x << "," << d.roi.y << " " << d.roi.width << "x" << d.roi.height << ") "
+            << (d.ok ? "depth " + FixedOrDash(d.depth_m * 100, 2) + " +- " + FixedOrDash(d.sigma_m * 100, 2) +
+                           " cm (disparity " + FixedOrDash(d.disparity_px, 2) + " px, 16-bit " +
+                           FixedOrDash(d.disparity16, 0) + ")"
+                     : "refused: " + d.message)
+            << (std::isfinite(j.true_m) ? ", true " + FixedOrDash(j.true_m * 100, 1) + " cm" : "") << "\n";
+  return p;
+}
+
+// One pair against its true distance: the figures of its depth.csv and depth.md rows [%, cm].
+struct PairTruthErrors {
+  double true_cm = 0;
+  double err = NAN;   // SGBM depth error [%]
+  double terr = NAN;  // template ranging error [%]
+  double kerr = 0;    // K / disp16 error, K fitted on all pairs [%]
+  double kloo = 0;    // the same, K fitted without this pair [%]
+  double z = NAN;     // SGBM error / sqrt(sigma^2 + truth sigma^2)
+};
+
+void WriteDepthCsvRow(const PairJob& job,
+                      const PairDepth& p,
+                      const fitting::DisparityConstantFit& k,
+                      size_t i,
+                      const PairTruthErrors& e,
+                      std::ostringstream& csv) {
+  const fitting::RoiDepth& d = p.roi;
+  const fitting::RangeMeasurement& t = *p.templ;
+  csv << job.name << "," << FixedOrDash(e.true_cm, 2) << "," << (d.ok ? FixedOrDash(d.depth_m * 100, 3) : "") << ","
+      << (d.ok ? FixedOrDash(e.err, 3) : "") << "," << (d.ok ? FixedOrDash(d.sigma_m * 100, 3) : "") << ","
+      << (d.ok ? FixedOrDash(d.sigma_calib_m * 100, 3) : "") << ","
+      << (d.ok ? FixedOrDash(d.sigma_match_m * 100, 3) : "") << "," << FixedOrDash(d.valid_fraction(), 3) << ","
+      << (d.ok ? FixedOrDash(d.disparity_px, 3) : "") << "," << FixedOrDash(e.z, 2) << ","
+      << (d.ok ? FixedOrDash(d.disparity16, 0) : "") << "," << (d.ok ? FixedOrDash(d.disparity16 * e.true_cm, 0) : "")
+      << "," << FixedOrDash(k.estimate_m[i] * 100, 3) << "," << FixedOrDash(e.kerr, 3) << "," << FixedOrDash(e.kloo, 3)
+      << "," << (t.ok ? FixedOrDash(t.range_m * 100, 3) : "") << "," << (t.ok ? FixedOrDash(e.terr, 3) : "") << ","
+      << (d.ok ? 1 : 0) << ",\"" << d.message << "\"\n";
+}
+
+void WriteDepthMdRow(const PairJob& job,
+                     const PairDepth& p,
+                     const fitting::DisparityConstantFit& k,
+                     size_t i,
+                     const PairTruthErrors& e,
+                     std::ostringstream& md) {
+  const fitting::RoiDepth& d = p.roi;
+  const fitting::RangeMeasurement& t = *p.templ;
+  md << "| " << job.name << " | " << FixedOrDash(e.true_cm, 1) << " | "
+     << (d.ok ? FixedOrDash(d.depth_m * 100, 2) : "refused") << " | " << FixedOrDash(e.err, 2) << " | "
+     << (d.ok ? FixedOrDash(d.sigma_m * 100, 2) : "-") << " | " << FixedOrDash(e.z, 1) << " | "
+     << FixedOrDash(d.valid_fraction(), 2) << " | " << (d.ok ? FixedOrDash(d.disparity16, 0) : "-") << " | "
+     << (d.ok ? FixedOrDash(d.disparity16 * e.true_cm, 0) : "-") << " | " << FixedOrDash(k.estimate_m[i] * 100, 2)
+     << " | " << FixedOrDash(e.kerr, 2) << " | " << (t.ok ? FixedOrDash(t.range_m * 100, 2) : "-") << " | "
+     << FixedOrDash(e.terr, 2) << " |\n";
+}
+
+// With --truth: depth.csv and depth.md (the error per pair, template ranging beside it, the
+// students' disp16 x distance = constant), their summary printed and added to depth.json.
+void WriteDepthTruthTables(const DepthCmdOptions& a,
+                           const std::vector<PairJob>& jobs,
+                           const std::vector<PairDepth>& pairs,
+                           const fitting::StereoRig& rig,
+                           const fitting::Rectification& rect,
+                           int failed,
+                           nlohmann::json* report) {
+  const fs::path out(a.out);
+  std::vector<double> d16, truth;
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    d16.push_back(pairs[i].roi.ok ? pairs[i].roi.disparity16 : std::numeric_limits<double>::quiet_NaN());
+    truth.push_back(jobs[i].true_m);
+  }
+  const fitting::DisparityConstantFit k = fitting::FitDisparityConstant(d16, truth, rect.focal_px, rect.baseline_m);
+  std::ostringstream csv, md;
+  csv << "name,true_cm,depth_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,valid_fraction,disparity_px,"
+         "z,disp16,disp16_x_cm,constant_estimate_cm,constant_error_pct,constant_loo_error_pct,template_cm,"
+         "template_error_pct,ok,message\n";
+  md << "# Depth at the target: SGBM vs the true distance\n\n"
+     << "Calibration: " << rig.source << "; rectified f " << FixedOrDash(rect.focal_px, 2) << " px, baseline "
+     << FixedOrDash(rect.baseline_m * 1000, 2) << " mm. Depth is from the optical centres along "
+     << "the rectified axis (no datum offset). SGBM " << a.depth.sgbm.num_disparities << " disparities, block "
+     << a.depth.sgbm.block_size << ", mode " << a.depth.sgbm.mode << ".\n\n"
+     << "| pair | true cm | SGBM cm | error % | sigma cm | z | valid | disp16 | disp16 x cm | K/disp16 cm | "
+        "err % | template cm | err % |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  double sgbm_abs = 0, templ_abs = 0, sgbm_max = 0, templ_max = 0;
+  int n_sgbm = 0, n_templ = 0, n_out3 = 0;
+  const double truth_sigma_m = a.truth_sigma_cm / 100;
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    const auto& d = pairs[i].roi;
+    const auto& t = *pairs[i].templ;
+    const double true_m = jobs[i].true_m;
+    PairTruthErrors e;
+    e.true_cm = true_m * 100;
+    e.err = d.ok ? 100 * (d.depth_m - true_m) / true_m : NAN;
+    e.terr = t.ok ? 100 * t.error_m() / t.true_m : NAN;
+    e.kerr = 100 * (k.estimate_m[i] - true_m) / true_m;
+    e.kloo = 100 * (k.loo_estimate_m[i] - true_m) / true_m;
+    // z: the error in units of the predicted sigma and the truth's own uncertainty together.
+    e.z = d.ok ? (d.depth_m - true_m) / std::hypot(d.sigma_m, truth_sigma_m) : NAN;
+    if (d.ok) sgbm_abs += std::abs(e.err), sgbm_max = std::max(sgbm_max, std::abs(e.err)), ++n_sgbm;
+    if (d.ok && std::abs(e.z) > 3) ++n_out3;
+    if (t.ok) templ_abs += std::abs(e.terr), templ_max = std::max(templ_max, std::abs(e.terr)), ++n_templ;
+    WriteDepthCsvRow(jobs[i], pairs[i], k, i, e, csv);
+    WriteDepthMdRow(jobs[i], pairs[i], k, i, e, md);
+  }
+  md << "\nSGBM: " << n_sgbm << " of " << jobs.size() << " pairs measured, mean |error| "
+     << FixedOrDash(n_sgbm ? sgbm_abs / n_sgbm : NAN, 2) << " %, max " << FixedOrDash(sgbm_max, 2) << " %; " << n_out3
+     << " outside +-3 sigma (z = error / sqrt(sigma^2 + truth sigma^2), truth sigma "
+     << FixedOrDash(a.truth_sigma_cm, 1) << " cm)"
+     << (n_out3 ? ": the predicted sigma does not cover these errors"
+                  " (the truth's datum and placement? give --truth-sigma-cm)"
+                : "")
+     << ".\n"
+     << "Template ranging (range-images, same ROI): " << n_templ << " of " << jobs.size() << ", mean |error| "
+     << FixedOrDash(n_templ ? templ_abs / n_templ : NAN, 2) << " %, max " << FixedOrDash(templ_max, 2) << " %.\n"
+     << "Students' measure: disp16 x distance = K = " << FixedOrDash(k.k_disp16_m * 100, 0) << " (disp16 cm), spread "
+     << FixedOrDash(k.k_cv_pct, 2) << " % over " << k.num_rows
+     << " pairs; the calibration's 16 f B = " << FixedOrDash(k.k_calibration * 100, 0) << " ("
+     << FixedOrDash(100 * (k.k_disp16_m / k.k_calibration - 1), 2) << " %). Distance = K / disp16: mean |error| "
+     << FixedOrDash(k.mean_abs_pct, 2) << " %, max " << FixedOrDash(k.max_abs_pct, 2)
+     << " % (K fitted on the same pairs); leave-one-out " << FixedOrDash(k.loo_mean_abs_pct, 2) << " %.\n";
+  if (failed) md << "\n" << failed << " pair(s) refused: see the message column of depth.csv.\n";
+  reports::WriteTextFile((out / "depth.csv").string(), csv.str());
+  reports::WriteTextFile((out / "depth.md").string(), md.str());
+  (*report)["disparity_constant"] = {{"k_disp16_cm", k.k_disp16_m * 100},
+                                     {"k_cv_pct", k.k_cv_pct},
+                                     {"k_calibration_disp16_cm", k.k_calibration * 100},
+                                     {"mean_abs_pct", k.mean_abs_pct},
+                                     {"max_abs_pct", k.max_abs_pct},
+                                     {"loo_mean_abs_pct", k.loo_mean_abs_pct}};
+  std::cout << "\n" << md.str();
+}
+
+int RunDepth(const DepthCmdOptions& a) {
+  std::string why;
+  if (!a.depth.Check(&why)) throw UsageError(why);
+  const std::vector<PairJob> jobs = PlanDepthJobs(a);
   const fitting::StereoRig rig = fitting::LoadStereoRig(a.calib);
   const fitting::Rectification rect = fitting::RectifyRig(rig, a.depth.rectify_alpha);
   fs::create_directories(a.out);
   const fs::path out(a.out);
   const bool many = jobs.size() > 1;
-  nlohmann::json report = {{"calibration", rig.source},
-                           {"rectified_focal_px", rect.focal_px},
-                           {"baseline_m", rect.baseline_m},
-                           {"frame", "left rectified camera: x right, y down, z forward [m]"},
-                           {"sgbm",
-                            {{"min_disparity", a.depth.sgbm.min_disparity},
-                             {"num_disparities", a.depth.sgbm.num_disparities},
-                             {"block_size", a.depth.sgbm.block_size},
-                             {"P1", a.depth.sgbm.P1()},
-                             {"P2", a.depth.sgbm.P2()},
-                             {"disp12_max_diff", a.depth.sgbm.disp12_max_diff},
-                             {"pre_filter_cap", a.depth.sgbm.pre_filter_cap},
-                             {"uniqueness_ratio", a.depth.sgbm.uniqueness_ratio},
-                             {"speckle_window_size", a.depth.sgbm.speckle_window_size},
-                             {"speckle_range", a.depth.sgbm.speckle_range},
-                             {"mode", a.depth.sgbm.mode}}},
-                           {"rectify_alpha", a.depth.rectify_alpha},
-                           {"pairs", nlohmann::json::array()}};
-  std::vector<fitting::RoiDepth> depths;
-  std::vector<fitting::RangeMeasurement> templ;
+  nlohmann::json report = DepthReportHeader(a, rig, rect);
+  std::vector<PairDepth> pairs;
   int failed = 0;
   for (const PairJob& j : jobs) {
-    cv::Mat l, r;
-    Load(j, a, &l, &r);
-    const fitting::DepthMaps maps = fitting::ComputeDepth(l, r, rect, a.depth);
-    const fs::path dir = many ? out / j.name : out;
-    fs::create_directories(dir);
-    WriteImage(dir / "left_rect.png", maps.left_rect);
-    WriteImage(dir / "right_rect.png", maps.right_rect);
-    cv::Mat d16;  // 16-bit PNG of 16 d (invalid = 0), what the students read
-    maps.disparity16.convertTo(d16, CV_16U);
-    WriteImage(dir / "disparity16.png", d16);
-    WriteImage(dir / "disparity.png", fitting::ColourDisparity(maps, a.depth.sgbm));
-    WriteImage(dir / "depth_mm.png", fitting::DepthMillimetres16(maps.depth_m));
-    WriteImage(dir / "depth.png", fitting::ColourDepth(maps.depth_m, a.near_m, a.far_m));
-    int num_points = 0;
-    if (a.ply)
-      num_points = reports::WritePointCloudPly((dir / "cloud.ply").string(), maps, a.depth.max_depth_m, rig.source);
-    // Default ROI: a 64 x 48 px region at the image centre (as range-images).
-    cv::Rect roi = j.roi;
-    if (roi.area() <= 0) roi = cv::Rect(maps.depth_m.cols / 2 - 32, maps.depth_m.rows / 2 - 24, 64, 48);
-    const fitting::RoiDepth d = fitting::DepthAtRoi(maps, roi, rig, rect, a.depth);
-    depths.push_back(d);
-    if (!d.ok) ++failed;
-    nlohmann::json pj = {{"name", j.name},
-                         {"left", j.left_path},
-                         {"right", j.right_path},
-                         {"valid_fraction_image", double(maps.num_valid) / maps.depth_m.total()},
-                         {"points", num_points},
-                         {"roi_depth", RoiJson(d)}};
-    if (std::isfinite(j.true_m)) {
-      pj["true_m"] = j.true_m;
-      // The template ranging of range-images on the same ROI, for comparison.
-      fitting::RangeOptions ro;
-      ro.match.template_roi = d.roi;
-      ro.match.max_disparity = a.depth.sgbm.min_disparity + a.depth.sgbm.num_disparities;
-      fitting::RangeMeasurement m = fitting::RangePair(l, r, rig, rect, ro);
-      m.name = j.name;
-      m.true_m = j.true_m;
-      templ.push_back(m);
-      pj["template_range_m"] = m.ok ? nlohmann::json(m.range_m) : nlohmann::json(nullptr);
-      pj["template_message"] = m.message;
-    }
-    report["pairs"].push_back(pj);
-    std::cout << j.name << ": " << int(100.0 * maps.num_valid / maps.depth_m.total())
-              << " % of pixels with depth; ROI (" << d.roi.x << "," << d.roi.y << " " << d.roi.width << "x"
-              << d.roi.height << ") "
-              << (d.ok ? "depth " + FixedOrDash(d.depth_m * 100, 2) + " +- " + FixedOrDash(d.sigma_m * 100, 2) +
-                             " cm (disparity " + FixedOrDash(d.disparity_px, 2) + " px, 16-bit " +
-                             FixedOrDash(d.disparity16, 0) + ")"
-                       : "refused: " + d.message)
-              << (std::isfinite(j.true_m) ? ", true " + FixedOrDash(j.true_m * 100, 1) + " cm" : "") << "\n";
+    pairs.push_back(MeasurePairDepth(j, a, rig, rect, many ? out / j.name : out));
+    if (!pairs.back().roi.ok) ++failed;
+    report["pairs"].push_back(pairs.back().json);
   }
-
-  if (!a.truth.empty()) {
-    std::vector<double> d16, truth;
-    for (size_t i = 0; i < jobs.size(); ++i) {
-      d16.push_back(depths[i].ok ? depths[i].disparity16 : std::numeric_limits<double>::quiet_NaN());
-      truth.push_back(jobs[i].true_m);
-    }
-    const fitting::DisparityConstantFit k = fitting::FitDisparityConstant(d16, truth, rect.focal_px, rect.baseline_m);
-    std::ostringstream csv, md;
-    csv << "name,true_cm,depth_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,valid_fraction,disparity_px,"
-           "z,disp16,disp16_x_cm,constant_estimate_cm,constant_error_pct,constant_loo_error_pct,template_cm,"
-           "template_error_pct,ok,message\n";
-    md << "# Depth at the target: SGBM vs the true distance\n\n"
-       << "Calibration: " << rig.source << "; rectified f " << FixedOrDash(rect.focal_px, 2) << " px, baseline "
-       << FixedOrDash(rect.baseline_m * 1000, 2) << " mm. Depth is from the optical centres along "
-       << "the rectified axis (no datum offset). SGBM " << a.depth.sgbm.num_disparities << " disparities, block "
-       << a.depth.sgbm.block_size << ", mode " << a.depth.sgbm.mode << ".\n\n"
-       << "| pair | true cm | SGBM cm | error % | sigma cm | z | valid | disp16 | disp16 x cm | K/disp16 cm | "
-          "err % | template cm | err % |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-    double sgbm_abs = 0, templ_abs = 0, sgbm_max = 0, templ_max = 0;
-    int n_sgbm = 0, n_templ = 0, n_out3 = 0;
-    const double truth_sigma_m = a.truth_sigma_cm / 100;
-    for (size_t i = 0; i < jobs.size(); ++i) {
-      const auto& d = depths[i];
-      const auto& t = templ[i];
-      const double tc = jobs[i].true_m * 100;
-      const double err = d.ok ? 100 * (d.depth_m - jobs[i].true_m) / jobs[i].true_m : NAN;
-      const double terr = t.ok ? 100 * t.error_m() / t.true_m : NAN;
-      const double kerr = 100 * (k.estimate_m[i] - jobs[i].true_m) / jobs[i].true_m;
-      const double kloo = 100 * (k.loo_estimate_m[i] - jobs[i].true_m) / jobs[i].true_m;
-      // z: the error in units of the predicted sigma and the truth's own uncertainty together.
-      const double z = d.ok ? (d.depth_m - jobs[i].true_m) / std::hypot(d.sigma_m, truth_sigma_m) : NAN;
-      if (d.ok) sgbm_abs += std::abs(err), sgbm_max = std::max(sgbm_max, std::abs(err)), ++n_sgbm;
-      if (d.ok && std::abs(z) > 3) ++n_out3;
-      if (t.ok) templ_abs += std::abs(terr), templ_max = std::max(templ_max, std::abs(terr)), ++n_templ;
-      csv << jobs[i].name << "," << FixedOrDash(tc, 2) << "," << (d.ok ? FixedOrDash(d.depth_m * 100, 3) : "") << ","
-          << (d.ok ? FixedOrDash(err, 3) : "") << "," << (d.ok ? FixedOrDash(d.sigma_m * 100, 3) : "") << ","
-          << (d.ok ? FixedOrDash(d.sigma_calib_m * 100, 3) : "") << ","
-          << (d.ok ? FixedOrDash(d.sigma_match_m * 100, 3) : "") << "," << FixedOrDash(d.valid_fraction(), 3) << ","
-          << (d.ok ? FixedOrDash(d.disparity_px, 3) : "") << "," << FixedOrDash(z, 2) << ","
-          << (d.ok ? FixedOrDash(d.disparity16, 0) : "") << "," << (d.ok ? FixedOrDash(d.disparity16 * tc, 0) : "")
-          << "," << FixedOrDash(k.estimate_m[i] * 100, 3) << "," << FixedOrDash(kerr, 3) << "," << FixedOrDash(kloo, 3)
-          << "," << (t.ok ? FixedOrDash(t.range_m * 100, 3) : "") << "," << (t.ok ? FixedOrDash(terr, 3) : "") << ","
-          << (d.ok ? 1 : 0) << ",\"" << d.message << "\"\n";
-      md << "| " << jobs[i].name << " | " << FixedOrDash(tc, 1) << " | "
-         << (d.ok ? FixedOrDash(d.depth_m * 100, 2) : "refused") << " | " << FixedOrDash(err, 2) << " | "
-         << (d.ok ? FixedOrDash(d.sigma_m * 100, 2) : "-") << " | " << FixedOrDash(z, 1) << " | "
-         << FixedOrDash(d.valid_fraction(), 2) << " | " << (d.ok ? FixedOrDash(d.disparity16, 0) : "-") << " | "
-         << (d.ok ? FixedOrDash(d.disparity16 * tc, 0) : "-") << " | " << FixedOrDash(k.estimate_m[i] * 100, 2) << " | "
-         << FixedOrDash(kerr, 2) << " | " << (t.ok ? FixedOrDash(t.range_m * 100, 2) : "-") << " | "
-         << FixedOrDash(terr, 2) << " |\n";
-    }
-    md << "\nSGBM: " << n_sgbm << " of " << jobs.size() << " pairs measured, mean |error| "
-       << FixedOrDash(n_sgbm ? sgbm_abs / n_sgbm : NAN, 2) << " %, max " << FixedOrDash(sgbm_max, 2) << " %; " << n_out3
-       << " outside +-3 sigma (z = error / sqrt(sigma^2 + truth sigma^2), truth sigma "
-       << FixedOrDash(a.truth_sigma_cm, 1) << " cm)"
-       << (n_out3 ? ": the predicted sigma does not cover these errors"
-                    " (the truth's datum and placement? give --truth-sigma-cm)"
-                  : "")
-       << ".\n"
-       << "Template ranging (range-images, same ROI): " << n_templ << " of " << jobs.size() << ", mean |error| "
-       << FixedOrDash(n_templ ? templ_abs / n_templ : NAN, 2) << " %, max " << FixedOrDash(templ_max, 2) << " %.\n"
-       << "Students' measure: disp16 x distance = K = " << FixedOrDash(k.k_disp16_m * 100, 0) << " (disp16 cm), spread "
-       << FixedOrDash(k.k_cv_pct, 2) << " % over " << k.num_rows
-       << " pairs; the calibration's 16 f B = " << FixedOrDash(k.k_calibration * 100, 0) << " ("
-       << FixedOrDash(100 * (k.k_disp16_m / k.k_calibration - 1), 2) << " %). Distance = K / disp16: mean |error| "
-       << FixedOrDash(k.mean_abs_pct, 2) << " %, max " << FixedOrDash(k.max_abs_pct, 2)
-       << " % (K fitted on the same pairs); leave-one-out " << FixedOrDash(k.loo_mean_abs_pct, 2) << " %.\n";
-    if (failed) md << "\n" << failed << " pair(s) refused: see the message column of depth.csv.\n";
-    reports::WriteTextFile((out / "depth.csv").string(), csv.str());
-    reports::WriteTextFile((out / "depth.md").string(), md.str());
-    report["disparity_constant"] = {{"k_disp16_cm", k.k_disp16_m * 100},
-                                    {"k_cv_pct", k.k_cv_pct},
-                                    {"k_calibration_disp16_cm", k.k_calibration * 100},
-                                    {"mean_abs_pct", k.mean_abs_pct},
-                                    {"max_abs_pct", k.max_abs_pct},
-                                    {"loo_mean_abs_pct", k.loo_mean_abs_pct}};
-    std::cout << "\n" << md.str();
-  }
+  if (!a.truth.empty()) WriteDepthTruthTables(a, jobs, pairs, rig, rect, failed, &report);
   reports::WriteTextFile((out / "depth.json").string(), report.dump(2) + "\n");
   std::cout << "wrote " << a.out << (many ? "/<pair>/" : "/")
             << ": left_rect.png right_rect.png disparity16.png disparity.png depth_mm.png depth.png"

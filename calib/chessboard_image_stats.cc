@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
@@ -80,6 +81,137 @@ double FitErfSigma(const std::vector<double>& d, const std::vector<double>& v) {
   return x(3);
 }
 
+// One board square between inner corners: its grey level and noise about a fitted plane.
+struct BoardSquare {
+  double mean;
+  Eigen::Vector2d centre;
+  double ss;  // residual sum of squares about its plane (clipped)
+  int dof;
+  int saturated, count;
+};
+
+// The square with corners p00 p10 p01 p11: the pixels of its central half (s, t in 0.25-0.75),
+// a plane fitted with two rounds of 3-sigma clipping; nullopt when too few pixels remain.
+std::optional<BoardSquare> MeasureBoardSquare(const cv::Mat& g,
+                                              const Eigen::Vector2d& p00,
+                                              const Eigen::Vector2d& p10,
+                                              const Eigen::Vector2d& p01,
+                                              const Eigen::Vector2d& p11) {
+  auto bil = [&](double s, double t) {
+    return (1 - s) * (1 - t) * p00 + s * (1 - t) * p10 + (1 - s) * t * p01 + s * t * p11;
+  };
+  std::vector<cv::Point> poly;
+  for (const auto& st : {std::pair{0.25, 0.25}, std::pair{0.75, 0.25}, std::pair{0.75, 0.75}, std::pair{0.25, 0.75}}) {
+    const Eigen::Vector2d q = bil(st.first, st.second);
+    poly.emplace_back(int(std::lround(q.x())), int(std::lround(q.y())));
+  }
+  const cv::Rect box = cv::boundingRect(poly) & cv::Rect(0, 0, g.cols, g.rows);
+  if (box.area() <= 0) return std::nullopt;
+  cv::Mat mask = cv::Mat::zeros(box.size(), CV_8U);
+  std::vector<cv::Point> local;
+  for (const auto& p : poly) local.emplace_back(p.x - box.x, p.y - box.y);
+  cv::fillConvexPoly(mask, local, cv::Scalar(255));
+  std::vector<Eigen::Vector3d> px;  // x, y, value
+  int sat = 0;
+  for (int y = 0; y < box.height; ++y)
+    for (int x = 0; x < box.width; ++x) {
+      if (!mask.at<uint8_t>(y, x)) continue;
+      const int v = g.at<uint8_t>(box.y + y, box.x + x);
+      sat += (v >= 255 || v <= 0);
+      px.emplace_back(box.x + x, box.y + y, v);
+    }
+  if (px.size() < 12) return std::nullopt;
+  std::vector<bool> keep(px.size(), true);
+  double ss = 0;
+  int kept = 0;
+  double mean = 0;
+  for (int round = 0; round < 3; ++round) {
+    Eigen::MatrixXd A(px.size(), 3);
+    Eigen::VectorXd b(px.size());
+    int k = 0;
+    for (size_t i = 0; i < px.size(); ++i) {
+      if (!keep[i]) continue;
+      A.row(k) << 1, px[i].x(), px[i].y();
+      b(k) = px[i].z();
+      ++k;
+    }
+    if (k < 8) break;
+    const Eigen::Vector3d coef = A.topRows(k).colPivHouseholderQr().solve(b.head(k));
+    ss = 0;
+    kept = 0;
+    mean = 0;
+    std::vector<double> res(px.size());
+    for (size_t i = 0; i < px.size(); ++i) {
+      res[i] = px[i].z() - (coef(0) + coef(1) * px[i].x() + coef(2) * px[i].y());
+      if (keep[i]) {
+        ss += res[i] * res[i];
+        mean += px[i].z();
+        ++kept;
+      }
+    }
+    mean /= std::max(1, kept);
+    const double sd = std::sqrt(ss / std::max(1, kept - 3));
+    if (round == 2) break;
+    for (size_t i = 0; i < px.size(); ++i) keep[i] = std::abs(res[i]) <= 3 * sd + 0.5;
+  }
+  if (kept < 8) return std::nullopt;
+  return BoardSquare{mean, 0.25 * (p00 + p10 + p01 + p11), ss, kept - 3, sat, int(px.size())};
+}
+
+// The white and black levels and noise (medians over the squares, split at the median level),
+// the saturated fraction and the white squares' shading samples into out.
+void SquareLevels(const std::vector<BoardSquare>& squares, const cv::Mat& g, ChessboardImageStats* out) {
+  std::vector<double> all_means;
+  for (const BoardSquare& s : squares) all_means.push_back(s.mean);
+  const double split = Median(all_means);
+  std::vector<double> whites, blacks;
+  std::vector<double> sd[2];
+  int sat = 0, count = 0;
+  const double cx = (g.cols - 1) / 2.0, cy = (g.rows - 1) / 2.0, rc2 = cx * cx + cy * cy;
+  for (const BoardSquare& s : squares) {
+    const bool white = s.mean > split;
+    (white ? whites : blacks).push_back(s.mean);
+    sd[white].push_back(std::sqrt(s.ss / std::max(1, s.dof)));
+    sat += s.saturated;
+    count += s.count;
+    if (white) {
+      const Eigen::Vector2d d = (s.centre - Eigen::Vector2d(cx, cy)) / std::sqrt(rc2);
+      out->shading.push_back({d.x(), d.y(), s.mean});
+    }
+  }
+  out->white_level = Median(whites);
+  out->black_level = Median(blacks);
+  out->noise_white = Median(sd[1]);
+  out->noise_black = Median(sd[0]);
+  out->saturated_fraction = double(sat) / std::max(1, count);
+}
+
+// The blur sigma [px] of the edge between neighbouring corners a and b (an erf fitted across its
+// middle 40 %); NaN when the edge is shorter than 10 px, leaves the image or the fit fails.
+double EdgeBlurSigma(const cv::Mat& g, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double len = (b - a).norm();
+  if (len < 10) return nan;
+  const Eigen::Vector2d u = (b - a) / len, n(-u.y(), u.x());
+  const double reach = std::min(5.0, 0.35 * len);
+  std::vector<double> d, v;
+  for (double off = -reach; off <= reach + 1e-9; off += 0.25) {
+    double sum = 0;
+    int k = 0;
+    for (double s = 0.3; s <= 0.7001; s += 1.0 / len) {
+      const Eigen::Vector2d p = a + s * (b - a) + off * n;
+      const double val = Sample(g, p.x(), p.y());
+      if (!std::isfinite(val)) continue;
+      sum += val;
+      ++k;
+    }
+    if (k == 0) return nan;
+    d.push_back(off);
+    v.push_back(sum / k);
+  }
+  return FitErfSigma(d, v);
+}
+
 }  // namespace
 
 ChessboardImageStats MeasureChessboardImage(const cv::Mat& image,
@@ -119,133 +251,20 @@ ChessboardImageStats MeasureChessboardImage(const cv::Mat& image,
     cv::convexHull(pts, hull);
     out.board_area_fraction = cv::contourArea(hull) / (double(g.cols) * g.rows);
   }
-
-  // Squares between inner corners.
-  struct Square {
-    double mean;
-    Eigen::Vector2d centre;
-    double ss;  // residual sum of squares about its plane (clipped)
-    int dof;
-    int saturated, count;
-  };
-  std::vector<Square> squares;
-  std::vector<double> all_means;
+  std::vector<BoardSquare> squares;
   for (int r = 0; r + 1 < target.rows; ++r)
-    for (int c = 0; c + 1 < target.cols; ++c) {
-      const Eigen::Vector2d p00 = corner(c, r), p10 = corner(c + 1, r), p01 = corner(c, r + 1),
-                            p11 = corner(c + 1, r + 1);
-      auto bil = [&](double s, double t) {
-        return (1 - s) * (1 - t) * p00 + s * (1 - t) * p10 + (1 - s) * t * p01 + s * t * p11;
-      };
-      std::vector<cv::Point> poly;
-      for (const auto& st :
-           {std::pair{0.25, 0.25}, std::pair{0.75, 0.25}, std::pair{0.75, 0.75}, std::pair{0.25, 0.75}}) {
-        const Eigen::Vector2d q = bil(st.first, st.second);
-        poly.emplace_back(int(std::lround(q.x())), int(std::lround(q.y())));
-      }
-      const cv::Rect box = cv::boundingRect(poly) & cv::Rect(0, 0, g.cols, g.rows);
-      if (box.area() <= 0) continue;
-      cv::Mat mask = cv::Mat::zeros(box.size(), CV_8U);
-      std::vector<cv::Point> local;
-      for (const auto& p : poly) local.emplace_back(p.x - box.x, p.y - box.y);
-      cv::fillConvexPoly(mask, local, cv::Scalar(255));
-      std::vector<Eigen::Vector3d> px;  // x, y, value
-      int sat = 0;
-      for (int y = 0; y < box.height; ++y)
-        for (int x = 0; x < box.width; ++x) {
-          if (!mask.at<uint8_t>(y, x)) continue;
-          const int v = g.at<uint8_t>(box.y + y, box.x + x);
-          sat += (v >= 255 || v <= 0);
-          px.emplace_back(box.x + x, box.y + y, v);
-        }
-      if (px.size() < 12) continue;
-      // Plane fit with two rounds of 3-sigma clipping.
-      std::vector<bool> keep(px.size(), true);
-      double ss = 0;
-      int kept = 0;
-      double mean = 0;
-      for (int round = 0; round < 3; ++round) {
-        Eigen::MatrixXd A(px.size(), 3);
-        Eigen::VectorXd b(px.size());
-        int k = 0;
-        for (size_t i = 0; i < px.size(); ++i) {
-          if (!keep[i]) continue;
-          A.row(k) << 1, px[i].x(), px[i].y();
-          b(k) = px[i].z();
-          ++k;
-        }
-        if (k < 8) break;
-        const Eigen::Vector3d coef = A.topRows(k).colPivHouseholderQr().solve(b.head(k));
-        ss = 0;
-        kept = 0;
-        mean = 0;
-        std::vector<double> res(px.size());
-        for (size_t i = 0; i < px.size(); ++i) {
-          res[i] = px[i].z() - (coef(0) + coef(1) * px[i].x() + coef(2) * px[i].y());
-          if (keep[i]) {
-            ss += res[i] * res[i];
-            mean += px[i].z();
-            ++kept;
-          }
-        }
-        mean /= std::max(1, kept);
-        const double sd = std::sqrt(ss / std::max(1, kept - 3));
-        if (round == 2) break;
-        for (size_t i = 0; i < px.size(); ++i) keep[i] = std::abs(res[i]) <= 3 * sd + 0.5;
-      }
-      if (kept < 8) continue;
-      squares.push_back({mean, 0.25 * (p00 + p10 + p01 + p11), ss, kept - 3, sat, int(px.size())});
-      all_means.push_back(mean);
-    }
+    for (int c = 0; c + 1 < target.cols; ++c)
+      if (const auto s = MeasureBoardSquare(g, corner(c, r), corner(c + 1, r), corner(c, r + 1), corner(c + 1, r + 1)))
+        squares.push_back(*s);
   if (squares.size() < 4) {
     out.message = "board squares too small to measure";
     return out;
   }
-  const double split = Median(all_means);
-  std::vector<double> whites, blacks;
-  std::vector<double> sd[2];
-  int sat = 0, count = 0;
-  const double cx = (g.cols - 1) / 2.0, cy = (g.rows - 1) / 2.0, rc2 = cx * cx + cy * cy;
-  for (const Square& s : squares) {
-    const bool white = s.mean > split;
-    (white ? whites : blacks).push_back(s.mean);
-    sd[white].push_back(std::sqrt(s.ss / std::max(1, s.dof)));
-    sat += s.saturated;
-    count += s.count;
-    if (white) {
-      const Eigen::Vector2d d = (s.centre - Eigen::Vector2d(cx, cy)) / std::sqrt(rc2);
-      out.shading.push_back({d.x(), d.y(), s.mean});
-    }
-  }
-  out.white_level = Median(whites);
-  out.black_level = Median(blacks);
-  out.noise_white = Median(sd[1]);
-  out.noise_black = Median(sd[0]);
-  out.saturated_fraction = double(sat) / std::max(1, count);
-
+  SquareLevels(squares, g, &out);
   // Edges between neighbouring corners (each separates a white and a black square).
   std::vector<double> sigmas;
   auto measure_edge = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    const double len = (b - a).norm();
-    if (len < 10) return;
-    const Eigen::Vector2d u = (b - a) / len, n(-u.y(), u.x());
-    const double reach = std::min(5.0, 0.35 * len);
-    std::vector<double> d, v;
-    for (double off = -reach; off <= reach + 1e-9; off += 0.25) {
-      double sum = 0;
-      int k = 0;
-      for (double s = 0.3; s <= 0.7001; s += 1.0 / len) {
-        const Eigen::Vector2d p = a + s * (b - a) + off * n;
-        const double val = Sample(g, p.x(), p.y());
-        if (!std::isfinite(val)) continue;
-        sum += val;
-        ++k;
-      }
-      if (k == 0) return;
-      d.push_back(off);
-      v.push_back(sum / k);
-    }
-    const double s = FitErfSigma(d, v);
+    const double s = EdgeBlurSigma(g, a, b);
     if (std::isfinite(s)) sigmas.push_back(s);
   };
   for (int r = 0; r < target.rows; ++r)

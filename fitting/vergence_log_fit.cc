@@ -265,9 +265,11 @@ bool VergenceFitOptions::Check(std::string* why) const {
   return true;
 }
 
-VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const VergenceFitOptions& options) {
-  std::string why;
-  if (!options.Check(&why)) throw std::invalid_argument("VergenceFitOptions: " + why);
+namespace {
+
+// The log's rows checked (at least 4, at most kMaxVergenceRuns runs, positive distances, finite
+// values; throws std::invalid_argument); the distances, sorted, with the number of distinct ones.
+std::vector<double> CheckVergenceRows(const std::vector<VergenceLogRow>& rows, size_t* num_distances) {
   if (rows.size() < 4)
     throw std::invalid_argument("vergence log has " + std::to_string(rows.size()) + " rows; need >= 4");
   if (const size_t runs = RunIndex(rows).size(); runs > kMaxVergenceRuns)
@@ -285,28 +287,33 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     distances.push_back(r.true_distance_m);
   }
   std::sort(distances.begin(), distances.end());
-  const size_t num_distances = std::unique(distances.begin(), distances.end()) - distances.begin();
-  const auto t0 = std::chrono::steady_clock::now();
-  VergenceLogFit fit;
-  if (num_distances < 2) {
-    // Each eye's Rx = centre - scale * angle(D): one distance gives one equation per eye for two
-    // unknowns, however many rows repeat it.
-    fit.notes.push_back("all " + std::to_string(rows.size()) + " rows are at one distance (" +
-                        FixedOrDash(distances[0] * 100, 1) +
-                        " cm): a centre and a us/deg scale cannot both be determined "
-                        "from one distance; log at least two (better five or more, near and far)");
-  }
+  *num_distances = std::unique(distances.begin(), distances.end()) - distances.begin();
+  return distances;
+}
+
+// The final solve and which of the IPD and the datum it let float.
+struct VergenceFreeChoice {
+  SolveOutput solve;
   bool ipd_free = false;
-  bool datum_free = options.fit_datum;
-  // IPD fixed first: it trades against both scales, and a free start can slide into the
-  // degenerate valley. Then, if asked, freed from that solution and kept only when the
-  // data pin it (not on a bound, sigma below the threshold) or the user forces it.
-  SolveOutput s = Solve(rows, options, false, datum_free, true);
+  bool datum_free = false;
+};
+
+// IPD fixed first: it trades against both scales, and a free start can slide into the
+// degenerate valley. Then, if asked, freed from that solution and kept only when the data pin
+// it (not on a bound, sigma below the threshold) or the user forces it; the datum likewise.
+// Why a parameter stayed fixed goes to notes.
+VergenceFreeChoice ChooseVergenceFreeParameters(const std::vector<VergenceLogRow>& rows,
+                                                const VergenceFitOptions& options,
+                                                std::vector<std::string>* notes) {
+  VergenceFreeChoice c;
+  c.datum_free = options.fit_datum;
+  SolveOutput& s = c.solve;
+  s = Solve(rows, options, false, c.datum_free, true);
   if (options.ipd_mode != IpdMode::kFixed) {
     VergenceFitOptions o2 = options;
     o2.initial = s.maps;
     o2.datum_offset_m = s.maps.datum_offset_m;
-    SolveOutput f = Solve(rows, o2, true, datum_free, true);
+    SolveOutput f = Solve(rows, o2, true, c.datum_free, true);
     const double scale = std::max(1.0, std::sqrt(f.chi2 / std::max(1, f.dof)));
     const double sig = f.SigmaOrInfinity("ipd") * scale;
     const bool on_bound = f.maps.ipd_m < 0.021 || f.maps.ipd_m > 0.199;
@@ -315,37 +322,42 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     const double gain = (s.chi2 - f.chi2) / std::max(1.0, f.chi2 / std::max(1, f.dof));
     if (options.ipd_mode == IpdMode::kFree || (!on_bound && sig < options.ipd_sigma_threshold_m && gain > 9)) {
       s = f;
-      ipd_free = true;
+      c.ipd_free = true;
     } else {
-      fit.notes.push_back("IPD not determined by this log (free, it went to " + FixedOrDash(f.maps.ipd_m * 1000, 1) +
-                          " mm, lowering chi2 by only " + FixedOrDash(gain, 1) + " residual variances" +
-                          "; it trades against the us/deg scales); fixed at " + FixedOrDash(options.ipd_m * 1000, 1) +
-                          " mm, so the scales are relative to that IPD");
+      notes->push_back("IPD not determined by this log (free, it went to " + FixedOrDash(f.maps.ipd_m * 1000, 1) +
+                       " mm, lowering chi2 by only " + FixedOrDash(gain, 1) + " residual variances" +
+                       "; it trades against the us/deg scales); fixed at " + FixedOrDash(options.ipd_m * 1000, 1) +
+                       " mm, so the scales are relative to that IPD");
     }
   }
-  if (datum_free) {
+  if (c.datum_free) {
     const double sig = s.SigmaOrInfinity("datum") * std::max(1.0, std::sqrt(s.chi2 / std::max(1, s.dof)));
     if (!(sig < options.datum_sigma_threshold_m)) {
-      fit.notes.push_back("distance datum not determined (sigma " + FixedOrDash(sig * 1000, 0) + " mm); fixed at " +
-                          FixedOrDash(options.datum_offset_m * 1000, 0) + " mm in front of the eye centres");
-      datum_free = false;
-      s = Solve(rows, options, ipd_free, datum_free, true);
+      notes->push_back("distance datum not determined (sigma " + FixedOrDash(sig * 1000, 0) + " mm); fixed at " +
+                       FixedOrDash(options.datum_offset_m * 1000, 0) + " mm in front of the eye centres");
+      c.datum_free = false;
+      s = Solve(rows, options, c.ipd_free, c.datum_free, true);
     }
   } else {
-    fit.notes.push_back("distance datum fixed at " + FixedOrDash(options.datum_offset_m * 1000, 0) + " mm by option");
+    notes->push_back("distance datum fixed at " + FixedOrDash(options.datum_offset_m * 1000, 0) + " mm by option");
   }
-  if (s.runs.size() > 1 && options.per_run_bearing)
-    fit.notes.push_back("one target-line bearing per run (run " + std::to_string(s.runs[0]) +
-                        " fixed at 0): centres are parallel gaze along run " + std::to_string(s.runs[0]) + "'s line");
-  fit.maps = s.maps;
-  fit.runs = s.runs;
-  fit.ipd_free = ipd_free;
-  fit.datum_free = datum_free;
+  return c;
+}
+
+// The fitted parameters with their sigmas (scaled by the residual) into fit->parameters, each
+// determined by the observability rule, else with the rule's reason; nothing is determined by a
+// solve that did not converge or by one distance. True when both maps are determined.
+bool AddVergenceParameters(const std::vector<VergenceLogRow>& rows,
+                           const VergenceFitOptions& options,
+                           const VergenceFreeChoice& choice,
+                           size_t num_distances,
+                           VergenceLogFit* fit) {
+  const SolveOutput& s = choice.solve;
+  const bool ipd_free = choice.ipd_free, datum_free = choice.datum_free;
   const double scale = std::max(1.0, std::sqrt(s.chi2 / std::max(1, s.dof)));
-  fit.residual_sigma_us = std::sqrt(s.chi2 / std::max(1, s.dof)) * options.pwm_sigma_us;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   auto sig = [&](const std::string& k, double unit) {
-    return s.covariance_ok && s.sigma.count(k) ? s.sigma[k] * scale * unit : nan;
+    return s.covariance_ok && s.sigma.count(k) ? s.sigma.at(k) * scale * unit : nan;
   };
   auto add =
       [&](const std::string& name, double v, double sigma, const std::string& unit, bool det, const std::string& note) {
@@ -356,10 +368,8 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
         p.unit = unit;
         p.determined = det;
         p.note = note;
-        fit.parameters.push_back(p);
+        fit->parameters.push_back(p);
       };
-  // Determined by the observability rule, else the rule's reason; nothing is determined by a
-  // solve that did not converge or by one distance.
   const bool converged = s.summary.termination_type == ceres::CONVERGENCE;
   const std::string blocked = !converged          ? "solver did not converge"
                               : num_distances < 2 ? "not determined: one distance only"
@@ -367,7 +377,7 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
                                                   : "";
   const std::map<std::string, std::string> no_signal =
       ScalesWithoutSignal(rows, s.maps, sig("rx.scale", 1), sig("lx.scale", 1));
-  for (const auto& [k, why] : no_signal) fit.notes.push_back(why);
+  for (const auto& [k, why] : no_signal) fit->notes.push_back(why);
   auto det = [&](const std::string& k) { return blocked.empty() && s.sigma.count(k) > 0 && !no_signal.count(k); };
   auto note_of = [&](const std::string& k, const std::string& note) {
     if (!blocked.empty()) return blocked;
@@ -410,19 +420,14 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
         det(b),
         note_of(b, "relative to run " + std::to_string(s.runs[0])));
   }
-  const bool ok = s.covariance_ok && det("rx.centre") && det("rx.scale") && det("lx.centre") && det("lx.scale");
-  fit.summary.problem = "vergence_log";
-  fit.summary.termination = ceres::TerminationTypeToString(s.summary.termination_type);
-  fit.summary.message = s.summary.message;
-  fit.summary.initial_cost = s.summary.initial_cost;
-  fit.summary.final_cost = s.summary.final_cost;
-  fit.summary.iterations = static_cast<int>(s.summary.iterations.size());
-  fit.summary.num_residuals = s.summary.num_residuals;
-  fit.summary.rms_px = fit.residual_sigma_us;  // in us here
-  // NO_CONVERGENCE is "usable" to Ceres, but its values are not a fit: refuse them too.
-  fit.summary.usable = converged && ok;
-  fit.summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s.covariance_ok && det("rx.centre") && det("rx.scale") && det("lx.centre") && det("lx.scale");
+}
 
+// Each row's whitened residuals and the range change per us of command at its PWM.
+std::vector<VergenceRowDiagnostic> VergenceRowDiagnostics(const std::vector<VergenceLogRow>& rows,
+                                                          const VergenceFitOptions& options,
+                                                          const SolveOutput& s) {
+  std::vector<VergenceRowDiagnostic> out;
   for (size_t i = 0; i < rows.size(); ++i) {
     const auto& row = rows[i];
     const int k = static_cast<int>(std::find(s.runs.begin(), s.runs.end(), row.run) - s.runs.begin());
@@ -436,8 +441,52 @@ VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const Ver
     const auto a = s.maps.Distance(row.rx_us + 0.5, row.lx_us), b = s.maps.Distance(row.rx_us - 0.5, row.lx_us);
     const auto c = s.maps.Distance(row.rx_us, row.lx_us + 0.5), e = s.maps.Distance(row.rx_us, row.lx_us - 0.5);
     d.range_per_us_m = (a && b && c && e) ? std::hypot(*a - *b, *c - *e) : std::numeric_limits<double>::infinity();
-    fit.rows.push_back(d);
+    out.push_back(d);
   }
+  return out;
+}
+
+}  // namespace
+
+VergenceLogFit FitVergenceLog(const std::vector<VergenceLogRow>& rows, const VergenceFitOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument("VergenceFitOptions: " + why);
+  size_t num_distances = 0;
+  const std::vector<double> distances = CheckVergenceRows(rows, &num_distances);
+  const auto t0 = std::chrono::steady_clock::now();
+  VergenceLogFit fit;
+  if (num_distances < 2) {
+    // Each eye's Rx = centre - scale * angle(D): one distance gives one equation per eye for two
+    // unknowns, however many rows repeat it.
+    fit.notes.push_back("all " + std::to_string(rows.size()) + " rows are at one distance (" +
+                        FixedOrDash(distances[0] * 100, 1) +
+                        " cm): a centre and a us/deg scale cannot both be determined "
+                        "from one distance; log at least two (better five or more, near and far)");
+  }
+  const VergenceFreeChoice choice = ChooseVergenceFreeParameters(rows, options, &fit.notes);
+  const SolveOutput& s = choice.solve;
+  if (s.runs.size() > 1 && options.per_run_bearing)
+    fit.notes.push_back("one target-line bearing per run (run " + std::to_string(s.runs[0]) +
+                        " fixed at 0): centres are parallel gaze along run " + std::to_string(s.runs[0]) + "'s line");
+  fit.maps = s.maps;
+  fit.runs = s.runs;
+  fit.ipd_free = choice.ipd_free;
+  fit.datum_free = choice.datum_free;
+  fit.residual_sigma_us = std::sqrt(s.chi2 / std::max(1, s.dof)) * options.pwm_sigma_us;
+  const bool ok = AddVergenceParameters(rows, options, choice, num_distances, &fit);
+  const bool converged = s.summary.termination_type == ceres::CONVERGENCE;
+  fit.summary.problem = "vergence_log";
+  fit.summary.termination = ceres::TerminationTypeToString(s.summary.termination_type);
+  fit.summary.message = s.summary.message;
+  fit.summary.initial_cost = s.summary.initial_cost;
+  fit.summary.final_cost = s.summary.final_cost;
+  fit.summary.iterations = static_cast<int>(s.summary.iterations.size());
+  fit.summary.num_residuals = s.summary.num_residuals;
+  fit.summary.rms_px = fit.residual_sigma_us;  // in us here
+  // NO_CONVERGENCE is "usable" to Ceres, but its values are not a fit: refuse them too.
+  fit.summary.usable = converged && ok;
+  fit.summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  fit.rows = VergenceRowDiagnostics(rows, options, s);
   return fit;
 }
 

@@ -58,6 +58,26 @@ struct TrackerSummary {
   std::map<std::string, int> lost_reasons;  // reason (numbers removed) -> frames
 };
 
+// The columns of salience.csv (protocols/track_step.h) a SalienceRow holds, in its order: what the
+// study reads and what the salience_candidates table shows.
+inline constexpr std::array<const char*, 17> kSalienceRowColumns = {"rank",
+                                                                    "x_px",
+                                                                    "y_px",
+                                                                    "score",
+                                                                    "intensity",
+                                                                    "colour",
+                                                                    "orientation",
+                                                                    "object",
+                                                                    "object_distance_px",
+                                                                    "object_radius_px",
+                                                                    "fix_status",
+                                                                    "fix_reason",
+                                                                    "fix_iterations",
+                                                                    "fix_dx_px",
+                                                                    "fix_dy_px",
+                                                                    "fixated_object",
+                                                                    "fixated_distance_px"};
+
 struct SalienceRow {
   int rank = 0;
   double x_px = 0, y_px = 0, score = 0, intensity = 0, colour = 0, orientation = 0;
