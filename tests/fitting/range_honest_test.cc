@@ -15,6 +15,7 @@
 #include "fitting/range_datum_fit.h"
 #include "fitting/range_images_calib.h"
 #include "fitting/range_images_ranging.h"
+#include "fitting/range_scale_budget.h"
 #include "owlcal_version.h"
 #include "reports/image_set_tables.h"
 #include "tests/shared_data.h"
@@ -147,6 +148,31 @@ TEST(RangeHonest, DatumFitOnKit2020DistanceTargetAndHonestSigma) {
     within += std::abs(f.after_m[k] - rows[k].truth_m) * f.b <= 3 * rows[k].sigma_m;
   std::cout << within << " of " << rows.size() << " rows within 3 sigma after the datum fit\n";
   EXPECT_GE(within, static_cast<int>(rows.size()) - 1);
+  // Issue 37's target on the truth's (textured) label ROIs: every row ok, leave-one-out <= 2 %.
+  EXPECT_EQ(s.num_ranged, 13);
+  EXPECT_LE(f.mean_abs_rel_loo, 0.02);
+  // The scale budget: b - 1 split into calibration (sigma only), matching and the truth's rest.
+  std::vector<int> fit_rows;
+  std::vector<double> second;
+  for (size_t i = 0; i < ms.size(); ++i) {
+    if (ms[i].status == "ok") fit_rows.push_back(static_cast<int>(i));
+    second.push_back(ms[i].second_disparity_px);
+  }
+  const ScaleBudget b = SplitScale(ms, fit_rows, f, rig, rect, second, o.match.subpixel_floor_px);
+  std::cout << reports::ScaleBudgetMarkdown(b);
+  ASSERT_TRUE(b.ok) << b.message;
+  EXPECT_NEAR(b.b_minus_1, f.b - 1, 1e-12);
+  EXPECT_NEAR(b.matching + b.truth, b.b_minus_1, 1e-12);
+  EXPECT_EQ(b.matching_rows, 13);  // StereoSGBM measured every template
+  // The covariance's f x B is known to a fraction of a percent, the halves' to a few percent
+  // (the covariance is optimistic on this set); matching moves b by well under 3 %.
+  EXPECT_GT(b.calib_sigma_cov, 0.0);
+  EXPECT_LT(b.calib_sigma_cov, 0.01);
+  EXPECT_GT(b.calib_sigma_cv, b.calib_sigma_cov);
+  EXPECT_LT(std::abs(b.matching), 0.03);
+  EXPECT_GT(b.matching_sigma, 0.0);
+  // A common disparity bias of +1 px makes every range shorter, far ones most: b falls.
+  EXPECT_LT(b.db_dd_per_px, 0.0);
 }
 
 // Distances unknown (blank in the CSV): every pair ranged with sigma and a status, nothing
