@@ -18,6 +18,7 @@
 #include "fitting/format.h"
 #include "fitting/range_images_ranging.h"
 #include "fitting/stereo_depth.h"
+#include "io/json_strict.h"
 #include "reports/point_cloud_ply.h"
 #include "reports/table.h"
 
@@ -69,19 +70,18 @@ void WriteImage(const fs::path& p, const cv::Mat& m) {
 }
 
 nlohmann::json RoiJson(const fitting::RoiDepth& d) {
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   return {{"ok", d.ok},
           {"message", d.message},
           {"roi", {d.roi.x, d.roi.y, d.roi.width, d.roi.height}},
           {"valid_fraction", d.valid_fraction()},
-          {"disparity_px", num(d.disparity_px)},
-          {"disparity16", num(d.disparity16)},
-          {"scatter_px", num(d.scatter_px)},
-          {"sigma_disparity_px", num(d.sigma_disparity_px)},
-          {"depth_m", num(d.depth_m)},
-          {"sigma_m", num(d.sigma_m)},
-          {"sigma_match_m", num(d.sigma_match_m)},
-          {"sigma_calib_m", num(d.sigma_calib_m)}};
+          {"disparity_px", io::JsonNumber(d.disparity_px)},
+          {"disparity16", io::JsonNumber(d.disparity16)},
+          {"scatter_px", io::JsonNumber(d.scatter_px)},
+          {"sigma_disparity_px", io::JsonNumber(d.sigma_disparity_px)},
+          {"depth_m", io::JsonNumber(d.depth_m)},
+          {"sigma_m", io::JsonNumber(d.sigma_m)},
+          {"sigma_match_m", io::JsonNumber(d.sigma_match_m)},
+          {"sigma_calib_m", io::JsonNumber(d.sigma_calib_m)}};
 }
 
 // The pairs to measure, from the inputs (LEFT RIGHT, one frame, or a folder with --truth) and

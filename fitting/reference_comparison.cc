@@ -386,7 +386,6 @@ nlohmann::json ReferenceComparisonToJson(const ReferenceComparison& c) {
                 {"bow", c.share_bow}};
   j["chi2_total"] = c.chi2_total;
   j["num_weighted"] = c.num_weighted;
-  const auto num = [](double v) { return io::JsonNumber(v); };
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& r : c.rows)
     rows.push_back({{"name", r.name},
@@ -396,7 +395,7 @@ nlohmann::json ReferenceComparisonToJson(const ReferenceComparison& c) {
                     {"opencv_owlcal_model", r.opencv_owlcal_model},
                     {"owlcal_flat", r.owlcal_flat},
                     {"owlcal", r.owlcal},
-                    {"owlcal_sigma", num(r.owlcal_sigma)},
+                    {"owlcal_sigma", io::JsonNumber(r.owlcal_sigma)},
                     {"total", r.Total()},
                     {"detection", r.Detection()},
                     {"model", r.Model()},

@@ -4,7 +4,6 @@
 #include <filesystem>
 #include <future>
 #include <memory>
-#include <mutex>
 #include <stdexcept>
 
 #include <yaml-cpp/yaml.h>
@@ -70,8 +69,7 @@ struct BufferedGeometryFit {
   }
 };
 
-// True when no protocol after loaded[i] records a dataset FitGeometry reads (and none of them is
-// run after the fit, which never records one either).
+// True when no protocol after loaded[i] records a dataset FitGeometry reads.
 bool NoGeometryDatasetAfter(const std::vector<protocols::Protocol>& loaded, size_t i) {
   for (size_t j = i + 1; j < loaded.size(); ++j)
     if (GeometryDatasetNames().count(loaded[j].name)) return false;
@@ -85,14 +83,7 @@ std::future<BufferedGeometryFit> StartGeometryFit(const std::map<std::string, st
                                                   CalibratePipelineOptions fit) {
   return std::async(std::launch::async, [datasets, fit]() mutable {
     BufferedGeometryFit out;
-    const bool say = static_cast<bool>(fit.progress);
-    std::mutex m;
-    fit.progress = nullptr;
-    if (say)
-      fit.progress = [&out, &m](const std::string& line) {
-        std::lock_guard<std::mutex> lock(m);
-        out.lines.push_back(line);
-      };
+    if (fit.progress) fit.progress = [&out](const std::string& line) { out.lines.push_back(line); };
     out.run = FitGeometry(datasets, fit);
     return out;
   });

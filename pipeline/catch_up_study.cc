@@ -172,7 +172,6 @@ nlohmann::json CatchUpStudyJson(const CatchUpStudy& s) {
   j["num_ok"] = s.num_ok;
   j["has_truth"] = s.has_truth;
   j["notes"] = s.notes;
-  const auto num = [](double v) { return io::JsonNumber(v); };
   j["trials"] = nlohmann::json::array();
   for (const CatchUpTrial& t : s.trials)
     j["trials"].push_back({{"trial", t.trial},
@@ -183,19 +182,19 @@ nlohmann::json CatchUpStudyJson(const CatchUpStudy& s) {
                            {"frames", t.frames},
                            {"found", t.found},
                            {"saccades", t.saccades},
-                           {"rms_error_deg", num(t.rms_error_deg)},
-                           {"true_rms_error_deg", num(t.true_rms_error_deg)},
-                           {"mean_error_before_deg", num(t.mean_before_deg)},
-                           {"mean_error_after_deg", num(t.mean_after_deg)},
-                           {"median_response_ms", num(t.median_response_ms)}});
+                           {"rms_error_deg", io::JsonNumber(t.rms_error_deg)},
+                           {"true_rms_error_deg", io::JsonNumber(t.true_rms_error_deg)},
+                           {"mean_error_before_deg", io::JsonNumber(t.mean_before_deg)},
+                           {"mean_error_after_deg", io::JsonNumber(t.mean_after_deg)},
+                           {"median_response_ms", io::JsonNumber(t.median_response_ms)}});
   j["saccades"] = nlohmann::json::array();
   for (const CatchUpSaccade& c : s.saccades)
     j["saccades"].push_back({{"trial", c.trial},
                              {"k", c.k},
                              {"t_s", c.t_s},
-                             {"error_before_deg", num(c.error_before_deg)},
-                             {"error_after_deg", num(c.error_after_deg)},
-                             {"response_ms", num(c.response_ms)}});
+                             {"error_before_deg", io::JsonNumber(c.error_before_deg)},
+                             {"error_after_deg", io::JsonNumber(c.error_after_deg)},
+                             {"response_ms", io::JsonNumber(c.response_ms)}});
   return j;
 }
 

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "calib/csv.h"
+#include "io/json_strict.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/study_cells.h"
@@ -232,7 +233,6 @@ nlohmann::json TrackingStudyJson(const TrackingStudy& s) {
   j["source"] = s.source;
   j["has_truth"] = s.has_truth;
   j["off_target_px"] = kOffTargetPx;
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   for (const TrackerSummary& t : s.summaries) {
     nlohmann::json r = {{"tracker", t.tracker},
                         {"eye", models::kEyeNames[t.eye]},
@@ -245,8 +245,8 @@ nlohmann::json TrackingStudyJson(const TrackingStudy& s) {
                         {"found_out_of_view", t.num_found_out_of_view},
                         {"error_frames", t.num_errors},
                         {"off_target", t.num_off_target},
-                        {"rms_px", num(t.rms_px)},
-                        {"max_px", num(t.max_px)},
+                        {"rms_px", io::JsonNumber(t.rms_px)},
+                        {"max_px", io::JsonNumber(t.max_px)},
                         {"lost_reasons", t.lost_reasons}};
     j["trackers"].push_back(r);
   }
@@ -256,7 +256,7 @@ nlohmann::json TrackingStudyJson(const TrackingStudy& s) {
                              {"y_px", c.y_px},
                              {"score", c.score},
                              {"object", c.object},
-                             {"object_distance_px", num(c.object_distance_px)},
+                             {"object_distance_px", io::JsonNumber(c.object_distance_px)},
                              {"fix_status", c.fix_status},
                              {"fix_reason", c.fix_reason},
                              {"fixated_object", c.fixated_object}});

@@ -54,14 +54,17 @@ const char* const kViridis =
     "6 '#35b779', 7 '#6ece58', 8 '#b5de2b', 9 '#fde725')";
 
 namespace {
-// Asked once per process (a thread-safe static: figures are drawn on several threads).
-bool HavePdfCairo() {
-  static const bool have = [] {
+// gnuplot's list of terminals, asked once per process (a thread-safe static: figures are drawn on
+// several threads); empty without gnuplot.
+const std::string& GnuplotTerminals() {
+  static const std::string terms = [] {
     int st = 0;
-    return RunCapture("echo 'set terminal' | gnuplot 2>&1", &st).find("pdfcairo") != std::string::npos;
+    return RunCapture("echo 'set terminal' | gnuplot 2>&1", &st);
   }();
-  return have;
+  return terms;
 }
+
+bool HavePdfCairo() { return GnuplotTerminals().find("pdfcairo") != std::string::npos; }
 }  // namespace
 
 bool GnuplotAvailable(std::string* png_terminal, std::string* version) {
@@ -76,10 +79,7 @@ bool GnuplotAvailable(std::string* png_terminal, std::string* version) {
     f.version = RunCapture("gnuplot --version 2>/dev/null", &st);
     while (!f.version.empty() && (f.version.back() == '\n' || f.version.back() == '\r')) f.version.pop_back();
     f.have = st == 0 && !f.version.empty();
-    if (f.have) {
-      const std::string terms = RunCapture("echo 'set terminal' | gnuplot 2>&1", &st);
-      f.term = terms.find("pngcairo") != std::string::npos ? "pngcairo" : "png";
-    }
+    if (f.have) f.term = GnuplotTerminals().find("pngcairo") != std::string::npos ? "pngcairo" : "png";
     return f;
   }();
   if (png_terminal) *png_terminal = found.term;
