@@ -1,9 +1,11 @@
 // owlcal range-images DIR --calib FILE [--truth CSV] --out OUT: range a target in stereo pairs,
 // at known distances (error against the truth, datum and scale fit) or unknown ones (range with
 // sigma), every row with a status (ok, low_confidence, failed).
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 #include <opencv2/imgcodecs.hpp>
@@ -14,6 +16,7 @@
 #include "fitting/format.h"
 #include "fitting/range_datum_fit.h"
 #include "fitting/range_images_ranging.h"
+#include "fitting/range_scale_budget.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/image_set_tables.h"
 #include "reports/table.h"
@@ -166,6 +169,15 @@ int RunRangeImages(const RangeImagesOptions& a) {
     }
     datum = fitting::FitDatum(rows);
     md += "\n" + reports::DatumFitMarkdown(datum);
+    if (datum.ok) {
+      // The second matcher's disparity at each template (the cross-check's), for the matching term.
+      std::vector<double> second_disparity;
+      for (const auto& m : ms) second_disparity.push_back(m.second_disparity_px);
+      const fitting::ScaleBudget budget =
+          fitting::SplitScale(ms, datum_rows, datum, rig, rect, second_disparity, o.match.subpixel_floor_px);
+      md += "\n" + reports::ScaleBudgetMarkdown(budget);
+      reports::WriteTextFile((out / "scale_budget.json").string(), fitting::ScaleBudgetToJson(budget).dump(2) + "\n");
+    }
   }
   md += "\nTemplates: " + std::string(auto_select ? "chosen per pair (" + a.select + "): " : "") +
         (ms.empty() ? std::string("-") : ms.front().roi_how) + (ms.size() > 1 ? " (first pair)" : "") + ".\n";
@@ -233,8 +245,8 @@ int RunRangeImages(const RangeImagesOptions& a) {
     drawn = ff.drawn ? "" : ff.message;
     if (!ff.drawn) std::cerr << "figure not drawn: " << ff.message << "\n";
   }
-  std::cout << md << "wrote " << a.out << ": ranges.md ranges.csv " << f.name << ".{csv,gp"
-            << (drawn.empty() ? ",png,svg" : "") << "}\n";
+  std::cout << md << "wrote " << a.out << ": ranges.md ranges.csv " << (datum.ok ? "scale_budget.json " : "") << f.name
+            << ".{csv,gp" << (drawn.empty() ? ",png,svg" : "") << "}\n";
   return s.num_failed == 0 && s.num_low_confidence == 0 ? kExitOk : kExitFailed;
 }
 

@@ -74,7 +74,11 @@ BoardWarpChoice ChooseStereoBoardWarp(const std::vector<calib::View>& left_views
       const LensModelScore& bow = c.scores[1];
       c.gain_px = flat.heldout_rms_px - bow.heldout_rms_px;
       c.gain_se_px = internal::GainStandardError(per_frame, flat.heldout_rms_px, bow.heldout_rms_px);
-      c.bowed = bow.heldout_rms_px < flat.heldout_rms_px * (1 - o.min_relative_gain);
+      const bool gains = bow.heldout_rms_px < flat.heldout_rms_px * (1 - o.min_relative_gain);
+      internal::CountFramesBetter(per_frame, &c.frames_better, &c.frames_compared);
+      const bool significant =
+          internal::HeldOutGainSignificant(c.gain_px, c.gain_se_px, c.frames_better, c.frames_compared);
+      c.bowed = gains && significant;
       for (int j = 0; j < 2; ++j) {
         c.warp[j] = bow.full.board_warp[j];
         c.warp_sigma[j] = bow.full.board_warp_sigma[j];
@@ -92,16 +96,19 @@ BoardWarpChoice ChooseStereoBoardWarp(const std::vector<calib::View>& left_views
         << c.num_frames << " frames: held-out RMS flat " << FixedOrDash(flat.heldout_rms_px, 4) << " px, bowed "
         << FixedOrDash(bow.heldout_rms_px, 4) << " px (difference " << FixedOrDash(c.gain_px, 4) << " +- "
         << FixedOrDash(c.gain_se_px, 4) << " px; fit RMS " << FixedOrDash(flat.fit_rms_px, 4) << " / "
-        << FixedOrDash(bow.fit_rms_px, 4) << " px); bow x " << FixedOrDash(scale * c.warp[0], 3) << " +- "
-        << FixedOrDash(scale * c.warp_sigma[0], 3) << ", y " << FixedOrDash(scale * c.warp[1], 3) << " +- "
-        << FixedOrDash(scale * c.warp_sigma[1], 3) << " " << unit << ", explaining "
-        << FixedOrDash(100 * c.explained_fraction, 3) << " % of the flat fit's squared residual ("
-        << FixedOrDash(100 * c.heldout_explained_fraction, 3) << " % held out)";
-      if (!c.bowed)
-        r << (bow.heldout_rms_px < flat.heldout_rms_px
-                  ? "; the bow's gain is below the " + FixedOrDash(100 * o.min_relative_gain, 2) +
-                        " % a richer model must earn"
-                  : "; the bow predicts held-out views no better");
+        << FixedOrDash(bow.fit_rms_px, 4) << " px; bowed better on " << c.frames_better << " of " << c.frames_compared
+        << " frames); bow x " << FixedOrDash(scale * c.warp[0], 3) << " +- " << FixedOrDash(scale * c.warp_sigma[0], 3)
+        << ", y " << FixedOrDash(scale * c.warp[1], 3) << " +- " << FixedOrDash(scale * c.warp_sigma[1], 3) << " "
+        << unit << ", explaining " << FixedOrDash(100 * c.explained_fraction, 3)
+        << " % of the flat fit's squared residual (" << FixedOrDash(100 * c.heldout_explained_fraction, 3)
+        << " % held out)";
+      if (bow.heldout_rms_px >= flat.heldout_rms_px)
+        r << "; the bow predicts held-out views no better";
+      else if (!gains)
+        r << "; the bow's gain is below the " + FixedOrDash(100 * o.min_relative_gain, 2) +
+                 " % a richer model must earn";
+      else if (!significant)
+        r << "; the bow's gain is within twice its standard error and it is not better on most frames";
       c.reason = r.str();
     }
   }
@@ -134,6 +141,8 @@ nlohmann::json BoardWarpChoiceToJson(const BoardWarpChoice& c) {
           {"num_frames", c.num_frames},
           {"gain_px", num(c.gain_px)},
           {"gain_se_px", num(c.gain_se_px)},
+          {"frames_better", c.frames_better},
+          {"frames_compared", c.frames_compared},
           {"warp", {num(c.warp[0]), num(c.warp[1])}},
           {"warp_sigma", {num(c.warp_sigma[0]), num(c.warp_sigma[1])}},
           {"explained_fraction", num(c.explained_fraction)},

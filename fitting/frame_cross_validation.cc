@@ -245,4 +245,19 @@ double GainStandardError(const std::map<int, FrameError> per_frame[2], double rm
   return se_ms / std::max(1e-12, rms0 + rms1);
 }
 
+void CountFramesBetter(const std::map<int, FrameError> per_frame[2], int* better, int* compared) {
+  *better = *compared = 0;
+  for (const auto& [f, e0] : per_frame[0]) {
+    const auto it = per_frame[1].find(f);
+    if (it == per_frame[1].end()) continue;
+    ++*compared;
+    if (it->second.sum_sq[0] + it->second.sum_sq[1] < e0.sum_sq[0] + e0.sum_sq[1]) ++*better;
+  }
+}
+
+bool HeldOutGainSignificant(double gain_px, double gain_se_px, int better, int compared) {
+  const bool most_frames = compared > 0 && better > compared / 2.0 + std::sqrt(double(compared));
+  return !std::isfinite(gain_se_px) || gain_px > 2 * gain_se_px || most_frames;
+}
+
 }  // namespace owlcal::fitting::internal

@@ -54,4 +54,13 @@ std::vector<int> FramesOf(const std::vector<calib::View>* views[2]);
 // per-frame differences of the squared error sums (delta method).
 double GainStandardError(const std::map<int, FrameError> per_frame[2], double rms0, double rms1);
 
+// Held-out frames both candidates placed (*compared), and of them those where the second
+// predicts better (*better: smaller sum of squared errors over both eyes).
+void CountFramesBetter(const std::map<int, FrameError> per_frame[2], int* better, int* compared);
+
+// The richer candidate's held-out gain is more than noise: larger than twice its standard error,
+// or better on more than n/2 + sqrt(n) of the n frames compared (a sign test at two standard
+// deviations). An unknown standard error (one frame) counts as significant.
+bool HeldOutGainSignificant(double gain_px, double gain_se_px, int better, int compared);
+
 }  // namespace owlcal::fitting::internal

@@ -20,18 +20,6 @@ using models::DistortionModel;
 
 constexpr DistortionModel kCandidates[2] = {DistortionModel::kOpenCv5, DistortionModel::kOpenCv8};
 
-// Held-out frames both candidates placed, and of them those where the second predicts better
-// (smaller sum of squared errors over both eyes).
-void CountFramesBetter(const std::map<int, internal::FrameError> per_frame[2], int* better, int* compared) {
-  *better = *compared = 0;
-  for (const auto& [f, e0] : per_frame[0]) {
-    const auto it = per_frame[1].find(f);
-    if (it == per_frame[1].end()) continue;
-    ++*compared;
-    if (it->second.sum_sq[0] + it->second.sum_sq[1] < e0.sum_sq[0] + e0.sum_sq[1]) ++*better;
-  }
-}
-
 // The choice from the two scores; fills gain, its standard error and the reason.
 void Decide(const std::map<int, internal::FrameError> per_frame[2],
             const LensModelChoiceOptions& o,
@@ -47,10 +35,9 @@ void Decide(const std::map<int, internal::FrameError> per_frame[2],
   // with k1 k2 k4 k5 undetermined and k3 "determined" up to 68 sigma from the truth.
   // Or better on most frames (sign test, two standard deviations): a wide lens's edge frames,
   // where the 5-coefficient model fails by a pixel, make the standard error large.
-  CountFramesBetter(per_frame, &c->frames_better, &c->frames_compared);
-  const bool most_frames =
-      c->frames_compared > 0 && c->frames_better > c->frames_compared / 2.0 + std::sqrt(double(c->frames_compared));
-  const bool significant = !std::isfinite(c->gain_se_px) || c->gain_px > 2 * c->gain_se_px || most_frames;
+  internal::CountFramesBetter(per_frame, &c->frames_better, &c->frames_compared);
+  const bool significant =
+      internal::HeldOutGainSignificant(c->gain_px, c->gain_se_px, c->frames_better, c->frames_compared);
   const bool richer = gains && significant;
   c->chosen = richer ? DistortionModel::kOpenCv8 : DistortionModel::kOpenCv5;
   c->chosen_name = DistortionModelName(c->chosen);

@@ -105,7 +105,11 @@ std::string DistortionModelName(models::DistortionModel m);  // "opencv5" / "ope
 // The board's bow (fitting/board_warp.h) chosen the same way: flat and bowed
 // (StereoFitOptions::fit_board_warp) are cross-validated over frames with the model in
 // options.intrinsics.model, each held-out frame placed on the board bow its training folds
-// fitted; the bow wins when its held-out RMS is smaller by more than choice.min_relative_gain.
+// fitted; the bow wins when its held-out RMS is smaller by more than choice.min_relative_gain
+// AND the gain is more than noise, by the lens model's test (twice its standard error, or better
+// on most held-out frames): a bow is a richer model too, and one that the held-out views do not
+// ask for still moves the focal lengths by several sigma (kit2020: +9 px, 7 sigma, for a gain of
+// 1.9 standard errors), so parsimony keeps the flat board.
 // warp / warp_sigma: the bowed fit on all views, in the target's unit; explained_fraction:
 // 1 - RMS_bowed^2 / RMS_flat^2 of the fits on all views (the share of the flat fit's squared
 // residual the bow explains), heldout_explained_fraction the same of the held-out RMS.
@@ -118,6 +122,8 @@ struct BoardWarpChoice {
   std::vector<LensModelScore> scores;  // [flat, bowed] when cross-validated (name "flat"/"bowed")
   double gain_px = NAN;                // held-out RMS flat - bowed
   double gain_se_px = NAN;
+  int frames_better = 0;    // held-out frames the bowed board predicts better
+  int frames_compared = 0;  // held-out frames both placed
   double warp[2] = {NAN, NAN};
   double warp_sigma[2] = {NAN, NAN};
   double explained_fraction = NAN;

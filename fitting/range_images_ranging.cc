@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "fitting/format.h"
+#include "fitting/stereo_depth.h"
 #include "models/vergence.h"
 
 namespace owlcal::fitting {
@@ -147,6 +148,10 @@ void RemapPair(const Rectification& r, const cv::Mat& left, const cv::Mat& right
 }
 
 bool RangeOptions::Check(std::string* why) const {
+  if (!(min_valid_fraction > 0 && min_valid_fraction <= 1)) {
+    if (why) *why = "min_valid_fraction must be in (0, 1]";
+    return false;
+  }
   if (!(truth_sigma_m >= 0)) {
     if (why) *why = "truth_sigma_m = " + std::to_string(truth_sigma_m) + " must be >= 0";
     return false;
@@ -260,6 +265,19 @@ void Triangulate(const StereoRig& rig, const Rectification& rect, const RangeOpt
   m->ok = true;
 }
 
+// The second matcher's disparity at the chosen template (RangeOptions::second_matcher), recorded
+// for the scale budget; it changes no status.
+void RecordSecondMatcher(const cv::Mat& dense, const SgbmOptions& sgbm, const RangeOptions& o, RangeMeasurement* m) {
+  if (m->match.confidence == calib::MatchConfidence::kFailed) return;
+  const double tol =
+      std::max(o.match.block_tolerance_px, o.match.block_tolerance_fraction * std::abs(m->match.disparity_px));
+  const RoiAgreement a = DisparityAgreement(dense, sgbm, m->match.template_roi, m->match.disparity_px, tol);
+  m->second_valid_fraction = a.valid_fraction();
+  if (a.valid_fraction() < o.min_valid_fraction) return;
+  m->second_disparity_px = a.median_px;
+  m->second_agreeing_fraction = a.agreeing_fraction;
+}
+
 }  // namespace
 
 RangeMeasurement RangeRectifiedPair(const cv::Mat& lr,
@@ -275,6 +293,8 @@ RangeMeasurement RangeRectifiedPair(const cv::Mat& lr,
   if (rois.empty()) rois.push_back(options.match.template_roi);
   std::optional<calib::StereoMatch> low, first;
   int tried = 0;
+  const SgbmOptions sgbm;
+  const cv::Mat dense = options.second_matcher ? SgbmDisparity16(lr, rr, sgbm) : cv::Mat();
   for (const cv::Rect& roi : rois) {
     calib::StereoMatchOptions mo = options.match;
     mo.template_roi = roi;
@@ -291,6 +311,7 @@ RangeMeasurement RangeRectifiedPair(const cv::Mat& lr,
   if (rois.size() > 1)
     m.roi_how = "candidate " + std::to_string(tried) + " of " + std::to_string(rois.size()) + " at (" +
                 std::to_string(m.match.template_roi.x) + ", " + std::to_string(m.match.template_roi.y) + ")";
+  if (options.second_matcher) RecordSecondMatcher(dense, sgbm, options, &m);
   m.status = calib::ToString(m.match.confidence);
   m.message = m.match.message;
   if (m.match.confidence == calib::MatchConfidence::kFailed) return m;
@@ -369,7 +390,7 @@ void CheckRangeTruthRois(const std::vector<RangeTruthRow>& rows, const cv::Size&
 
 RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_true_m, double max_true_m) {
   RangeSummary s;
-  double sum = 0;
+  double sum = 0, flagged_sum = 0;
   for (const auto& r : m) {
     if (r.status == "low_confidence") ++s.num_low_confidence;
     if (r.status == "failed") ++s.num_failed;
@@ -379,6 +400,12 @@ RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_
     }
     if (!(r.true_m >= min_true_m - 1e-9 && r.true_m <= max_true_m + 1e-9)) continue;
     ++s.num_rows;
+    if (r.status == "low_confidence" && r.ok) {
+      ++s.num_flagged_ranged;
+      const double rel = std::abs(r.error_m()) / r.true_m;
+      flagged_sum += rel;
+      s.max_abs_rel_flagged = std::max(s.max_abs_rel_flagged, rel);
+    }
     if (r.status != "ok") continue;
     ++s.num_ranged;
     const double rel = std::abs(r.error_m()) / r.true_m;
@@ -389,6 +416,8 @@ RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_
     if (z > 3) ++s.num_outside_3sigma;
   }
   s.mean_abs_rel = s.num_ranged ? sum / s.num_ranged : std::numeric_limits<double>::quiet_NaN();
+  s.mean_abs_rel_flagged =
+      s.num_flagged_ranged ? flagged_sum / s.num_flagged_ranged : std::numeric_limits<double>::quiet_NaN();
   return s;
 }
 

@@ -103,6 +103,12 @@ struct RangeOptions {
   // Uncertainty of the logged true distance itself (ruler reading, target held by hand,
   // datum); used only when comparing with the truth: z = error / sqrt(sigma^2 + truth^2).
   double truth_sigma_m = 0;
+  // The second matcher (RangePair, RangeRectifiedPair): OpenCV's StereoSGBM (fitting/stereo_depth.h
+  // defaults: block 7, uniqueness 10 %, left-right check 1 px) over the rectified pair; its median
+  // disparity at the chosen template is recorded for the scale budget (fitting/range_scale_budget.h)
+  // when at least min_valid_fraction of the template's pixels have one. It changes no status.
+  bool second_matcher = true;
+  double min_valid_fraction = 0.3;  // as DepthOptions::min_valid_fraction
   bool Check(std::string* why) const;
 };
 
@@ -123,6 +129,11 @@ struct RangeMeasurement {
   double sigma_cov_m = 0;         // calibration term from the covariance (NaN if unknown)
   double sigma_cv_m = 0;          // calibration term from the set's halves (NaN if unknown)
   double truth_sigma_m = 0;       // RangeOptions::truth_sigma_m
+  // The second matcher at the chosen template (NaN when not cross-checked): median disparity,
+  // share of its valid pixels agreeing with the match, share of the template's pixels valid.
+  double second_disparity_px = std::numeric_limits<double>::quiet_NaN();
+  double second_agreeing_fraction = std::numeric_limits<double>::quiet_NaN();
+  double second_valid_fraction = std::numeric_limits<double>::quiet_NaN();
   double error_sigma_m() const { return std::hypot(sigma_m, truth_sigma_m); }
   double error_m() const { return range_m - true_m; }
   bool has_truth() const { return std::isfinite(true_m); }
@@ -198,6 +209,10 @@ struct RangeSummary {
   double max_abs_rel = 0;
   double max_abs_z = 0;  // max |error| / sigma
   int num_outside_3sigma = 0;
+  // The low-confidence rows that have a range and a truth in range (the classifier's flagged
+  // group, to compare with the confident rows'): their count and |error| / truth.
+  int num_flagged_ranged = 0;
+  double mean_abs_rel_flagged = 0, max_abs_rel_flagged = 0;
 };
 RangeSummary SummariseRanges(const std::vector<RangeMeasurement>& m, double min_true_m = 0, double max_true_m = 1e9);
 

@@ -61,21 +61,9 @@ bool DepthOptions::Check(std::string* why) const {
   return true;
 }
 
-DepthMaps ComputeDepth(const cv::Mat& left_raw,
-                       const cv::Mat& right_raw,
-                       const Rectification& rect,
-                       const DepthOptions& options) {
+cv::Mat SgbmDisparity16(const cv::Mat& left_rect, const cv::Mat& right_rect, const SgbmOptions& o) {
   std::string why;
-  if (!options.Check(&why)) throw std::invalid_argument(why);
-  if (left_raw.empty() || right_raw.empty()) throw std::invalid_argument("ComputeDepth: empty image");
-  if (left_raw.size() != rect.size || right_raw.size() != rect.size)
-    throw std::invalid_argument("ComputeDepth: images are " + std::to_string(left_raw.cols) + "x" +
-                                std::to_string(left_raw.rows) + " / " + std::to_string(right_raw.cols) + "x" +
-                                std::to_string(right_raw.rows) + ", the calibration is for " +
-                                std::to_string(rect.size.width) + "x" + std::to_string(rect.size.height));
-  DepthMaps m;
-  RemapPair(rect, Grey(left_raw), Grey(right_raw), &m.left_rect, &m.right_rect);
-  const SgbmOptions& o = options.sgbm;
+  if (!o.Check(&why)) throw std::invalid_argument(why);
   const int mode = o.mode == "hh"     ? cv::StereoSGBM::MODE_HH
                    : o.mode == "3way" ? cv::StereoSGBM::MODE_SGBM_3WAY
                    : o.mode == "hh4"  ? cv::StereoSGBM::MODE_HH4
@@ -91,7 +79,48 @@ DepthMaps ComputeDepth(const cv::Mat& left_raw,
                                                         o.speckle_window_size,
                                                         o.speckle_range,
                                                         mode);
-  sgbm->compute(m.left_rect, m.right_rect, m.disparity16);
+  cv::Mat d16;
+  sgbm->compute(Grey(left_rect), Grey(right_rect), d16);
+  return d16;
+}
+
+RoiAgreement DisparityAgreement(
+    const cv::Mat& disparity16, const SgbmOptions& o, const cv::Rect& roi, double disparity_px, double tolerance_px) {
+  RoiAgreement a;
+  const cv::Rect r = roi & cv::Rect(0, 0, disparity16.cols, disparity16.rows);
+  a.num_pixels = r.area();
+  const int invalid = (o.min_disparity - 1) * 16;
+  std::vector<double> d;
+  for (int y = r.y; y < r.y + r.height; ++y) {
+    const int16_t* row = disparity16.ptr<int16_t>(y);
+    for (int x = r.x; x < r.x + r.width; ++x)
+      if (row[x] > invalid && row[x] > 0) d.push_back(row[x] / 16.0);
+  }
+  a.num_valid = static_cast<int>(d.size());
+  if (d.empty()) return a;
+  int agree = 0;
+  for (double v : d) agree += std::abs(v - disparity_px) <= tolerance_px;
+  a.agreeing_fraction = double(agree) / d.size();
+  a.median_px = Median(d);
+  return a;
+}
+
+DepthMaps ComputeDepth(const cv::Mat& left_raw,
+                       const cv::Mat& right_raw,
+                       const Rectification& rect,
+                       const DepthOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument(why);
+  if (left_raw.empty() || right_raw.empty()) throw std::invalid_argument("ComputeDepth: empty image");
+  if (left_raw.size() != rect.size || right_raw.size() != rect.size)
+    throw std::invalid_argument("ComputeDepth: images are " + std::to_string(left_raw.cols) + "x" +
+                                std::to_string(left_raw.rows) + " / " + std::to_string(right_raw.cols) + "x" +
+                                std::to_string(right_raw.rows) + ", the calibration is for " +
+                                std::to_string(rect.size.width) + "x" + std::to_string(rect.size.height));
+  DepthMaps m;
+  RemapPair(rect, Grey(left_raw), Grey(right_raw), &m.left_rect, &m.right_rect);
+  m.disparity16 = SgbmDisparity16(m.left_rect, m.right_rect, options.sgbm);
+  const SgbmOptions& o = options.sgbm;
   m.focal_px = rect.P1(0, 0);
   m.cx = rect.P1(0, 2);
   m.cy = rect.P1(1, 2);

@@ -84,6 +84,23 @@ DepthMaps ComputeDepth(const cv::Mat& left_raw,
                        const Rectification& rect,
                        const DepthOptions& options);
 
+// StereoSGBM on an already rectified pair (8-bit grey or BGR): the CV_16S map of 16 d.
+cv::Mat SgbmDisparity16(const cv::Mat& left_rect, const cv::Mat& right_rect, const SgbmOptions& options);
+
+// A second matcher's opinion of one template's disparity: of the valid pixels of `roi` in the
+// 16-bit map, the share within tolerance_px of disparity_px, and their median [px].
+struct RoiAgreement {
+  int num_pixels = 0, num_valid = 0;
+  double agreeing_fraction = std::numeric_limits<double>::quiet_NaN();
+  double median_px = std::numeric_limits<double>::quiet_NaN();
+  double valid_fraction() const { return num_pixels ? double(num_valid) / num_pixels : 0.0; }
+};
+RoiAgreement DisparityAgreement(const cv::Mat& disparity16,
+                                const SgbmOptions& options,
+                                const cv::Rect& roi,
+                                double disparity_px,
+                                double tolerance_px);
+
 struct RoiDepth {
   bool ok = false;
   std::string message;  // why not

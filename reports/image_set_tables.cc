@@ -205,6 +205,10 @@ std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m,
     md << "Mean |error| " << FixedOrDash(100 * s.mean_abs_rel, 2) << " %, max " << FixedOrDash(100 * s.max_abs_rel, 2)
        << " %; max |error|/sigma " << FixedOrDash(s.max_abs_z, 2) << "; " << s.num_outside_3sigma
        << " outside +-3 sigma (error/sigma uses sqrt(sigma^2 + truth sigma^2)).";
+  if (s.num_flagged_ranged > 0)
+    md << " The " << s.num_flagged_ranged << " low-confidence rows with a range, for comparison: mean |error| "
+       << FixedOrDash(100 * s.mean_abs_rel_flagged, 2) << " %, max " << FixedOrDash(100 * s.max_abs_rel_flagged, 2)
+       << " %.";
   md << "\n";
   return md.str();
 }
@@ -236,6 +240,41 @@ std::string DatumFitMarkdown(const fitting::DatumFit& f) {
                   FixedOrDash(100 * f.mean_abs_rel_loo, 2) + " %",
                   FixedOrDash(100 * f.max_abs_rel_loo, 2) + " %"}}};
   md << ToMarkdown(t);
+  return md.str();
+}
+
+std::string ScaleBudgetMarkdown(const fitting::ScaleBudget& b) {
+  std::ostringstream md;
+  md << "## Where the scale goes\n\n";
+  if (!b.ok) {
+    md << b.Sentence() << "\n";
+    return md.str();
+  }
+  auto pct = [](double v) { return FixedOrDash(100 * v, 2); };
+  const Table t{"scale_budget",
+                "",
+                {"term", "share of b - 1 (%)", "sigma (%)", "how"},
+                {{"fitted b - 1",
+                  pct(b.b_minus_1),
+                  pct(b.sigma_b),
+                  "datum and scale fit, " + std::to_string(b.num_rows) + " rows"},
+                 {"calibration (f x B), covariance",
+                  "0",
+                  pct(b.calib_sigma_cov),
+                  "the calibration's covariance carried through the fit"},
+                 {"calibration (f x B), halves",
+                  "0",
+                  pct(b.calib_sigma_cv),
+                  "the two halves of the calibration set, each ranging the same matches"},
+                 {"matching (disparity bias)",
+                  pct(b.matching),
+                  pct(b.matching_sigma),
+                  "StereoSGBM's disparity at the same templates (" + std::to_string(b.matching_rows) +
+                      " rows); sigma: a common " + FixedOrDash(b.subpixel_floor_px, 2) + " px bias"},
+                 {"truth (datum, ruler, placement)", pct(b.truth), pct(b.truth_sigma), "the rest"}}};
+  md << ToMarkdown(t) << "\n" << b.Sentence() << "\n";
+  for (const auto& n : b.notes) md << "\n- " << n;
+  if (!b.notes.empty()) md << "\n";
   return md.str();
 }
 

@@ -9,6 +9,7 @@
 //                           low_confidence or failed; empty cells when not ranged or no truth)
 //   RangeTableMarkdown      the same for reading, with the summary line below
 //   DatumFitMarkdown        the truth's datum and scale fit, errors before / after / leave-one-out
+//   ScaleBudgetMarkdown     b - 1 split into calibration, matching and the truth (range_scale_budget.h)
 // Values the data did not determine print as "-" (fitting/format.h), never as "nan".
 #include <string>
 #include <vector>
@@ -16,6 +17,7 @@
 #include "fitting/range_datum_fit.h"
 #include "fitting/range_images_calib.h"
 #include "fitting/range_images_ranging.h"
+#include "fitting/range_scale_budget.h"
 
 namespace owlcal::reports {
 
@@ -25,5 +27,6 @@ std::string RangeTableMarkdown(const std::vector<fitting::RangeMeasurement>& m,
                                const fitting::RangeSummary& s,
                                const std::string& title);
 std::string DatumFitMarkdown(const fitting::DatumFit& fit);
+std::string ScaleBudgetMarkdown(const fitting::ScaleBudget& budget);
 
 }  // namespace owlcal::reports

@@ -195,8 +195,8 @@ TEST_F(OwlcalCliTest, CalibrateImagesWritesTheCourseFilesInMillimetresAndEveryEx
   const std::string target = SourceDir() + "/data/targets/owl-kit-chessboard.yaml";
   const fs::path dir = fs::path(::testing::TempDir()) / ("owlcal_cli_kit_" + std::to_string(getpid()));
   fs::remove_all(dir);
-  // The course's reference files come from a flat-board fit: compare like with like (by default
-  // the bowed board wins the cross-validation on this set and puts f 1.6-2.4 % longer).
+  // The course's reference files come from a flat-board fit: compare like with like (--board-warp
+  // flat, whatever the cross-validation would choose).
   const RunResult r = RunOwlcal("calibrate-images '" + images + "' --target '" + target +
                                 "' --board-warp flat --out '" + dir.string() + "'");
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -1,11 +1,13 @@
 // Command-line checks of the real-data commands as a user runs them: free-standing tags
 // (detect-tags), toe-in servo maps (fit-toe-in), ranging without distances (range-images), a
 // mirrored set refused (calibrate-images). Exit codes: 0 ok, 1 failed, 2 usage (apps/command_registry.h).
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -123,6 +125,33 @@ TEST_F(RealDataCliTest, RangeImagesWithoutTruthRangesEveryPair) {
   const std::string md = Slurp(dir_ / "ranges" / "ranges.md");
   EXPECT_NE(md.find("13 of unknown distance"), std::string::npos) << md;
   EXPECT_NE(md.find("most textured"), std::string::npos) << md;
+}
+
+// With a truth, range-images splits the fitted scale: ranges.md's "Where the scale goes" table and
+// scale_budget.json, matching measured by StereoSGBM at every template; the course's calibration
+// has no covariance, and the budget says so instead of printing a sigma.
+TEST_F(RealDataCliTest, RangeImagesWithTruthWritesTheScaleBudget) {
+  const std::string data = test_data::SharedData();
+  const auto r = RunOwlcal("range-images '" + data + "/owl-real/kit2020-distance-target1' --calib '" + data +
+                           "/owl-real/kit2020-chessboard/reference/intrinsics.xml' --truth '" + OWLCAL_SOURCE_DIR +
+                           "/data/real/kit2020_distance_target1.csv' --truth-sigma-cm 2 --out '" +
+                           (dir_ / "ranges").string() + "'");
+  EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;
+  const std::string md = Slurp(dir_ / "ranges" / "ranges.md");
+  EXPECT_NE(md.find("## Where the scale goes"), std::string::npos) << md;
+  EXPECT_NE(md.find("| matching (disparity bias) |"), std::string::npos) << md;
+  const auto j = nlohmann::json::parse(Slurp(dir_ / "ranges" / "scale_budget.json"));
+  ASSERT_TRUE(j.at("ok").get<bool>()) << j.dump(2);
+  EXPECT_EQ(j.at("matching").at("rows").get<int>(), j.at("num_rows").get<int>());
+  EXPECT_TRUE(j.at("calibration").at("sigma_cov").is_null());
+  EXPECT_TRUE(std::isfinite(j.at("matching").at("value").get<double>()));
+  EXPECT_NEAR(j.at("matching").at("value").get<double>() + j.at("truth").at("value").get<double>(),
+              j.at("b_minus_1").get<double>(),
+              1e-12);
+  bool says_no_covariance = false;
+  for (const auto& n : j.at("notes"))
+    says_no_covariance |= n.get<std::string>().find("no covariance") != std::string::npos;
+  EXPECT_TRUE(says_no_covariance) << j.dump(2);
 }
 
 // A mirrored set calibrated without --mirror: refused (exit 1), the flags named, no exports.
