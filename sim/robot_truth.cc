@@ -147,12 +147,14 @@ RobotTruth DefaultRobotTruth() {
   t.servos[models::kLx] = {+1, 1521, 0.111, 0.4, 1.0, 2.5, 1, 1, 400, 0.025, 1170, 1860};
   t.servos[models::kLy] = {-1, 1617, 0.121, -0.7, -0.6, 1.8, 1, 1, 340, 0.030, 1190, 2010};
   t.servos[models::kNeck] = {-1, 1554, 0.106, 1.0, -1.5, 4.0, 3, 1, 300, 0.050, 1090, 1960};
-  // Eye rotation centres: IPD 64.2 mm, ~30 mm ahead of the neck axis, slightly uneven.
-  t.geometry.centre_in_head[kLeftEye] = Eigen::Vector3d(-0.0321, 0.0004, 0.0300);
-  t.geometry.centre_in_head[kRightEye] = Eigen::Vector3d(0.0321, -0.0003, 0.0306);
-  // Camera optical centres ~1.5 cm ahead of the rotation centres, rotated 0.5-1 deg.
-  t.geometry.cam_from_eye[kLeftEye] = CamFromEyeMounting({0.0011, -0.0006, 0.0148}, {0.45, -0.60, 0.80});
-  t.geometry.cam_from_eye[kRightEye] = CamFromEyeMounting({-0.0008, 0.0009, 0.0162}, {-0.55, 0.35, -0.65});
+  // Eye rotation centres: IPD 64.4 mm (0.6 mm under the robot file's 65, so a head fit that
+  // leaves the IPD alone shows), ~30 mm ahead of the neck axis, slightly uneven.
+  t.geometry.centre_in_head[kLeftEye] = Eigen::Vector3d(-0.0322, 0.0004, 0.0300);
+  t.geometry.centre_in_head[kRightEye] = Eigen::Vector3d(0.0322, -0.0003, 0.0306);
+  // Camera optical centres ~1.5 cm ahead of the rotation centres and 0.4 mm outward, rotated
+  // 0.5-1 deg: the centre-pose baseline is then within the real Owls' 63.9-64.1 mm.
+  t.geometry.cam_from_eye[kLeftEye] = CamFromEyeMounting({-0.0004, -0.0006, 0.0148}, {0.45, -0.60, 0.80});
+  t.geometry.cam_from_eye[kRightEye] = CamFromEyeMounting({0.0004, 0.0009, 0.0162}, {-0.55, 0.35, -0.65});
   // Intrinsics near the measured real Owls (578-591 px), moderate barrel distortion.
   t.intrinsics[kLeftEye].params = {583.2, 582.4, 322.8, 236.1, -0.118, 0.092, 0.0008, -0.0005, -0.021};
   t.intrinsics[kRightEye].params = {587.9, 587.1, 317.4, 243.6, -0.104, 0.071, -0.0006, 0.0004, -0.016};

@@ -114,6 +114,7 @@ TEST(RenderGeometry, ChessboardCornersMatchProjectPointsWithinATenthPixel) {
                                         {{-0.06, 0.04, 0.7}, -20, 15, -8},
                                         {{0.02, 0.02, 0.45}, 10, -25, 12}};
   double total = 0;
+  cv::Point2f sum_mean(0, 0);
   int n = 0;
   int64_t after = 0;
   for (size_t i = 0; i < poses.size(); ++i) {
@@ -135,16 +136,24 @@ TEST(RenderGeometry, ChessboardCornersMatchProjectPointsWithinATenthPixel) {
       // The default stream is a real Owl's: edges as sharp as a 0.53 px Gaussian, JPEG 95, ink and
       // paper 100 grey levels apart. cornerSubPix then errs 0.05-0.11 px per view (worst on the
       // fronto-parallel pose 0, whose corners line up with the pixel grid), 0.08 px over all:
-      // the detector's floor, not geometry. The geometry shows in the mean offset (a misplaced
-      // render moves every corner): within 0.03 px here (measured <= 0.021).
+      // the detector's floor, not geometry. A view's mean offset also carries the detector's
+      // bias for where its corners fall between pixels: up to 0.034 px, and its sign flips when
+      // the board moves 0.4 mm (pose 1, left eye). A misplaced render moves every view the same
+      // way, so the geometry shows in the offset averaged over the views.
       EXPECT_LT(rms, 0.15) << "pose " << i << " eye " << e;
-      EXPECT_LT(std::hypot(mean.x, mean.y), 0.03) << "pose " << i << " eye " << e;
+      EXPECT_LT(std::hypot(mean.x, mean.y), 0.05) << "pose " << i << " eye " << e;
       total += rms * rms;
+      sum_mean += mean;
       ++n;
     }
   }
-  std::printf("chessboard corner RMS over %d views: %.4f px\n", n, std::sqrt(total / n));
+  std::printf("chessboard corner RMS over %d views: %.4f px, mean offset %.4f %.4f px\n",
+              n,
+              std::sqrt(total / n),
+              sum_mean.x / n,
+              sum_mean.y / n);
   EXPECT_LT(std::sqrt(total / n), 0.1);
+  EXPECT_LT(std::hypot(sum_mean.x / n, sum_mean.y / n), 0.01);
 }
 
 TEST(RenderGeometry, AprilTagCornersMatchProjectPointsWithinTwoTenthsPixel) {
