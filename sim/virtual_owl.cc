@@ -179,8 +179,9 @@ std::optional<robot::StereoFrame> VirtualOwl::GrabFrame(int64_t after_stamp_ns, 
   if (cached_frame_ && cached_frame_->seq == chosen) return cached_frame_;
   const FrameTruth ft = TruthForFrame(chosen);
   const SceneDescription scene = scene_;
+  const uint64_t revision = scene_revision_;
   lock.unlock();
-  robot::StereoFrame frame = Compose(chosen, ft, scene);
+  robot::StereoFrame frame = Compose(chosen, ft, scene, revision);
   lock.lock();
   cached_frame_ = frame;
   return frame;
@@ -235,9 +236,49 @@ FrameTruth VirtualOwl::TruthForFrame(int64_t seq) const {
   return f;
 }
 
-robot::StereoFrame VirtualOwl::Compose(int64_t seq, const FrameTruth& ft, const SceneDescription& scene) const {
+// A camera that moved less than this since an eye's last render shows the same image: 1e-7 rad
+// and 1e-8 m move no pixel by more than 1e-4 px at 0.1 m. A settling servo (first-order lag)
+// gets there within about 16 lag constants, so a still head renders once, not 30 times a second.
+constexpr double kReuseAngle_rad = 1e-7;
+constexpr double kReuseShift_m = 1e-8;
+
+cv::Mat VirtualOwl::EyeGrey(models::Eye e,
+                            const FrameTruth& ft,
+                            const SceneDescription& scene,
+                            uint64_t scene_revision) const {
+  const bool still = std::none_of(
+      scene.targets.begin(), scene.targets.end(), [](const SceneTarget& t) { return t.visible && !t.motion.Still(); });
+  const models::Rigid3d& pose = ft.cam_from_base[e];
+  if (still) {
+    std::lock_guard<std::mutex> lock(rendered_mutex_[e]);
+    const RenderedEye& r = rendered_[e];
+    if (r.valid && r.scene_revision == scene_revision &&
+        r.cam_from_base.rotation.angularDistance(pose.rotation) < kReuseAngle_rad &&
+        (r.cam_from_base.translation - pose.translation).norm() < kReuseShift_m)
+      return r.grey.clone();
+  }
   std::vector<const TargetTexture*> tex;
   for (const auto& t : textures_) tex.push_back(t.get());
+  // The socket axis is the head's forward axis: in the camera frame via cam_from_head.
+  const models::Rigid3d cam_from_head = pose * models::HeadFromBase(ft.angles[e].neck_rad).Inverse();
+  const Eigen::Vector3d axis = cam_from_head.rotation * Eigen::Vector3d::UnitZ();
+  // A held target is where it was when each row of this eye was exposed (the eyes expose
+  // eye_offset_ms apart; rows rolling_shutter_ms from top to bottom).
+  const RowTiming timing{ft.exposure_ns[e], truth_.stream.rolling_shutter_ms * 1e6 / truth_.robot.image_height};
+  cv::Mat grey;
+  renderers_[e]->Render(pose, axis, truth_.socket, scene, tex, background_, &grey, nullptr, timing);
+  ++num_eye_renders_;
+  if (still) {
+    std::lock_guard<std::mutex> lock(rendered_mutex_[e]);
+    rendered_[e] = {true, scene_revision, pose, grey.clone()};
+  }
+  return grey;
+}
+
+robot::StereoFrame VirtualOwl::Compose(int64_t seq,
+                                       const FrameTruth& ft,
+                                       const SceneDescription& scene,
+                                       uint64_t scene_revision) const {
   const int w = truth_.robot.image_width, h = truth_.robot.image_height;
   cv::Mat grey[2];
   // The eyes render independently (each has its own renderer; the scene and textures are
@@ -245,14 +286,7 @@ robot::StereoFrame VirtualOwl::Compose(int64_t seq, const FrameTruth& ft, const 
   // is a function of (seed, frame, eye) alone, so the frame is the same either way.
   cv::parallel_for_(cv::Range(0, 2), [&](const cv::Range& eyes) {
     for (int e = eyes.start; e < eyes.end; ++e) {
-      // The socket axis is the head's forward axis: in the camera frame via cam_from_head.
-      const models::Rigid3d cam_from_head = ft.cam_from_base[e] * models::HeadFromBase(ft.angles[e].neck_rad).Inverse();
-      const Eigen::Vector3d axis = cam_from_head.rotation * Eigen::Vector3d::UnitZ();
-      // A held target is where it was when each row of this eye was exposed (the eyes expose
-      // eye_offset_ms apart; rows rolling_shutter_ms from top to bottom).
-      const RowTiming timing{ft.exposure_ns[e], truth_.stream.rolling_shutter_ms * 1e6 / h};
-      renderers_[e]->Render(
-          ft.cam_from_base[e], axis, truth_.socket, scene, tex, background_, &grey[e], nullptr, timing);
+      grey[e] = EyeGrey(models::Eye(e), ft, scene, scene_revision);
       AddSensorNoise(&grey[e], truth_.stream.noise_sigma, seed_, uint64_t(seq) * 2 + e);
     }
   });
@@ -283,8 +317,9 @@ robot::StereoFrame VirtualOwl::RenderFrame(int64_t seq) const {
   std::unique_lock<std::mutex> lock(mutex_);
   const FrameTruth ft = TruthForFrame(seq);
   const SceneDescription scene = scene_;
+  const uint64_t revision = scene_revision_;
   lock.unlock();
-  return Compose(seq, ft, scene);
+  return Compose(seq, ft, scene, revision);
 }
 
 cv::Mat VirtualOwl::RenderEyeGrey(models::Eye eye, const models::JointAngles& angles, cv::Mat* depth_z_m) const {
@@ -330,6 +365,7 @@ void VirtualOwl::SetTargetPose(const std::string& name, const Eigen::Isometry3d&
   }
   t->base_from_target = base_from_target;
   cached_frame_.reset();
+  ++scene_revision_;
 }
 
 void VirtualOwl::SetTargetMotion(const std::string& name, const TargetMotion& motion) {
@@ -341,6 +377,7 @@ void VirtualOwl::SetTargetMotion(const std::string& name, const TargetMotion& mo
     throw std::invalid_argument("virtual Owl: motion of '" + name + "' out of range");
   t->motion = motion;
   cached_frame_.reset();
+  ++scene_revision_;
 }
 
 void VirtualOwl::SetTargetVisible(const std::string& name, bool visible) {
@@ -349,6 +386,7 @@ void VirtualOwl::SetTargetVisible(const std::string& name, bool visible) {
   if (!t) throw std::invalid_argument("virtual Owl: no scene target named '" + name + "'");
   t->visible = visible;
   cached_frame_.reset();
+  ++scene_revision_;
 }
 
 std::optional<Eigen::Isometry3d> VirtualOwl::TargetPose(const std::string& name) const {

@@ -30,6 +30,7 @@
 //   auto frame = owl.GrabFrame(owl.NowNs(), 1'000'000'000);
 //   FrameTruth truth = owl.TruthForFrame(frame->seq);
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -128,12 +129,20 @@ class VirtualOwl : public robot::RobotInterface, public robot::SceneControl {
   // Renders one eye's noise-free grey image at given joint angles (tests, benchmarks), and
   // optionally the truth depth image (EyeRenderer::Render: camera z [m], CV_32F).
   cv::Mat RenderEyeGrey(models::Eye eye, const models::JointAngles& angles, cv::Mat* depth_z_m = nullptr) const;
+  // Eye images the stream has rendered so far; a still head and scene reuse the last one (EyeGrey).
+  int64_t NumEyeRenders() const { return num_eye_renders_.load(); }
 
  private:
   int64_t NowLocked() const;
   void AdvanceTo(int64_t t_ns, std::unique_lock<std::mutex>* lock);
   int64_t NewestReceivedSeq(int64_t t_ns) const;
-  robot::StereoFrame Compose(int64_t seq, const FrameTruth& ft, const SceneDescription& scene) const;
+  robot::StereoFrame Compose(int64_t seq,
+                             const FrameTruth& ft,
+                             const SceneDescription& scene,
+                             uint64_t scene_revision) const;
+  // One eye's noise-free image, reused from the last render when the scene has not changed, no
+  // target moves and the camera has moved less than kReuseAngle_rad / kReuseShift_m since.
+  cv::Mat EyeGrey(models::Eye eye, const FrameTruth& ft, const SceneDescription& scene, uint64_t scene_revision) const;
 
   RobotTruth truth_;
   models::HeadModel head_;
@@ -152,6 +161,18 @@ class VirtualOwl : public robot::RobotInterface, public robot::SceneControl {
   std::vector<ServoDynamics> servos_;
   robot::PwmVector last_command_{};
   mutable std::optional<robot::StereoFrame> cached_frame_;
+  uint64_t scene_revision_ = 0;  // counts the changes to scene_
+
+  // The last noise-free render of each eye and what it showed (EyeGrey).
+  struct RenderedEye {
+    bool valid = false;
+    uint64_t scene_revision = 0;
+    models::Rigid3d cam_from_base;
+    cv::Mat grey;
+  };
+  mutable std::mutex rendered_mutex_[2];
+  mutable RenderedEye rendered_[2];
+  mutable std::atomic<int64_t> num_eye_renders_{0};
 };
 
 }  // namespace owlcal::sim

@@ -44,6 +44,75 @@ TEST(VirtualOwl, SameSeedGivesIdenticalFramesAndOtherSeedDifferentNoise) {
   EXPECT_FALSE(a.first[0] == c.first[0]);
 }
 
+// The largest grey-level difference between a stream frame's eye and a fresh render of it.
+int LargestDifferenceFromAFreshRender(const VirtualOwl& owl, const robot::StereoFrame& f, models::Eye eye) {
+  cv::Mat streamed, diff;
+  cv::cvtColor(eye == kLeftEye ? f.left : f.right, streamed, cv::COLOR_BGR2GRAY);
+  const cv::Mat fresh = owl.RenderEyeGrey(eye, (*owl.TruthAnglesForFrame(f.seq))[eye]);
+  cv::absdiff(streamed, fresh, diff);
+  double largest = 0;
+  cv::minMaxLoc(diff, nullptr, &largest);
+  return int(largest);
+}
+
+TEST(VirtualOwl, AStillHeadAndSceneRenderOnceAndLookAsAFreshRender) {
+  VirtualOwlOptions o;
+  o.encode_jpeg = false;
+  o.noise_sigma = 0;
+  VirtualOwl owl(o);
+  int64_t after = 0;
+  auto grab = [&](int n) {
+    robot::StereoFrame last;
+    for (int i = 0; i < n; ++i) {
+      auto f = owl.GrabFrame(after, 1'000'000'000);
+      EXPECT_TRUE(f.has_value());
+      if (!f) break;
+      after = f->stamp_ns;
+      last = *f;
+    }
+    return last;
+  };
+  grab(1);
+  const int64_t once = owl.NumEyeRenders();
+  EXPECT_EQ(once, 2);
+  robot::StereoFrame f = grab(30);
+  EXPECT_EQ(owl.NumEyeRenders(), once) << "a still head re-rendered";
+  EXPECT_LE(LargestDifferenceFromAFreshRender(owl, f, kLeftEye), 1);
+  EXPECT_LE(LargestDifferenceFromAFreshRender(owl, f, kRightEye), 1);
+
+  // A move renders the moving eye in every frame exposed after it (the first few frames, exposed
+  // before the command, still show the old pose) until the servo has settled; then the reused
+  // image is the settled pose's, within one grey level of rendering it afresh.
+  robot::PwmVector cmd = owl.Config().Centre();
+  cmd[models::kRx] += 40;
+  owl.SendServos(cmd);
+  const int64_t before_move = owl.NumEyeRenders();
+  grab(10);
+  EXPECT_GE(owl.NumEyeRenders() - before_move, 5) << "the moving eye was not rendered each frame";
+  EXPECT_LE(owl.NumEyeRenders() - before_move, 10) << "the still eye was rendered again";
+  owl.SleepNs(2'000'000'000);
+  grab(1);
+  const int64_t settled = owl.NumEyeRenders();
+  f = grab(10);
+  EXPECT_EQ(owl.NumEyeRenders(), settled);
+  EXPECT_LE(LargestDifferenceFromAFreshRender(owl, f, kRightEye), 1);
+
+  // A scene change renders again; a held (moving) target renders every frame.
+  const std::string board = owl.TargetNames().front();
+  Eigen::Isometry3d pose = *owl.TargetPose(board);
+  pose.translation().x() += 0.002;
+  owl.SetTargetPose(board, pose);
+  grab(5);
+  EXPECT_EQ(owl.NumEyeRenders(), settled + 2);
+  TargetMotion held;
+  held.speed_m_s = 0.01;
+  held.angular_speed_deg_s = 1;
+  owl.SetTargetMotion(board, held);
+  const int64_t before_held = owl.NumEyeRenders();
+  grab(5);
+  EXPECT_EQ(owl.NumEyeRenders() - before_held, 10);
+}
+
 TEST(VirtualOwl, FramesArriveAtThirtyFpsWithLatencyAndSequenceGapsForDrops) {
   VirtualOwlOptions o;
   o.encode_jpeg = false;
