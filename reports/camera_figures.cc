@@ -370,6 +370,8 @@ std::optional<Figure> PoseFigure(const ReportData& d) {
       cam.rows.push_back({c0[0], c0[1], c0[2], c1[0] - c0[0], c1[1] - c0[1], c1[2] - c0[2]});
     }
     if (e == 0 || d.result.stereo) {
+      // Both pyramids are black: one legend entry names them both.
+      if (e == 0 && d.result.stereo) cam.title = "left and right cameras";
       if (e == 1) cam.title = "";
       f.series.push_back(cam);
     }
