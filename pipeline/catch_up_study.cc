@@ -165,13 +165,7 @@ CatchUpStudy EvaluateCatchUpDataset(const std::string& dir) {
 }
 
 nlohmann::json CatchUpStudyJson(const CatchUpStudy& s) {
-  nlohmann::json j;
-  j["source"] = s.source;
-  j["map"] = s.map;
-  j["num_trials"] = s.num_trials;
-  j["num_ok"] = s.num_ok;
-  j["has_truth"] = s.has_truth;
-  j["notes"] = s.notes;
+  nlohmann::json j = TrialStudyHeaderJson(s);
   j["trials"] = nlohmann::json::array();
   for (const CatchUpTrial& t : s.trials)
     j["trials"].push_back({{"trial", t.trial},

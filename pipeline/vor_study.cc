@@ -197,13 +197,7 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
 }
 
 nlohmann::json VorStudyJson(const VorStudy& s) {
-  nlohmann::json j;
-  j["source"] = s.source;
-  j["map"] = s.map;
-  j["num_trials"] = s.num_trials;
-  j["num_ok"] = s.num_ok;
-  j["has_truth"] = s.has_truth;
-  j["notes"] = s.notes;
+  nlohmann::json j = TrialStudyHeaderJson(s);
   auto gain = [](const fitting::VorGain& g) {
     nlohmann::json o = {{"ok", g.ok}};
     if (!g.ok) {
