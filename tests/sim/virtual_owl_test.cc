@@ -238,27 +238,17 @@ TEST(RobotTruth, DefaultIsPlausibleAndRoundTripsThroughYaml) {
   EXPECT_TRUE(u.geometry.cam_from_eye[1].rotation.isApprox(t.geometry.cam_from_eye[1].rotation, 1e-12));
 }
 
-// The distance between the two cameras' optical centres with every servo at its configured
+// The distance between the two cameras' optical centres with every servo at the robot file's
 // centre [m]: what OpenCV's stereo_calib reports as |T| for pairs taken there.
-double CentrePoseBaseline(const RobotTruth& t) {
-  const models::HeadModel h = t.HeadModel();
-  std::array<double, models::kNumServos> pwm{};
-  for (int i = 0; i < models::kNumServos; ++i) pwm[i] = t.robot.servos[i].centre_us;
-  const models::JointAngles a = h.Angles(pwm);
-  Eigen::Vector3d centre[2];
-  for (const models::Eye eye : {kLeftEye, kRightEye}) {
-    // x_in_cam = R x + p0 is affine in x: the optical centre is -R^T p0.
-    const Eigen::Vector3d p0 = h.PointInCam(eye, a, Eigen::Vector3d::Zero());
-    Eigen::Matrix3d r;
-    for (int c = 0; c < 3; ++c) r.col(c) = h.PointInCam(eye, a, Eigen::Vector3d::Unit(c)) - p0;
-    centre[eye] = -r.transpose() * p0;
-  }
-  return (centre[kRightEye] - centre[kLeftEye]).norm();
+double CentrePoseBaseline(const VirtualOwl& owl) {
+  const models::JointAngles a = owl.TruthHeadModel().Angles(owl.Config().Centre());
+  return (owl.CamFromBase(kRightEye, a).Inverse().translation - owl.CamFromBase(kLeftEye, a).Inverse().translation)
+      .norm();
 }
 
 TEST(RobotTruth, DefaultCentrePoseBaselineIsWithinTheRealOwls) {
   // FACTS.md: stereo_calib on real Owls gives 63.9 mm (CalGood) and 64.1 mm (kit2020).
-  const double b = CentrePoseBaseline(DefaultRobotTruth());
+  const double b = CentrePoseBaseline(VirtualOwl(VirtualOwlOptions{}));
   EXPECT_GE(b, 0.0639);
   EXPECT_LE(b, 0.0641);
   // The eyes' rotation centres are not the robot file's nominal 65 mm, so a fit that never moves
