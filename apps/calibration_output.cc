@@ -5,7 +5,7 @@
 #include <iostream>
 
 #include "apps/output_folder.h"
-#include "fitting/truth_compare.h"
+#include "evaluation/truth_compare.h"
 #include "owlcal_git.h"
 #include "owlcal_version.h"
 #include "pipeline/bring_up.h"
@@ -38,7 +38,7 @@ void StampRun(const std::string& run_id, fitting::CalibrationResult* result) {
   result->inputs["software"] = SoftwareInputs();
 }
 
-void WriteCalibrationFolder(fitting::CalibrationRun* run,
+void WriteCalibrationFolder(evaluation::CalibrationRun* run,
                             const std::string& run_id,
                             const std::string& out,
                             bool draw,
@@ -71,7 +71,7 @@ void WriteCalibrationFolder(fitting::CalibrationRun* run,
   const reports::ReportOutput rep = reports::WriteReport(*run, out, ro);
   for (const auto& w : rep.warnings) progress("report: " + w);
   if (run->truth) {
-    const fitting::TruthComparison c = fitting::CompareWithTruth(run->result);
+    const evaluation::TruthComparison c = evaluation::CompareWithTruth(run->result);
     progress("truth: " + std::to_string(c.num_with_sigma) + " parameters with sigma, " +
              reports::Fmt(100 * c.fraction_within_2sigma, 3) + " % within 2 sigma, worst " + c.worst +
              " (z = " + reports::Fmt(c.worst_z, 3) + ")");

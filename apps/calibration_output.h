@@ -8,8 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "fitting/calibration_run.h"
-#include "fitting/reference_checks.h"
+#include "evaluation/calibration_run.h"
+#include "evaluation/reference_checks.h"
 #include "sim/robot_truth.h"
 
 namespace CLI {
@@ -44,7 +44,7 @@ void StampRun(const std::string& run_id, fitting::CalibrationResult* result);
 
 // Stamps run->result (StampRun with the run id from StartRun) and writes the calibration folder
 // `out`; draw = run gnuplot. On the virtual Owl, prints the comparison with the truth.
-void WriteCalibrationFolder(fitting::CalibrationRun* run,
+void WriteCalibrationFolder(evaluation::CalibrationRun* run,
                             const std::string& run_id,
                             const std::string& out,
                             bool draw,

@@ -95,7 +95,7 @@ int RunCalibrate(const CalibrateOptions& o) {
                  {"owlcal_version", OWLCAL_VERSION}};
   std::unique_ptr<robot::RobotInterface> robot = MakeRobot(o.robot.robot, o.robot.Factory());
   const std::string run_id = StartRun(o.out, progress);
-  fitting::CalibrationRun run;
+  evaluation::CalibrationRun run;
   try {
     run = pipeline::Calibrate(*robot, co);
   } catch (const protocols::ProtocolError& e) {

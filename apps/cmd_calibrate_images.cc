@@ -12,11 +12,11 @@
 #include "calib/image_pairs.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
+#include "evaluation/fit_points.h"
+#include "evaluation/range_images_calib.h"
+#include "evaluation/reference_comparison.h"
 #include "fitting/calibration_folder.h"
-#include "fitting/fit_points.h"
 #include "fitting/fix_list.h"
-#include "fitting/range_images_calib.h"
-#include "fitting/reference_comparison.h"
 #include "owlcal_version.h"
 #include "reports/exports.h"
 #include "reports/image_set_tables.h"
@@ -59,16 +59,16 @@ fitting::OpenCvStereoCalibration ReadReference(const std::string& path) {
 }
 
 // The rig the sanity checks expect (into vo): the Owl (lens family, IPD) for a metric target,
-// unless the fit is plainly not an Owl (then a generic pair, said once: fitting/set_verdict.h
+// unless the fit is plainly not an Owl (then a generic pair, said once: evaluation/set_verdict.h
 // recognise_rig); a generic side-by-side pair otherwise (OpenCV's sample in squares); or as asked.
-void RigFor(const std::string& rig, const std::string& unit, double ipd_mm, fitting::SetVerdictOptions* vo) {
-  fitting::RigExpectation e;
+void RigFor(const std::string& rig, const std::string& unit, double ipd_mm, evaluation::SetVerdictOptions* vo) {
+  evaluation::RigExpectation e;
   const bool metric = unit == "m" || unit == "mm";
   if (rig == "owl" || (rig == "auto" && metric)) {
-    e = fitting::RigExpectation::Owl();
+    e = evaluation::RigExpectation::Owl();
     e.ipd_m = ipd_mm / 1000;
   } else if (rig == "generic" || rig == "auto") {
-    e = fitting::RigExpectation::Generic();
+    e = evaluation::RigExpectation::Generic();
   } else {
     throw UsageError("--rig = '" + rig + "': use auto, owl or generic");
   }
@@ -123,7 +123,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
       throw UsageError("--fix k" + std::to_string(k) + ": the opencv5 model has no k" + std::to_string(k) +
                        " (it is one of opencv8's; use --model opencv8 or auto)");
   if (!fo.intrinsics.Check(&why)) throw UsageError(why);
-  fitting::SetVerdictOptions vo;
+  evaluation::SetVerdictOptions vo;
   RigFor(a.rig, target.unit, a.ipd_mm, &vo);
 
   // The folder holds this run alone: what an earlier run left goes before any work
@@ -142,7 +142,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   fo.width = set.width;
   fo.height = set.height;
   if (!fo.Check(&why)) throw UsageError(why);
-  fitting::ImageSetCalibration c = fitting::CalibrateImageSet(set.observations, fo, vo, lens, warp);
+  evaluation::ImageSetCalibration c = evaluation::CalibrateImageSet(set.observations, fo, vo, lens, warp);
   StampRun(run_id, &c.result);
   c.result.inputs["images"] = a.dir;
   c.result.inputs["target"] = a.target;
@@ -168,7 +168,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
   if (reference) {
     std::vector<calib::View> eye_views[2];
     for (const auto& v : views) eye_views[v.eye == 0 ? 0 : 1].push_back(v);
-    fitting::ReferenceComparisonOptions ro;
+    evaluation::ReferenceComparisonOptions ro;
     ro.reference_name = "reference " + a.reference;
     // The bow's part: the same fit with a flat board (the chosen lens model kept).
     std::optional<fitting::StereoFit> flat;
@@ -178,11 +178,11 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
       fl.fit_board_warp = false;
       flat = fitting::FitStereo(eye_views[0], eye_views[1], fl);
     }
-    const fitting::ReferenceComparison cmp =
-        fitting::CompareWithReference(eye_views[0], eye_views[1], c.fit, flat ? &*flat : nullptr, *reference, ro);
-    c.result.diagnostics["reference_comparison"] = fitting::ReferenceComparisonToJson(cmp);
+    const evaluation::ReferenceComparison cmp =
+        evaluation::CompareWithReference(eye_views[0], eye_views[1], c.fit, flat ? &*flat : nullptr, *reference, ro);
+    c.result.diagnostics["reference_comparison"] = evaluation::ReferenceComparisonToJson(cmp);
     c.result.inputs["reference"] = a.reference;
-    reference_md = fitting::ReferenceComparisonMarkdown(cmp);
+    reference_md = evaluation::ReferenceComparisonMarkdown(cmp);
     if (!cmp.ok) std::cerr << "warning: not compared with " << a.reference << ": " << cmp.message << "\n";
   }
 
@@ -217,7 +217,7 @@ int RunCalibrateImages(const CalibrateImagesOptions& a) {
                                   : key;
     return "pair " + key + " (" + fs::path(path).filename().string() + ")";
   };
-  fitting::AddFitPoints(c.fit, views, name_of, &rd);
+  evaluation::AddFitPoints(c.fit, views, name_of, &rd);
   reports::WriteReportData(rd, a.out);
   if (c.set_verdict.status != "unusable") {
     const reports::ExportSet ex = reports::WriteCalibrationFiles(rd, a.out);

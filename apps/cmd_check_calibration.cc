@@ -1,6 +1,6 @@
 // owlcal check-calibration DIR --calib CAL --target T.yaml --out OUT: does a stereo calibration
 // still hold on new images of the board? (as ROS's cameracheck, plus a verdict and what moved;
-// fitting/calibration_check.h).
+// evaluation/calibration_check.h).
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -11,7 +11,7 @@
 #include "apps/command_registry.h"
 #include "calib/image_pairs.h"
 #include "calib/target_file.h"
-#include "fitting/calibration_check.h"
+#include "evaluation/calibration_check.h"
 #include "fitting/format.h"
 #include "reports/calibration_check_tables.h"
 #include "reports/table.h"
@@ -25,10 +25,10 @@ using fitting::FixedOrDash;
 struct CheckCalibrationOptions {
   std::string dir, calib, target, out;
   bool side_by_side = false, mirror = false, swap = false;
-  fitting::CalibrationCheckOptions check;
+  evaluation::CalibrationCheckOptions check;
 };
 
-nlohmann::json ParamsJson(const std::vector<fitting::CheckedParameter>& ps) {
+nlohmann::json ParamsJson(const std::vector<evaluation::CheckedParameter>& ps) {
   nlohmann::json a = nlohmann::json::array();
   for (const auto& p : ps)
     a.push_back({{"name", p.name},
@@ -67,7 +67,7 @@ int RunCheckCalibration(const CheckCalibrationOptions& a) {
         ++not_found;
         std::cout << p.key << (e ? " right" : " left") << ": board not found (" << p.message[e] << ")\n";
       }
-  const fitting::CalibrationCheck c = fitting::CheckCalibration(rig, set.observations, a.check);
+  const evaluation::CalibrationCheck c = evaluation::CheckCalibration(rig, set.observations, a.check);
   fs::create_directories(a.out);
   const std::string md = reports::CalibrationCheckMarkdown(c, rig.source);
   reports::WriteTextFile((fs::path(a.out) / "check.md").string(),

@@ -6,8 +6,8 @@
 #include <memory>
 
 #include "apps/command_registry.h"
+#include "evaluation/session_compare.h"
 #include "fitting/calibration_folder.h"
-#include "fitting/session_compare.h"
 #include "reports/session_tables.h"
 #include "reports/table.h"
 
@@ -27,7 +27,7 @@ int RunCompare(const CompareOptions& a) {
   if (!a.names.empty() && a.names.size() != a.results.size())
     throw UsageError("--names has " + std::to_string(a.names.size()) + " entries for " +
                      std::to_string(a.results.size()) + " results");
-  std::vector<fitting::NamedResult> s;
+  std::vector<evaluation::NamedResult> s;
   for (size_t i = 0; i < a.results.size(); ++i) {
     fs::path p(a.results[i]);
     if (fs::is_directory(p)) p /= "results.json";
@@ -35,7 +35,7 @@ int RunCompare(const CompareOptions& a) {
     fitting::CheckOneRunOfPath(p.string());  // a calibration folder's results.json: of one run
     s.push_back({name.empty() ? "session" + std::to_string(i + 1) : name, fitting::ReadResultJson(p.string())});
   }
-  const auto c = fitting::CompareSessions(s, a.params, a.z);
+  const auto c = evaluation::CompareSessions(s, a.params, a.z);
   const std::string md = "# Session comparison\n\n" + reports::SessionComparisonMarkdown(c);
   if (!a.out.empty()) {
     fs::create_directories(a.out);

@@ -15,9 +15,9 @@
 
 #include "apps/command_registry.h"
 #include "calib/image_pairs.h"
+#include "evaluation/range_images_ranging.h"
+#include "evaluation/stereo_depth.h"
 #include "fitting/format.h"
-#include "fitting/range_images_ranging.h"
-#include "fitting/stereo_depth.h"
 #include "io/json_strict.h"
 #include "reports/point_cloud_ply.h"
 #include "reports/table.h"
@@ -35,7 +35,7 @@ struct DepthCmdOptions {
   bool mirror = false, swap = false, ply = true;
   double near_m = 0.2, far_m = 2.0;
   double truth_sigma_cm = 0;
-  fitting::DepthOptions depth;
+  evaluation::DepthOptions depth;
 };
 
 struct PairJob {
@@ -69,7 +69,7 @@ void WriteImage(const fs::path& p, const cv::Mat& m) {
   if (!cv::imwrite(p.string(), m)) throw std::runtime_error(p.string() + ": cannot write image");
 }
 
-nlohmann::json RoiJson(const fitting::RoiDepth& d) {
+nlohmann::json RoiJson(const evaluation::RoiDepth& d) {
   return {{"ok", d.ok},
           {"message", d.message},
           {"roi", {d.roi.x, d.roi.y, d.roi.width, d.roi.height}},
@@ -97,7 +97,7 @@ std::vector<PairJob> PlanDepthJobs(const DepthCmdOptions& a) {
   if (!a.truth.empty()) {
     if (a.inputs.size() != 1 || !fs::is_directory(a.inputs[0]))
       throw UsageError("with --truth, give one folder holding the images the CSV names");
-    for (const auto& t : fitting::ReadRangeTruthCsv(a.truth)) {
+    for (const auto& t : evaluation::ReadRangeTruthCsv(a.truth)) {
       PairJob j;
       j.name = fs::path(t.left).stem().string();
       j.left_path = (fs::path(a.inputs[0]) / t.left).string();
@@ -145,9 +145,9 @@ nlohmann::json DepthReportHeader(const DepthCmdOptions& a,
 // One pair measured: the depth at its ROI and, with a true distance, range-images' template
 // ranging on the same ROI.
 struct PairDepth {
-  fitting::RoiDepth roi;
-  std::optional<fitting::RangeMeasurement> templ;  // with a true distance only
-  nlohmann::json json;                             // its entry in depth.json's pairs
+  evaluation::RoiDepth roi;
+  std::optional<evaluation::RangeMeasurement> templ;  // with a true distance only
+  nlohmann::json json;                                // its entry in depth.json's pairs
 };
 
 // Rectifies one pair, writes its images (and cloud.ply) into dir and measures the depth at its
@@ -159,24 +159,24 @@ PairDepth MeasurePairDepth(const PairJob& j,
                            const fs::path& dir) {
   cv::Mat l, r;
   Load(j, a, &l, &r);
-  const fitting::DepthMaps maps = fitting::ComputeDepth(l, r, rect, a.depth);
+  const evaluation::DepthMaps maps = evaluation::ComputeDepth(l, r, rect, a.depth);
   fs::create_directories(dir);
   WriteImage(dir / "left_rect.png", maps.left_rect);
   WriteImage(dir / "right_rect.png", maps.right_rect);
   cv::Mat d16;  // 16-bit PNG of 16 d (invalid = 0), what the students read
   maps.disparity16.convertTo(d16, CV_16U);
   WriteImage(dir / "disparity16.png", d16);
-  WriteImage(dir / "disparity.png", fitting::ColourDisparity(maps, a.depth.sgbm));
-  WriteImage(dir / "depth_mm.png", fitting::DepthMillimetres16(maps.depth_m));
-  WriteImage(dir / "depth.png", fitting::ColourDepth(maps.depth_m, a.near_m, a.far_m));
+  WriteImage(dir / "disparity.png", evaluation::ColourDisparity(maps, a.depth.sgbm));
+  WriteImage(dir / "depth_mm.png", evaluation::DepthMillimetres16(maps.depth_m));
+  WriteImage(dir / "depth.png", evaluation::ColourDepth(maps.depth_m, a.near_m, a.far_m));
   int num_points = 0;
   if (a.ply)
     num_points = reports::WritePointCloudPly((dir / "cloud.ply").string(), maps, a.depth.max_depth_m, rig.source);
   cv::Rect roi = j.roi;
   if (roi.area() <= 0) roi = cv::Rect(maps.depth_m.cols / 2 - 32, maps.depth_m.rows / 2 - 24, 64, 48);
   PairDepth p;
-  p.roi = fitting::DepthAtRoi(maps, roi, rig, rect, a.depth);
-  const fitting::RoiDepth& d = p.roi;
+  p.roi = evaluation::DepthAtRoi(maps, roi, rig, rect, a.depth);
+  const evaluation::RoiDepth& d = p.roi;
   p.json = {{"name", j.name},
             {"left", j.left_path},
             {"right", j.right_path},
@@ -185,10 +185,10 @@ PairDepth MeasurePairDepth(const PairJob& j,
             {"roi_depth", RoiJson(d)}};
   if (std::isfinite(j.true_m)) {
     p.json["true_m"] = j.true_m;
-    fitting::RangeOptions ro;
+    evaluation::RangeOptions ro;
     ro.match.template_roi = d.roi;
     ro.match.max_disparity = a.depth.sgbm.min_disparity + a.depth.sgbm.num_disparities;
-    fitting::RangeMeasurement m = fitting::RangePair(l, r, rig, rect, ro);
+    evaluation::RangeMeasurement m = evaluation::RangePair(l, r, rig, rect, ro);
     m.name = j.name;
     m.true_m = j.true_m;
     p.json["template_range_m"] = m.ok ? nlohmann::json(m.range_m) : nlohmann::json(nullptr);
@@ -217,12 +217,12 @@ struct PairTruthErrors {
 
 void WriteDepthCsvRow(const PairJob& job,
                       const PairDepth& p,
-                      const fitting::DisparityConstantFit& k,
+                      const evaluation::DisparityConstantFit& k,
                       size_t i,
                       const PairTruthErrors& e,
                       std::ostringstream& csv) {
-  const fitting::RoiDepth& d = p.roi;
-  const fitting::RangeMeasurement& t = *p.templ;
+  const evaluation::RoiDepth& d = p.roi;
+  const evaluation::RangeMeasurement& t = *p.templ;
   csv << job.name << "," << FixedOrDash(e.true_cm, 2) << "," << (d.ok ? FixedOrDash(d.depth_m * 100, 3) : "") << ","
       << (d.ok ? FixedOrDash(e.err, 3) : "") << "," << (d.ok ? FixedOrDash(d.sigma_m * 100, 3) : "") << ","
       << (d.ok ? FixedOrDash(d.sigma_calib_m * 100, 3) : "") << ","
@@ -236,12 +236,12 @@ void WriteDepthCsvRow(const PairJob& job,
 
 void WriteDepthMdRow(const PairJob& job,
                      const PairDepth& p,
-                     const fitting::DisparityConstantFit& k,
+                     const evaluation::DisparityConstantFit& k,
                      size_t i,
                      const PairTruthErrors& e,
                      std::ostringstream& md) {
-  const fitting::RoiDepth& d = p.roi;
-  const fitting::RangeMeasurement& t = *p.templ;
+  const evaluation::RoiDepth& d = p.roi;
+  const evaluation::RangeMeasurement& t = *p.templ;
   md << "| " << job.name << " | " << FixedOrDash(e.true_cm, 1) << " | "
      << (d.ok ? FixedOrDash(d.depth_m * 100, 2) : "refused") << " | " << FixedOrDash(e.err, 2) << " | "
      << (d.ok ? FixedOrDash(d.sigma_m * 100, 2) : "-") << " | " << FixedOrDash(e.z, 1) << " | "
@@ -266,7 +266,8 @@ void WriteDepthTruthTables(const DepthCmdOptions& a,
     d16.push_back(pairs[i].roi.ok ? pairs[i].roi.disparity16 : std::numeric_limits<double>::quiet_NaN());
     truth.push_back(jobs[i].true_m);
   }
-  const fitting::DisparityConstantFit k = fitting::FitDisparityConstant(d16, truth, rect.focal_px, rect.baseline_m);
+  const evaluation::DisparityConstantFit k =
+      evaluation::FitDisparityConstant(d16, truth, rect.focal_px, rect.baseline_m);
   std::ostringstream csv, md;
   csv << "name,true_cm,depth_cm,error_pct,sigma_cm,sigma_calib_cm,sigma_match_cm,valid_fraction,disparity_px,"
          "z,disp16,disp16_x_cm,constant_estimate_cm,constant_error_pct,constant_loo_error_pct,template_cm,"
@@ -363,7 +364,7 @@ const bool kDepthRegistered = RegisterCommand(
     "range-images' template ranging beside it, and the students' disp16 x distance = constant.",
     [](CLI::App* cmd) {
       auto o = std::make_shared<DepthCmdOptions>();
-      fitting::SgbmOptions& s = o->depth.sgbm;
+      evaluation::SgbmOptions& s = o->depth.sgbm;
       cmd->add_option("inputs", o->inputs, "LEFT RIGHT, FRAME (side by side), or FOLDER with --truth")->required();
       cmd->add_option("--calib", o->calib, "calibration file or folder")->required();
       cmd->add_option("--out", o->out, "output folder")->required();

@@ -10,11 +10,11 @@
 #include "apps/command_registry.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
+#include "evaluation/stereo_sanity.h"
 #include "fitting/intrinsics_fit.h"
 #include "fitting/opencv_calib_file.h"
 #include "fitting/result.h"
 #include "fitting/stereo_fit.h"
-#include "fitting/stereo_sanity.h"
 #include "owlcal_version.h"
 
 namespace owlcal::apps {
@@ -123,26 +123,27 @@ int RunFit(const FitCmdOptions& o) {
     fitting::AppendStereoToResult(fit, &result);
     std::cout << "stereo: " << fit.message << "\n";
     if (fit.ok) {
-      // Physical sanity of the stereo result (fitting/stereo_sanity.h): owl for a metric target.
+      // Physical sanity of the stereo result (evaluation/stereo_sanity.h): owl for a metric target.
       const bool metric = sopt.length_unit == "m" || sopt.length_unit == "mm";
-      fitting::RigExpectation rig;
+      evaluation::RigExpectation rig;
       if (o.rig == "owl" || (o.rig == "auto" && metric))
-        rig = fitting::RigExpectation::Owl();
+        rig = evaluation::RigExpectation::Owl();
       else if (o.rig == "generic" || o.rig == "auto")
-        rig = fitting::RigExpectation::Generic();
+        rig = evaluation::RigExpectation::Generic();
       else
         throw UsageError("--rig = '" + o.rig + "': use auto, owl or generic");
       const double unit_m = sopt.length_unit == "m" ? 1.0 : (sopt.length_unit == "mm" ? 0.001 : 0.0);
       if (o.rig == "auto") {  // plainly not an Owl: judged as a generic pair, said once
-        const std::string why_not = fitting::WhyNotThisRig(fit.cameras, fit.right_from_left, unit_m, rig);
+        const std::string why_not = evaluation::WhyNotThisRig(fit.cameras, fit.right_from_left, unit_m, rig);
         if (!why_not.empty()) {
-          rig = fitting::RigExpectation::Generic();
+          rig = evaluation::RigExpectation::Generic();
           std::cout << "rig: not an owl (" << why_not << "), so judged as a generic stereo pair; --rig owl judges it "
                     << "against the owl rig\n";
         }
       }
-      const fitting::StereoSanity sanity = fitting::CheckStereoSanity(fit.cameras, fit.right_from_left, unit_m, rig);
-      fitting::AppendSanityToResult(sanity, rig, &result);
+      const evaluation::StereoSanity sanity =
+          evaluation::CheckStereoSanity(fit.cameras, fit.right_from_left, unit_m, rig);
+      evaluation::AppendSanityToResult(sanity, rig, &result);
       for (const auto& f : sanity.findings)
         std::cout << "sanity (" << (f.unusable ? "unusable" : "poor") << "): " << f.message << "\n";
       cv_file = fitting::ToOpenCvCalibration(fit);

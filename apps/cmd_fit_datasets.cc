@@ -49,7 +49,7 @@ int RunFitDatasets(FitDatasetsCommand o) {
   if (!pipeline::SetLensModel(o.lens_model, &po, &why) || !po.Check(&why)) throw UsageError(why);
   o.fit.progress = progress;
   po.warning = PrintWarning;
-  fitting::CalibrationRun run;
+  evaluation::CalibrationRun run;
   try {
     run = pipeline::FitDatasets(o.dir, o.fit);
   } catch (const pipeline::NoDatasetsError& e) {

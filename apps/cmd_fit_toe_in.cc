@@ -13,9 +13,9 @@
 #include "calib/image_pairs.h"
 #include "calib/observation_io.h"
 #include "calib/target_file.h"
+#include "evaluation/range_images_calib.h"
 #include "fitting/calibration_folder.h"
 #include "fitting/format.h"
-#include "fitting/range_images_calib.h"
 #include "fitting/toe_in_servo_fit.h"
 #include "reports/table.h"
 #include "reports/toe_in_tables.h"
@@ -123,7 +123,7 @@ fitting::CalibrationResult ResultOf(
                              ": neither results.json, a calibration folder, an observations CSV nor an "
                              "image folder");
   }
-  fitting::ImageSetCalibration c = fitting::CalibrateImageSet(obs, fo);
+  evaluation::ImageSetCalibration c = evaluation::CalibrateImageSet(obs, fo);
   StampRun(run_id, &c.result);
   c.result.inputs["source"] = row.path;
   fs::create_directories(set_dir);

@@ -9,9 +9,9 @@
 #include "apps/calibration_output.h"
 #include "apps/command_registry.h"
 #include "apps/output_folder.h"
+#include "evaluation/truth_compare.h"
 #include "fitting/format.h"
 #include "fitting/pose_stereo.h"
-#include "fitting/truth_compare.h"
 #include "reports/exports.h"
 #include "reports/report_data.h"
 
@@ -38,7 +38,7 @@ int RunPoseCalibration(const PoseCalibrationOptions& a) {
     for (int p : a.pwm) out += "-" + std::to_string(p);
   }
   CheckInputOutsideRun(out, a.calib, "--calib");
-  fitting::CalibrationRun run = reports::ReadReportData(a.calib);
+  evaluation::CalibrationRun run = reports::ReadReportData(a.calib);
   models::PwmVector pwm{};
   for (int i = 0; i < models::kNumServos; ++i) {
     const auto& s = run.config.servos[i];
@@ -61,7 +61,7 @@ int RunPoseCalibration(const PoseCalibrationOptions& a) {
     std::cerr << "owlcal pose-calibration: " << a.calib << ": " << s.message << "\n";
     return kExitFailed;
   }
-  fitting::CalibrationRun pr;
+  evaluation::CalibrationRun pr;
   pr.result = s.result;
   StampRun(run_id, &pr.result);
   pr.result.inputs["calibration"] = a.calib;
@@ -70,8 +70,8 @@ int RunPoseCalibration(const PoseCalibrationOptions& a) {
   pr.limits = run.limits;
   pr.truth = run.truth;
   if (run.truth) {
-    const auto truth = fitting::StereoTruthValues(*run.truth, pwm, o.approach);
-    fitting::FillTruth(truth, &pr.result);
+    const auto truth = evaluation::StereoTruthValues(*run.truth, pwm, o.approach);
+    evaluation::FillTruth(truth, &pr.result);
   }
   fitting::WriteResultJson(pr.result, (fs::path(out) / "results.json").string());
   const reports::ExportSet ex = reports::WriteCalibrationFiles(pr, out);

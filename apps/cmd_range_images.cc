@@ -13,10 +13,10 @@
 #include "apps/command_registry.h"
 #include "calib/image_pairs.h"
 #include "calib/template_roi.h"
+#include "evaluation/range_images_ranging.h"
+#include "evaluation/range_scale_budget.h"
 #include "fitting/format.h"
 #include "fitting/range_datum_fit.h"
-#include "fitting/range_images_ranging.h"
-#include "fitting/range_scale_budget.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/image_set_tables.h"
 #include "reports/table.h"
@@ -67,13 +67,13 @@ calib::TemplateRoiOptions SelectOptions(const RangeImagesOptions& a) {
 
 // Reads, rectifies and ranges the pair of one truth row (its ROI, --roi, the --select choice or
 // the central region).
-fitting::RangeMeasurement RangePair(const RangeImagesOptions& a,
-                                    const fitting::RangeTruthRow& t,
-                                    const fitting::RangeOptions& o,
-                                    const fitting::StereoRig& rig,
-                                    const fitting::Rectification& rect,
-                                    const calib::TemplateRoiOptions* sel) {
-  fitting::RangeOptions ro = o;
+evaluation::RangeMeasurement RangePair(const RangeImagesOptions& a,
+                                       const evaluation::RangeTruthRow& t,
+                                       const evaluation::RangeOptions& o,
+                                       const fitting::StereoRig& rig,
+                                       const fitting::Rectification& rect,
+                                       const calib::TemplateRoiOptions* sel) {
+  evaluation::RangeOptions ro = o;
   if (t.roi.area() > 0) ro.match.template_roi = t.roi;
   const std::string lp = (fs::path(a.dir) / t.left).string(), rp = (fs::path(a.dir) / t.right).string();
   cv::Mat l = cv::imread(lp), r = cv::imread(rp);
@@ -93,9 +93,9 @@ fitting::RangeMeasurement RangePair(const RangeImagesOptions& a,
     how = c.how;
     have_roi = !c.candidates.empty();
   }
-  fitting::RangeMeasurement m;
+  evaluation::RangeMeasurement m;
   if (have_roi) {
-    m = fitting::RangeRectifiedPair(lr, rr, rig, rect, ro);
+    m = evaluation::RangeRectifiedPair(lr, rr, rig, rect, ro);
   } else {
     m.status = "failed";
     m.message = "no target: " + how;
@@ -110,21 +110,21 @@ fitting::RangeMeasurement RangePair(const RangeImagesOptions& a,
 int RunRangeImages(const RangeImagesOptions& a) {
   const fitting::StereoRig rig = fitting::LoadStereoRig(a.calib);
   const fitting::Rectification rect = fitting::RectifyRig(rig);
-  std::vector<fitting::RangeTruthRow> truth;
+  std::vector<evaluation::RangeTruthRow> truth;
   if (!a.truth.empty()) {
-    truth = fitting::ReadRangeTruthCsv(a.truth);
+    truth = evaluation::ReadRangeTruthCsv(a.truth);
   } else {
     // No truth file: every left*/right* pair of the folder, distance unknown.
     calib::ImagePairOptions po;
     for (const auto& p : calib::ListImagePairs(a.dir, po).pairs) {
-      fitting::RangeTruthRow r;
+      evaluation::RangeTruthRow r;
       r.left = fs::path(p.left_path).filename().string();
       r.right = fs::path(p.right_path).filename().string();
       r.distance_m = std::numeric_limits<double>::quiet_NaN();
       truth.push_back(r);
     }
   }
-  fitting::RangeOptions o;
+  evaluation::RangeOptions o;
   o.truth_sigma_m = a.truth_sigma_cm / 100;
   o.datum_offset_m = a.datum_cm / 100;
   o.match.template_width = a.template_w;
@@ -134,26 +134,26 @@ int RunRangeImages(const RangeImagesOptions& a) {
   if (!a.roi.empty()) {
     if (a.roi.size() != 4) throw UsageError("--roi needs 4 numbers: x y w h");
     o.match.template_roi = cv::Rect(a.roi[0], a.roi[1], a.roi[2], a.roi[3]);
-    if (!fitting::RoiInsideImage(o.match.template_roi, rect.size))
+    if (!evaluation::RoiInsideImage(o.match.template_roi, rect.size))
       throw UsageError("--roi " + std::to_string(a.roi[0]) + " " + std::to_string(a.roi[1]) + " " +
                        std::to_string(a.roi[2]) + " " + std::to_string(a.roi[3]) +
                        " is not a template (w, h >= 5) inside the " + std::to_string(rect.size.width) + "x" +
                        std::to_string(rect.size.height) + " rectified image");
   }
-  fitting::CheckRangeTruthRois(truth, rect.size);
+  evaluation::CheckRangeTruthRois(truth, rect.size);
   const bool auto_select = a.select != "centre";
   calib::TemplateRoiOptions sel;
   if (auto_select) sel = SelectOptions(a);
   std::string why;
   if (!o.Check(&why)) throw UsageError(why);
-  std::vector<fitting::RangeMeasurement> ms;
+  std::vector<evaluation::RangeMeasurement> ms;
   for (const auto& t : truth) {
     ms.push_back(RangePair(a, t, o, rig, rect, auto_select ? &sel : nullptr));
     // A long list prints a progress line every kProgressEveryPairs pairs (each is read, rectified, matched).
     if (truth.size() > kProgressEveryPairs && ms.size() % kProgressEveryPairs == 0)
       std::cerr << "range-images: " << ms.size() << " of " << truth.size() << " pairs ranged\n";
   }
-  const fitting::RangeSummary s = fitting::SummariseRanges(ms);
+  const evaluation::RangeSummary s = evaluation::SummariseRanges(ms);
   fs::create_directories(a.out);
   const fs::path out(a.out);
   std::string md = reports::RangeTableMarkdown(ms, s, "Range from stereo images: " + a.dir);
@@ -173,10 +173,11 @@ int RunRangeImages(const RangeImagesOptions& a) {
       // The second matcher's disparity at each template (the cross-check's), for the matching term.
       std::vector<double> second_disparity;
       for (const auto& m : ms) second_disparity.push_back(m.second_disparity_px);
-      const fitting::ScaleBudget budget =
-          fitting::SplitScale(ms, datum_rows, datum, rig, rect, second_disparity, o.match.subpixel_floor_px);
+      const evaluation::ScaleBudget budget =
+          evaluation::SplitScale(ms, datum_rows, datum, rig, rect, second_disparity, o.match.subpixel_floor_px);
       md += "\n" + reports::ScaleBudgetMarkdown(budget);
-      reports::WriteTextFile((out / "scale_budget.json").string(), fitting::ScaleBudgetToJson(budget).dump(2) + "\n");
+      reports::WriteTextFile((out / "scale_budget.json").string(),
+                             evaluation::ScaleBudgetToJson(budget).dump(2) + "\n");
     }
   }
   md += "\nTemplates: " + std::string(auto_select ? "chosen per pair (" + a.select + "): " : "") +

@@ -55,7 +55,7 @@ std::optional<std::string> RecordOrUseDataset(const ExperimentRecording& e) {
   ro.progress = e.quiet ? nullptr : &std::cout;
   ro.stop_flag = protocols::InstallStopSignals();
   if (!e.calib.empty()) {
-    const fitting::CalibrationRun run = reports::ReadReportData(e.calib);
+    const evaluation::CalibrationRun run = reports::ReadReportData(e.calib);
     ro.calibration = pipeline::ControllerCalibration(run, e.calib);
     if (!e.quiet) std::cout << "eyes on the calibration in " << ro.calibration->source << "\n";
   } else if (!e.quiet && !e.nominal_note.empty()) {

@@ -4,7 +4,7 @@
 // file and the robot file in it, and prints the acceptance table of issue 34 per robot:
 //   protocols   manifests complete of protocols run
 //   map RMS     worst servo map's RMS error from the truth over the range the run used [deg]
-//               (fitting::ServoMapErrorOverRange, in the fit's gauge), and which servo
+//               (evaluation::ServoMapErrorOverRange, in the fit's gauge), and which servo
 //   rest        the same without the pan zero (the pans' common offset, fitting/head_gauge.h)
 //   pan zero    the pans' common offset's error and its reported sigma [deg]
 //   ranged      fixations ranged of tried, and the ranging RMS error [%]
@@ -27,8 +27,8 @@
 #include <string>
 #include <vector>
 
-#include "fitting/servo_map_eval.h"
-#include "fitting/truth_compare.h"
+#include "evaluation/servo_map_eval.h"
+#include "evaluation/truth_compare.h"
 #include "owlcal_version.h"
 #include "pipeline/bring_up.h"
 #include "pipeline/calibrate.h"
@@ -76,7 +76,7 @@ Row RunRobot(const std::string& truth_file, const std::string& out_root) {
   co.truth = truth;
   co.robot.sim = {{"seed", 1}, {"truth_file", truth_file}};
   const auto t0 = std::chrono::steady_clock::now();
-  const fitting::CalibrationRun run = pipeline::Calibrate(owl, co);
+  const evaluation::CalibrationRun run = pipeline::Calibrate(owl, co);
   row.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   reports::WriteReportData(run, co.out);  // results.json and evaluation.json, for `owlcal report`
 
@@ -85,10 +85,10 @@ Row RunRobot(const std::string& truth_file, const std::string& out_root) {
     if (r.value("status", "") == "complete") ++row.complete;
   }
   if (run.result.head && run.truth) {
-    std::array<fitting::ServoMapError, models::kNumServos> e;
+    std::array<evaluation::ServoMapError, models::kNumServos> e;
     for (int s = 0; s < models::kNumServos; ++s) {
       const models::ServoConfig& c = run.config.servos[s];
-      e[s] = fitting::ServoMapErrorOverRange(*run.result.head, *run.truth, s, c.min_us, c.max_us);
+      e[s] = evaluation::ServoMapErrorOverRange(*run.result.head, *run.truth, s, c.min_us, c.max_us);
       if (e[s].rms_deg > row.worst_map_deg) {
         row.worst_map_deg = e[s].rms_deg;
         row.worst_map_servo = models::kServoNames[s];
@@ -130,7 +130,7 @@ Row RunRobot(const std::string& truth_file, const std::string& out_root) {
   } else {
     row.slew = "none";
   }
-  const fitting::TruthComparison tc = fitting::CompareWithTruth(run.result);
+  const evaluation::TruthComparison tc = evaluation::CompareWithTruth(run.result);
   double worst = 0;
   for (const auto& r : tc.rows)
     if (std::isfinite(r.z) && std::abs(r.z) > 5) {

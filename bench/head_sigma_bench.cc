@@ -13,10 +13,10 @@
 #include <stdexcept>
 #include <vector>
 
+#include "evaluation/servo_map_eval.h"
 #include "fitting/head_fit.h"
 #include "fitting/head_synthetic.h"
 #include "fitting/monte_carlo.h"
-#include "fitting/servo_map_eval.h"
 #include "models/head_model.h"
 
 int main(int argc, char** argv) {
@@ -43,11 +43,11 @@ int main(int argc, char** argv) {
     fitting::SetHeadTruth(canon, &fit.result);
     ipd_err_mm.push_back(fit.result.Find("head.ipd_mm")->value - canon.geometry.Ipd() * 1000);
     for (int s = 0; s < models::kNumServos; ++s) {
-      const double rms = fitting::ServoMapRmsDeg(fit.head.servo_params[s].data(),
-                                                 canon.servo_params[s].data(),
-                                                 robot.servos[s].direction,
-                                                 robot.servos[s].min_us,
-                                                 robot.servos[s].max_us);
+      const double rms = evaluation::ServoMapRmsDeg(fit.head.servo_params[s].data(),
+                                                    canon.servo_params[s].data(),
+                                                    robot.servos[s].direction,
+                                                    robot.servos[s].min_us,
+                                                    robot.servos[s].max_us);
       map_rms_deg.push_back(rms);
       worst_map = std::max(worst_map, rms);
     }

@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
     co.protocols = {"limits", "intrinsics", "stereo", "servo_sweep", "vergence"};
     co.robot.sim = {
         {"seed", seed}, {"truth_file", (dir / "truth.yaml").string()}, {"scene_file", (dir / "scene.yaml").string()}};
-    fitting::CalibrationRun d;
+    evaluation::CalibrationRun d;
     try {
       d = pipeline::Calibrate(owl, co);
     } catch (const std::exception& e) {

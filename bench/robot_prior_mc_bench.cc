@@ -49,10 +49,10 @@
 #include <thread>
 #include <vector>
 
+#include "evaluation/servo_map_eval.h"
+#include "evaluation/truth_compare.h"
 #include "fitting/monte_carlo.h"
 #include "fitting/result.h"
-#include "fitting/servo_map_eval.h"
-#include "fitting/truth_compare.h"
 #include "owlcal_version.h"
 #include "pipeline/calibrate.h"
 #include "sim/robot_prior.h"
@@ -134,7 +134,7 @@ int main(int argc, char** argv) {
     co.protocols = protocols;
     co.robot.sim = {
         {"seed", seed}, {"truth_file", (dir / "truth.yaml").string()}, {"scene_file", (dir / "scene.yaml").string()}};
-    const fitting::CalibrationRun run = pipeline::Calibrate(owl, co);
+    const evaluation::CalibrationRun run = pipeline::Calibrate(owl, co);
     const fitting::CalibrationResult& r = run.result;
     out.parameters = r.parameters;
     const nlohmann::json tags = r.diagnostics.value("tags", nlohmann::json::object());
@@ -176,7 +176,7 @@ int main(int argc, char** argv) {
       const fitting::Parameter* p = r.Find("servo." + std::string(models::kServoNames[s]) + ".deg_per_us");
       if (!p || !p->determined) continue;
       const models::ServoConfig& c = run.config.servos[s];
-      const double rms = fitting::ServoMapErrorOverRange(*r.head, *run.truth, s, c.min_us, c.max_us).rms_deg;
+      const double rms = evaluation::ServoMapErrorOverRange(*r.head, *run.truth, s, c.min_us, c.max_us).rms_deg;
       if (!(rms <= worst_map)) worst_map = rms, worst_servo = models::kServoNames[s];
     }
     const fitting::Parameter* bow = r.Find("head.board_warp_x_mm");

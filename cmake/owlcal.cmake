@@ -50,16 +50,16 @@ set(OWLCAL_UNITY_SKIP
     tests/apps/owlcal_cli_test.cc tests/apps/lost_target_cli_test.cc tests/apps/real_data_cli_test.cc
     tests/calib/detector_test.cc
     tests/fitting/lens_model_choice_test.cc tests/fitting/observability_test.cc
-    tests/fitting/real_kit2020_test.cc tests/fitting/session_compare_test.cc
-    tests/fitting/set_verdict_real_test.cc tests/fitting/step_response_test.cc
-    tests/fitting/stereo_sanity_test.cc tests/fitting/stereo_test.cc
+    tests/fitting/real_kit2020_test.cc tests/evaluation/session_compare_test.cc
+    tests/evaluation/set_verdict_real_test.cc tests/fitting/step_response_test.cc
+    tests/evaluation/stereo_sanity_test.cc tests/fitting/stereo_test.cc
     tests/pipeline/main_sequence_study_test.cc tests/pipeline/reference_checks_test.cc
     tests/pipeline/saccade_study_test.cc tests/pipeline/sharpness_study_test.cc
     tests/pipeline/tracking_study_test.cc
     tests/protocols/dataset_test.cc tests/protocols/runner_test.cc
     tests/apps/fit_datasets_cli_test.cc tests/calib/target_sheet_test.cc
-    tests/fitting/range_honest_test.cc tests/fitting/toe_in_servo_fit_test.cc
-    tests/fitting/truth_compare_test.cc tests/fitting/vergence_log_test.cc
+    tests/evaluation/range_honest_test.cc tests/fitting/toe_in_servo_fit_test.cc
+    tests/evaluation/truth_compare_test.cc tests/fitting/vergence_log_test.cc
     tests/fitting/vor_analysis_test.cc tests/pipeline/settling_study_test.cc
     tests/pipeline/vor_study_test.cc
     tests/reports/report_test.cc tests/robot/servo_server_test.cc)

@@ -1,6 +1,6 @@
 #pragma once
-// The Ceres problem of fitting::CheckCalibration (fitting/calibration_check.h), internal to
-// fitting/: board poses per image pair with the calibration's parameters held or freed by a
+// The Ceres problem of evaluation::CheckCalibration (evaluation/calibration_check.h), used only
+// there: board poses per image pair with the calibration's parameters held or freed by a
 // mask, and the solve's RMS, cost and covariance.
 #include <array>
 #include <vector>
@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "calib/observation.h"
-#include "fitting/range_images_ranging.h"
+#include "fitting/stereo_rig.h"
 #include "models/camera_model.h"
 
 namespace owlcal::fitting::internal::check {

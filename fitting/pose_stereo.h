@@ -27,8 +27,8 @@
 
 #include <Eigen/Core>
 
+#include "fitting/named_covariance.h"
 #include "fitting/opencv_calib_file.h"
-#include "fitting/ranging_eval.h"
 #include "fitting/result.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"

@@ -76,7 +76,7 @@ struct CalibrationResult {
   nlohmann::json inputs = nlohmann::json::object();       // observation file + its FNV-1a 64 hash, options
   nlohmann::json diagnostics = nlohmann::json::object();  // per-view RMS, outliers, coverage ...
   // {status: good|poor|unusable, reasons: [...], advice: [...], metrics: {...}} of the set the
-  // result came from (fitting/set_verdict.h); null when no verdict was made.
+  // result came from (evaluation/set_verdict.h); null when no verdict was made.
   nlohmann::json verdict;
 
   const Parameter* Find(const std::string& name) const;

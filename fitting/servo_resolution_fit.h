@@ -59,7 +59,7 @@ struct ResolutionFit {
   std::vector<int> applied_us;  // replayed applied pulse per input sample
 };
 
-// One servo's fit, as a calibration run keeps it (fitting/calibration_run.h).
+// One servo's fit, as a calibration run keeps it (evaluation/calibration_run.h).
 struct ServoResolutionResult {
   int servo = 0;  // models::ServoIndex
   ResolutionFit fit;

@@ -24,7 +24,7 @@
 //
 // Limits (as mrcal says): only corner noise is propagated; a lens the model cannot follow,
 // a bent board or blurred corners do not show here. That is why owlcal's verdict also refits
-// two halves of the set (fitting/set_verdict.h).
+// two halves of the set (evaluation/set_verdict.h).
 #include <string>
 #include <vector>
 

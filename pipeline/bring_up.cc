@@ -49,18 +49,18 @@ nlohmann::json BringUp::ToJson() const {
           {"source", "the limits protocol's image motion (limits.csv)"}};
 }
 
-std::vector<fitting::LimitMeasurement> LimitMeasurements(const std::vector<protocols::LimitRow>& rows,
-                                                         std::vector<std::string>* failed,
-                                                         int* num_rows) {
-  std::vector<fitting::LimitMeasurement> out;
+std::vector<evaluation::LimitMeasurement> LimitMeasurements(const std::vector<protocols::LimitRow>& rows,
+                                                            std::vector<std::string>* failed,
+                                                            int* num_rows) {
+  std::vector<evaluation::LimitMeasurement> out;
   *num_rows = int(rows.size());
   for (const protocols::LimitRow& row : rows) {
     const std::string what = row.servo + " " + row.end + " (limits.csv line " + std::to_string(row.line) + ")";
     const int s = protocols::ServoIndexFromName(row.servo);
-    fitting::LimitMeasurement m;
+    evaluation::LimitMeasurement m;
     m.servo = s;
     m.high_end = row.end == "max";
-    m.cause = fitting::LimitCauseFromName(row.cause);
+    m.cause = evaluation::LimitCauseFromName(row.cause);
     if (s < 0 || (row.status && *row.status != calib::TrialStatus::kOk) || !row.measured_us) {
       failed->push_back(what + ": " + (row.status ? calib::TrialStatusName(*row.status) : "no measurement") +
                         (row.message.empty() ? "" : ": " + row.message));
@@ -128,14 +128,14 @@ BringUp LearnFromLimits(const models::RobotConfig& file,
   // sweep's tag sheets carry the fit there.
   std::vector<std::string> failed;
   int num_rows = 0;
-  const std::vector<fitting::LimitMeasurement> measured = LimitMeasurements(rows, &failed, &num_rows);
-  const fitting::LimitsEvaluation ev = fitting::EvaluateLimits(file, measured, nullptr, margin_us, stop_error_us);
-  for (const fitting::ServoLimits& l : ev.servos) {
+  const std::vector<evaluation::LimitMeasurement> measured = LimitMeasurements(rows, &failed, &num_rows);
+  const evaluation::LimitsEvaluation ev = evaluation::EvaluateLimits(file, measured, nullptr, margin_us, stop_error_us);
+  for (const evaluation::ServoLimits& l : ev.servos) {
     models::ServoConfig& c = b.learned.servos[l.servo];
     int lo = c.min_us, hi = c.max_us;
-    auto bound = [&](const char* end, std::optional<double> at, fitting::LimitCause cause, int* us, int inward) {
+    auto bound = [&](const char* end, std::optional<double> at, evaluation::LimitCause cause, int* us, int inward) {
       if (!at) return;
-      if (cause == fitting::LimitCause::kSocketRim) {
+      if (cause == evaluation::LimitCause::kSocketRim) {
         // The search went on past the rim with the rim ignored (limits.csv beyond_rim_*).
         const protocols::LimitRow* row = nullptr;
         for (const auto& r : rows)
@@ -145,11 +145,11 @@ BringUp LearnFromLimits(const models::RobotConfig& file,
         if (row && row->beyond_rim_reason == "end-stop" && row->beyond_rim_us) {
           b.notes.push_back(rim + "; the end-stop behind it is at " + std::to_string(*row->beyond_rim_us) + " us");
           at = double(*row->beyond_rim_us);
-          cause = fitting::LimitCause::kEndStop;
+          cause = evaluation::LimitCause::kEndStop;
         } else if (row && row->beyond_rim_reason == "unknown") {
           // Nothing measured past the rim: the stop may be anywhere there.
           b.notes.push_back(rim + "; nothing was measured past it, so commands stop at the rim");
-          cause = fitting::LimitCause::kEndStop;
+          cause = evaluation::LimitCause::kEndStop;
         } else {
           b.notes.push_back(rim + (row && row->beyond_rim_reason == "configured"
                                        ? "; the image follows past it to the configured limit"
@@ -157,7 +157,7 @@ BringUp LearnFromLimits(const models::RobotConfig& file,
           return;
         }
       }
-      if (cause != fitting::LimitCause::kEndStop) return;
+      if (cause != evaluation::LimitCause::kEndStop) return;
       int safe = inward > 0 ? int(std::ceil(*at)) + margin_us + stop_error_us
                             : int(std::floor(*at)) - margin_us - stop_error_us;
       // Rounded inward to pigpio's 5 us grid: poses the protocols derive from a limit (servo_sweep's

@@ -22,7 +22,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "fitting/limits_eval.h"
+#include "evaluation/limits_eval.h"
 #include "fitting/result.h"
 #include "models/robot_config.h"
 #include "protocols/dataset_tables.h"
@@ -43,9 +43,9 @@ struct BringUp {
 
 // The measured ends of limits.csv rows; *failed names every probe row that measured nothing
 // (status not ok, or no number), *num_rows counts them all.
-std::vector<fitting::LimitMeasurement> LimitMeasurements(const std::vector<protocols::LimitRow>& rows,
-                                                         std::vector<std::string>* failed,
-                                                         int* num_rows);
+std::vector<evaluation::LimitMeasurement> LimitMeasurements(const std::vector<protocols::LimitRow>& rows,
+                                                            std::vector<std::string>* failed,
+                                                            int* num_rows);
 
 // Learns from the limits protocol's rows (any subset of servos and ends).
 // margin_us: kept from a measured end-stop beyond the search's stop_error_us

@@ -60,9 +60,9 @@ void Record(const protocols::Protocol& p,
 // FitGeometry's result with the progress lines it said while protocols were recording: they are
 // said in one block when the fit is joined, so the terminal never interleaves two streams.
 struct BufferedGeometryFit {
-  fitting::CalibrationRun run;
+  evaluation::CalibrationRun run;
   std::vector<std::string> lines;
-  fitting::CalibrationRun Flush(const std::function<void(const std::string&)>& progress) {
+  evaluation::CalibrationRun Flush(const std::function<void(const std::string&)>& progress) {
     if (progress)
       for (const std::string& line : lines) progress(line);
     return std::move(run);
@@ -117,8 +117,8 @@ bool CalibrateOptions::Check(std::string* why) const {
   return fit.Check(why);
 }
 
-fitting::LatencyTruth LatencyTruthOf(const sim::RobotTruth& truth) {
-  fitting::LatencyTruth t;
+evaluation::LatencyTruth LatencyTruthOf(const sim::RobotTruth& truth) {
+  evaluation::LatencyTruth t;
   t.fps = truth.stream.fps;
   t.latency_ms = truth.stream.latency_ms;
   t.eye_offset_ms = truth.stream.eye_offset_ms;
@@ -140,7 +140,7 @@ void SetTruth(const sim::RobotTruth& truth, CalibratePipelineOptions* o) {
   o->truth_latency_s = truth.stream.latency_ms / 1000.0;
 }
 
-fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateOptions& o) {
+evaluation::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateOptions& o) {
   std::string why;
   if (!o.Check(&why)) throw std::invalid_argument("calibrate options: " + why);
   CalibratePipelineOptions fit = o.fit;
@@ -189,7 +189,7 @@ fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateO
   }
 
   // 2) The fit, 3) the protocols that use it, 4) the evaluations of everything recorded.
-  fitting::CalibrationRun run = geometry.valid() ? geometry.get().Flush(fit.progress) : FitGeometry(datasets, fit);
+  evaluation::CalibrationRun run = geometry.valid() ? geometry.get().Flush(fit.progress) : FitGeometry(datasets, fit);
   FitEvaluations(datasets, fit, &run);
   for (const auto& [p, dir] : after_fit) {
     Record(p,
@@ -237,7 +237,7 @@ std::optional<sim::RobotTruth> TruthFromManifest(const nlohmann::json& m, const 
   return truth;
 }
 
-fitting::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOptions& o) {
+evaluation::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOptions& o) {
   const std::map<std::string, std::string> datasets = FindDatasets(dir);
   // The robot and the truth, from the manifests (every dataset of one calibration was recorded
   // on one robot).
@@ -296,7 +296,7 @@ fitting::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOpt
   std::string why;
   if (!fit.Check(&why)) throw std::invalid_argument("fit options: " + why);
   if (o.progress) o.progress("robot: " + fit.config.name + (truth ? " (virtual Owl, truth from the manifest)" : ""));
-  fitting::CalibrationRun run = CalibrateFromDatasets(datasets, fit);
+  evaluation::CalibrationRun run = CalibrateFromDatasets(datasets, fit);
   run.result.diagnostics["person_work"] = CalibrateWorkJson(datasets);
   return run;
 }

@@ -20,7 +20,7 @@
 //   pipeline::CalibrateOptions o;          // exactly what `owlcal calibrate` runs
 //   o.out = "out/cal";
 //   sim::VirtualOwl owl(vo);
-//   fitting::CalibrationRun run = pipeline::Calibrate(owl, o);
+//   evaluation::CalibrationRun run = pipeline::Calibrate(owl, o);
 #include <atomic>
 #include <functional>
 #include <istream>
@@ -31,7 +31,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "fitting/calibration_run.h"
+#include "evaluation/calibration_run.h"
 #include "pipeline/calibrate_pipeline.h"
 #include "robot/robot_interface.h"
 #include "sim/robot_truth.h"
@@ -78,13 +78,13 @@ struct CalibrateOptions {
 void SetTruth(const sim::RobotTruth& truth, CalibratePipelineOptions* options);
 
 // The virtual Owl's stream and servo dynamics for the latency check's truth column.
-fitting::LatencyTruth LatencyTruthOf(const sim::RobotTruth& truth);
+evaluation::LatencyTruth LatencyTruthOf(const sim::RobotTruth& truth);
 
 // Runs the workflow above on `robot`. On the virtual Owl the truth is options.truth or, for a
 // sim::VirtualOwl, its own. A protocol that did not complete is a warning in the result; a user's stop throws
 // std::runtime_error after the head is parked (the datasets so far stay in out/datasets/). Throws
 // std::invalid_argument for bad options and protocols::ProtocolError for an unreadable protocol.
-fitting::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateOptions& options);
+evaluation::CalibrationRun Calibrate(robot::RobotInterface& robot, const CalibrateOptions& options);
 
 struct FitDatasetsOptions {
   CalibratePipelineOptions fit = DefaultFitOptions();  // robot config and truth come from the manifests
@@ -94,7 +94,7 @@ struct FitDatasetsOptions {
 // Re-fits the datasets of a folder Calibrate wrote (dir/datasets/*). Throws std::runtime_error
 // naming the manifest when the datasets were not recorded on one robot, or a recorded truth
 // cannot be rebuilt.
-fitting::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOptions& options);
+evaluation::CalibrationRun FitDatasets(const std::string& dir, const FitDatasetsOptions& options);
 
 // The virtual Owl's truth a dataset was recorded with, rebuilt from its manifest (the truth file
 // named in sim.truth_file, or the built-in one, with the robot file text the manifest kept) and

@@ -209,12 +209,12 @@ const std::set<std::string>& GeometryDatasetNames() {
   return kNames;
 }
 
-fitting::CalibrationRun FitGeometry(const std::map<std::string, std::string>& datasets,
-                                    const CalibratePipelineOptions& o) {
+evaluation::CalibrationRun FitGeometry(const std::map<std::string, std::string>& datasets,
+                                       const CalibratePipelineOptions& o) {
   std::string why;
   if (!o.Check(&why)) throw std::invalid_argument("calibrate pipeline options: " + why);
   const stages::Inputs in{datasets, o};
-  fitting::CalibrationRun run;
+  evaluation::CalibrationRun run;
   run.config = o.config;
   AddBringUp(in, &run.result);
   const std::optional<fitting::StereoFit> stereo = stages::FitLensAndStereo(in, &run);
@@ -226,23 +226,23 @@ fitting::CalibrationRun FitGeometry(const std::map<std::string, std::string>& da
 
 void FitEvaluations(const std::map<std::string, std::string>& datasets,
                     const CalibratePipelineOptions& o,
-                    fitting::CalibrationRun* run) {
+                    evaluation::CalibrationRun* run) {
   const stages::Inputs in{datasets, o};
   WarnOfUnknownDatasets(in, &run->result);
   stages::EvaluateResolutionAndRanging(in, run);
   stages::EvaluateSteps(in, run);
 }
 
-fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
-                                       const CalibratePipelineOptions& o) {
-  fitting::CalibrationRun run = FitGeometry(datasets, o);
+evaluation::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
+                                          const CalibratePipelineOptions& o) {
+  evaluation::CalibrationRun run = FitGeometry(datasets, o);
   FitEvaluations(datasets, o, &run);
   return run;
 }
 
 void FinishCalibration(const std::map<std::string, std::string>& datasets,
                        const CalibratePipelineOptions& o,
-                       fitting::CalibrationRun* run) {
+                       evaluation::CalibrationRun* run) {
   const stages::Inputs in{datasets, o};
   if (const std::string saccade = in.Dataset("saccade"); !saccade.empty()) AddSaccadeEvaluation(saccade, o, run);
   stages::EvaluateLimits(in, run);
@@ -251,9 +251,9 @@ void FinishCalibration(const std::map<std::string, std::string>& datasets,
   run->result.inputs["pipeline"] = o.ToJson();
 }
 
-fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
-                                              const CalibratePipelineOptions& o) {
-  fitting::CalibrationRun d = FitCalibration(datasets, o);
+evaluation::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
+                                                 const CalibratePipelineOptions& o) {
+  evaluation::CalibrationRun d = FitCalibration(datasets, o);
   FinishCalibration(datasets, o, &d);
   return d;
 }

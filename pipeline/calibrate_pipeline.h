@@ -1,7 +1,7 @@
 #pragma once
 // Everything `owlcal calibrate` does after recording, as one library call: from the recorded
 // datasets (one folder per protocol, protocols/dataset.h) to the calibration run the report
-// files are written from (fitting/calibration_run.h). `owlcal calibrate` records and then calls
+// files are written from (evaluation/calibration_run.h). `owlcal calibrate` records and then calls
 // it; `owlcal fit-datasets DIR` calls it on a recorded calibrate folder with no robot, and with
 // the same options reproduces every results.json value and sigma.
 //
@@ -21,7 +21,7 @@
 //   4. evaluations: ranging from `vergence` (every fixation a row with its status), the gain
 //      study at the delay `latency` measured, step responses from `step_response`, limits from
 //      `limits`, calibrated saccades from `saccade` (pipeline/saccade_study.h);
-//   5. the checks against references (fitting/reference_checks.h, results.json
+//   5. the checks against references (evaluation/reference_checks.h, results.json
 //      diagnostics.reference_checks): latency from `latency` (truth on the virtual Owl), the
 //      alignment from `alignment` with its verdict, the field of view against the datasheet.
 // Every option goes into result.inputs["pipeline"] and the datasets into result.inputs["datasets"].
@@ -36,10 +36,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "fitting/calibration_run.h"
+#include "evaluation/calibration_run.h"
+#include "evaluation/reference_checks.h"
 #include "fitting/head_fit.h"
 #include "fitting/lens_model_choice.h"
-#include "fitting/reference_checks.h"
 #include "fitting/stereo_fit.h"
 #include "models/head_model.h"
 #include "models/robot_config.h"
@@ -58,8 +58,8 @@ struct CalibratePipelineOptions {
   // true fixation distances and the truth columns. nullopt on a real robot.
   std::optional<models::HeadModel> truth;
   // The virtual Owl's stream and servo dynamics, for the latency check's truth column (the
-  // reading the truth predicts per trial, fitting/reference_checks.h). nullopt on a real robot.
-  std::optional<fitting::LatencyTruth> latency_truth;
+  // reading the truth predicts per trial, evaluation/reference_checks.h). nullopt on a real robot.
+  std::optional<evaluation::LatencyTruth> latency_truth;
   double fps = 30.0;  // stream frame rate (latency in frames, gain study)
   // The virtual Owl's true servo slew [deg/s] and stream latency (exposure to arrival) [s]: the
   // saccade's physical bound (pipeline/saccade_study.h). 0: unknown (a real robot), then the
@@ -118,15 +118,15 @@ bool SetLensModel(const std::string& value, CalibratePipelineOptions* options, s
 // the pipeline does not know is skipped with a warning naming it, the first of result.warnings
 // and said through options.warning). Failures of a fit are warnings in the result, never a
 // throw; unreadable dataset files throw std::runtime_error naming path:line:column.
-fitting::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
-                                              const CalibratePipelineOptions& options);
+evaluation::CalibrationRun CalibrateFromDatasets(const std::map<std::string, std::string>& datasets,
+                                                 const CalibratePipelineOptions& options);
 
 // CalibrateFromDatasets in the two parts pipeline::Calibrate records between: FitCalibration runs
 // steps 1-4 up to the saccade (everything the calibrated controller needs; it reads no saccade
 // dataset), FinishCalibration the saccade and limits evaluations, the checks against references
 // and the inputs. CalibrateFromDatasets(d, o) is FitCalibration(d, o) then FinishCalibration(d, o).
-fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
-                                       const CalibratePipelineOptions& options);
+evaluation::CalibrationRun FitCalibration(const std::map<std::string, std::string>& datasets,
+                                          const CalibratePipelineOptions& options);
 
 // FitCalibration in two parts: FitGeometry (the bring-up's findings, lens, stereo, head, truth
 // comparison and tag study) reads only the datasets GeometryDatasetNames() lists, so
@@ -134,14 +134,14 @@ fitting::CalibrationRun FitCalibration(const std::map<std::string, std::string>&
 // the unknown-dataset warnings (first of result.warnings), resolution, ranging and steps.
 // FitCalibration(d, o) is FitGeometry(d, o) then FitEvaluations(d, o).
 const std::set<std::string>& GeometryDatasetNames();
-fitting::CalibrationRun FitGeometry(const std::map<std::string, std::string>& datasets,
-                                    const CalibratePipelineOptions& options);
+evaluation::CalibrationRun FitGeometry(const std::map<std::string, std::string>& datasets,
+                                       const CalibratePipelineOptions& options);
 void FitEvaluations(const std::map<std::string, std::string>& datasets,
                     const CalibratePipelineOptions& options,
-                    fitting::CalibrationRun* run);
+                    evaluation::CalibrationRun* run);
 void FinishCalibration(const std::map<std::string, std::string>& datasets,
                        const CalibratePipelineOptions& options,
-                       fitting::CalibrationRun* run);
+                       evaluation::CalibrationRun* run);
 
 // The trials of a step-response (or saccade) dataset: one trace per trial with its status and
 // stepinfo (2 % band); trials without usable frames are rows with their status, no metrics.

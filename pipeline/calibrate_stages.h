@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "calib/observation.h"
-#include "fitting/calibration_run.h"
+#include "evaluation/calibration_run.h"
+#include "evaluation/ranging_eval.h"
 #include "fitting/head_fit.h"
-#include "fitting/ranging_eval.h"
 #include "fitting/servo_resolution_fit.h"
 #include "fitting/stereo_fit.h"
 #include "models/head_model.h"
@@ -34,7 +34,7 @@ std::vector<calib::CornerObservation> ReadObservations(const std::string& datase
 
 // 1) Intrinsics and stereo from the intrinsics and stereo datasets, the lens model chosen by
 // cross-validation, the rig's physical sanity; into run->result. nullopt without views of both eyes.
-std::optional<fitting::StereoFit> FitLensAndStereo(const Inputs& in, fitting::CalibrationRun* run);
+std::optional<fitting::StereoFit> FitLensAndStereo(const Inputs& in, evaluation::CalibrationRun* run);
 
 // 2) The head from the servo sweep: what the truth and the tag study need of it.
 struct HeadStage {
@@ -46,17 +46,17 @@ struct HeadStage {
 };
 HeadStage FitHeadFromSweep(const Inputs& in,
                            const std::optional<fitting::StereoFit>& stereo,
-                           fitting::CalibrationRun* run);
+                           evaluation::CalibrationRun* run);
 
 // 3) The truth in the fit's gauge (virtual Owl: options.truth), then the tag study.
-void CompareWithTruth(const Inputs& in, const HeadStage& head, fitting::CalibrationRun* run);
-void AddTagStudy(const Inputs& in, const HeadStage& head, fitting::CalibrationRun* run);
+void CompareWithTruth(const Inputs& in, const HeadStage& head, evaluation::CalibrationRun* run);
+void AddTagStudy(const Inputs& in, const HeadStage& head, evaluation::CalibrationRun* run);
 
 // 4) Evaluations: the servos' PWM step and dead band, ranging, the gain study, step responses and
 // the loop model; FinishCalibration's limits and reference checks.
-void EvaluateResolutionAndRanging(const Inputs& in, fitting::CalibrationRun* run);
-void EvaluateSteps(const Inputs& in, fitting::CalibrationRun* run);
-void EvaluateLimits(const Inputs& in, fitting::CalibrationRun* run);
-void AddReferenceChecks(const Inputs& in, fitting::CalibrationRun* run);
+void EvaluateResolutionAndRanging(const Inputs& in, evaluation::CalibrationRun* run);
+void EvaluateSteps(const Inputs& in, evaluation::CalibrationRun* run);
+void EvaluateLimits(const Inputs& in, evaluation::CalibrationRun* run);
+void AddReferenceChecks(const Inputs& in, evaluation::CalibrationRun* run);
 
 }  // namespace owlcal::pipeline::stages

@@ -13,7 +13,7 @@
 
 namespace owlcal::pipeline {
 
-protocols::CalibratedMaps ControllerCalibration(const fitting::CalibrationRun& run, const std::string& source) {
+protocols::CalibratedMaps ControllerCalibration(const evaluation::CalibrationRun& run, const std::string& source) {
   protocols::CalibratedMaps c;
   c.head = run.result.head ? *run.result.head : models::NominalHeadModel(run.config);
   c.source = run.result.head ? source : source + ", no head fit: nominal head";
@@ -31,7 +31,9 @@ protocols::CalibratedMaps ControllerCalibration(const fitting::CalibrationRun& r
   return c;
 }
 
-void AddSaccadeEvaluation(const std::string& dataset, const CalibratePipelineOptions& o, fitting::CalibrationRun* run) {
+void AddSaccadeEvaluation(const std::string& dataset,
+                          const CalibratePipelineOptions& o,
+                          evaluation::CalibrationRun* run) {
   using reports::Fmt;
   std::vector<fitting::StepTrace> traces = ReadStepTraces(dataset);
   if (traces.empty()) {
@@ -86,7 +88,7 @@ void AddSaccadeEvaluation(const std::string& dataset, const CalibratePipelineOpt
   const double fitted_delay = fitted ? run->settling->model.exposure_delay_s : 0;
   const double slew = truth ? o.truth_slew_deg_per_s[servo] : fitted_slew;
   const double delay = truth ? o.truth_latency_s : fitted_delay;
-  fitting::SaccadeEvaluation ev = fitting::EvaluateSaccades(run->steps, amplitude, slew, delay, o.fps);
+  evaluation::SaccadeEvaluation ev = evaluation::EvaluateSaccades(run->steps, amplitude, slew, delay, o.fps);
   if (truth)
     ev.notes.insert(
         ev.notes.begin(),

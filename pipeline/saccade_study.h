@@ -2,7 +2,7 @@
 // The calibrated saccade around a calibration run: what the saccade step's
 // controller is given (the fitted head, the servos' fitted slew and lag, the measured delay),
 // and the evaluation of the saccade dataset it recorded against the physical bound and the
-// course's P loop (fitting/saccade_eval.h).
+// course's P loop (evaluation/saccade_eval.h).
 //
 // `owlcal calibrate` fits first, records the saccade protocol with ControllerCalibration(run),
 // then calls AddSaccadeEvaluation; `owlcal fit-datasets` re-evaluates a recorded saccade
@@ -15,7 +15,7 @@
 // The notes say which, and give the other where both exist.
 #include <string>
 
-#include "fitting/calibration_run.h"
+#include "evaluation/calibration_run.h"
 #include "pipeline/calibrate_pipeline.h"
 #include "protocols/runner.h"
 
@@ -23,13 +23,13 @@ namespace owlcal::pipeline {
 
 // The controller's calibration from a run: head (the fit, else the run's nominal head), the
 // settling study's fitted slew and lag for the servo it stepped and its exposure delay.
-protocols::CalibratedMaps ControllerCalibration(const fitting::CalibrationRun& run, const std::string& source);
+protocols::CalibratedMaps ControllerCalibration(const evaluation::CalibrationRun& run, const std::string& source);
 
 // Reads the saccade dataset's trials into run->steps (controller "saccade"; failed trials are
 // rows and warnings) and sets run->saccade: the 10 deg trials when there are any, else those of
 // the first amplitude the trials used.
 void AddSaccadeEvaluation(const std::string& dataset,
                           const CalibratePipelineOptions& options,
-                          fitting::CalibrationRun* run);
+                          evaluation::CalibrationRun* run);
 
 }  // namespace owlcal::pipeline

@@ -10,7 +10,7 @@
 
 #include "calib/detector.h"
 #include "calib/observation_io.h"
-#include "fitting/range_images_ranging.h"
+#include "evaluation/range_images_ranging.h"
 #include "io/json_strict.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
@@ -478,7 +478,7 @@ SharpnessStudy MeasureSharpnessDataset(const std::string& dir, const SharpnessOp
 std::vector<SharpnessPair> ReadSharpnessPairsCsv(const std::string& path) {
   const fs::path base = fs::path(path).parent_path();
   std::vector<SharpnessPair> out;
-  for (const fitting::RangeTruthRow& r : fitting::ReadRangeTruthCsv(path)) {
+  for (const evaluation::RangeTruthRow& r : evaluation::ReadRangeTruthCsv(path)) {
     if (!std::isfinite(r.distance_m))
       throw std::runtime_error(r.where + ": the distance is blank (sharpness needs every distance)");
     SharpnessPair p;

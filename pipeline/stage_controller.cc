@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "calib/trial_status.h"
-#include "fitting/limits_eval.h"
+#include "evaluation/limits_eval.h"
+#include "evaluation/reference_checks.h"
 #include "fitting/ploop_analysis.h"
-#include "fitting/reference_checks.h"
 #include "fitting/step_response.h"
 #include "pipeline/bring_up.h"
 #include "pipeline/calibrate_stages.h"
@@ -118,16 +118,16 @@ std::optional<int> LatencyFrames(const std::string& dataset, double fps) {
 }
 
 // Latency against the truth, alignment against its tolerance, field of view against the
-// datasheet: results.json diagnostics.reference_checks (fitting/reference_checks.h).
+// datasheet: results.json diagnostics.reference_checks (evaluation/reference_checks.h).
 void ReferenceChecks(const std::string& latency_dir,
                      const std::string& alignment_dir,
                      const CalibratePipelineOptions& o,
-                     fitting::CalibrationRun* d) {
+                     evaluation::CalibrationRun* d) {
   nlohmann::json checks = nlohmann::json::object();
   if (!latency_dir.empty()) {
-    std::vector<fitting::LatencyTrial> trials;
+    std::vector<evaluation::LatencyTrial> trials;
     for (const protocols::LatencyRow& row : protocols::ReadLatencyCsv(latency_dir)) {
-      fitting::LatencyTrial t;
+      evaluation::LatencyTrial t;
       t.step_index = row.step_index;
       t.trial = row.trial;
       t.servo = protocols::ServoIndexFromName(row.servo);
@@ -142,10 +142,10 @@ void ReferenceChecks(const std::string& latency_dir,
       t.threshold_px = row.threshold_px;
       trials.push_back(t);
     }
-    checks["latency"] = fitting::ToJson(fitting::CheckLatency(trials, o.latency_truth));
+    checks["latency"] = evaluation::ToJson(evaluation::CheckLatency(trials, o.latency_truth));
   }
   if (!alignment_dir.empty()) {
-    std::vector<fitting::AlignmentFrame> frames;
+    std::vector<evaluation::AlignmentFrame> frames;
     for (const protocols::AlignmentRow& row : protocols::ReadAlignmentCsv(alignment_dir))
       frames.push_back({row.method, row.roll_deg, row.vertical_offset_px, row.horizontal_offset_px});
     // The offset in us of tilt: the fitted focal length and tilt scale when there are, else nominal.
@@ -153,19 +153,20 @@ void ReferenceChecks(const std::string& latency_dir,
     if (d->result.cameras[0]) focal = d->result.cameras[0]->params[1];
     double deg_per_us = o.config.servos[models::kLy].nominal_deg_per_us;
     if (const fitting::Parameter* p = d->result.Find("servo.Ly.deg_per_us"); p && p->determined) deg_per_us = p->value;
-    checks["alignment"] = fitting::ToJson(fitting::CheckAlignment(frames, o.config.image_width, focal, deg_per_us));
+    checks["alignment"] =
+        evaluation::ToJson(evaluation::CheckAlignment(frames, o.config.image_width, focal, deg_per_us));
   }
   if (d->result.cameras[0] || d->result.cameras[1]) {
     std::optional<std::array<models::CameraIntrinsics, 2>> truth;
     if (o.truth) truth = std::array<models::CameraIntrinsics, 2>{o.truth->intrinsics[0], o.truth->intrinsics[1]};
-    checks["field_of_view"] = fitting::ToJson(fitting::CheckFieldOfView(d->result, truth));
+    checks["field_of_view"] = evaluation::ToJson(evaluation::CheckFieldOfView(d->result, truth));
   }
   if (!checks.empty()) d->result.diagnostics["reference_checks"] = checks;
 }
 
 }  // namespace
 
-void EvaluateSteps(const Inputs& in, fitting::CalibrationRun* run) {
+void EvaluateSteps(const Inputs& in, evaluation::CalibrationRun* run) {
   using reports::Fmt;
   const CalibratePipelineOptions& o = in.options;
   const models::RobotConfig& config = o.config;
@@ -222,14 +223,14 @@ void EvaluateSteps(const Inputs& in, fitting::CalibrationRun* run) {
   }
 }
 
-void EvaluateLimits(const Inputs& in, fitting::CalibrationRun* run) {
+void EvaluateLimits(const Inputs& in, evaluation::CalibrationRun* run) {
   const CalibratePipelineOptions& o = in.options;
   const models::RobotConfig& config = o.config;
   if (!in.Dataset("limits").empty()) {
     std::vector<std::string> failed;
     int rows = 0;
     const auto measured = LimitMeasurements(protocols::ReadLimitsCsv(in.Dataset("limits")), &failed, &rows);
-    run->limits = fitting::EvaluateLimits(o.bring_up ? o.bring_up->file : config, measured, &*run->result.head);
+    run->limits = evaluation::EvaluateLimits(o.bring_up ? o.bring_up->file : config, measured, &*run->result.head);
     run->limits->notes.insert(run->limits->notes.begin(),
                               "limit probes: " + std::to_string(measured.size()) + " ok of " + std::to_string(rows));
     for (const auto& f : failed) {
@@ -241,7 +242,7 @@ void EvaluateLimits(const Inputs& in, fitting::CalibrationRun* run) {
   }
 }
 
-void AddReferenceChecks(const Inputs& in, fitting::CalibrationRun* run) {
+void AddReferenceChecks(const Inputs& in, evaluation::CalibrationRun* run) {
   ReferenceChecks(in.Dataset("latency"), in.Dataset("alignment"), in.options, run);
 }
 

@@ -152,7 +152,7 @@ void FloorPanZero(const fitting::HeadFit& chessboard,
 
 HeadStage FitHeadFromSweep(const Inputs& in,
                            const std::optional<fitting::StereoFit>& stereo,
-                           fitting::CalibrationRun* run) {
+                           evaluation::CalibrationRun* run) {
   using reports::Fmt;
   const CalibratePipelineOptions& o = in.options;
   const models::RobotConfig& config = o.config;

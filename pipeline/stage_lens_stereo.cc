@@ -4,9 +4,9 @@
 #include <vector>
 
 #include "calib/observation_io.h"
-#include "fitting/fit_points.h"
+#include "evaluation/fit_points.h"
+#include "evaluation/stereo_sanity.h"
 #include "fitting/lens_model_choice.h"
-#include "fitting/stereo_sanity.h"
 #include "pipeline/calibrate_stages.h"
 #include "reports/table.h"
 
@@ -24,13 +24,14 @@ std::string ViewName(int frame, int /*eye*/) {
   return "intrinsics frame " + std::to_string(frame);
 }
 
-// The physical sanity of the fitted rig against this robot (fitting/stereo_sanity.h): a mirrored
+// The physical sanity of the fitted rig against this robot (evaluation/stereo_sanity.h): a mirrored
 // or swapped stream setting shows as T_x > 0, and is named with the robot-file field to change.
 void CheckRig(const Inputs& in, const fitting::StereoFit& stereo, fitting::CalibrationResult* result) {
-  fitting::RigExpectation rig = fitting::RigExpectation::Owl();
+  evaluation::RigExpectation rig = evaluation::RigExpectation::Owl();
   rig.ipd_m = in.options.config.ipd_m;
-  const fitting::StereoSanity sanity = fitting::CheckStereoSanity(stereo.cameras, stereo.right_from_left, 1.0, rig);
-  fitting::AppendSanityToResult(sanity, rig, result);
+  const evaluation::StereoSanity sanity =
+      evaluation::CheckStereoSanity(stereo.cameras, stereo.right_from_left, 1.0, rig);
+  evaluation::AppendSanityToResult(sanity, rig, result);
   for (const auto& f : sanity.findings)
     in.Progress("  sanity (" + std::string(f.unusable ? "unusable" : "poor") + "): " + f.message +
                 (f.check == "tx_sign" ? " [robot file: image.mirror / image.swap_eyes]" : ""));
@@ -44,7 +45,7 @@ std::vector<calib::CornerObservation> ReadObservations(const std::string& datase
   return calib::ReadObservationsCsv(p);
 }
 
-std::optional<fitting::StereoFit> FitLensAndStereo(const Inputs& in, fitting::CalibrationRun* run) {
+std::optional<fitting::StereoFit> FitLensAndStereo(const Inputs& in, evaluation::CalibrationRun* run) {
   using reports::Fmt;
   const CalibratePipelineOptions& o = in.options;
   fitting::CalibrationResult& result = run->result;
@@ -87,7 +88,7 @@ std::optional<fitting::StereoFit> FitLensAndStereo(const Inputs& in, fitting::Ca
   }
   fitting::AppendStereoToResult(*stereo, &result);
   CheckRig(in, *stereo, &result);
-  fitting::AddFitPoints(*stereo, views, ViewName, run);
+  evaluation::AddFitPoints(*stereo, views, ViewName, run);
   in.Progress("  RMS " + Fmt(stereo->rms_px[0], 3) + " / " + Fmt(stereo->rms_px[1], 3) + " px");
   return stereo;
 }

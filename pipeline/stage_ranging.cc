@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "calib/trial_status.h"
-#include "fitting/ranging_eval.h"
+#include "evaluation/ranging_eval.h"
 #include "fitting/servo_resolution_fit.h"
 #include "models/head_kinematics.h"
 #include "pipeline/calibrate_stages.h"
@@ -35,12 +35,12 @@ std::map<std::string, Eigen::Vector3d> AimPointsOfDataset(const std::string& dat
   return out;
 }
 
-std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
-                                             const models::RobotConfig& config,
-                                             const std::optional<models::HeadModel>& truth,
-                                             const models::HeadModel& fitted,
-                                             std::vector<std::string>* excluded) {
-  std::vector<fitting::Fixation> out;
+std::vector<evaluation::Fixation> ReadFixations(const std::string& dataset,
+                                                const models::RobotConfig& config,
+                                                const std::optional<models::HeadModel>& truth,
+                                                const models::HeadModel& fitted,
+                                                std::vector<std::string>* excluded) {
+  std::vector<evaluation::Fixation> out;
   const std::vector<protocols::FixationRow> rows = protocols::ReadFixationsCsv(dataset);
   const auto placements = protocols::ReadPlacementsCsv(dataset);
   const std::map<std::string, Eigen::Vector3d> aim = AimPointsOfDataset(dataset);
@@ -49,7 +49,7 @@ std::vector<fitting::Fixation> ReadFixations(const std::string& dataset,
     const protocols::FixationRow& row = rows[r];
     // Every fixation is a row of the ranging table with its status; only "ok" is ranged. Older
     // datasets have no status column: it follows from the outcome.
-    fitting::Fixation f;
+    evaluation::Fixation f;
     f.index = int(r);
     if (row.status) {
       f.status = *row.status;
@@ -155,7 +155,7 @@ std::vector<fitting::ServoResolutionResult> FitResolution(const std::string& dat
 // step that divides 5 us and a dead band of at most 10 us, is the applied pulse exactly. Otherwise
 // the servo may have ignored the last change: uniform within the dead band (sigma (d - 1) / sqrt(3)).
 // Only determined fits are used; a servo without one is ranged at its command, as before.
-void ApplyResolution(const std::vector<fitting::ServoResolutionResult>& resolution, fitting::Fixation* f) {
+void ApplyResolution(const std::vector<fitting::ServoResolutionResult>& resolution, evaluation::Fixation* f) {
   if (resolution.empty()) return;
   models::PwmVector applied = f->pwm_us;
   for (const fitting::ServoResolutionResult& r : resolution) {
@@ -171,7 +171,7 @@ void ApplyResolution(const std::vector<fitting::ServoResolutionResult>& resoluti
 
 }  // namespace
 
-void EvaluateResolutionAndRanging(const Inputs& in, fitting::CalibrationRun* run) {
+void EvaluateResolutionAndRanging(const Inputs& in, evaluation::CalibrationRun* run) {
   using reports::Fmt;
   const CalibratePipelineOptions& o = in.options;
   const models::RobotConfig& config = o.config;
@@ -187,10 +187,11 @@ void EvaluateResolutionAndRanging(const Inputs& in, fitting::CalibrationRun* run
     auto fixations = ReadFixations(in.Dataset("vergence"), config, o.truth, *run->result.head, &excluded);
     for (auto& f : fixations) ApplyResolution(run->resolution, &f);
     for (const auto& x : excluded) run->result.warnings.push_back(x);
-    const fitting::NamedCovariance cov = fitting::CovarianceFromResult(run->result, fitting::RangingParameterNames());
+    const fitting::NamedCovariance cov =
+        fitting::CovarianceFromResult(run->result, evaluation::RangingParameterNames());
     std::vector<double> theory;
     for (double x = o.theory_min_m; x <= o.theory_max_m + 1e-4; x += o.theory_step_m) theory.push_back(x);
-    run->ranging = fitting::EvaluateRanging(*run->result.head, cov, config, fixations, {}, theory);
+    run->ranging = evaluation::EvaluateRanging(*run->result.head, cov, config, fixations, {}, theory);
     // No error figure without a ranged fixation (an RMS of nothing is not 0 %).
     const int tried = int(run->ranging->rows.size());
     if (tried == 0)

@@ -6,8 +6,8 @@
 #include <string>
 #include <utility>
 
+#include "evaluation/truth_compare.h"
 #include "fitting/head_gauge.h"
-#include "fitting/truth_compare.h"
 #include "pipeline/calibrate_stages.h"
 #include "pipeline/tag_study.h"
 #include "reports/table.h"
@@ -24,7 +24,7 @@ void FillStereoTruth(const Inputs& in, fitting::CalibrationResult* result) {
     pwm = obs.front().pwm_us;
     for (int s = 0; s < models::kNumServos; ++s) approach[s] = obs.front().approach[s];
   }
-  fitting::FillTruth(fitting::StereoTruthValues(*in.options.truth, pwm, approach), result);
+  evaluation::FillTruth(evaluation::StereoTruthValues(*in.options.truth, pwm, approach), result);
 }
 
 // Why the fused fit's pinhole and pan zero are floored (diagnostics.tags.floors).
@@ -62,7 +62,7 @@ std::string ChessboardHeadNote(const nlohmann::json& tags) {
 
 }  // namespace
 
-void CompareWithTruth(const Inputs& in, const HeadStage& head, fitting::CalibrationRun* run) {
+void CompareWithTruth(const Inputs& in, const HeadStage& head, evaluation::CalibrationRun* run) {
   const CalibratePipelineOptions& o = in.options;
   if (!o.truth) return;
   fitting::CalibrationResult& result = run->result;
@@ -78,16 +78,16 @@ void CompareWithTruth(const Inputs& in, const HeadStage& head, fitting::Calibrat
     }
   run->truth = canonical;
   fitting::SetHeadTruth(canonical, &result);
-  fitting::FillTruth(fitting::IntrinsicsTruthValues(*o.truth), &result);
+  evaluation::FillTruth(evaluation::IntrinsicsTruthValues(*o.truth), &result);
   FillStereoTruth(in, &result);
   // A lens fitted with another model than the truth's: by projection, not by coefficient.
   std::array<const models::CameraIntrinsics*, 2> fitted{};
   for (int e = 0; e < 2; ++e)
     fitted[e] = result.cameras[e] ? &*result.cameras[e] : (result.head ? &result.head->intrinsics[e] : nullptr);
-  fitting::CompareLensByProjection(*o.truth, fitted, {"", "head."}, &result);
+  evaluation::CompareLensByProjection(*o.truth, fitted, {"", "head."}, &result);
 }
 
-void AddTagStudy(const Inputs& in, const HeadStage& head, fitting::CalibrationRun* run) {
+void AddTagStudy(const Inputs& in, const HeadStage& head, evaluation::CalibrationRun* run) {
   const CalibratePipelineOptions& o = in.options;
   if (!head.with_tags || !head.with_tags->ok) return;
   nlohmann::json& tags = run->result.diagnostics["tags"];

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "evaluation/servo_map_eval.h"
 #include "fitting/board_warp.h"
-#include "fitting/servo_map_eval.h"
 #include "io/json_strict.h"
 #include "protocols/dataset.h"
 #include "protocols/protocol.h"
@@ -115,9 +115,9 @@ nlohmann::json TagStudy(const std::vector<calib::View>& views,
   if (without) without_result = ResultOf(*without);
   nlohmann::json ends = nlohmann::json::array();
   for (int s = 0; s < models::kNumServos; ++s) {
-    const auto a = fitting::SampleServoMap(with_result, config.servos[s], s, truth, 1);
-    std::vector<fitting::ServoMapSample> b;
-    if (without_result) b = fitting::SampleServoMap(*without_result, config.servos[s], s, truth, 1);
+    const auto a = evaluation::SampleServoMap(with_result, config.servos[s], s, truth, 1);
+    std::vector<evaluation::ServoMapSample> b;
+    if (without_result) b = evaluation::SampleServoMap(*without_result, config.servos[s], s, truth, 1);
     for (size_t k = 0; k < a.size(); ++k) {
       nlohmann::json e = {{"servo", models::kServoNames[s]},
                           {"end", k == 0 ? "min" : "max"},

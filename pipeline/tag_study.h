@@ -8,7 +8,7 @@
 //   - coverage: per noise class the views and corners per eye, and per servo the pulse widths
 //     at which each class was seen (the tags reach where the chessboard leaves the view);
 //   - each servo map's sigma at both ends of its configured range (first-order propagation of
-//     the map parameters' covariance, fitting/servo_map_eval.h) with and without the tags, and
+//     the map parameters' covariance, evaluation/servo_map_eval.h) with and without the tags, and
 //     on the virtual Owl the fitted-minus-true angle there with both fits.
 // results.json diagnostics.tags; the report's tables tag_coverage and tag_servo_ends.
 #include <map>

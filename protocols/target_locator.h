@@ -35,7 +35,7 @@ class TargetLocator {
   virtual std::optional<Eigen::Vector2d> Locate(const cv::Mat& eye_image, int eye) = 0;
   // The apparent radius [px] of what the last Locate in this eye found (the fixation disc's
   // equivalent radius sqrt(area / pi)); nullopt when it found nothing or the locator does not
-  // measure size. Ranging checks it against the target's known size (fitting/ranging_eval.h).
+  // measure size. Ranging checks it against the target's known size (evaluation/ranging_eval.h).
   virtual std::optional<double> LastRadiusPx(int eye) const {
     (void)eye;
     return std::nullopt;

@@ -6,7 +6,7 @@
 
 namespace owlcal::reports {
 
-std::string CalibrationCheckMarkdown(const fitting::CalibrationCheck& c, const std::string& source) {
+std::string CalibrationCheckMarkdown(const evaluation::CalibrationCheck& c, const std::string& source) {
   std::ostringstream m;
   m << "# Calibration check\n\nCalibration: " << source << "\n\n";
   if (!c.ok) {
@@ -51,7 +51,7 @@ std::string CalibrationCheckMarkdown(const fitting::CalibrationCheck& c, const s
     m << "| " << v.frame_index << " | " << v.num_corners[0] << "/" << v.num_corners[1] << " | "
       << fitting::FixedOrDash(v.rms_px[0], 3) << " | " << fitting::FixedOrDash(v.rms_px[1], 3) << " | "
       << fitting::FixedOrDash(v.mean_dy_px, 3) << " |\n";
-  auto table = [&](const char* title, const std::vector<fitting::CheckedParameter>& ps) {
+  auto table = [&](const char* title, const std::vector<evaluation::CheckedParameter>& ps) {
     m << "\n## " << title
       << "\n\n| parameter | calibrated | refit | difference | sigma cal | sigma refit | z | moved |\n"
       << "|---|---|---|---|---|---|---|---|\n";

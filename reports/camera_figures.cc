@@ -267,7 +267,7 @@ std::vector<Figure> UncertaintyFigures(const ReportData& d) {
       for (const auto& p : v.contour) c.rows.push_back({p.x(), p.y()});
       f.series.push_back(c);
     }
-    // The set verdict's trusted region (fitting/set_verdict.h), when the result has one: the
+    // The set verdict's trusted region (evaluation/set_verdict.h), when the result has one: the
     // region the verdict judged, marked on the same image.
     std::string verdict_text;
     const nlohmann::json& sv = d.result.verdict;

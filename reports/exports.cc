@@ -218,13 +218,13 @@ std::string WriteMrcalCameraModel(const ReportData& d, int eye, const std::strin
 
 std::string OwlPwmHeaderText(const fitting::CalibrationResult& r,
                              const models::RobotConfig& config,
-                             const fitting::LimitsEvaluation* limits) {
+                             const evaluation::LimitsEvaluation* limits) {
   return OwlPwmHeader(r, config, limits);
 }
 
 void WriteOwlPwmHeader(const fitting::CalibrationResult& r,
                        const models::RobotConfig& config,
-                       const fitting::LimitsEvaluation* limits,
+                       const evaluation::LimitsEvaluation* limits,
                        const std::string& path) {
   WriteTextFile(path, OwlPwmHeaderText(r, config, limits));
 }

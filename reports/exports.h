@@ -31,7 +31,7 @@
 #include <string>
 #include <vector>
 
-#include "fitting/limits_eval.h"
+#include "evaluation/limits_eval.h"
 #include "fitting/result.h"
 #include "models/robot_config.h"
 #include "reports/report_data.h"
@@ -73,10 +73,10 @@ std::string WriteMrcalCameraModel(const ReportData& data, int eye, const std::st
 // was fitted (the header would hold nothing calibrated).
 std::string OwlPwmHeaderText(const fitting::CalibrationResult& result,
                              const models::RobotConfig& config,
-                             const fitting::LimitsEvaluation* limits);
+                             const evaluation::LimitsEvaluation* limits);
 void WriteOwlPwmHeader(const fitting::CalibrationResult& result,
                        const models::RobotConfig& config,
-                       const fitting::LimitsEvaluation* limits,
+                       const evaluation::LimitsEvaluation* limits,
                        const std::string& path);
 
 }  // namespace owlcal::reports

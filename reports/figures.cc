@@ -5,9 +5,9 @@
 #include <map>
 #include <set>
 
+#include "evaluation/ranging_eval.h"
+#include "evaluation/servo_map_eval.h"
 #include "fitting/distortion_field.h"
-#include "fitting/ranging_eval.h"
-#include "fitting/servo_map_eval.h"
 #include "reports/camera_figures.h"
 #include "reports/table.h"
 
@@ -64,8 +64,9 @@ std::vector<Figure> MakeServoFigures(const ReportData& d) {
                 {}};
     Series dfit{"fitted - nominal", "lines lw 2.5 " + Lc(s), "1:2", {"pwm_us", "diff_deg"}, {}};
     Series dtruth{"truth - nominal", "lines lw 2 dt 2 lc rgb 'black'", "1:2", {"pwm_us", "diff_deg"}, {}};
-    // The map with its sigma band over the parameters the data determined (fitting/servo_map_eval.h).
-    for (const fitting::ServoMapSample& m : fitting::SampleServoMap(d.result, c, s, d.truth ? &*d.truth : nullptr)) {
+    // The map with its sigma band over the parameters the data determined (evaluation/servo_map_eval.h).
+    for (const evaluation::ServoMapSample& m :
+         evaluation::SampleServoMap(d.result, c, s, d.truth ? &*d.truth : nullptr)) {
       fit.rows.push_back({m.pwm_us, m.angle_deg});
       band.rows.push_back(
           {m.pwm_us, m.angle_deg - m.nominal_deg - 2 * m.sigma_deg, m.angle_deg - m.nominal_deg + 2 * m.sigma_deg});
@@ -422,8 +423,8 @@ std::optional<Figure> MakeLimitsFigure(const ReportData& d) {
     const double lo = s.measured_min_us.value_or(s.configured_min_us),
                  hi = s.measured_max_us.value_or(s.configured_max_us);
     if (s.measured_min_us || s.measured_max_us) mea.rows.push_back({lo, y - 0.15, hi - lo, 0});
-    auto label = [&](double x, fitting::LimitCause c, bool right) {
-      f.settings.push_back("set label '" + std::string(fitting::LimitCauseName(c)) + "' at " + Fmt(x, 6) + "," +
+    auto label = [&](double x, evaluation::LimitCause c, bool right) {
+      f.settings.push_back("set label '" + std::string(evaluation::LimitCauseName(c)) + "' at " + Fmt(x, 6) + "," +
                            Fmt(y - 0.15, 4) + (right ? " left offset 1,0" : " right offset -1,0") + " font ',12'");
     };
     if (s.measured_min_us) label(lo, s.min_cause, false);

@@ -10,8 +10,8 @@
 
 namespace owlcal::reports {
 
+using evaluation::RangeMeasurement;
 using fitting::FixedOrDash;
-using fitting::RangeMeasurement;
 
 namespace {
 
@@ -46,7 +46,7 @@ std::string BowEffectMarkdown(const fitting::BoardWarpChoice& w) {
 
 }  // namespace
 
-std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const std::vector<std::string>& keys) {
+std::string ImageSetReportMarkdown(const evaluation::ImageSetCalibration& c, const std::vector<std::string>& keys) {
   std::ostringstream md;
   md << "# Stereo calibration from images\n\n";
   md << SetVerdictMarkdown(c.set_verdict) << "\n";
@@ -112,7 +112,7 @@ std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const 
   md << ToMarkdown(params);
   const char* eye_name[2] = {"left", "right"};
   for (int e = 0; e < 2; ++e) {
-    const fitting::EyeCoverage& cov = c.coverage[e];
+    const evaluation::EyeCoverage& cov = c.coverage[e];
     md << "\n## " << eye_name[e] << " eye: coverage " << FixedOrDash(100 * cov.grid_fraction, 0)
        << " % of cells, radius " << FixedOrDash(100 * cov.max_radius_fraction, 0) << " %, tilt up to "
        << FixedOrDash(cov.max_tilt_deg, 1) << " deg, orientation spread " << FixedOrDash(cov.spread_deg, 1)
@@ -161,7 +161,7 @@ std::string RangeTableCsv(const std::vector<RangeMeasurement>& m) {
 }
 
 std::string RangeTableMarkdown(const std::vector<RangeMeasurement>& m,
-                               const fitting::RangeSummary& s,
+                               const evaluation::RangeSummary& s,
                                const std::string& title) {
   std::ostringstream md;
   md << "# " << title << "\n\n";
@@ -243,7 +243,7 @@ std::string DatumFitMarkdown(const fitting::DatumFit& f) {
   return md.str();
 }
 
-std::string ScaleBudgetMarkdown(const fitting::ScaleBudget& b) {
+std::string ScaleBudgetMarkdown(const evaluation::ScaleBudget& b) {
   std::ostringstream md;
   md << "## Where the scale goes\n\n";
   if (!b.ok) {

@@ -14,19 +14,19 @@
 #include <string>
 #include <vector>
 
+#include "evaluation/range_images_calib.h"
+#include "evaluation/range_images_ranging.h"
+#include "evaluation/range_scale_budget.h"
 #include "fitting/range_datum_fit.h"
-#include "fitting/range_images_calib.h"
-#include "fitting/range_images_ranging.h"
-#include "fitting/range_scale_budget.h"
 
 namespace owlcal::reports {
 
-std::string ImageSetReportMarkdown(const fitting::ImageSetCalibration& c, const std::vector<std::string>& pair_keys);
-std::string RangeTableCsv(const std::vector<fitting::RangeMeasurement>& m);
-std::string RangeTableMarkdown(const std::vector<fitting::RangeMeasurement>& m,
-                               const fitting::RangeSummary& s,
+std::string ImageSetReportMarkdown(const evaluation::ImageSetCalibration& c, const std::vector<std::string>& pair_keys);
+std::string RangeTableCsv(const std::vector<evaluation::RangeMeasurement>& m);
+std::string RangeTableMarkdown(const std::vector<evaluation::RangeMeasurement>& m,
+                               const evaluation::RangeSummary& s,
                                const std::string& title);
 std::string DatumFitMarkdown(const fitting::DatumFit& fit);
-std::string ScaleBudgetMarkdown(const fitting::ScaleBudget& budget);
+std::string ScaleBudgetMarkdown(const evaluation::ScaleBudget& budget);
 
 }  // namespace owlcal::reports

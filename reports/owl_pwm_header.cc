@@ -38,7 +38,7 @@ struct OwlServoEnds {
 
 OwlServoEnds OwlServoEndsOf(const fitting::CalibrationResult& r,
                             const models::RobotConfig& config,
-                            const fitting::LimitsEvaluation* limits) {
+                            const evaluation::LimitsEvaluation* limits) {
   OwlServoEnds e;
   for (int s = 0; s < models::kNumServos; ++s) {
     e.lo[s] = config.servos[s].min_us;
@@ -50,10 +50,10 @@ OwlServoEnds OwlServoEndsOf(const fitting::CalibrationResult& r,
         e.lo[s] = l.recommended_min_us;
         e.hi[s] = l.recommended_max_us;
         e.limit_note[s] = std::string("low ") +
-                          (l.measured_min_us ? std::string("measured (") + fitting::LimitCauseName(l.min_cause) + ")"
+                          (l.measured_min_us ? std::string("measured (") + evaluation::LimitCauseName(l.min_cause) + ")"
                                              : std::string("configured")) +
                           ", high " +
-                          (l.measured_max_us ? std::string("measured (") + fitting::LimitCauseName(l.max_cause) + ")"
+                          (l.measured_max_us ? std::string("measured (") + evaluation::LimitCauseName(l.max_cause) + ")"
                                              : std::string("configured"));
       }
     }
@@ -241,7 +241,7 @@ void WriteOwlPixelGrid(const models::HeadModel& h, const models::RobotConfig& co
 
 std::string OwlPwmHeader(const fitting::CalibrationResult& r,
                          const models::RobotConfig& config,
-                         const fitting::LimitsEvaluation* limits) {
+                         const evaluation::LimitsEvaluation* limits) {
   bool any_map = false;
   for (int s = 0; s < models::kNumServos; ++s) any_map = any_map || Determined(r, s, "deg_per_us");
   if (!r.head || !any_map)

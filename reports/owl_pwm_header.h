@@ -11,7 +11,7 @@
 // Throws std::runtime_error when the result has no fitted servo map.
 #include <string>
 
-#include "fitting/limits_eval.h"
+#include "evaluation/limits_eval.h"
 #include "fitting/result.h"
 #include "models/robot_config.h"
 
@@ -19,6 +19,6 @@ namespace owlcal::reports {
 
 std::string OwlPwmHeader(const fitting::CalibrationResult& result,
                          const models::RobotConfig& config,
-                         const fitting::LimitsEvaluation* limits);
+                         const evaluation::LimitsEvaluation* limits);
 
 }  // namespace owlcal::reports

@@ -12,7 +12,7 @@
 namespace owlcal::reports {
 
 int WritePointCloudPly(const std::string& path,
-                       const fitting::DepthMaps& maps,
+                       const evaluation::DepthMaps& maps,
                        double max_depth_m,
                        const std::string& source,
                        bool binary) {

@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "fitting/servo_map_eval.h"
-#include "fitting/truth_compare.h"
+#include "evaluation/servo_map_eval.h"
+#include "evaluation/truth_compare.h"
 
 #include "reports/report_tables.h"
 
@@ -94,7 +94,7 @@ void AppendUndeterminedTable(const ReportData& d, std::vector<Table>* out) {
 // truth_comparison: fitted against true values (virtual Owl).
 void AppendTruthComparisonTable(const ReportData& d, bool any_truth, std::vector<Table>* out) {
   if (!any_truth) return;
-  const fitting::TruthComparison c = fitting::CompareWithTruth(d.result);
+  const evaluation::TruthComparison c = evaluation::CompareWithTruth(d.result);
   Table t{"truth_comparison",
           "Virtual Owl: fitted vs true values (" + std::to_string(c.num_with_sigma) + " with \u03c3, " +
               Pct(c.fraction_within_2sigma, 3) + " % within \u00b12\u03c3, RMS z = " + Fmt(c.rms_z, 3) + ")",
@@ -124,7 +124,8 @@ void AppendServoMapTruthTable(const ReportData& d, std::vector<Table>* out) {
     const fitting::Parameter* p = d.result.Find("servo." + std::string(models::kServoNames[s]) + ".deg_per_us");
     if (!p || !p->determined) continue;
     const models::ServoConfig& c = d.config.servos[s];
-    const fitting::ServoMapError e = fitting::ServoMapErrorOverRange(*d.result.head, *d.truth, s, c.min_us, c.max_us);
+    const evaluation::ServoMapError e =
+        evaluation::ServoMapErrorOverRange(*d.result.head, *d.truth, s, c.min_us, c.max_us);
     t.rows.push_back({models::kServoNames[s],
                       std::to_string(c.min_us) + "\u2013" + std::to_string(c.max_us),
                       Fmt(e.rms_deg, 3),

@@ -136,8 +136,8 @@ void AddLimitsJson(const ReportData& d, json* out) {
                         {"configured_centre_us", s.configured_centre_us},
                         {"measured_min_us", OptNum(s.measured_min_us)},
                         {"measured_max_us", OptNum(s.measured_max_us)},
-                        {"min_cause", fitting::LimitCauseName(s.min_cause)},
-                        {"max_cause", fitting::LimitCauseName(s.max_cause)},
+                        {"min_cause", evaluation::LimitCauseName(s.min_cause)},
+                        {"max_cause", evaluation::LimitCauseName(s.max_cause)},
                         {"configured_min_deg", io::JsonNumber(s.configured_min_deg)},
                         {"configured_max_deg", io::JsonNumber(s.configured_max_deg)},
                         {"measured_min_deg", io::JsonNumber(s.measured_min_deg)},
@@ -257,9 +257,9 @@ void AddSaccadeJson(const ReportData& d, json* out) {
 void ReadRangingJson(const json& j, ReportData* d) {
   if (j.contains("ranging")) {
     const json& r = j.at("ranging");
-    fitting::RangingEvaluation ev;
+    evaluation::RangingEvaluation ev;
     for (const json& x : r.at("rows")) {
-      fitting::RangingRow row;
+      evaluation::RangingRow row;
       row.index = x.value("index", 0);
       row.true_m = Get(x, "true_m");
       row.ok = x.value("ok", false);
@@ -280,7 +280,7 @@ void ReadRangingJson(const json& j, ReportData* d) {
       ev.rows.push_back(row);
     }
     for (const json& x : r.at("theory")) {
-      fitting::RangingTheoryRow t;
+      evaluation::RangingTheoryRow t;
       t.distance_m = Get(x, "distance_m");
       t.nominal_1us_rel = Get(x, "nominal_1us_rel");
       t.nominal_half_px_rel = Get(x, "nominal_half_px_rel");
@@ -302,9 +302,9 @@ void ReadRangingJson(const json& j, ReportData* d) {
 // The "limits" entries of evaluation.json, when present.
 void ReadLimitsJson(const json& j, ReportData* d) {
   if (j.contains("limits")) {
-    fitting::LimitsEvaluation ev;
+    evaluation::LimitsEvaluation ev;
     for (const json& s : j.at("limits").at("servos")) {
-      fitting::ServoLimits l;
+      evaluation::ServoLimits l;
       l.servo = s.at("servo").get<int>();
       l.name = s.value("name", "");
       l.configured_min_us = s.at("configured_min_us").get<int>();
@@ -312,8 +312,8 @@ void ReadLimitsJson(const json& j, ReportData* d) {
       l.configured_centre_us = s.value("configured_centre_us", 0);
       l.measured_min_us = GetOpt(s, "measured_min_us");
       l.measured_max_us = GetOpt(s, "measured_max_us");
-      l.min_cause = fitting::LimitCauseFromName(s.value("min_cause", ""));
-      l.max_cause = fitting::LimitCauseFromName(s.value("max_cause", ""));
+      l.min_cause = evaluation::LimitCauseFromName(s.value("min_cause", ""));
+      l.max_cause = evaluation::LimitCauseFromName(s.value("max_cause", ""));
       l.configured_min_deg = Get(s, "configured_min_deg");
       l.configured_max_deg = Get(s, "configured_max_deg");
       l.measured_min_deg = Get(s, "measured_min_deg");
@@ -433,7 +433,7 @@ void ReadSettlingJson(const json& j, ReportData* d) {
 void ReadSaccadeJson(const json& j, ReportData* d) {
   if (j.contains("saccade") && !j.at("saccade").is_null()) {
     const json& js = j.at("saccade");
-    fitting::SaccadeEvaluation sa;
+    evaluation::SaccadeEvaluation sa;
     sa.amplitude_deg = Get(js, "amplitude_deg", 10);
     sa.slew_deg_per_s = Get(js, "slew_deg_per_s");
     sa.exposure_delay_s = Get(js, "exposure_delay_s");

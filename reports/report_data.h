@@ -1,5 +1,5 @@
 #pragma once
-// The files of a calibration run (fitting/calibration_run.h): DIR/results.json (the fitted
+// The files of a calibration run (evaluation/calibration_run.h): DIR/results.json (the fitted
 // result) and DIR/evaluation.json (everything else the report is drawn from), so `owlcal
 // report DIR` can regenerate every figure and table without the robot or the dataset.
 #include <optional>
@@ -8,21 +8,21 @@
 
 #include <nlohmann/json.hpp>
 
-#include "fitting/calibration_run.h"
+#include "evaluation/calibration_run.h"
 #include "fitting/robot_config_json.h"
 #include "models/robot_config.h"
 
 namespace owlcal::reports {
 
-// The report is drawn from a calibration run (fitting/calibration_run.h); these names are
+// The report is drawn from a calibration run (evaluation/calibration_run.h); these names are
 // kept for the report code.
-using ReportData = fitting::CalibrationRun;
+using ReportData = evaluation::CalibrationRun;
 using StepTrace = fitting::StepTrace;
 using GainStudy = fitting::GainStudy;
-using ResidualPoint = fitting::ResidualPoint;
-using CoveragePoint = fitting::CoveragePoint;
-using ViewStat = fitting::ViewStat;
-using BoardOutline = fitting::BoardOutline;
+using ResidualPoint = evaluation::ResidualPoint;
+using CoveragePoint = evaluation::CoveragePoint;
+using ViewStat = evaluation::ViewStat;
+using BoardOutline = evaluation::BoardOutline;
 
 // evaluation.json (everything but `result`, which is results.json; its `run_id` is the result's).
 nlohmann::json EvaluationToJson(const ReportData& data);

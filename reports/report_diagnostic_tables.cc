@@ -211,7 +211,7 @@ void AppendLensModelTable(const ReportData& d, std::vector<Table>* out) {
 
 void AppendReferenceCheckTables(const ReportData& d, std::vector<Table>* out) {
   if (!d.result.diagnostics.contains("reference_checks")) return;
-  // Measured numbers against their references (fitting/reference_checks.h).
+  // Measured numbers against their references (evaluation/reference_checks.h).
   const nlohmann::json& rc = d.result.diagnostics["reference_checks"];
   if (rc.contains("latency")) AppendLatencyCheckTable(rc, out);
   if (rc.contains("alignment")) AppendAlignmentCheckTable(rc, out);
@@ -314,7 +314,7 @@ void AppendBoardWarpTable(const ReportData& d, std::vector<Table>* out) {
 
 void AppendReferenceComparisonTable(const ReportData& d, std::vector<Table>* out) {
   if (!d.result.diagnostics.contains("reference_comparison")) return;
-  // Against a reference calibration of the same images (fitting/reference_comparison.h).
+  // Against a reference calibration of the same images (evaluation/reference_comparison.h).
   const nlohmann::json& rc = d.result.diagnostics["reference_comparison"];
   auto num = [](const nlohmann::json& j, const char* k, int sig) {
     return j.contains(k) && j[k].is_number() ? Fmt(j[k].get<double>(), sig) : std::string();

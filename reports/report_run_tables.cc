@@ -284,9 +284,9 @@ void AppendLimitsTable(const ReportData& d, std::vector<Table>* out) {
                       std::to_string(s.configured_min_us),
                       std::to_string(s.configured_max_us),
                       s.measured_min_us ? Fmt(*s.measured_min_us, 6) : "",
-                      s.measured_min_us ? fitting::LimitCauseName(s.min_cause) : "",
+                      s.measured_min_us ? evaluation::LimitCauseName(s.min_cause) : "",
                       s.measured_max_us ? Fmt(*s.measured_max_us, 6) : "",
-                      s.measured_max_us ? fitting::LimitCauseName(s.max_cause) : "",
+                      s.measured_max_us ? evaluation::LimitCauseName(s.max_cause) : "",
                       std::isfinite(s.measured_max_deg - s.measured_min_deg)
                           ? Fmt(std::abs(s.measured_max_deg - s.measured_min_deg), 4)
                           : "",

@@ -20,7 +20,7 @@ std::string Bool(bool b);
 // lens_model: the lens model choice by cross-validation (fitting/lens_model_choice.h).
 void AppendLensModelTable(const ReportData& d, std::vector<Table>* out);
 // latency_check, alignment_check, field_of_view: measured numbers against their references
-// (fitting/reference_checks.h).
+// (evaluation/reference_checks.h).
 void AppendReferenceCheckTables(const ReportData& d, std::vector<Table>* out);
 // tag_coverage, tag_servo_ends: what the tag sheets add to the head fit.
 void AppendTagTables(const ReportData& d, std::vector<Table>* out);

@@ -10,8 +10,8 @@
 namespace owlcal::reports {
 namespace {
 
+using evaluation::SessionComparison;
 using fitting::FixedOrDash;
-using fitting::SessionComparison;
 
 // Decimals for a value of this magnitude and sigma: two significant digits of sigma.
 int Decimals(double sigma, double value) {

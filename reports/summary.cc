@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "evaluation/truth_compare.h"
 #include "fitting/format.h"
 #include "fitting/projection_uncertainty.h"
-#include "fitting/truth_compare.h"
 #include "models/head_kinematics.h"
 #include "models/statistics.h"
 #include "reports/camera_figures.h"
@@ -115,7 +115,7 @@ void AddHeadlines(const ReportData& d, Summary* out) {
                            "",
                            "2 % settling " + Fmt(d.gains->fastest->settling_time_s, 3) + " s"});
   if (std::any_of(r.parameters.begin(), r.parameters.end(), [](const auto& p) { return p.truth.has_value(); })) {
-    const fitting::TruthComparison c = fitting::CompareWithTruth(r);
+    const evaluation::TruthComparison c = evaluation::CompareWithTruth(r);
     s.headlines.push_back(
         {"virtual Owl: parameters within \u00b12\u03c3 of the truth",
          Fmt(100 * c.fraction_within_2sigma, 3),
@@ -185,7 +185,7 @@ SummaryVerdict JudgeSummary(const ReportData& d, Summary* out) {
       failed = true;
       s.reasons.push_back("the " + sum.problem + " fit is not usable: " + sum.message);
     }
-  // The set verdict (fitting/set_verdict.h) is results.json's top-level `verdict`.
+  // The set verdict (evaluation/set_verdict.h) is results.json's top-level `verdict`.
   const nlohmann::json& set_verdict = r.verdict;
   const bool has_set_verdict = set_verdict.is_object() && set_verdict.contains("status");
   const bool poor = has_set_verdict && set_verdict.at("status") != "good";
@@ -260,7 +260,7 @@ void AddNextSteps(const ReportData& d, const SummaryVerdict& verdict, Summary* o
         " undetermined parameters (listed in the Discussion): boards tilted by 30\u201345\u00b0, near "
         "the image corners and at several distances.");
   for (int e = 0; e < 2; ++e) {
-    // With a set verdict, its trusted region is the one figure (fitting/set_verdict.h): the same
+    // With a set verdict, its trusted region is the one figure (evaluation/set_verdict.h): the same
     // numbers the verdict judged, so the summary never contradicts it.
     const nlohmann::json* tr = nullptr;
     if (has_set_verdict && set_verdict.contains("metrics") && set_verdict.at("metrics").contains("eyes")) {

@@ -12,7 +12,7 @@ namespace {
 const char* kEye[2] = {"left", "right"};
 }  // namespace
 
-Table SetVerdictEyeTable(const fitting::SetVerdict& v) {
+Table SetVerdictEyeTable(const evaluation::SetVerdict& v) {
   const std::string range = v.judged_range_m > 0 ? FixedOrDash(v.judged_range_m, 2) + " m" : "infinity";
   Table t{"set_verdict_eyes",
           "",
@@ -30,7 +30,7 @@ Table SetVerdictEyeTable(const fitting::SetVerdict& v) {
            "sigma optimistic by"},
           {}};
   for (int e = 0; e < 2; ++e) {
-    const fitting::EyeVerdictMetrics& m = v.eye[e];
+    const evaluation::EyeVerdictMetrics& m = v.eye[e];
     t.rows.push_back({kEye[e],
                       FixedOrDash(m.noise_px, 3),
                       m.at_range.ok ? FixedOrDash(m.working_p90_range_px, 3) : "-",
@@ -47,7 +47,7 @@ Table SetVerdictEyeTable(const fitting::SetVerdict& v) {
   return t;
 }
 
-std::string SetVerdictMarkdown(const fitting::SetVerdict& v) {
+std::string SetVerdictMarkdown(const evaluation::SetVerdict& v) {
   std::ostringstream md;
   md << "Verdict: **" << v.status << "**";
   if (v.status == "good")

@@ -1,7 +1,7 @@
 // `owlcal check-calibration` on eight real kit2020 pairs: owlcal's own calibration of them
 // (calibrate-images) is "still valid" (exit 0); the same calibration written as an OpenCV file
 // with the right camera's principal point moved by 5 px is "recalibrate" (exit 3), naming what
-// moved. (Independent check sets and every perturbation: tests/fitting/calibration_check_test.cc.)
+// moved. (Independent check sets and every perturbation: tests/evaluation/calibration_check_test.cc.)
 #include <unistd.h>
 
 #include <filesystem>

@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "evaluation/range_images_ranging.h"
 #include "fitting/opencv_calib_file.h"
-#include "fitting/range_images_ranging.h"
 #include "fitting/result.h"
 
 namespace owlcal::fitting {

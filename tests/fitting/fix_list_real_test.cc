@@ -11,9 +11,9 @@
 #include <opencv2/calib3d.hpp>
 
 #include "calib/image_pairs.h"
+#include "evaluation/range_images_calib.h"
 #include "fitting/fix_list.h"
 #include "fitting/intrinsics_fit.h"
-#include "fitting/range_images_calib.h"
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
@@ -126,9 +126,9 @@ TEST(FixListReal, ResultsMarkHeldParametersAndTheVerdictDoesNotCountThem) {
   o.length_unit = "square";
   std::string why;
   ASSERT_TRUE(ApplyFixList("k3", &o.intrinsics, &why)) << why;
-  SetVerdictOptions vo;
-  vo.rig = RigExpectation::Generic();
-  const ImageSetCalibration c = CalibrateImageSet(set.observations, o, vo);
+  evaluation::SetVerdictOptions vo;
+  vo.rig = evaluation::RigExpectation::Generic();
+  const evaluation::ImageSetCalibration c = evaluation::CalibrateImageSet(set.observations, o, vo);
   ASSERT_TRUE(c.fit.ok) << c.fit.message;
   for (const char* name : {"left.k3", "right.k3"}) {
     const Parameter* p = c.result.Find(name);

@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "evaluation/servo_map_eval.h"
 #include "fitting/head_synthetic.h"
-#include "fitting/servo_map_eval.h"
 #include "models/head_model.h"
 #include "models/servo_map.h"
 
@@ -60,11 +60,11 @@ int ExpectAccurate(const HeadFit& fit, const models::HeadModel& truth_canonical,
   EXPECT_NEAR(ipd->value, truth_canonical.geometry.Ipd() * 1000, 0.5);
   for (int i = 0; i < kNumServos; ++i) {
     if (!IsDetermined(r, std::string("servo.") + models::kServoNames[i] + ".deg_per_us")) continue;
-    const double rms = ServoMapRmsDeg(fit.head.servo_params[i].data(),
-                                      truth_canonical.servo_params[i].data(),
-                                      robot.servos[i].direction,
-                                      robot.servos[i].min_us,
-                                      robot.servos[i].max_us);
+    const double rms = evaluation::ServoMapRmsDeg(fit.head.servo_params[i].data(),
+                                                  truth_canonical.servo_params[i].data(),
+                                                  robot.servos[i].direction,
+                                                  robot.servos[i].min_us,
+                                                  robot.servos[i].max_us);
     EXPECT_LT(rms, 0.1) << models::kServoNames[i];
   }
   int compared = 0, within3 = 0;
@@ -349,11 +349,11 @@ TEST(FitHead, NeckNeverMovedNamesTheNeckAndStillGivesIpd) {
   EXPECT_NEAR(fit.result.Find("head.ipd_mm")->value, truth.geometry.Ipd() * 1000, 0.5);
   EXPECT_FALSE(fit.result.Find("head.left.centre_x_mm")->determined);  // base origin gauge
   for (int s : {models::kRx, models::kRy, models::kLx, models::kLy})
-    EXPECT_LT(ServoMapRmsDeg(fit.head.servo_params[s].data(),
-                             truth.servo_params[s].data(),
-                             robot.servos[s].direction,
-                             robot.servos[s].min_us,
-                             robot.servos[s].max_us),
+    EXPECT_LT(evaluation::ServoMapRmsDeg(fit.head.servo_params[s].data(),
+                                         truth.servo_params[s].data(),
+                                         robot.servos[s].direction,
+                                         robot.servos[s].min_us,
+                                         robot.servos[s].max_us),
               0.1)
         << models::kServoNames[s];
 }

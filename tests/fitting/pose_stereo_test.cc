@@ -10,10 +10,10 @@
 
 #include <gtest/gtest.h>
 
+#include "evaluation/truth_compare.h"
 #include "fitting/head_fit.h"
 #include "fitting/head_synthetic.h"
 #include "fitting/stereo_fit.h"
-#include "fitting/truth_compare.h"
 
 namespace owlcal::fitting {
 namespace {
@@ -105,8 +105,8 @@ TEST_F(PoseStereoTest, PredictsTheTruthAndADirectStereoFitAtFiveVergedPoses) {
     const PoseStereo s = StereoAtPose(fit_->head, cov, pwm, o);
     ASSERT_TRUE(s.ok) << s.message;
     EXPECT_GE(s.propagated.size(), 30u);
-    // Truth: the truth head's cameras at this command (fitting/truth_compare.h, another path).
-    const auto truth = StereoTruthValues(*truth_, pwm, o.approach);
+    // Truth: the truth head's cameras at this command (evaluation/truth_compare.h, another path).
+    const auto truth = evaluation::StereoTruthValues(*truth_, pwm, o.approach);
     // A stereo calibration fitted at this pose from 15 board views with 0.15 px noise.
     std::vector<calib::View> views[2];
     SynthesizeStereo(truth_->intrinsics,

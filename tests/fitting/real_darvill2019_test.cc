@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 
 #include "calib/image_pairs.h"
-#include "fitting/range_images_calib.h"
-#include "fitting/session_compare.h"
+#include "evaluation/range_images_calib.h"
+#include "evaluation/session_compare.h"
 #include "owlcal_version.h"
 #include "reports/session_tables.h"
 #include "tests/shared_data.h"
@@ -27,14 +27,14 @@ TEST(RealDarvill2019, ThreeSessionsComparedInOneTable) {
   calib::DetectorOptions det;
   det.fast_check = true;
   StereoFitOptions fit_options;
-  std::vector<NamedResult> sessions;
+  std::vector<evaluation::NamedResult> sessions;
   for (int s = 1; s <= 3; ++s) {
     const std::string dir = SharedData() + "/owl-real/darvill2019-chessboard/session" + std::to_string(s);
     const auto list = calib::ListImagePairs(dir, pairs);
     // The repository keeps 12, 12 and 13 of the 20 pairs (data/owl-real/darvill2019-chessboard/README.md).
     EXPECT_EQ(list.pairs.size(), s == 3 ? 13u : 12u);
     const auto set = calib::DetectImagePairs(list, pairs, board, det);
-    const ImageSetCalibration c = CalibrateImageSet(set.observations, fit_options);
+    const evaluation::ImageSetCalibration c = evaluation::CalibrateImageSet(set.observations, fit_options);
     ASSERT_TRUE(c.fit.ok) << "session " << s << ": " << c.fit.message;
     std::cout << "session " << s << ": " << c.fit.paired_frames.size() << " pairs, joint RMS " << c.fit.rms_joint_px
               << " px, T = " << c.fit.right_from_left.translation.transpose() * 1000 << " mm";
@@ -45,22 +45,22 @@ TEST(RealDarvill2019, ThreeSessionsComparedInOneTable) {
     EXPECT_NEAR(c.fit.right_from_left.translation.x() * 1000, -63.7, 1.5) << "session " << s;
     sessions.push_back({"session" + std::to_string(s), c.result});
   }
-  const SessionComparison cmp = CompareSessions(sessions,
-                                                {"left.fx",
-                                                 "left.fy",
-                                                 "left.cx",
-                                                 "left.cy",
-                                                 "right.fx",
-                                                 "right.fy",
-                                                 "right.cx",
-                                                 "right.cy",
-                                                 "stereo.baseline_mm",
-                                                 "stereo.tx",
-                                                 "stereo.ty",
-                                                 "stereo.tz",
-                                                 "stereo.rx_deg",
-                                                 "stereo.ry_deg",
-                                                 "stereo.rz_deg"});
+  const evaluation::SessionComparison cmp = evaluation::CompareSessions(sessions,
+                                                                        {"left.fx",
+                                                                         "left.fy",
+                                                                         "left.cx",
+                                                                         "left.cy",
+                                                                         "right.fx",
+                                                                         "right.fy",
+                                                                         "right.cx",
+                                                                         "right.cy",
+                                                                         "stereo.baseline_mm",
+                                                                         "stereo.tx",
+                                                                         "stereo.ty",
+                                                                         "stereo.tz",
+                                                                         "stereo.rx_deg",
+                                                                         "stereo.ry_deg",
+                                                                         "stereo.rz_deg"});
   std::cout << reports::SessionComparisonMarkdown(cmp);
   ASSERT_EQ(cmp.pairs.size(), 3u);
   // Session 1 is parallel, sessions 2 and 3 toed in by about 3.7 deg (README): the rotation

@@ -11,9 +11,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/image_pairs.h"
-#include "fitting/range_images_calib.h"
-#include "fitting/range_images_ranging.h"
-#include "fitting/reference_comparison.h"
+#include "evaluation/range_images_calib.h"
+#include "evaluation/range_images_ranging.h"
+#include "evaluation/reference_comparison.h"
 #include "owlcal_version.h"
 #include "reports/image_set_tables.h"
 #include "tests/shared_data.h"
@@ -51,8 +51,9 @@ StereoFitOptions KitOptions() {
   return o;
 }
 
-const ImageSetCalibration& KitCalibration() {
-  static const ImageSetCalibration c = CalibrateImageSet(KitCorners().observations, KitOptions());
+const evaluation::ImageSetCalibration& KitCalibration() {
+  static const evaluation::ImageSetCalibration c =
+      evaluation::CalibrateImageSet(KitCorners().observations, KitOptions());
   return c;
 }
 
@@ -67,7 +68,7 @@ TEST(RealKit2020, StereoRmsBeatsOpenCvOnSameCornersAndTheStudents) {
   int found = 0;
   for (const auto& p : set.pairs) found += p.found[0] + p.found[1];
   EXPECT_EQ(found, 54);
-  const ImageSetCalibration& c = KitCalibration();
+  const evaluation::ImageSetCalibration& c = KitCalibration();
   ASSERT_TRUE(c.fit.ok) << c.fit.message;
 
   // cv::stereoCalibrate on exactly the same corners, same 5-coefficient model, all free.
@@ -130,7 +131,7 @@ TEST(RealKit2020, StereoRmsBeatsOpenCvOnSameCornersAndTheStudents) {
 
 // Issue 11 item 3: how much of the difference from the course's reference calibration the lens
 // model explains. The difference splits into corner detection, model, estimator and board bow
-// (fitting/reference_comparison.h); the parts add up, owlcal's flat fit is OpenCV's with the same
+// (evaluation/reference_comparison.h); the parts add up, owlcal's flat fit is OpenCV's with the same
 // model (estimator part ~0), and the course program rerun on owlcal's corners fits them better
 // than the course's own corners (its RMS 0.8269).
 TEST(RealKit2020, ReferenceDifferenceSplitsIntoDetectionModelAndBow) {
@@ -144,9 +145,10 @@ TEST(RealKit2020, ReferenceDifferenceSplitsIntoDetectionModelAndBow) {
   ASSERT_TRUE(flat.ok && bowed.ok);
   const std::string ref = SharedData() + "/owl-real/kit2020-chessboard/reference/";
   const OpenCvStereoCalibration reference = ReadOpenCvSplitFiles(ref + "intrinsics.xml", ref + "extrinsics.xml");
-  const ReferenceComparison c = CompareWithReference(eye[0], eye[1], bowed, &flat, reference, {});
+  const evaluation::ReferenceComparison c =
+      evaluation::CompareWithReference(eye[0], eye[1], bowed, &flat, reference, {});
   ASSERT_TRUE(c.ok) << c.message;
-  std::cout << ReferenceComparisonMarkdown(c);
+  std::cout << evaluation::ReferenceComparisonMarkdown(c);
   EXPECT_EQ(c.num_pairs, 27);
   EXPECT_EQ(c.rows.size(), 15u);
   EXPECT_LT(c.rms_reference_model_px, 0.826912);
@@ -210,34 +212,35 @@ TEST(RealKit2020, ReferenceDifferenceSplitsIntoDetectionModelAndBow) {
                           cv::CALIB_SAME_FOCAL_LENGTH | cv::CALIB_RATIONAL_MODEL | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 |
                           cv::CALIB_FIX_K5,
                       cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5));
-  const ReferenceComparison s = CompareWithReference(eye[0], eye[1], bowed, &flat, same, {});
+  const evaluation::ReferenceComparison s = evaluation::CompareWithReference(eye[0], eye[1], bowed, &flat, same, {});
   ASSERT_TRUE(s.ok) << s.message;
   for (const auto& r : s.rows) EXPECT_NEAR(r.Detection(), 0.0, 1e-6 * std::max(1.0, std::abs(r.reference))) << r.name;
 }
 
 TEST(RealKit2020, DistanceTargetRangedWithin3PercentAndThreeSigma) {
-  const ImageSetCalibration& c = KitCalibration();
+  const evaluation::ImageSetCalibration& c = KitCalibration();
   ASSERT_TRUE(c.fit.ok) << c.fit.message;
   const StereoRig rig = RigFromStereoFit(c.fit, 1.0);
   ASSERT_EQ(rig.covariance.rows(), rig.NumParams());
   const Rectification rect = RectifyRig(rig);
   const std::string dir = SharedData() + "/owl-real/kit2020-distance-target1";
-  const auto truth = ReadRangeTruthCsv(std::string(OWLCAL_SOURCE_DIR) + "/data/real/kit2020_distance_target1.csv");
+  const auto truth =
+      evaluation::ReadRangeTruthCsv(std::string(OWLCAL_SOURCE_DIR) + "/data/real/kit2020_distance_target1.csv");
   ASSERT_EQ(truth.size(), 13u);
-  RangeOptions o;
+  evaluation::RangeOptions o;
   // The truth is a box held by hand over a ruler from an unknown datum (README): 2 cm.
   o.truth_sigma_m = 0.02;
-  std::vector<RangeMeasurement> ms;
+  std::vector<evaluation::RangeMeasurement> ms;
   for (const auto& t : truth) {
     o.match.template_roi = t.roi;
     const cv::Mat l = cv::imread(dir + "/" + t.left), r = cv::imread(dir + "/" + t.right);
     ASSERT_FALSE(l.empty() || r.empty()) << t.left;
-    RangeMeasurement m = RangePair(l, r, rig, rect, o);
+    evaluation::RangeMeasurement m = evaluation::RangePair(l, r, rig, rect, o);
     m.name = t.left;
     m.true_m = t.distance_m;
     ms.push_back(m);
   }
-  const RangeSummary s = SummariseRanges(ms, 0.30, 1.50);
+  const evaluation::RangeSummary s = evaluation::SummariseRanges(ms, 0.30, 1.50);
   std::cout << reports::RangeTableMarkdown(
       ms, s, "kit2020-distance-target1 ranged with owlcal's kit2020-chessboard calibration");
   EXPECT_EQ(s.num_ranged, 13);
@@ -246,11 +249,11 @@ TEST(RealKit2020, DistanceTargetRangedWithin3PercentAndThreeSigma) {
 }
 
 TEST(RealKit2020, SetWithoutTiltedViewsSaysFocalLengthIsUndetermined) {
-  const ImageSetCalibration& full = KitCalibration();
+  const evaluation::ImageSetCalibration& full = KitCalibration();
   ASSERT_TRUE(full.fit.ok);
   std::map<int, double> tilt;
   for (int e = 0; e < 2; ++e)
-    for (const auto& [frame, t] : ViewTilts(full.fit, e)) tilt[frame] = std::max(tilt[frame], t);
+    for (const auto& [frame, t] : evaluation::ViewTilts(full.fit, e)) tilt[frame] = std::max(tilt[frame], t);
   std::vector<calib::CornerObservation> flat;
   std::set<int> kept;
   for (const auto& o : KitCorners().observations) {
@@ -263,7 +266,7 @@ TEST(RealKit2020, SetWithoutTiltedViewsSaysFocalLengthIsUndetermined) {
   for (const auto& [f, t] : tilt) std::cout << " " << f << ":" << t;
   std::cout << "\nkept " << kept.size() << " untilted pairs\n";
   ASSERT_GE(kept.size(), 3u);
-  const ImageSetCalibration poor = CalibrateImageSet(flat, KitOptions());
+  const evaluation::ImageSetCalibration poor = evaluation::CalibrateImageSet(flat, KitOptions());
   std::cout << reports::ImageSetReportMarkdown(poor, {});
   EXPECT_TRUE(poor.poor);
   ASSERT_FALSE(poor.verdict.empty());

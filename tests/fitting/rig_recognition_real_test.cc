@@ -1,4 +1,4 @@
-// --rig auto (fitting/set_verdict.h recognise_rig) on the repository's real sets: OpenCV's
+// --rig auto (evaluation/set_verdict.h recognise_rig) on the repository's real sets: OpenCV's
 // stereo sample given a metric square size (25 mm, what its calibration sample was run with) is
 // plainly no Owl (baseline about 83 mm, f about 533 px), so it is said once and judged as a
 // generic pair, as it is in squares; judged against the Owl it is "poor" for rig reasons that
@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "calib/image_pairs.h"
-#include "fitting/range_images_calib.h"
+#include "evaluation/range_images_calib.h"
 #include "reports/verdict_tables.h"
 #include "tests/shared_data.h"
 
@@ -18,12 +18,12 @@ namespace {
 
 using ::owlcal::test_data::SharedData;
 
-ImageSetCalibration Calibrate(const std::string& dir,
-                              double square,
-                              const std::string& unit,
-                              bool recognise,
-                              const RigExpectation& rig,
-                              size_t max_pairs) {
+evaluation::ImageSetCalibration Calibrate(const std::string& dir,
+                                          double square,
+                                          const std::string& unit,
+                                          bool recognise,
+                                          const evaluation::RigExpectation& rig,
+                                          size_t max_pairs) {
   calib::TargetDefinition board;
   board.cols = 9;
   board.rows = 6;
@@ -35,10 +35,10 @@ ImageSetCalibration Calibrate(const std::string& dir,
   o.width = set.width;
   o.height = set.height;
   o.length_unit = unit;
-  SetVerdictOptions vo;
+  evaluation::SetVerdictOptions vo;
   vo.rig = rig;
   vo.recognise_rig = recognise;
-  return CalibrateImageSet(set.observations, o, vo);
+  return evaluation::CalibrateImageSet(set.observations, o, vo);
 }
 
 bool AnyMentions(const std::vector<std::string>& reasons, const std::string& what) {
@@ -49,9 +49,10 @@ bool AnyMentions(const std::vector<std::string>& reasons, const std::string& wha
 
 TEST(RigRecognitionReal, OpenCvSampleInMetresIsRecognisedAsNoOwlAndJudgedAsAGenericPair) {
   const std::string dir = "opencv-stereo-chessboard";
-  const ImageSetCalibration squares = Calibrate(dir, 1.0, "square", false, RigExpectation::Generic(), 13);
-  const ImageSetCalibration autod = Calibrate(dir, 0.025, "m", true, RigExpectation::Owl(), 13);
-  const ImageSetCalibration owl = Calibrate(dir, 0.025, "m", false, RigExpectation::Owl(), 13);
+  const evaluation::ImageSetCalibration squares =
+      Calibrate(dir, 1.0, "square", false, evaluation::RigExpectation::Generic(), 13);
+  const evaluation::ImageSetCalibration autod = Calibrate(dir, 0.025, "m", true, evaluation::RigExpectation::Owl(), 13);
+  const evaluation::ImageSetCalibration owl = Calibrate(dir, 0.025, "m", false, evaluation::RigExpectation::Owl(), 13);
   ASSERT_TRUE(autod.fit.ok) << autod.fit.message;
   std::cout << "auto:\n"
             << reports::SetVerdictMarkdown(autod.set_verdict) << "\nowl:\n"
@@ -81,7 +82,8 @@ TEST(RigRecognitionReal, OpenCvSampleInMetresIsRecognisedAsNoOwlAndJudgedAsAGene
 }
 
 TEST(RigRecognitionReal, AnOwlSetStaysAnOwl) {
-  const ImageSetCalibration c = Calibrate("owl-real/kit2020-chessboard", 0.026, "m", true, RigExpectation::Owl(), 14);
+  const evaluation::ImageSetCalibration c =
+      Calibrate("owl-real/kit2020-chessboard", 0.026, "m", true, evaluation::RigExpectation::Owl(), 14);
   ASSERT_TRUE(c.fit.ok) << c.fit.message;
   EXPECT_EQ(c.set_verdict.rig.name, "owl");
   EXPECT_TRUE(c.set_verdict.rig_note.empty()) << c.set_verdict.rig_note;

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
-#include "fitting/range_images_calib.h"
+#include "evaluation/range_images_calib.h"
 #include "reports/toe_in_tables.h"
 #include "tests/fitting/toe_in_synthetic.h"
 
@@ -28,7 +28,7 @@ std::vector<ToeInSet> CalibratedSets(const Truth& t, unsigned seed) {
   for (size_t i = 0; i < kSettings.size(); ++i) {
     const auto obs = SynthesiseSet(t, kSettings[i].rx, kSettings[i].lx, &rng);
     StereoFitOptions o;
-    const ImageSetCalibration c = CalibrateImageSet(obs, o);
+    const evaluation::ImageSetCalibration c = evaluation::CalibrateImageSet(obs, o);
     EXPECT_TRUE(c.fit.ok) << c.fit.message;
     ToeInSet s = ToeInSetFromResult(c.result, "set" + std::to_string(i));
     s.rx_us = kSettings[i].rx;

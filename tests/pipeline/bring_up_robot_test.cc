@@ -65,7 +65,7 @@ TEST(BringUpRobot, AReassembledRobotIsMeasuredThenDrivenOnWhatWasLearned) {
   co.progress = [&](const std::string& line) {
     if (line.rfind("protocol ", 0) == 0 && line.rfind("protocol limits", 0) != 0) spy.armed = true;
   };
-  const fitting::CalibrationRun run = pipeline::Calibrate(spy, co);
+  const evaluation::CalibrationRun run = pipeline::Calibrate(spy, co);
 
   ASSERT_TRUE(run.result.diagnostics.contains("bring_up"));
   const nlohmann::json& b = run.result.diagnostics["bring_up"];
@@ -114,7 +114,7 @@ TEST(BringUpRobot, AReassembledRobotIsMeasuredThenDrivenOnWhatWasLearned) {
 
   // fit-datasets reads the same bring-up from the recorded datasets and applies it the same way.
   pipeline::FitDatasetsOptions fo;
-  const fitting::CalibrationRun refit = pipeline::FitDatasets(root.string(), fo);
+  const evaluation::CalibrationRun refit = pipeline::FitDatasets(root.string(), fo);
   EXPECT_EQ(refit.result.diagnostics.at("bring_up"), b);
   EXPECT_EQ(refit.config.servos[models::kNeck].max_us, run.config.servos[models::kNeck].max_us);
   fs::remove_all(root);

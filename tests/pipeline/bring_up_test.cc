@@ -69,7 +69,7 @@ TEST(BringUp, AReversedHornAndStopsInsideTheLimitsAreLearned) {
   EXPECT_EQ(b.learned.servos[models::kLy].direction, +1);
   EXPECT_EQ(b.file.servos[models::kLy].direction, -1);
   EXPECT_EQ(b.learned.servos[models::kRy].direction, c.servos[models::kRy].direction);
-  // The stop minus the margin and the search's 5 us error (fitting/limits_eval.h).
+  // The stop minus the margin and the search's 5 us error (evaluation/limits_eval.h).
   EXPECT_EQ(b.learned.servos[models::kNeck].max_us, 1880 - 15);
   EXPECT_EQ(b.learned.servos[models::kNeck].min_us, 1160 + 15);
   EXPECT_EQ(b.learned.servos[models::kRx].max_us, c.servos[models::kRx].max_us);

@@ -107,7 +107,7 @@ TEST(CalibratePipeline, OptionsAreCheckedAndRecorded) {
 }
 
 TEST(CalibratePipeline, NoDatasetsGiveWarningsNotACrash) {
-  const fitting::CalibrationRun run = CalibrateFromDatasets({}, CalibratePipelineOptions());
+  const evaluation::CalibrationRun run = CalibrateFromDatasets({}, CalibratePipelineOptions());
   ASSERT_GE(run.result.warnings.size(), 2u);
   EXPECT_EQ(run.result.warnings[0], "no chessboard views: intrinsics and stereo not fitted");
   EXPECT_NE(run.result.warnings[1].find("no head fit"), std::string::npos);
@@ -127,7 +127,7 @@ TEST(CalibratePipeline, ADatasetOfAnUnknownProtocolIsAWarning) {
   o.warning = [&](const std::string& w) { said.push_back(w); };
   o.progress = [&](const std::string& m) { progress.push_back(m); };
   const std::string dir = (root / "datasets" / "intrinsics").string();
-  const fitting::CalibrationRun run = CalibrateFromDatasets({{"intrinsicz", dir}}, o);
+  const evaluation::CalibrationRun run = CalibrateFromDatasets({{"intrinsicz", dir}}, o);
   ASSERT_FALSE(run.result.warnings.empty());
   const std::string& w = run.result.warnings[0];
   EXPECT_NE(w.find("dataset " + dir + " skipped"), std::string::npos) << w;

@@ -1,7 +1,7 @@
-// The checks against references in calibrate's results (fitting/reference_checks.h): the
+// The checks against references in calibrate's results (evaluation/reference_checks.h): the
 // latency protocol's reading against the reading the virtual Owl's truth predicts, the
 // alignment verdict against its stated tolerance, the field of view against the datasheet.
-#include "fitting/reference_checks.h"
+#include "evaluation/reference_checks.h"
 
 #include <unistd.h>
 
@@ -44,15 +44,15 @@ std::string RunStandard(sim::VirtualOwl& owl, const std::string& protocol, const
 }
 
 // The latency check's truth as calibrate takes it from a virtual Owl.
-fitting::LatencyTruth TruthOf(const sim::RobotTruth& t) { return LatencyTruthOf(t); }
+evaluation::LatencyTruth TruthOf(const sim::RobotTruth& t) { return LatencyTruthOf(t); }
 
 nlohmann::json Checks(const std::map<std::string, std::string>& datasets,
                       const models::RobotConfig& config,
-                      const std::optional<fitting::LatencyTruth>& truth) {
+                      const std::optional<evaluation::LatencyTruth>& truth) {
   CalibratePipelineOptions o;
   o.config = config;
   o.latency_truth = truth;
-  const fitting::CalibrationRun run = CalibrateFromDatasets(datasets, o);
+  const evaluation::CalibrationRun run = CalibrateFromDatasets(datasets, o);
   EXPECT_TRUE(run.result.diagnostics.contains("reference_checks"));
   return run.result.diagnostics.value("reference_checks", nlohmann::json::object());
 }
@@ -123,7 +123,7 @@ TEST(ReferenceChecks, LatencyReadingMatchesWhatTheTruthPredictsPerTrial) {
     EXPECT_LT(mean, owl.Truth().stream.latency_ms + 150);
     if (robot == 1) {
       // A wrong truth (the default stream's 100 ms) is off by the latency difference, per trial.
-      fitting::LatencyTruth wrong = TruthOf(owl.Truth());
+      evaluation::LatencyTruth wrong = TruthOf(owl.Truth());
       wrong.latency_ms = 100;
       const nlohmann::json w = Checks({{"latency", dir}}, owl.Config(), wrong).at("latency");
       EXPECT_NEAR(Group(w, "Lx").at("error_ms").get<double>(), 70, 0.01);
@@ -179,12 +179,12 @@ TEST(ReferenceChecks, AlignmentVerdictAgainstTheStatedTolerance) {
   EXPECT_NE(a.at("advice").dump().find("us of one eye's tilt"), std::string::npos);
 
   // The verdict itself, on given frames.
-  using fitting::AlignmentFrame;
-  auto check = [](const std::vector<AlignmentFrame>& f) { return fitting::CheckAlignment(f, 640, 585, 0.113); };
+  using evaluation::AlignmentFrame;
+  auto check = [](const std::vector<AlignmentFrame>& f) { return evaluation::CheckAlignment(f, 640, 585, 0.113); };
   EXPECT_EQ(check({{"chessboard", 0.1, 0.8, 3.0}, {"chessboard", 0.12, 0.9, 3.0}}).verdict, "within tolerance");
   EXPECT_EQ(check({{"chessboard", 0.25, 0.2, 3.0}}).verdict, "outside tolerance");  // roll over 0.179 deg
   EXPECT_EQ(check({{"chessboard", 0.0, -1.2, 3.0}}).verdict, "outside tolerance");  // offset over 1 px
-  const fitting::AlignmentCheck pc = check({{"phase-correlation", std::nullopt, 0.5, 2.0}});
+  const evaluation::AlignmentCheck pc = check({{"phase-correlation", std::nullopt, 0.5, 2.0}});
   EXPECT_EQ(pc.verdict, "within tolerance");
   EXPECT_EQ(pc.num_roll, 0);
   EXPECT_NE(pc.advice.at(0).find("roll not measured"), std::string::npos);
@@ -206,7 +206,7 @@ TEST(ReferenceChecks, TheReportTablesCarryTheNumbers) {
   CalibratePipelineOptions o;
   o.config = owl.Config();
   o.latency_truth = TruthOf(owl.Truth());
-  const fitting::CalibrationRun run = CalibrateFromDatasets({{"latency", lat}, {"alignment", al}}, o);
+  const evaluation::CalibrationRun run = CalibrateFromDatasets({{"latency", lat}, {"alignment", al}}, o);
   const nlohmann::json& rc = run.result.diagnostics.at("reference_checks");
   std::map<std::string, reports::Table> tables;
   for (const auto& t : reports::MakeTables(run)) tables[t.name] = t;
@@ -232,7 +232,7 @@ TEST(ReferenceChecks, TheReportTablesCarryTheNumbers) {
 }
 
 TEST(ReferenceChecks, FieldOfViewAgainstTheDatasheet) {
-  const fitting::PiCameraDatasheet ds;
+  const evaluation::PiCameraDatasheet ds;
   EXPECT_NEAR(ds.FocalPx(640), 634.92, 0.01);  // 3.6 mm / (1.4 um x 2592 / 640)
   EXPECT_NEAR(ds.FocalPx(1280), 2 * 634.92, 0.02);
   fitting::CalibrationResult r;
@@ -250,9 +250,9 @@ TEST(ReferenceChecks, FieldOfViewAgainstTheDatasheet) {
     p.unit = "px";
     r.Set(p);
   }
-  const fitting::FovCheck c = fitting::CheckFieldOfView(r, std::array<models::CameraIntrinsics, 2>{pin, pin});
+  const evaluation::FovCheck c = evaluation::CheckFieldOfView(r, std::array<models::CameraIntrinsics, 2>{pin, pin});
   ASSERT_EQ(c.rows.size(), 2u);
-  const fitting::FovRow& l = c.rows[0];
+  const evaluation::FovRow& l = c.rows[0];
   // A pinhole with the datasheet's focal length: 2 atan(320 / 634.92) = 53.50 deg (the notes: 53).
   EXPECT_NEAR(l.hfov_deg, 2 * std::atan(320 / 634.92) * 180 / M_PI, 1e-9);
   EXPECT_NEAR(l.hfov_deg, 53.50, 0.01);
@@ -266,12 +266,12 @@ TEST(ReferenceChecks, FieldOfViewAgainstTheDatasheet) {
   EXPECT_EQ(l.fx_sigma, 0.5);
   EXPECT_NEAR(*l.truth_hfov_deg, 53.50, 0.01);
   // Barrel distortion widens the field of view beyond the pinhole's of the same focal length.
-  const fitting::FovRow& b = c.rows[1];
+  const evaluation::FovRow& b = c.rows[1];
   EXPECT_GT(b.hfov_deg, b.pinhole_hfov_deg + 0.5);
   EXPECT_NEAR(b.pinhole_hfov_deg, 2 * std::atan(320.0 / 585) * 180 / M_PI, 1e-9);
   EXPECT_TRUE(std::isnan(b.fx_sigma));  // no sigma given for the right eye: none reported
   EXPECT_TRUE(std::isnan(b.hfov_sigma_deg));
-  const nlohmann::json j = fitting::ToJson(c);
+  const nlohmann::json j = evaluation::ToJson(c);
   EXPECT_NEAR(j.at("rows").at(0).at("f_minus_datasheet_px").get<double>(), 0.0, 0.01);
   EXPECT_NEAR(j.at("rows").at(1).at("f_minus_datasheet_px").get<double>(), 585 - 634.92, 0.01);
   EXPECT_NE(j.at("source").get<std::string>().find("3.6 mm"), std::string::npos);

@@ -62,16 +62,16 @@ fitting::SigmaCoverage Pool(const std::vector<std::vector<fitting::Parameter>>& 
 
 // The robot on the in-process virtual Owl, calibrated by pipeline::Calibrate with calibrate's
 // defaults on `protocols`; every protocol must complete.
-fitting::CalibrationRun CalibrateRobot(const sim::DrawnRobot& robot,
-                                       uint64_t seed,
-                                       const fs::path& root,
-                                       const std::vector<std::string>& protocols) {
+evaluation::CalibrationRun CalibrateRobot(const sim::DrawnRobot& robot,
+                                          uint64_t seed,
+                                          const fs::path& root,
+                                          const std::vector<std::string>& protocols) {
   sim::VirtualOwl owl(robot.OwlOptions(seed));
   pipeline::CalibrateOptions co;
   co.out = (root / robot.truth.name).string();
   co.protocols = protocols;
   co.robot.sim = {{"seed", seed}};
-  fitting::CalibrationRun run = pipeline::Calibrate(owl, co);
+  evaluation::CalibrationRun run = pipeline::Calibrate(owl, co);
   for (const auto& [name, r] : run.settings.at("runs").items())
     EXPECT_EQ(r.at("status"), "complete") << robot.truth.name << " " << name << ": " << r.at("message");
   return run;
@@ -87,7 +87,7 @@ TEST(RobotPriorMonteCarlo, SigmasCoverTheErrorsOnRobotsOfThePrior) {
     // The standard protocols that fit parameters, calibrated as `owlcal calibrate` does (the short
     // ones, which the ranging test below uses, put the servo maps 89 % within 1 sigma: their 8
     // stereo views make the stereo fit's intrinsics floor noise-limited).
-    const fitting::CalibrationRun run =
+    const evaluation::CalibrationRun run =
         CalibrateRobot(robot, uint64_t(i), root, {"intrinsics", "stereo", "servo_sweep"});
     int scored = 0;
     for (const auto& p : run.result.parameters) {
@@ -149,13 +149,13 @@ TEST(RobotPriorMonteCarlo, RangingWithinOnePercentWithDeadBandsAndPwmSteps) {
       robot.truth.servos[s].quantum_us = seed % 2 ? 5 : 1;
       if (s != models::kNeck) robot.truth.servos[s].dead_band_us = dead_band(rng);
     }
-    const fitting::CalibrationRun run = CalibrateRobot(robot,
-                                                       seed,
-                                                       root,
-                                                       {kProtocols + "mc_stereo.yaml",
-                                                        kProtocols + "mc_servo_sweep.yaml",
-                                                        kProtocols + "resolution_probe.yaml",
-                                                        kProtocols + "vergence_short.yaml"});
+    const evaluation::CalibrationRun run = CalibrateRobot(robot,
+                                                          seed,
+                                                          root,
+                                                          {kProtocols + "mc_stereo.yaml",
+                                                           kProtocols + "mc_servo_sweep.yaml",
+                                                           kProtocols + "resolution_probe.yaml",
+                                                           kProtocols + "vergence_short.yaml"});
     ASSERT_TRUE(run.ranging) << robot.truth.name;
     int n = 0, in = 0;
     for (const auto& row : run.ranging->rows) {

@@ -55,7 +55,7 @@ protocols::CalibratedMaps FromTruth(const sim::RobotTruth& t, double scale_error
 struct Recorded {
   std::string dir;
   protocols::RunSummary summary;
-  fitting::CalibrationRun run;
+  evaluation::CalibrationRun run;
 };
 
 // The standard saccade protocol (or `protocol_yaml`) on a robot, evaluated with the truth's bound.
@@ -103,7 +103,7 @@ TEST(Saccade, DefaultRobotSettlesWithin1p3TimesThePhysicalBound) {
   const Recorded r = RecordSaccades("default", t, FromTruth(t));
   ASSERT_EQ(r.summary.status, "complete") << r.summary.message;
   ASSERT_TRUE(r.run.saccade);
-  const fitting::SaccadeEvaluation& ev = *r.run.saccade;
+  const evaluation::SaccadeEvaluation& ev = *r.run.saccade;
   EXPECT_NEAR(ev.bound_s, 10.0 / 380 + 0.100 + 1.0 / 30, 1e-9);
   EXPECT_EQ(ev.num_trials, 3);
   EXPECT_EQ(ev.num_ok, 3);
@@ -125,7 +125,7 @@ TEST(Saccade, SlowServosOnASlowStreamSettle) {
   const Recorded r = RecordSaccades("slow", t, FromTruth(t));
   ASSERT_EQ(r.summary.status, "complete") << r.summary.message;
   ASSERT_TRUE(r.run.saccade);
-  const fitting::SaccadeEvaluation& ev = *r.run.saccade;
+  const evaluation::SaccadeEvaluation& ev = *r.run.saccade;
   EXPECT_EQ(ev.num_trials, 3);
   EXPECT_EQ(ev.num_ok, 3);
   EXPECT_GE(ev.num_settled, 2);
@@ -222,7 +222,7 @@ TEST(Saccade, AFiveMicrosecondServoSettlesOnItsGrid) {
     EXPECT_EQ(*row.status, calib::TrialStatus::kOk) << row.reason << " | " << row.message;
   }
   // Evaluated as calibrate evaluates it, with the PWM step and dead band it measured.
-  fitting::CalibrationRun run;
+  evaluation::CalibrationRun run;
   run.config = r.run.config;
   run.result.head = t.HeadModel();
   fitting::ServoResolutionResult res;

@@ -37,7 +37,7 @@ void ExpectResolution(const sim::RobotTruth& truth, const std::string& name) {
   ASSERT_EQ(s.status, "complete") << s.message;
   CalibratePipelineOptions o;
   o.config = owl.Config();
-  const fitting::CalibrationRun run = CalibrateFromDatasets({{"limits", ro.out_dir}}, o);
+  const evaluation::CalibrationRun run = CalibrateFromDatasets({{"limits", ro.out_dir}}, o);
   EXPECT_EQ(protocols::ReadResolutionCsv(ro.out_dir).size(), 5u * 31u) << name;  // 0..12..0..6 us per servo
   ASSERT_EQ(run.resolution.size(), 5u) << name;
   for (const fitting::ServoResolutionResult& r : run.resolution) {

@@ -32,9 +32,9 @@
 
 #include "calib/observation.h"
 #include "calib/observation_io.h"
+#include "evaluation/servo_map_eval.h"
 #include "fitting/head_fit.h"
 #include "fitting/head_gauge.h"
-#include "fitting/servo_map_eval.h"
 #include "fitting/tag_edge_corner.h"
 #include "models/servo_map.h"
 #include "protocols/dataset.h"
@@ -343,7 +343,7 @@ fitting::HeadFit FitAndCompare(const char* label,
       max_abs = std::max(max_abs, std::abs(diff));
     }
     const double rest = std::sqrt(std::max(0.0, sum_sq - mean * mean));
-    const double d = fitting::ServoMapRmsDeg(f, t, dir, lim.min_us, lim.max_us);
+    const double d = evaluation::ServoMapRmsDeg(f, t, dir, lim.min_us, lim.max_us);
     const std::string name = std::string("servo.") + models::kServoNames[s] + ".";
     std::printf(
         "[%s] servo %s: centre %.2f us (truth %.2f, err %+.2f, sigma %.2f), scale %.5f (truth %.5f), cubic %.3f "
@@ -556,7 +556,7 @@ TEST_F(HeadSimConsistency, HeadFitFusesTheTagSheets) {
   const models::HeadModel canonical = fitting::CanonicalHead(
       truth, config.servos[models::kNeck].centre_us, neck_moved, initial.geometry.centre_in_head[models::kLeftEye]);
   for (int s = 0; s < models::kNumServos; ++s) {
-    for (const auto& e : fitting::SampleServoMap(result, config.servos[s], s, &canonical, 1)) {
+    for (const auto& e : evaluation::SampleServoMap(result, config.servos[s], s, &canonical, 1)) {
       const double err = e.angle_deg - e.truth_deg;
       std::printf("[fused with the tags] servo %s at %.0f us: error %+.4f deg, sigma %.4f deg, z %+.2f\n",
                   models::kServoNames[s],

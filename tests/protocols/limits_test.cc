@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "fitting/limits_eval.h"
+#include "evaluation/limits_eval.h"
 #include "owlcal_version.h"
 #include "protocols/dataset.h"
 #include "protocols/dataset_tables.h"
@@ -94,7 +94,7 @@ int TruthEnd(const sim::VirtualOwl& owl, int servo, int d, double rim_fraction, 
 
 // max_error_us bounds end-stops and configured ends; a rim end (where the socket rim darkens the
 // border, a soft threshold) is allowed rim_error_us. With check_recommended, the recommended
-// limits (fitting/limits_eval.h, 10 us margin + 5 us for the search's error) must keep >= 10 us from every true
+// limits (evaluation/limits_eval.h, 10 us margin + 5 us for the search's error) must keep >= 10 us from every true
 // end-stop that lies inside the configured range.
 // With max_backlash_error_us >= 0, every end's backlash_us must be within it of the truth's band
 // (2 hysteresis_us).
@@ -117,7 +117,7 @@ void CheckLimits(const sim::VirtualOwlOptions& vo,
   ASSERT_EQ(s.status, "complete") << s.message;
   EXPECT_EQ(s.num_clamped, 0);
   int rows = 0;
-  std::vector<fitting::LimitMeasurement> measurements;
+  std::vector<evaluation::LimitMeasurement> measurements;
   for (const LimitRow& row : ReadLimitsCsv(o.out_dir)) {
     const std::string what = row.servo + " " + row.end;
     const int servo = ServoIndexFromName(row.servo);
@@ -144,14 +144,14 @@ void CheckLimits(const sim::VirtualOwlOptions& vo,
       std::cout << name << " " << what << ": backlash " << *row.backlash_us << " us, truth " << band << " us\n";
       EXPECT_NEAR(*row.backlash_us, band, max_backlash_error_us) << what;
     }
-    measurements.push_back({servo, d > 0, double(measured), fitting::LimitCauseFromName(row.cause)});
+    measurements.push_back({servo, d > 0, double(measured), evaluation::LimitCauseFromName(row.cause)});
     ++rows;
   }
   EXPECT_EQ(rows, 2 * int(p.steps[1].As<LimitsStep>().servos.size()));
   if (check_recommended) {
-    const fitting::LimitsEvaluation ev = fitting::EvaluateLimits(owl.Config(), measurements, nullptr, 10);
+    const evaluation::LimitsEvaluation ev = evaluation::EvaluateLimits(owl.Config(), measurements, nullptr, 10);
     const sim::RobotTruth& t = owl.Truth();
-    for (const fitting::ServoLimits& sl : ev.servos) {
+    for (const evaluation::ServoLimits& sl : ev.servos) {
       if (!sl.measured_min_us || !sl.measured_max_us) continue;
       const models::ServoConfig& c = t.robot.servos[sl.servo];
       const double lo = t.servos[sl.servo].endstop_lo_us, hi = t.servos[sl.servo].endstop_hi_us;

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "fitting/ranging_eval.h"
+#include "evaluation/ranging_eval.h"
 #include "models/head_kinematics.h"
 #include "owlcal_version.h"
 #include "protocols/dataset_tables.h"
@@ -111,10 +111,10 @@ void ExpectVergenceWithinOnePercent(const char* file) {
     ASSERT_EQ(summary.status, "complete") << summary.message;
     const models::HeadModel head = owl.TruthHeadModel();
     const auto placements = ReadPlacementsCsv(o.out_dir);
-    std::vector<fitting::Fixation> fixations;
+    std::vector<evaluation::Fixation> fixations;
     const double cx = (owl.Config().image_width - 1) / 2.0, cy = (owl.Config().image_height - 1) / 2.0;
     for (const FixationRow& row : ReadFixationsCsv(o.out_dir)) {
-      fitting::Fixation f;
+      evaluation::Fixation f;
       f.index = int(fixations.size());
       f.status = row.status.value_or(calib::TrialStatus::kFailed);
       f.reason = row.reason;
@@ -131,14 +131,14 @@ void ExpectVergenceWithinOnePercent(const char* file) {
       fixations.push_back(f);
     }
     ASSERT_EQ(fixations.size(), 5u) << file;
-    const fitting::RangingEvaluation ev =
-        fitting::EvaluateRanging(head, fitting::NamedCovariance{}, owl.Config(), fixations, {}, {});
+    const evaluation::RangingEvaluation ev =
+        evaluation::EvaluateRanging(head, fitting::NamedCovariance{}, owl.Config(), fixations, {}, {});
     // Variant A's 2 m fixation locks onto something 12 deg below the disc and loses it when seated:
     // a lost-target row (named in the notes), never a range. Every other fixation is ranged.
     const bool variant_a = std::string(file).find("variant_a") != std::string::npos;
     EXPECT_GE(ev.num_ok, variant_a ? 4 : 5) << file;
     for (const auto& n : ev.notes) std::cout << file << ": " << n << "\n";
-    for (const fitting::RangingRow& row : ev.rows)
+    for (const evaluation::RangingRow& row : ev.rows)
       if (row.ok) {
         EXPECT_LT(std::abs(row.rel_error), 0.01) << file << " at " << row.true_m << " m";
       }

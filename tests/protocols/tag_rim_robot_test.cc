@@ -23,9 +23,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "evaluation/servo_map_eval.h"
 #include "fitting/head_fit.h"
 #include "fitting/head_gauge.h"
-#include "fitting/servo_map_eval.h"
 #include "models/servo_map.h"
 #include "owlcal_version.h"
 #include "protocols/placement_views.h"
@@ -59,7 +59,7 @@ std::vector<End> EndsAgainstTruth(const fitting::HeadFit& fit,
   result.diagnostics["covariance"] = {{"names", fit.param_names}, {"matrix", m}};
   std::vector<End> out;
   for (int s = 0; s < models::kNumServos; ++s)
-    for (const auto& e : fitting::SampleServoMap(result, config.servos[s], s, &canonical, 1))
+    for (const auto& e : evaluation::SampleServoMap(result, config.servos[s], s, &canonical, 1))
       out.push_back({s, e.pwm_us, e.angle_deg - e.truth_deg, e.sigma_deg});
   return out;
 }

@@ -352,11 +352,11 @@ TEST(Exports, OwlPwmHeaderCompilesAsCAndCppFromTwoFilesAndInvertsWithClamping) {
     d.result.Set({n + ".deg_per_us", h.servo_params[s][1], 1e-4, "deg/us", {}, true, ""});
     if (s == models::kRx) d.result.Set({n + ".centre_us", 1538.6, 0.4, "us", {}, true, ""});
   }
-  d.limits = fitting::EvaluateLimits(cfg,
-                                     {{models::kRx, false, 1230, fitting::LimitCause::kEndStop},
-                                      {models::kLy, true, 1950, fitting::LimitCause::kSocketRim}},
-                                     nullptr,
-                                     10);
+  d.limits = evaluation::EvaluateLimits(cfg,
+                                        {{models::kRx, false, 1230, evaluation::LimitCause::kEndStop},
+                                         {models::kLy, true, 1950, evaluation::LimitCause::kSocketRim}},
+                                        nullptr,
+                                        10);
   const std::string dir = TempDir("owlpwm");
   const ExportSet ex = WriteCalibrationFiles(d, dir);
   ASSERT_TRUE(std::filesystem::exists(dir + "/exports/owl-pwm.h"));

@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "fitting/truth_compare.h"
+#include "evaluation/truth_compare.h"
 #include "reports/figures.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/table.h"
@@ -79,25 +79,29 @@ ReportData DemoData() {
   d.result.summaries.push_back({"head", "CONVERGENCE", "ok", 100, 10, 12, 1.5, 0.15, 2000, 3, true});
   d.result.diagnostics["intrinsics"]["left"]["view_rms_px"] = {0.12, 0.15, 0.11, 0.3};
   d.result.diagnostics["intrinsics"]["right"]["view_rms_px"] = {0.13, 0.14, 0.12, 0.16};
-  fitting::FillTruth(fitting::IntrinsicsTruthValues(truth), &d.result);
+  evaluation::FillTruth(evaluation::IntrinsicsTruthValues(truth), &d.result);
   std::map<std::string, double> servo_truth;
   for (int s = 0; s < models::kNumServos; ++s)
     servo_truth[std::string("servo.") + models::kServoNames[s] + ".centre_us"] = truth.servo_params[s][0];
   servo_truth["head.ipd_mm"] = 65.0;
-  fitting::FillTruth(servo_truth, &d.result);
+  evaluation::FillTruth(servo_truth, &d.result);
 
-  std::vector<fitting::Fixation> fixations;
+  std::vector<evaluation::Fixation> fixations;
   int i = 0;
   for (double dist : {0.25, 0.5, 0.75, 1.0, 1.25, 1.5}) {
-    auto f = fitting::SyntheticFixation(truth, Eigen::Vector3d(0.02, 0, dist + 0.03), 1530);
+    auto f = evaluation::SyntheticFixation(truth, Eigen::Vector3d(0.02, 0, dist + 0.03), 1530);
     if (!f) continue;
     f->index = i++;
     fixations.push_back(*f);
   }
   std::vector<double> theory;
   for (double x = 0.2; x <= 2.0001; x += 0.05) theory.push_back(x);
-  d.ranging = fitting::EvaluateRanging(
-      est, fitting::CovarianceFromResult(d.result, fitting::RangingParameterNames()), d.config, fixations, {}, theory);
+  d.ranging = evaluation::EvaluateRanging(est,
+                                          fitting::CovarianceFromResult(d.result, evaluation::RangingParameterNames()),
+                                          d.config,
+                                          fixations,
+                                          {},
+                                          theory);
   d.gains = fitting::MakeGainStudy(3);
   for (double k : {0.05, 0.1, 0.2, 0.3}) {
     StepTrace t;
@@ -116,12 +120,12 @@ ReportData DemoData() {
     t.residual_px = 0.4;
     d.steps.push_back(t);
   }
-  d.limits = fitting::EvaluateLimits(d.config,
-                                     {{models::kRx, false, 1230, fitting::LimitCause::kEndStop},
-                                      {models::kRx, true, 1890, fitting::LimitCause::kConfigured},
-                                      {models::kLx, false, 1180, fitting::LimitCause::kConfigured},
-                                      {models::kLx, true, 1800, fitting::LimitCause::kSocketRim}},
-                                     &est);
+  d.limits = evaluation::EvaluateLimits(d.config,
+                                        {{models::kRx, false, 1230, evaluation::LimitCause::kEndStop},
+                                         {models::kRx, true, 1890, evaluation::LimitCause::kConfigured},
+                                         {models::kLx, false, 1180, evaluation::LimitCause::kConfigured},
+                                         {models::kLx, true, 1800, evaluation::LimitCause::kSocketRim}},
+                                        &est);
   std::mt19937 rng(3);
   std::normal_distribution<double> n01;
   std::uniform_real_distribution<double> ux(20, 620), uy(20, 460);
@@ -183,7 +187,7 @@ TEST(Report, EvaluationJsonRoundTrips) {
   EXPECT_EQ(back.ranging->rows.size(), d.ranging->rows.size());
   EXPECT_DOUBLE_EQ(back.ranging->rows[2].range_m, d.ranging->rows[2].range_m);
   ASSERT_TRUE(back.limits);
-  EXPECT_EQ(back.limits->servos[models::kRx].min_cause, fitting::LimitCause::kEndStop);
+  EXPECT_EQ(back.limits->servos[models::kRx].min_cause, evaluation::LimitCause::kEndStop);
   EXPECT_EQ(back.steps.size(), 4u);
   EXPECT_EQ(back.steps[1].info.settling_index, d.steps[1].info.settling_index);
   ASSERT_TRUE(back.gains && back.gains->fastest);

@@ -26,7 +26,7 @@ int Pipes(const std::string& line) {
 }
 
 TEST(TableShape, TheVerdictEyeTableHasAsManyCellsInEveryLine) {
-  fitting::SetVerdict v;
+  evaluation::SetVerdict v;
   v.judged_range_m = 1.0;
   const Table t = SetVerdictEyeTable(v);
   ASSERT_EQ(t.header.size(), 12u);
