@@ -1,4 +1,4 @@
-// owlcal catch-up: pursuit and catch-up saccades of a moving target (pipeline/catch_up_study.h).
+// owlcal catch-up: pursuit and catch-up saccades of a moving target (evaluation/catch_up_study.h).
 // Runs the standard `catch_up` protocol on the virtual Owl (it moves the target) with the eye on
 // calibrate's fitted head (--calib) or the robot file's nominal head, and evaluates it; or
 // evaluates a recorded one (--dataset).
@@ -9,16 +9,17 @@
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/catch_up_study.h"
+#include "reports/catch_up_study_page.h"
 
 namespace owlcal::apps {
 namespace {
 
 int RunCatchUp(const ExperimentInput& in) {
   const std::string& dir = in.dataset;
-  const pipeline::CatchUpStudy study = pipeline::EvaluateCatchUpDataset(dir);
-  const std::string page = pipeline::WriteCatchUpStudy(study, in.out, in.figures);
+  const evaluation::CatchUpStudy study = pipeline::EvaluateCatchUpDataset(dir);
+  const std::string page = reports::WriteCatchUpStudy(study, in.out, in.figures);
   std::cout << "eye on the " << study.map << "\n";
-  for (const pipeline::CatchUpTrial& t : study.trials) {
+  for (const evaluation::CatchUpTrial& t : study.trials) {
     std::cout << io::FixedText(t.speed_deg_per_s, 1) << " deg/s: " << t.status;
     if (!t.reason.empty()) std::cout << " (" << t.reason << ")";
     std::cout << ", " << t.saccades << " catch-up saccades, RMS retinal error " << io::FixedText(t.rms_error_deg, 2)

@@ -1,4 +1,4 @@
-// owlcal main-sequence: the saccade main-sequence experiment (pipeline/main_sequence_study.h).
+// owlcal main-sequence: the saccade main-sequence experiment (evaluation/main_sequence_study.h).
 // Runs the standard `main-sequence` protocol on the robot (the virtual Owl by default) with the
 // eye on calibrate's fitted head (--calib) or the robot file's nominal head, and evaluates it; or
 // evaluates a recorded one (--dataset).
@@ -9,14 +9,15 @@
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/main_sequence_study.h"
+#include "reports/main_sequence_study_page.h"
 
 namespace owlcal::apps {
 namespace {
 
 int RunMainSequence(const ExperimentInput& in) {
   const std::string& dir = in.dataset;
-  const pipeline::MainSequenceStudy study = pipeline::EvaluateMainSequenceDataset(dir);
-  const std::string page = pipeline::WriteMainSequenceStudy(study, in.out, in.figures);
+  const evaluation::MainSequenceStudy study = pipeline::EvaluateMainSequenceDataset(dir);
+  const std::string page = reports::WriteMainSequenceStudy(study, in.out, in.figures);
   const fitting::MainSequenceFit& f = study.fit;
   std::cout << "eye on the " << study.map << "\n";
   std::cout << "pooled motion of " << study.servo << ": " << f.motion.message << "\n";

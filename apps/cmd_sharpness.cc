@@ -1,4 +1,4 @@
-// owlcal sharpness: the lens-sharpness experiment (pipeline/sharpness_study.h). Runs the
+// owlcal sharpness: the lens-sharpness experiment (evaluation/sharpness_study.h). Runs the
 // standard `sharpness` protocol on the robot (the virtual Owl by default) and evaluates it, or
 // evaluates a recorded one (--dataset), or image pairs at known distances (--images CSV, e.g.
 // the course's kit2020 distance set).
@@ -9,6 +9,7 @@
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/sharpness_study.h"
+#include "reports/sharpness_study_page.h"
 
 namespace owlcal::apps {
 namespace {
@@ -16,10 +17,10 @@ namespace {
 std::string Distance(double m) { return std::isfinite(m) ? io::FixedText(m, 2) + " m" : "infinity"; }
 
 int RunSharpness(const ExperimentInput& in) {
-  const pipeline::SharpnessStudy study =
+  const evaluation::SharpnessStudy study =
       in.images.empty() ? pipeline::MeasureSharpnessDataset(in.dataset)
                         : pipeline::MeasureSharpnessPairs(pipeline::ReadSharpnessPairsCsv(in.images), in.images);
-  const std::string page = pipeline::WriteSharpnessStudy(study, in.out, in.figures);
+  const std::string page = reports::WriteSharpnessStudy(study, in.out, in.figures);
   for (int e = 0; e < 2; ++e) {
     const fitting::FocusFit& f = study.fit[e];
     std::cout << models::kEyeNames[e] << " eye: ";

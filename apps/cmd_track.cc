@@ -1,4 +1,4 @@
-// owlcal track: salience targets and tracking (pipeline/tracking_study.h). Runs the standard `track`
+// owlcal track: salience targets and tracking (evaluation/tracking_study.h). Runs the standard `track`
 // protocol on the robot (the virtual Owl by default) and evaluates it, or evaluates a recorded one
 // (--dataset).
 #include <iostream>
@@ -8,15 +8,16 @@
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/tracking_study.h"
+#include "reports/tracking_study_page.h"
 
 namespace owlcal::apps {
 namespace {
 
 int RunTrack(const ExperimentInput& in) {
   const std::string& dir = in.dataset;
-  const pipeline::TrackingStudy study = pipeline::EvaluateTrackingDataset(dir);
-  const std::string page = pipeline::WriteTrackingStudy(study, in.out, in.figures);
-  for (const pipeline::TrackerSummary& t : study.summaries) {
+  const evaluation::TrackingStudy study = pipeline::EvaluateTrackingDataset(dir);
+  const std::string page = reports::WriteTrackingStudy(study, in.out, in.figures);
+  for (const evaluation::TrackerSummary& t : study.summaries) {
     std::cout << t.tracker << ", " << models::kEyeNames[t.eye] << " eye: " << t.num_lost << " of " << t.num_frames
               << " frames lost (" << t.num_lost_in_view << " with the target in view), " << t.num_reacquired
               << " reacquired";
@@ -28,7 +29,7 @@ int RunTrack(const ExperimentInput& in) {
   if (!study.salience.empty()) {
     std::cout << "salience: " << study.num_on_object << " of " << study.salience.size()
               << " candidates on a scene object, " << study.num_fixated << " fixated";
-    const pipeline::SalienceRow& top = study.salience.front();
+    const evaluation::SalienceRow& top = study.salience.front();
     std::cout << "; top candidate at (" << io::FixedText(top.x_px, 1) << ", " << io::FixedText(top.y_px, 1) << ") "
               << (top.object.empty() ? "on no object" : "on " + top.object) << "\n";
   }

@@ -1,4 +1,4 @@
-// owlcal vor: the vestibulo-ocular reflex experiment (pipeline/vor_study.h). Runs the standard
+// owlcal vor: the vestibulo-ocular reflex experiment (evaluation/vor_study.h). Runs the standard
 // `vor` protocol on the robot (the virtual Owl by default) with the eyes on calibrate's fitted
 // head (--calib) or the robot file's nominal head, and evaluates it; or evaluates a recorded one
 // (--dataset).
@@ -9,16 +9,17 @@
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
 #include "pipeline/vor_study.h"
+#include "reports/vor_study_page.h"
 
 namespace owlcal::apps {
 namespace {
 
 int RunVor(const ExperimentInput& in) {
   const std::string& dir = in.dataset;
-  const pipeline::VorStudy study = pipeline::EvaluateVorDataset(dir);
-  const std::string page = pipeline::WriteVorStudy(study, in.out, in.figures);
+  const evaluation::VorStudy study = pipeline::EvaluateVorDataset(dir);
+  const std::string page = reports::WriteVorStudy(study, in.out, in.figures);
   std::cout << "eyes on the " << study.map << "\n";
-  for (const pipeline::VorTrialEye& r : study.results) {
+  for (const evaluation::VorTrialEye& r : study.results) {
     if (r.condition != "vor") continue;
     std::cout << r.profile << " " << io::FixedText(r.amplitude_deg, 1) << " deg";
     if (r.profile == "sine") std::cout << " at " << io::FixedText(r.frequency_hz, 2) << " Hz";

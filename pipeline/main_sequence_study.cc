@@ -1,5 +1,3 @@
-// The main-sequence study: reading a recorded main-sequence dataset and fitting it, and the
-// study's JSON. The page: pipeline/main_sequence_study_page.cc.
 #include "pipeline/main_sequence_study.h"
 
 #include <algorithm>
@@ -9,15 +7,13 @@
 #include <stdexcept>
 
 #include "calib/csv.h"
+#include "evaluation/study_cells.h"
 #include "io/number_text.h"
-#include "pipeline/study_cells.h"
 #include "protocols/dataset.h"
-#include "reports/experiment_page.h"
-#include "reports/gnuplot_figure.h"
-#include "reports/table.h"
 
 namespace owlcal::pipeline {
 namespace {
+
 namespace fs = std::filesystem;
 
 constexpr double kNominalAngleScaleSigma = 0.02;
@@ -25,8 +21,8 @@ constexpr double kCalibratedAngleScaleSigma = 0.003;
 
 }  // namespace
 
-MainSequenceStudy EvaluateMainSequenceDataset(const std::string& dir) {
-  MainSequenceStudy s;
+evaluation::MainSequenceStudy EvaluateMainSequenceDataset(const std::string& dir) {
+  evaluation::MainSequenceStudy s;
   s.source = dir;
   const std::string frames_csv = dir + "/main_sequence.csv", trials_csv = dir + "/main_sequence_trials.csv";
   if (!fs::exists(trials_csv))
@@ -50,7 +46,7 @@ MainSequenceStudy EvaluateMainSequenceDataset(const std::string& dir) {
                      "reason"});
   std::map<int, size_t> index;
   for (size_t r = 0; r < tt.NumRows(); ++r) {
-    MainSequenceSaccade sa;
+    evaluation::MainSequenceSaccade sa;
     sa.saccade = tt.Int(r, "saccade", 0, 1000000);
     sa.amplitude_cmd_deg = tt.Number(r, "amplitude_deg", 0, 90);
     sa.repeat = tt.Int(r, "repeat", 0, 1000000);
@@ -58,15 +54,15 @@ MainSequenceStudy EvaluateMainSequenceDataset(const std::string& dir) {
     sa.servo = tt.Text(r, "servo");
     sa.from_us = tt.Text(r, "from_us").empty() ? 0 : tt.Int(r, "from_us", 0, 5000);
     sa.to_us = tt.Text(r, "to_us").empty() ? 0 : tt.Int(r, "to_us", 0, 5000);
-    sa.map_amplitude_deg = Opt(tt, r, "map_amplitude_deg");
-    sa.phase_ms = Opt(tt, r, "phase_ms");
+    sa.map_amplitude_deg = evaluation::Opt(tt, r, "map_amplitude_deg");
+    sa.phase_ms = evaluation::Opt(tt, r, "phase_ms");
     sa.frames = tt.Int(r, "frames", 0, 1000000);
     sa.measured = tt.Int(r, "measured", 0, 1000000);
     sa.status = tt.Text(r, "status");
     sa.reason = tt.Text(r, "reason");
     if (s.map.empty()) s.map = tt.Text(r, "map");
     if (s.servo.empty()) s.servo = sa.servo;
-    const double ts = Opt(tt, r, "true_slew_deg_per_s"), tl = Opt(tt, r, "true_lag_s");
+    const double ts = evaluation::Opt(tt, r, "true_slew_deg_per_s"), tl = evaluation::Opt(tt, r, "true_lag_s");
     if (std::isfinite(ts) && std::isfinite(tl)) {
       s.has_truth = true;
       s.true_slew_deg_per_s = ts;
@@ -80,34 +76,36 @@ MainSequenceStudy EvaluateMainSequenceDataset(const std::string& dir) {
     const calib::CsvTable ft = protocols::ReadAppendedCsv(frames_csv);
     ft.RequireColumns({"saccade", "k", "t_s", "cmd_us", "found", "x_px", "y_px", "angle_deg", "true_angle_deg"});
     for (size_t r = 0; r < ft.NumRows(); ++r) {
-      MainSequenceFrame f;
+      evaluation::MainSequenceFrame f;
       f.saccade = ft.Int(r, "saccade", 0, 1000000);
       f.k = ft.Int(r, "k", 0, 1000000);
       f.t_s = ft.Number(r, "t_s", -10, 1e6);
       f.cmd_us = ft.Int(r, "cmd_us", 0, 5000);
       f.found = ft.Int(r, "found", 0, 1) == 1;
-      f.x_px = Opt(ft, r, "x_px");
-      f.y_px = Opt(ft, r, "y_px");
-      f.angle_deg = Opt(ft, r, "angle_deg");
-      f.true_angle_deg = Opt(ft, r, "true_angle_deg");
+      f.x_px = evaluation::Opt(ft, r, "x_px");
+      f.y_px = evaluation::Opt(ft, r, "y_px");
+      f.angle_deg = evaluation::Opt(ft, r, "angle_deg");
+      f.true_angle_deg = evaluation::Opt(ft, r, "true_angle_deg");
       if (!index.count(f.saccade))
         throw std::runtime_error(ft.Where(r) + ": saccade " + std::to_string(f.saccade) + " is not in " + trials_csv);
       s.frames.push_back(f);
     }
   }
-  std::sort(s.frames.begin(), s.frames.end(), [](const MainSequenceFrame& a, const MainSequenceFrame& b) {
-    return a.saccade != b.saccade ? a.saccade < b.saccade : a.k < b.k;
-  });
+  std::sort(s.frames.begin(),
+            s.frames.end(),
+            [](const evaluation::MainSequenceFrame& a, const evaluation::MainSequenceFrame& b) {
+              return a.saccade != b.saccade ? a.saccade < b.saccade : a.k < b.k;
+            });
   // Traces of the saccades the recording calls ok.
   std::vector<fitting::SaccadeTrace> traces, true_traces;
   std::vector<size_t> which;
   bool all_true = s.has_truth;
   for (size_t i = 0; i < s.saccades.size(); ++i) {
-    const MainSequenceSaccade& sa = s.saccades[i];
+    const evaluation::MainSequenceSaccade& sa = s.saccades[i];
     if (sa.status != "ok") continue;
     fitting::SaccadeTrace t, tt2;
     t.id = tt2.id = sa.saccade;
-    for (const MainSequenceFrame& f : s.frames)
+    for (const evaluation::MainSequenceFrame& f : s.frames)
       if (f.saccade == sa.saccade) {
         t.t_s.push_back(f.t_s);
         t.angle_deg.push_back(f.angle_deg);
@@ -130,7 +128,7 @@ MainSequenceStudy EvaluateMainSequenceDataset(const std::string& dir) {
   if (all_true && !true_traces.empty()) s.truth_fit = fitting::FitMainSequence(true_traces, {});
   const double vth = s.fit.velocity_threshold_deg_per_s;
   for (size_t j = 0; j < which.size(); ++j) {
-    MainSequenceSaccade& sa = s.saccades[which[j]];
+    evaluation::MainSequenceSaccade& sa = s.saccades[which[j]];
     sa.m = s.fit.saccades[j];
     if (!sa.m.ok) {
       sa.status = "failed";
@@ -143,12 +141,13 @@ MainSequenceStudy EvaluateMainSequenceDataset(const std::string& dir) {
       sa.true_duration_s = fitting::DurationS(sa.true_amplitude_deg, s.true_slew_deg_per_s, s.true_lag_s, vth);
     }
   }
-  for (const MainSequenceSaccade& sa : s.saccades) {
+  for (const evaluation::MainSequenceSaccade& sa : s.saccades) {
     if (sa.status == "ok") {
       ++s.num_ok;
     } else {
-      s.notes.push_back("saccade " + std::to_string(sa.saccade) + " (" + Fx(sa.amplitude_cmd_deg, 1) + " deg, repeat " +
-                        std::to_string(sa.repeat) + "): " + sa.status + (sa.reason.empty() ? "" : ": " + sa.reason));
+      s.notes.push_back("saccade " + std::to_string(sa.saccade) + " (" + evaluation::Fx(sa.amplitude_cmd_deg, 1) +
+                        " deg, repeat " + std::to_string(sa.repeat) + "): " + sa.status +
+                        (sa.reason.empty() ? "" : ": " + sa.reason));
     }
   }
   if (s.map.find("nominal") != std::string::npos)
@@ -159,77 +158,6 @@ MainSequenceStudy EvaluateMainSequenceDataset(const std::string& dir) {
   if (!s.fit.peak.ok) s.notes.push_back("main-sequence fit: " + s.fit.peak.message);
   if (!s.fit.duration.ok) s.notes.push_back("duration fit: " + s.fit.duration.message);
   return s;
-}
-
-nlohmann::json MainSequenceStudyJson(const MainSequenceStudy& s) {
-  nlohmann::json j;
-  j["source"] = s.source;
-  j["map"] = s.map;
-  j["servo"] = s.servo;
-  j["num_saccades"] = s.num_saccades;
-  j["num_ok"] = s.num_ok;
-  j["has_truth"] = s.has_truth;
-  j["notes"] = s.notes;
-  j["velocity_threshold_deg_per_s"] = s.fit.velocity_threshold_deg_per_s;
-  auto motion = [](const fitting::PooledSaccadeMotion& m) {
-    return nlohmann::json{{"ok", m.ok},
-                          {"message", m.message},
-                          {"slew_deg_per_s", m.slew_deg_per_s},
-                          {"slew_sigma_deg_per_s", m.slew_sigma_deg_per_s},
-                          {"fit_slew_sigma_deg_per_s", m.fit_slew_sigma_deg_per_s},
-                          {"jackknife_slew_sigma_deg_per_s", m.jackknife_slew_sigma_deg_per_s},
-                          {"scale_slew_sigma_deg_per_s", m.scale_slew_sigma_deg_per_s},
-                          {"lag_s", m.lag_s},
-                          {"lag_sigma_s", m.lag_sigma_s},
-                          {"delay_s", m.delay_s},
-                          {"delay_sigma_s", m.delay_sigma_s},
-                          {"rms_deg", m.rms_deg},
-                          {"frames", m.num_frames},
-                          {"saccades", m.num_saccades}};
-  };
-  j["motion"] = motion(s.fit.motion);
-  j["main_sequence"] = {{"ok", s.fit.peak.ok},
-                        {"message", s.fit.peak.message},
-                        {"vmax_deg_per_s", s.fit.peak.vmax_deg_per_s},
-                        {"vmax_sigma_deg_per_s", s.fit.peak.vmax_sigma_deg_per_s},
-                        {"c_deg", s.fit.peak.c_deg},
-                        {"c_sigma_deg", s.fit.peak.c_sigma_deg},
-                        {"lag_s", s.fit.peak.lag_s},
-                        {"lag_sigma_s", s.fit.peak.lag_sigma_s},
-                        {"rms_deg_per_s", s.fit.peak.rms_deg_per_s}};
-  j["duration"] = {{"ok", s.fit.duration.ok},
-                   {"message", s.fit.duration.message},
-                   {"slew_deg_per_s", s.fit.duration.slew_deg_per_s},
-                   {"slew_sigma_deg_per_s", s.fit.duration.slew_sigma_deg_per_s},
-                   {"lag_s", s.fit.duration.lag_s},
-                   {"lag_sigma_s", s.fit.duration.lag_sigma_s},
-                   {"rms_s", s.fit.duration.rms_s}};
-  if (s.has_truth) {
-    j["truth"] = {{"slew_deg_per_s", s.true_slew_deg_per_s}, {"lag_s", s.true_lag_s}};
-    j["truth_angles_motion"] = motion(s.truth_fit.motion);
-  }
-  j["saccades"] = nlohmann::json::array();
-  for (const MainSequenceSaccade& sa : s.saccades) {
-    nlohmann::json o = {{"saccade", sa.saccade},
-                        {"amplitude_cmd_deg", sa.amplitude_cmd_deg},
-                        {"repeat", sa.repeat},
-                        {"direction", sa.direction},
-                        {"status", sa.status},
-                        {"reason", sa.reason}};
-    if (sa.m.ok) {
-      o["amplitude_deg"] = sa.m.amplitude_deg;
-      o["amplitude_sigma_deg"] = sa.m.amplitude_sigma_deg;
-      o["peak_deg_per_s"] = sa.m.peak_deg_per_s;
-      o["peak_sigma_deg_per_s"] = sa.m.peak_sigma_deg_per_s;
-      if (std::isfinite(sa.m.duration_s)) {
-        o["duration_s"] = sa.m.duration_s;
-        o["duration_sigma_s"] = sa.m.duration_sigma_s;
-      }
-    }
-    if (std::isfinite(sa.true_peak_deg_per_s)) o["true_peak_deg_per_s"] = sa.true_peak_deg_per_s;
-    j["saccades"].push_back(o);
-  }
-  return j;
 }
 
 }  // namespace owlcal::pipeline

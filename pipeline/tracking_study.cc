@@ -6,14 +6,15 @@
 #include <stdexcept>
 
 #include "calib/csv.h"
+#include "evaluation/study_cells.h"
 #include "io/json_strict.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
-#include "pipeline/study_cells.h"
 #include "protocols/dataset.h"
 
 namespace owlcal::pipeline {
 namespace {
+
 namespace fs = std::filesystem;
 
 int EyeIndex(const calib::CsvTable& t, size_t r) {
@@ -40,18 +41,8 @@ std::string ReasonKind(const std::string& reason) {
   return out;
 }
 
-}  // namespace
-
-const TrackerSummary* TrackingStudy::Find(const std::string& tracker, int eye) const {
-  for (const TrackerSummary& t : summaries)
-    if (t.tracker == tracker && t.eye == eye) return &t;
-  return nullptr;
-}
-
-namespace {
-
 // The trials of track_trials.csv: status and reason per run into s, a note per run not ok.
-void ReadTrackTrials(const std::string& path, TrackingStudy* s) {
+void ReadTrackTrials(const std::string& path, evaluation::TrackingStudy* s) {
   const calib::CsvTable tt = protocols::ReadAppendedCsv(path);
   tt.RequireColumns({"frames", "status", "reason"});
   for (size_t r = 0; r < tt.NumRows(); ++r) {
@@ -64,8 +55,8 @@ void ReadTrackTrials(const std::string& path, TrackingStudy* s) {
 }
 
 // One row of track.csv, checked (status one of ok, reacquired, lost and agreeing with found).
-TrackFrame TrackFrameOfRow(const calib::CsvTable& t, size_t r) {
-  TrackFrame f;
+evaluation::TrackFrame TrackFrameOfRow(const calib::CsvTable& t, size_t r) {
+  evaluation::TrackFrame f;
   f.step_index = t.Int(r, "step_index", 0, 1000000);
   f.phase = t.Text(r, "phase");
   f.k = t.Int(r, "k", 0, 100000000);
@@ -80,18 +71,18 @@ TrackFrame TrackFrameOfRow(const calib::CsvTable& t, size_t r) {
   f.found = t.Int(r, "found", 0, 1) == 1;
   if (f.found != (f.status != "lost"))
     throw std::runtime_error(t.Where(r) + ": found " + std::to_string(f.found) + " disagrees with status " + f.status);
-  f.x_px = Opt(t, r, "x_px");
-  f.y_px = Opt(t, r, "y_px");
+  f.x_px = evaluation::Opt(t, r, "x_px");
+  f.y_px = evaluation::Opt(t, r, "y_px");
   f.reason = t.Text(r, "reason");
-  f.true_x_px = Opt(t, r, "true_x_px");
-  f.true_y_px = Opt(t, r, "true_y_px");
+  f.true_x_px = evaluation::Opt(t, r, "true_x_px");
+  f.true_y_px = evaluation::Opt(t, r, "true_y_px");
   f.true_in_view = t.Text(r, "true_in_view").empty() ? -1 : t.Int(r, "true_in_view", 0, 1);
   if (f.found && std::isfinite(f.true_x_px)) f.error_px = std::hypot(f.x_px - f.true_x_px, f.y_px - f.true_y_px);
   return f;
 }
 
 // The frames of track.csv.
-std::vector<TrackFrame> ReadTrackFrames(const std::string& path) {
+std::vector<evaluation::TrackFrame> ReadTrackFrames(const std::string& path) {
   const calib::CsvTable t = protocols::ReadAppendedCsv(path);
   t.RequireColumns({"step_index",
                     "phase",
@@ -109,24 +100,25 @@ std::vector<TrackFrame> ReadTrackFrames(const std::string& path) {
                     "true_x_px",
                     "true_y_px",
                     "true_in_view"});
-  std::vector<TrackFrame> frames;
+  std::vector<evaluation::TrackFrame> frames;
   for (size_t r = 0; r < t.NumRows(); ++r) frames.push_back(TrackFrameOfRow(t, r));
   return frames;
 }
 
 // Per tracker and eye, in the order they first appear: counts, lost reasons and the pixel error
 // in view; a note per tracker that lost the target in view or gave a position out of view.
-std::vector<TrackerSummary> SummariseTrackers(const std::vector<TrackFrame>& frames, std::vector<std::string>* notes) {
-  std::vector<TrackerSummary> summaries;
-  for (const TrackFrame& f : frames) {
-    auto same = [&](const TrackerSummary& t) { return t.tracker == f.tracker && t.eye == f.eye; };
+std::vector<evaluation::TrackerSummary> SummariseTrackers(const std::vector<evaluation::TrackFrame>& frames,
+                                                          std::vector<std::string>* notes) {
+  std::vector<evaluation::TrackerSummary> summaries;
+  for (const evaluation::TrackFrame& f : frames) {
+    auto same = [&](const evaluation::TrackerSummary& t) { return t.tracker == f.tracker && t.eye == f.eye; };
     if (std::find_if(summaries.begin(), summaries.end(), same) == summaries.end()) {
-      TrackerSummary ts;
+      evaluation::TrackerSummary ts;
       ts.tracker = f.tracker;
       ts.eye = f.eye;
       summaries.push_back(ts);
     }
-    TrackerSummary& ts = *std::find_if(summaries.begin(), summaries.end(), same);
+    evaluation::TrackerSummary& ts = *std::find_if(summaries.begin(), summaries.end(), same);
     ++ts.num_frames;
     ts.num_found += f.found ? 1 : 0;
     ts.num_reacquired += f.status == "reacquired" ? 1 : 0;
@@ -140,14 +132,14 @@ std::vector<TrackerSummary> SummariseTrackers(const std::vector<TrackFrame>& fra
     }
     if (f.true_in_view == 0 && f.found) ++ts.num_found_out_of_view;
   }
-  for (TrackerSummary& ts : summaries) {
+  for (evaluation::TrackerSummary& ts : summaries) {
     double sum2 = 0, mx = 0;
-    for (const TrackFrame& f : frames) {
+    for (const evaluation::TrackFrame& f : frames) {
       if (f.tracker != ts.tracker || f.eye != ts.eye || f.true_in_view != 1 || !std::isfinite(f.error_px)) continue;
       ++ts.num_errors;
       sum2 += f.error_px * f.error_px;
       mx = std::max(mx, f.error_px);
-      if (f.error_px > kOffTargetPx) ++ts.num_off_target;
+      if (f.error_px > evaluation::kOffTargetPx) ++ts.num_off_target;
     }
     if (ts.num_errors > 0) {
       ts.rms_px = std::sqrt(sum2 / ts.num_errors);
@@ -167,11 +159,11 @@ std::vector<TrackerSummary> SummariseTrackers(const std::vector<TrackFrame>& fra
 
 // The salience candidates of salience.csv into s, with how many lie on an object and were
 // fixated, and a note per candidate whose fixation was not ok.
-void ReadSalience(const std::string& path, TrackingStudy* s) {
+void ReadSalience(const std::string& path, evaluation::TrackingStudy* s) {
   const calib::CsvTable t = protocols::ReadAppendedCsv(path);
-  for (const char* column : kSalienceRowColumns) t.RequireColumns({column});  // names the first missing one
+  for (const char* column : evaluation::kSalienceRowColumns) t.RequireColumns({column});  // names the first missing one
   for (size_t r = 0; r < t.NumRows(); ++r) {
-    SalienceRow c;
+    evaluation::SalienceRow c;
     c.rank = t.Int(r, "rank", 1, 1000);
     c.x_px = t.Number(r, "x_px");
     c.y_px = t.Number(r, "y_px");
@@ -180,15 +172,15 @@ void ReadSalience(const std::string& path, TrackingStudy* s) {
     c.colour = t.Number(r, "colour");
     c.orientation = t.Number(r, "orientation");
     c.object = t.Text(r, "object");
-    c.object_distance_px = Opt(t, r, "object_distance_px");
-    c.object_radius_px = Opt(t, r, "object_radius_px");
+    c.object_distance_px = evaluation::Opt(t, r, "object_distance_px");
+    c.object_radius_px = evaluation::Opt(t, r, "object_radius_px");
     c.fix_status = t.Text(r, "fix_status");
     c.fix_reason = t.Text(r, "fix_reason");
     c.fix_iterations = t.Int(r, "fix_iterations", 0, 100000);
-    c.fix_dx_px = Opt(t, r, "fix_dx_px");
-    c.fix_dy_px = Opt(t, r, "fix_dy_px");
+    c.fix_dx_px = evaluation::Opt(t, r, "fix_dx_px");
+    c.fix_dy_px = evaluation::Opt(t, r, "fix_dy_px");
     c.fixated_object = t.Text(r, "fixated_object");
-    c.fixated_distance_px = Opt(t, r, "fixated_distance_px");
+    c.fixated_distance_px = evaluation::Opt(t, r, "fixated_distance_px");
     s->num_on_object += c.object.empty() ? 0 : 1;
     s->num_fixated += c.fix_status == "ok" ? 1 : 0;
     if (c.fix_status != "ok")
@@ -200,8 +192,8 @@ void ReadSalience(const std::string& path, TrackingStudy* s) {
 
 }  // namespace
 
-TrackingStudy EvaluateTrackingDataset(const std::string& dir) {
-  TrackingStudy s;
+evaluation::TrackingStudy EvaluateTrackingDataset(const std::string& dir) {
+  evaluation::TrackingStudy s;
   s.source = dir;
   const std::string frames_csv = dir + "/track.csv", trials_csv = dir + "/track_trials.csv";
   if (!fs::exists(trials_csv))
@@ -209,7 +201,7 @@ TrackingStudy EvaluateTrackingDataset(const std::string& dir) {
   ReadTrackTrials(trials_csv, &s);
   if (fs::exists(frames_csv)) {
     s.frames = ReadTrackFrames(frames_csv);
-    for (const TrackFrame& f : s.frames)
+    for (const evaluation::TrackFrame& f : s.frames)
       if (f.true_in_view >= 0) s.has_truth = true;
   } else {
     s.notes.push_back(frames_csv + " does not exist: no frame was logged");
@@ -226,45 +218,6 @@ TrackingStudy EvaluateTrackingDataset(const std::string& dir) {
   }
   if (!s.has_truth) s.notes.push_back("no truth: a real robot (the virtual Owl logs the target's true pixel)");
   return s;
-}
-
-nlohmann::json TrackingStudyJson(const TrackingStudy& s) {
-  nlohmann::json j;
-  j["source"] = s.source;
-  j["has_truth"] = s.has_truth;
-  j["off_target_px"] = kOffTargetPx;
-  for (const TrackerSummary& t : s.summaries) {
-    nlohmann::json r = {{"tracker", t.tracker},
-                        {"eye", models::kEyeNames[t.eye]},
-                        {"frames", t.num_frames},
-                        {"found", t.num_found},
-                        {"lost", t.num_lost},
-                        {"reacquired", t.num_reacquired},
-                        {"in_view", t.num_in_view},
-                        {"lost_in_view", t.num_lost_in_view},
-                        {"found_out_of_view", t.num_found_out_of_view},
-                        {"error_frames", t.num_errors},
-                        {"off_target", t.num_off_target},
-                        {"rms_px", io::JsonNumber(t.rms_px)},
-                        {"max_px", io::JsonNumber(t.max_px)},
-                        {"lost_reasons", t.lost_reasons}};
-    j["trackers"].push_back(r);
-  }
-  for (const SalienceRow& c : s.salience)
-    j["salience"].push_back({{"rank", c.rank},
-                             {"x_px", c.x_px},
-                             {"y_px", c.y_px},
-                             {"score", c.score},
-                             {"object", c.object},
-                             {"object_distance_px", io::JsonNumber(c.object_distance_px)},
-                             {"fix_status", c.fix_status},
-                             {"fix_reason", c.fix_reason},
-                             {"fixated_object", c.fixated_object}});
-  j["salience_on_object"] = s.num_on_object;
-  j["salience_candidates"] = int(s.salience.size());
-  j["salience_fixated"] = s.num_fixated;
-  j["notes"] = s.notes;
-  return j;
 }
 
 }  // namespace owlcal::pipeline

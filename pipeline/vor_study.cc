@@ -1,5 +1,3 @@
-// The VOR study: reading a recorded VOR dataset (vor.csv, vor_trials.csv), each trial's slip and
-// gain, and the study's JSON. The page: pipeline/vor_study_page.cc.
 #include "pipeline/vor_study.h"
 
 #include <algorithm>
@@ -9,16 +7,14 @@
 #include <stdexcept>
 
 #include "calib/csv.h"
+#include "evaluation/study_cells.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
-#include "pipeline/study_cells.h"
 #include "protocols/dataset.h"
-#include "reports/experiment_page.h"
-#include "reports/gnuplot_figure.h"
-#include "reports/table.h"
 
 namespace owlcal::pipeline {
 namespace {
+
 namespace fs = std::filesystem;
 
 constexpr double kStepLeadS = 0.5;  // protocols/vor_step.cc: a step profile's rest before the step
@@ -30,13 +26,13 @@ struct TrialInfo {
 
 // The gain of one trial from two columns (neck, pan) of its frames; samples with either missing
 // are left out.
-fitting::VorGain Gain(const std::vector<const VorFrame*>& fr,
-                      const VorTrialEye& te,
+fitting::VorGain Gain(const std::vector<const evaluation::VorFrame*>& fr,
+                      const evaluation::VorTrialEye& te,
                       double hold_s,
-                      double VorFrame::*neck,
-                      double VorFrame::*pan) {
+                      double evaluation::VorFrame::*neck,
+                      double evaluation::VorFrame::*pan) {
   std::vector<double> t, n, p;
-  for (const VorFrame* f : fr)
+  for (const evaluation::VorFrame* f : fr)
     if (std::isfinite(f->*neck) && std::isfinite(f->*pan)) {
       t.push_back(f->t_s);
       n.push_back(f->*neck);
@@ -53,16 +49,8 @@ fitting::VorGain Gain(const std::vector<const VorFrame*>& fr,
 
 }  // namespace
 
-std::vector<const VorFrame*> internal::SelectVorFrames(const std::vector<VorFrame>& frames, int trial, int eye) {
-  std::vector<const VorFrame*> out;
-  for (const VorFrame& f : frames)
-    if (f.trial == trial && f.eye == eye) out.push_back(&f);
-  std::sort(out.begin(), out.end(), [](const VorFrame* a, const VorFrame* b) { return a->k < b->k; });
-  return out;
-}
-
-VorStudy EvaluateVorDataset(const std::string& dir) {
-  VorStudy s;
+evaluation::VorStudy EvaluateVorDataset(const std::string& dir) {
+  evaluation::VorStudy s;
   s.source = dir;
   const std::string frames_csv = dir + "/vor.csv", trials_csv = dir + "/vor_trials.csv";
   if (!fs::exists(trials_csv)) throw std::runtime_error(trials_csv + ": no such file (is " + dir + " a vor dataset?)");
@@ -70,7 +58,7 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
   tt.RequireColumns(
       {"trial", "profile", "frequency_hz", "amplitude_deg", "condition", "frames", "map", "status", "reason"});
   std::map<int, TrialInfo> trials;
-  std::map<int, VorTrialEye> proto;
+  std::map<int, evaluation::VorTrialEye> proto;
   for (size_t r = 0; r < tt.NumRows(); ++r) {
     const int trial = tt.Int(r, "trial", 0, 1000000);
     TrialInfo& ti = trials[trial];
@@ -78,7 +66,7 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
     ti.reason = tt.Text(r, "reason");
     ti.map = tt.Text(r, "map");
     ti.frames = tt.Int(r, "frames", 0, 100000000);
-    VorTrialEye& te = proto[trial];
+    evaluation::VorTrialEye& te = proto[trial];
     te.trial = trial;
     te.profile = tt.Text(r, "profile");
     te.condition = tt.Text(r, "condition");
@@ -109,7 +97,7 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
                       "true_y_px",
                       "true_gaze_err_deg"});
     for (size_t r = 0; r < t.NumRows(); ++r) {
-      VorFrame f;
+      evaluation::VorFrame f;
       f.trial = t.Int(r, "trial", 0, 1000000);
       f.profile = t.Text(r, "profile");
       f.condition = t.Text(r, "condition");
@@ -126,16 +114,16 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
       f.neck_cmd_deg = t.Number(r, "neck_cmd_deg");
       f.pan_cmd_deg = t.Number(r, "pan_cmd_deg");
       f.found = t.Int(r, "found", 0, 1) == 1;
-      f.x_px = Opt(t, r, "x_px");
-      f.y_px = Opt(t, r, "y_px");
-      f.gaze_err_deg = Opt(t, r, "gaze_err_deg");
-      f.neck_deg = Opt(t, r, "neck_deg");
-      f.pan_deg = Opt(t, r, "pan_deg");
-      f.true_neck_deg = Opt(t, r, "true_neck_deg");
-      f.true_pan_deg = Opt(t, r, "true_pan_deg");
-      f.true_x_px = Opt(t, r, "true_x_px");
-      f.true_y_px = Opt(t, r, "true_y_px");
-      f.true_gaze_err_deg = Opt(t, r, "true_gaze_err_deg");
+      f.x_px = evaluation::Opt(t, r, "x_px");
+      f.y_px = evaluation::Opt(t, r, "y_px");
+      f.gaze_err_deg = evaluation::Opt(t, r, "gaze_err_deg");
+      f.neck_deg = evaluation::Opt(t, r, "neck_deg");
+      f.pan_deg = evaluation::Opt(t, r, "pan_deg");
+      f.true_neck_deg = evaluation::Opt(t, r, "true_neck_deg");
+      f.true_pan_deg = evaluation::Opt(t, r, "true_pan_deg");
+      f.true_x_px = evaluation::Opt(t, r, "true_x_px");
+      f.true_y_px = evaluation::Opt(t, r, "true_y_px");
+      f.true_gaze_err_deg = evaluation::Opt(t, r, "true_gaze_err_deg");
       if (std::isfinite(f.true_neck_deg)) s.has_truth = true;
       s.frames.push_back(f);
     }
@@ -144,18 +132,18 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
   }
   // A step's hold: from the step trials' frame count (lead 0.5 s + 2 holds at 30 fps).
   for (const auto& [trial, ti] : trials) {
-    const VorTrialEye& base = proto[trial];
+    const evaluation::VorTrialEye& base = proto[trial];
     const double hold_s = base.profile == "step" ? std::max(0.2, (ti.frames / 30.0 - kStepLeadS) / 2) : 0;
     for (int e = 0; e < 2; ++e) {
-      VorTrialEye te = base;
+      evaluation::VorTrialEye te = base;
       te.eye = e;
       te.status = ti.status;
       te.reason = ti.reason;
-      const std::vector<const VorFrame*> fr = internal::SelectVorFrames(s.frames, trial, e);
+      const std::vector<const evaluation::VorFrame*> fr = evaluation::internal::SelectVorFrames(s.frames, trial, e);
       te.num_frames = int(fr.size());
       std::vector<double> t, x, ang, tx, tang;
       std::vector<bool> found, tfound;
-      for (const VorFrame* f : fr) {
+      for (const evaluation::VorFrame* f : fr) {
         te.num_found += f->found ? 1 : 0;
         t.push_back(f->t_s);
         x.push_back(f->x_px);
@@ -168,9 +156,11 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
       te.slip = fitting::ComputeSlip(t, x, ang, found);
       if (s.has_truth) te.true_slip = fitting::ComputeSlip(t, tx, tang, tfound);
       if (te.condition == "vor") {
-        te.gain = Gain(fr, te, hold_s, &VorFrame::neck_deg, &VorFrame::pan_deg);
-        te.map_gain = Gain(fr, te, hold_s, &VorFrame::neck_cmd_deg, &VorFrame::pan_cmd_deg);
-        if (s.has_truth) te.true_gain = Gain(fr, te, hold_s, &VorFrame::true_neck_deg, &VorFrame::true_pan_deg);
+        te.gain = Gain(fr, te, hold_s, &evaluation::VorFrame::neck_deg, &evaluation::VorFrame::pan_deg);
+        te.map_gain = Gain(fr, te, hold_s, &evaluation::VorFrame::neck_cmd_deg, &evaluation::VorFrame::pan_cmd_deg);
+        if (s.has_truth)
+          te.true_gain =
+              Gain(fr, te, hold_s, &evaluation::VorFrame::true_neck_deg, &evaluation::VorFrame::true_pan_deg);
         if (te.status == "ok" && !te.gain.ok) {
           te.status = "failed";
           te.reason = "gain not measured: " + te.gain.reason;
@@ -181,8 +171,9 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
         te.reason = "no frame logged";
       }
       if (te.status != "ok")
-        s.notes.push_back("trial " + std::to_string(trial) + " (" + te.profile + " " + Fx(te.amplitude_deg, 1) +
-                          " deg" + (te.profile == "sine" ? " at " + Fx(te.frequency_hz, 2) + " Hz" : "") + ", " +
+        s.notes.push_back("trial " + std::to_string(trial) + " (" + te.profile + " " +
+                          evaluation::Fx(te.amplitude_deg, 1) + " deg" +
+                          (te.profile == "sine" ? " at " + evaluation::Fx(te.frequency_hz, 2) + " Hz" : "") + ", " +
                           te.condition + ", " + models::kEyeNames[e] + " eye): " + te.status + ": " + te.reason);
       s.results.push_back(te);
     }
@@ -194,55 +185,6 @@ VorStudy EvaluateVorDataset(const std::string& dir) {
                    "calibrate and pass --calib for the fitted head");
   if (!s.has_truth) s.notes.push_back("no truth: a real robot (the virtual Owl logs the true angles and slip)");
   return s;
-}
-
-nlohmann::json VorStudyJson(const VorStudy& s) {
-  nlohmann::json j = TrialStudyHeaderJson(s);
-  auto gain = [](const fitting::VorGain& g) {
-    nlohmann::json o = {{"ok", g.ok}};
-    if (!g.ok) {
-      o["reason"] = g.reason;
-      return o;
-    }
-    o["gain"] = g.gain;
-    o["gain_sigma"] = g.gain_sigma;
-    o["lag_deg"] = g.lag_deg;
-    o["lag_sigma_deg"] = g.lag_sigma_deg;
-    o["lag_ms"] = g.lag_ms;
-    o["lag_sigma_ms"] = g.lag_sigma_ms;
-    return o;
-  };
-  auto slip = [](const fitting::SlipStats& x) {
-    return nlohmann::json{{"samples", x.num_samples},
-                          {"rms_px", x.rms_px},
-                          {"peak_px", x.peak_px},
-                          {"rms_px_per_s", x.rms_px_per_s},
-                          {"peak_px_per_s", x.peak_px_per_s},
-                          {"rms_deg_per_s", x.rms_deg_per_s},
-                          {"peak_deg_per_s", x.peak_deg_per_s}};
-  };
-  j["trials"] = nlohmann::json::array();
-  for (const VorTrialEye& r : s.results) {
-    nlohmann::json o = {{"trial", r.trial},
-                        {"profile", r.profile},
-                        {"frequency_hz", r.frequency_hz},
-                        {"amplitude_deg", r.amplitude_deg},
-                        {"condition", r.condition},
-                        {"eye", models::kEyeNames[r.eye]},
-                        {"status", r.status},
-                        {"reason", r.reason},
-                        {"frames", r.num_frames},
-                        {"found", r.num_found},
-                        {"slip", slip(r.slip)}};
-    if (r.true_slip) o["true_slip"] = slip(*r.true_slip);
-    if (r.condition == "vor") {
-      o["gain"] = gain(r.gain);
-      o["map_gain"] = gain(r.map_gain);
-      if (r.true_gain) o["true_gain"] = gain(*r.true_gain);
-    }
-    j["trials"].push_back(o);
-  }
-  return j;
 }
 
 }  // namespace owlcal::pipeline

@@ -15,6 +15,7 @@
 #include "owlcal_version.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "reports/catch_up_study_page.h"
 #include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 
@@ -60,7 +61,7 @@ std::string Protocol(const std::string& cu =
 
 struct Recorded {
   protocols::RunSummary summary;
-  CatchUpStudy study;
+  evaluation::CatchUpStudy study;
   std::string dir;
 };
 
@@ -81,7 +82,7 @@ Recorded Record(const std::string& name,
   if (!nominal) ro.calibration = FromTruth(truth, dynamics);
   r.summary = protocols::RunProtocols({protocols::ParseProtocolYaml(protocol, "catch-up-test.yaml")}, owl, ro);
   r.study = EvaluateCatchUpDataset(ro.out_dir);
-  for (const CatchUpTrial& t : r.study.trials)
+  for (const evaluation::CatchUpTrial& t : r.study.trials)
     std::cout << name << " " << t.speed_deg_per_s << " deg/s: " << t.status << " " << t.reason << "; " << t.saccades
               << " saccades, RMS " << t.rms_error_deg << " deg (true " << t.true_rms_error_deg << "), before "
               << t.mean_before_deg << " after " << t.mean_after_deg << ", response " << t.median_response_ms << " ms\n";
@@ -93,17 +94,17 @@ Recorded Record(const std::string& name,
 // with 5 us steps and 133 ms latency 4.2 -> 3.1 deg at 30 deg/s).
 void ExpectPursuit(const Recorded& r, double after_factor) {
   ASSERT_EQ(r.summary.status, "complete") << r.summary.message;
-  const CatchUpStudy& s = r.study;
+  const evaluation::CatchUpStudy& s = r.study;
   ASSERT_TRUE(s.has_truth);
   ASSERT_EQ(s.num_trials, 2);
   EXPECT_EQ(s.num_ok, 2);
-  const CatchUpTrial& slow = s.trials[0];
-  const CatchUpTrial& fast = s.trials[1];
+  const evaluation::CatchUpTrial& slow = s.trials[0];
+  const evaluation::CatchUpTrial& fast = s.trials[1];
   // 30 deg/s outruns the P-loop pursuit: catch-up saccades, each reducing the error.
   EXPECT_GE(fast.saccades, 1);
   EXPECT_LE(slow.saccades, fast.saccades);
   EXPECT_LT(fast.mean_after_deg, after_factor * fast.mean_before_deg);
-  for (const CatchUpTrial& t : s.trials) {
+  for (const evaluation::CatchUpTrial& t : s.trials) {
     EXPECT_EQ(t.status, "ok") << t.reason;
     // The measured retinal error follows the truth (the lens model is the truth here).
     EXPECT_NEAR(t.rms_error_deg, t.true_rms_error_deg, 0.1 + 0.05 * t.true_rms_error_deg);
@@ -114,7 +115,7 @@ void ExpectPursuit(const Recorded& r, double after_factor) {
 TEST(CatchUp, DefaultRobotCatchUpSaccadesReduceTheRetinalError) {
   const Recorded r = Record("default", Truth(""));
   ExpectPursuit(r, 0.5);
-  const std::string page = WriteCatchUpStudy(r.study, r.dir + "/out", false);
+  const std::string page = reports::WriteCatchUpStudy(r.study, r.dir + "/out", false);
   EXPECT_TRUE(fs::exists(page));
   for (const char* f : {"tables/catch_up_trials.csv",
                         "tables/catch_up_saccades.csv",
@@ -137,7 +138,7 @@ TEST(CatchUp, DefaultRobotNominalMapsKeepTheDiscAtThirtyDegPerS) {
                             true);
   ASSERT_EQ(r.summary.status, "complete") << r.summary.message;
   ASSERT_EQ(r.study.num_trials, 3);
-  for (const CatchUpTrial& t : r.study.trials) {
+  for (const evaluation::CatchUpTrial& t : r.study.trials) {
     EXPECT_EQ(t.status, "ok") << t.speed_deg_per_s << " deg/s: " << t.reason;
     EXPECT_EQ(t.found, t.frames);
     EXPECT_NEAR(t.rms_error_deg, t.true_rms_error_deg, 0.1 + 0.05 * t.true_rms_error_deg);
@@ -167,13 +168,13 @@ TEST(CatchUp, VariantAInducedLossIsReportedLostFromTheImages) {
                             true);
   ASSERT_EQ(r.summary.status, "complete") << r.summary.message;
   ASSERT_EQ(r.study.trials.size(), 1u);
-  const CatchUpTrial& t = r.study.trials[0];
+  const evaluation::CatchUpTrial& t = r.study.trials[0];
   EXPECT_EQ(t.status, "lost target");
   EXPECT_NE(t.reason.find("consecutive frames"), std::string::npos) << t.reason;
   // Held until the hide, then nothing taken for it (the virtual Owl renders a frame with the scene
   // in force when it is grabbed: the first frame after the hide no longer shows the disc).
   int before = 0, found_before = 0, after = 0, found_after = 0;
-  for (const CatchUpFrame& f : r.study.frames) {
+  for (const evaluation::CatchUpFrame& f : r.study.frames) {
     if (f.t_s < 0.7) {
       ++before;
       found_before += f.found;
@@ -231,7 +232,7 @@ TEST(CatchUp, ATrialThatTrackedSomethingElseIsOffTarget) {
           << "320,0.1," << truth << ",pursuit\n";
       }
   }
-  const owlcal::pipeline::CatchUpStudy s = owlcal::pipeline::EvaluateCatchUpDataset(dir.string());
+  const owlcal::evaluation::CatchUpStudy s = owlcal::pipeline::EvaluateCatchUpDataset(dir.string());
   std::filesystem::remove_all(dir);
   ASSERT_EQ(s.trials.size(), 2u);
   EXPECT_EQ(s.trials[0].status, "ok");

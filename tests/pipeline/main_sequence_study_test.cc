@@ -16,6 +16,7 @@
 #include "owlcal_version.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "reports/main_sequence_study_page.h"
 #include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 
@@ -53,7 +54,7 @@ std::string Protocol(const std::string& ms =
 
 struct Recorded {
   protocols::RunSummary summary;
-  MainSequenceStudy study;
+  evaluation::MainSequenceStudy study;
   std::string dir;
 };
 
@@ -85,7 +86,7 @@ Recorded Record(const std::string& name,
 
 void ExpectMatchesTruth(const Recorded& r, int num_saccades) {
   ASSERT_EQ(r.summary.status, "complete") << r.summary.message;
-  const MainSequenceStudy& s = r.study;
+  const evaluation::MainSequenceStudy& s = r.study;
   ASSERT_TRUE(s.has_truth);
   EXPECT_EQ(s.num_saccades, num_saccades);
   EXPECT_EQ(s.num_ok, num_saccades);
@@ -110,7 +111,7 @@ void ExpectMatchesTruth(const Recorded& r, int num_saccades) {
   EXPECT_LT(f.motion.slew_sigma_deg_per_s, 0.005 * ts);
   EXPECT_NEAR(f.peak.lag_s, tl, 0.15 * tl);
   EXPECT_NEAR(f.motion.lag_s, tl, 0.15 * tl);
-  for (const MainSequenceSaccade& sa : s.saccades) {
+  for (const evaluation::MainSequenceSaccade& sa : s.saccades) {
     ASSERT_TRUE(sa.m.ok) << sa.saccade << ": " << sa.reason;
     // Measured amplitude against the true one, peak velocity against the truth's law.
     EXPECT_NEAR(sa.m.amplitude_deg, sa.true_amplitude_deg, 0.02 * sa.true_amplitude_deg + 0.05) << sa.saccade;
@@ -122,7 +123,7 @@ TEST(MainSequence, DefaultRobotSlewWithinFivePercentOfTruth) {
   const sim::RobotTruth t = Truth("");
   const Recorded r = Record("default", t, FromTruth(t));
   ExpectMatchesTruth(r, 15);
-  const std::string page = WriteMainSequenceStudy(r.study, r.dir + "/out", false);
+  const std::string page = reports::WriteMainSequenceStudy(r.study, r.dir + "/out", false);
   EXPECT_TRUE(fs::exists(page));
   for (const char* f : {"tables/main_sequence_saccades.csv",
                         "tables/main_sequence_summary.csv",
@@ -152,7 +153,7 @@ TEST(MainSequence, SaccadesPastTheLimitsAreSkippedRowsNeverSent) {
   ASSERT_EQ(r.summary.status, "complete") << r.summary.message;
   EXPECT_EQ(r.study.num_saccades, 6);
   int skipped = 0;
-  for (const MainSequenceSaccade& sa : r.study.saccades) {
+  for (const evaluation::MainSequenceSaccade& sa : r.study.saccades) {
     if (sa.amplitude_cmd_deg > 30) {
       EXPECT_EQ(sa.status, "skipped");
       EXPECT_NE(sa.reason.find("not sent"), std::string::npos) << sa.reason;

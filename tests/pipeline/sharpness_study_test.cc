@@ -17,6 +17,7 @@
 #include "owlcal_version.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "reports/sharpness_study_page.h"
 #include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 #include "tests/shared_data.h"
@@ -31,7 +32,7 @@ std::string TempDir(const std::string& name) {
   return p.string();
 }
 
-SharpnessStudy Record(const std::string& name, const sim::RobotTruth& truth) {
+evaluation::SharpnessStudy Record(const std::string& name, const sim::RobotTruth& truth) {
   sim::VirtualOwlOptions vo;
   vo.truth = truth;
   vo.seed = 3;
@@ -47,7 +48,7 @@ SharpnessStudy Record(const std::string& name, const sim::RobotTruth& truth) {
 }
 
 // Focus and defocus per eye within 3 sigma of the truth.
-void ExpectTruthRecovered(const SharpnessStudy& s, const sim::RobotTruth& t) {
+void ExpectTruthRecovered(const evaluation::SharpnessStudy& s, const sim::RobotTruth& t) {
   ASSERT_TRUE(s.truth);
   EXPECT_NEAR(s.truth->focus_m, t.stream.focus_m, 1e-12);
   for (int e = 0; e < 2; ++e) {
@@ -73,14 +74,14 @@ void ExpectTruthRecovered(const SharpnessStudy& s, const sim::RobotTruth& t) {
 
 TEST(Sharpness, DefaultRobotFocusAndDefocusMatchTheLens) {
   const sim::RobotTruth t = sim::DefaultRobotTruth();
-  const SharpnessStudy s = Record("default", t);
+  const evaluation::SharpnessStudy s = Record("default", t);
   EXPECT_EQ(s.num_failed, 0);
   EXPECT_EQ(s.num_ok, 56);  // 14 distances x 2 frames x 2 eyes
   ExpectTruthRecovered(s, t);
   // Distances are from the lens: the placements less the eye's 30 mm and the camera's ~15 mm.
   EXPECT_NEAR(s.by_distance[0].front().distance_m, 0.2 - 0.0448, 0.001);
   const std::string out = TempDir("default_out");
-  const std::string page = WriteSharpnessStudy(s, out, false);
+  const std::string page = reports::WriteSharpnessStudy(s, out, false);
   EXPECT_TRUE(fs::exists(page));
   for (const char* f : {"tables/sharpness.csv",
                         "tables/sharpness_fit.md",
@@ -89,7 +90,7 @@ TEST(Sharpness, DefaultRobotFocusAndDefocusMatchTheLens) {
                         "figures/sharpness.gp",
                         "figures/sharpness.csv"})
     EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
-  const nlohmann::json j = SharpnessStudyJson(s);
+  const nlohmann::json j = evaluation::SharpnessStudyJson(s);
   EXPECT_TRUE(j["eyes"]["left"]["fit"]["focus_found"].get<bool>());
   // An infinite far limit is written as null.
   EXPECT_EQ(j["eyes"]["left"]["fit"]["dof_far_m"].is_null(), std::isinf(s.fit[0].dof_far_m));
@@ -105,7 +106,7 @@ TEST(Sharpness, WornVariantWithANearerFocus) {
 TEST(Sharpness, ALensWithoutDefocusHasNoFocus) {
   sim::RobotTruth t = sim::DefaultRobotTruth();
   t.stream.aperture_mm = 0;
-  const SharpnessStudy s = Record("pinhole", t);
+  const evaluation::SharpnessStudy s = Record("pinhole", t);
   EXPECT_FALSE(s.truth);  // no defocus in the truth to compare with
   for (int e = 0; e < 2; ++e) {
     ASSERT_TRUE(s.fit[e].ok) << s.fit[e].reason;
@@ -118,11 +119,11 @@ TEST(Sharpness, ALensWithoutDefocusHasNoFocus) {
 
 TEST(Sharpness, RealKitDistanceSetShowsTheCourseLens) {
   const std::string csv = test_data::SharedData() + "/owl-real/kit2020-distance-target1/distances.csv";
-  const SharpnessStudy s = MeasureSharpnessPairs(ReadSharpnessPairsCsv(csv), csv);
+  const evaluation::SharpnessStudy s = MeasureSharpnessPairs(ReadSharpnessPairsCsv(csv), csv);
   EXPECT_EQ(s.rows.size(), 26u);
   EXPECT_GE(s.num_ok, 24);
   // Every failure is a row with a reason, and named in the notes.
-  for (const SharpnessRow& r : s.rows) {
+  for (const evaluation::SharpnessRow& r : s.rows) {
     if (r.status != "ok") {
       EXPECT_FALSE(r.reason.empty()) << r.image;
     }
@@ -151,7 +152,7 @@ TEST(Sharpness, BadInputIsNamed) {
     EXPECT_NE(std::string(e.what()).find("pairs.csv:2"), std::string::npos) << e.what();
   }
   std::ofstream(dir + "/pairs.csv") << "left,right,distance_cm\nmissing_l.jpg,missing_r.jpg,50\n";
-  const SharpnessStudy s = MeasureSharpnessPairs(ReadSharpnessPairsCsv(dir + "/pairs.csv"), dir);
+  const evaluation::SharpnessStudy s = MeasureSharpnessPairs(ReadSharpnessPairsCsv(dir + "/pairs.csv"), dir);
   ASSERT_EQ(s.rows.size(), 2u);
   EXPECT_EQ(s.rows[0].status, "unreadable");
   EXPECT_EQ(s.num_failed, 2);

@@ -18,6 +18,7 @@
 #include "owlcal_version.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "reports/tracking_study_page.h"
 #include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 
@@ -47,7 +48,7 @@ std::string TrackProtocol(const std::string& track) {
 
 struct Recorded {
   protocols::RunSummary summary;
-  TrackingStudy study;
+  evaluation::TrackingStudy study;
   std::string dir;
 };
 
@@ -63,14 +64,14 @@ Recorded Record(const std::string& name, const sim::RobotTruth& truth, const std
   ro.robot_spec = "sim";
   r.summary = protocols::RunProtocols({protocols::ParseProtocolYaml(protocol, "track-test.yaml")}, owl, ro);
   r.study = EvaluateTrackingDataset(ro.out_dir);
-  for (const TrackerSummary& t : r.study.summaries) {
+  for (const evaluation::TrackerSummary& t : r.study.summaries) {
     std::cout << name << " " << t.tracker << " " << models::kEyeNames[t.eye] << ": " << t.num_lost << " of "
               << t.num_frames << " lost (" << t.num_lost_in_view << " in view), " << t.num_reacquired << " reacquired, "
               << t.num_found_out_of_view << " positions out of view; error RMS " << t.rms_px << " px, max " << t.max_px
               << " px over " << t.num_errors << " frames, " << t.num_off_target << " off target\n";
     for (const auto& [reason, n] : t.lost_reasons) std::cout << "    lost " << n << "x: " << reason << "\n";
   }
-  for (const SalienceRow& c : r.study.salience)
+  for (const evaluation::SalienceRow& c : r.study.salience)
     std::cout << name << " salience " << c.rank << " (" << c.x_px << ", " << c.y_px << ") score " << c.score << " on '"
               << c.object << "' " << c.object_distance_px << " px from its centre; fixation " << c.fix_status << " "
               << c.fix_reason << ", then on '" << c.fixated_object << "'\n";
@@ -78,10 +79,10 @@ Recorded Record(const std::string& name, const sim::RobotTruth& truth, const std
 }
 
 // The LK tracker against the truth in both eyes: RMS within 1 px, no position off target.
-void ExpectLkWithinOnePixel(const TrackingStudy& s) {
+void ExpectLkWithinOnePixel(const evaluation::TrackingStudy& s) {
   ASSERT_TRUE(s.has_truth);
   for (int e = 0; e < 2; ++e) {
-    const TrackerSummary* lk = s.Find("lk", e);
+    const evaluation::TrackerSummary* lk = s.Find("lk", e);
     ASSERT_TRUE(lk) << models::kEyeNames[e];
     EXPECT_GT(lk->num_errors, 40) << models::kEyeNames[e];
     EXPECT_LT(lk->rms_px, 1.0) << models::kEyeNames[e];
@@ -94,7 +95,7 @@ void ExpectLkWithinOnePixel(const TrackingStudy& s) {
     EXPECT_EQ(reasons, lk->num_lost);
     // The existing locator is evaluated beside it. Checked against the disc's first look it no
     // longer gives wall blobs and the image's darker corners while the disc is out of view.
-    const TrackerSummary* fix = s.Find("fixation", e);
+    const evaluation::TrackerSummary* fix = s.Find("fixation", e);
     ASSERT_TRUE(fix);
     EXPECT_EQ(fix->num_found_out_of_view, 0) << models::kEyeNames[e] << ": a position with the target out of view";
     EXPECT_EQ(fix->num_off_target, 0) << models::kEyeNames[e] << ": max " << fix->max_px << " px";
@@ -116,7 +117,7 @@ TEST(Tracking, DefaultRobotLkWithinOnePixelLostTrackIsAStatusAndSalienceFindsThe
   for (int e = 0; e < 2; ++e) {
     int out_of_view = 0, reacquired_after = 0;
     bool seen_lost = false;
-    for (const TrackFrame& f : r.study.frames) {
+    for (const evaluation::TrackFrame& f : r.study.frames) {
       if (f.tracker != "lk" || f.eye != e) continue;
       if (f.true_in_view == 0) {
         ++out_of_view;
@@ -131,20 +132,20 @@ TEST(Tracking, DefaultRobotLkWithinOnePixelLostTrackIsAStatusAndSalienceFindsThe
     }
     EXPECT_GE(out_of_view, 8) << models::kEyeNames[e] << ": the target must leave the view";
     EXPECT_GE(reacquired_after, 1) << models::kEyeNames[e];
-    const TrackerSummary* lk = r.study.Find("lk", e);
+    const evaluation::TrackerSummary* lk = r.study.Find("lk", e);
     EXPECT_GE(lk->num_lost, out_of_view);
     EXPECT_LE(lk->num_lost_in_view, 2) << "lost with the target in view (at the image border)";
   }
   // Salience: the top candidate lies on the fixation target, and the right eye fixates it.
   ASSERT_GE(r.study.salience.size(), 1u);
-  const SalienceRow& top = r.study.salience.front();
+  const evaluation::SalienceRow& top = r.study.salience.front();
   EXPECT_EQ(top.object, "fixation");
   EXPECT_LT(top.object_distance_px, 25);
   EXPECT_EQ(top.fix_status, "ok") << top.fix_reason;
   EXPECT_EQ(top.fixated_object, "fixation");
-  for (const SalienceRow& c : r.study.salience) EXPECT_FALSE(c.fix_status.empty());
+  for (const evaluation::SalienceRow& c : r.study.salience) EXPECT_FALSE(c.fix_status.empty());
 
-  const std::string page = WriteTrackingStudy(r.study, r.dir + "/out", false);
+  const std::string page = reports::WriteTrackingStudy(r.study, r.dir + "/out", false);
   EXPECT_TRUE(fs::exists(page));
   for (const char* f : {"tables/track_summary.csv",
                         "tables/track_lost.csv",

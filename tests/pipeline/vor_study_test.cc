@@ -15,6 +15,7 @@
 #include "owlcal_version.h"
 #include "protocols/protocol.h"
 #include "protocols/runner.h"
+#include "reports/vor_study_page.h"
 #include "sim/robot_truth.h"
 #include "sim/virtual_owl.h"
 
@@ -53,7 +54,7 @@ std::string VorProtocol(const std::string& vor =
 
 struct Recorded {
   protocols::RunSummary summary;
-  VorStudy study;
+  evaluation::VorStudy study;
   std::string dir;
 };
 
@@ -73,7 +74,7 @@ Recorded Record(const std::string& name,
   ro.calibration = cal;
   r.summary = protocols::RunProtocols({protocols::ParseProtocolYaml(protocol, "vor-test.yaml")}, owl, ro);
   r.study = EvaluateVorDataset(ro.out_dir);
-  for (const VorTrialEye& t : r.study.results) {
+  for (const evaluation::VorTrialEye& t : r.study.results) {
     std::cout << name << " trial " << t.trial << " " << t.profile << " " << t.frequency_hz << " Hz " << t.condition
               << " " << models::kEyeNames[t.eye] << ": " << t.status << " " << t.reason << "; slip "
               << t.slip.rms_deg_per_s << " deg/s (true " << (t.true_slip ? t.true_slip->rms_deg_per_s : -1) << ")";
@@ -96,7 +97,7 @@ void ExpectMatchesTruth(const Recorded& r, int num_trials = 6, double slip_scale
   EXPECT_EQ(r.study.num_trials, num_trials);
   EXPECT_EQ(r.study.num_ok, num_trials);
   int gains = 0;
-  for (const VorTrialEye& t : r.study.results) {
+  for (const evaluation::VorTrialEye& t : r.study.results) {
     EXPECT_EQ(t.status, "ok") << t.reason;
     ASSERT_TRUE(t.true_slip);
     // The disc's detected position against its true pixel.
@@ -114,8 +115,8 @@ void ExpectMatchesTruth(const Recorded& r, int num_trials = 6, double slip_scale
   EXPECT_EQ(gains, num_trials);  // one per counter-rotating trial and eye
 }
 
-const VorTrialEye* Find(const VorStudy& s, const std::string& condition, double hz, int eye) {
-  for (const VorTrialEye& t : s.results)
+const evaluation::VorTrialEye* Find(const evaluation::VorStudy& s, const std::string& condition, double hz, int eye) {
+  for (const evaluation::VorTrialEye& t : s.results)
     if (t.condition == condition && t.profile == "sine" && std::abs(t.frequency_hz - hz) < 1e-9 && t.eye == eye)
       return &t;
   return nullptr;
@@ -127,13 +128,13 @@ TEST(Vor, DefaultRobotCalibratedMapsCounterRotateAndTheGainMatchesTruth) {
   ExpectMatchesTruth(r);
   // With the true maps the eyes cancel most of the slip the still eyes see.
   for (int e = 0; e < 2; ++e) {
-    const VorTrialEye* still = Find(r.study, "still", 0.5, e);
-    const VorTrialEye* vor = Find(r.study, "vor", 0.5, e);
+    const evaluation::VorTrialEye* still = Find(r.study, "still", 0.5, e);
+    const evaluation::VorTrialEye* vor = Find(r.study, "vor", 0.5, e);
     ASSERT_TRUE(still && vor);
     EXPECT_LT(vor->slip.rms_deg_per_s, 0.5 * still->slip.rms_deg_per_s);
     EXPECT_NEAR(vor->true_gain->gain, 1.0, 0.15);
   }
-  const std::string page = WriteVorStudy(r.study, r.dir + "/out", false);
+  const std::string page = reports::WriteVorStudy(r.study, r.dir + "/out", false);
   EXPECT_TRUE(fs::exists(page));
   for (const char* f : {"tables/vor_results.csv",
                         "tables/vor_summary.csv",
@@ -161,7 +162,7 @@ TEST(Vor, VariantACalibratedMaps) {
   const sim::RobotTruth t = Truth("data/sim/owl_variant_a_truth.yaml");
   const Recorded r = Record("variant_a", t, FromTruth(t));
   ExpectMatchesTruth(r);
-  const VorTrialEye* vor = Find(r.study, "vor", 1.0, models::kRightEye);
+  const evaluation::VorTrialEye* vor = Find(r.study, "vor", 1.0, models::kRightEye);
   ASSERT_TRUE(vor);
   EXPECT_NEAR(vor->true_gain->gain, 1.0, 0.15);
 }

@@ -1,6 +1,6 @@
-// The VOR study's page (WriteVorStudy, pipeline/vor_study.h): the results, summary and frame
+// The VOR study's page (WriteVorStudy, evaluation/vor_study.h): the results, summary and frame
 // tables, the traces, slip and gain figures, and the page.
-#include "pipeline/vor_study.h"
+#include "reports/vor_study_page.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,28 +9,27 @@
 #include <stdexcept>
 
 #include "calib/csv.h"
+#include "evaluation/study_cells.h"
 #include "io/number_text.h"
 #include "models/head_kinematics.h"
-#include "pipeline/study_cells.h"
-#include "protocols/dataset.h"
 #include "reports/experiment_page.h"
 #include "reports/gnuplot_figure.h"
 #include "reports/table.h"
 
-namespace owlcal::pipeline {
+namespace owlcal::reports {
 namespace {
 namespace fs = std::filesystem;
 
 // One column of the frames `fr` against time, from its first finite value, times `sign`.
-reports::Series VorSeries(const std::vector<const VorFrame*>& fr,
-                          double VorFrame::*col,
+reports::Series VorSeries(const std::vector<const evaluation::VorFrame*>& fr,
+                          double evaluation::VorFrame::*col,
                           double sign,
                           const std::string& title,
                           const std::string& style,
                           const std::string& name) {
   reports::Series se{title, style, "1:2", {"t_s", name}, {}};
   double first = NAN;
-  for (const VorFrame* f : fr)
+  for (const evaluation::VorFrame* f : fr)
     if (std::isfinite(f->*col)) {
       if (!std::isfinite(first)) first = f->*col;
       se.rows.push_back({f->t_s, sign * (f->*col - first)});
@@ -39,9 +38,9 @@ reports::Series VorSeries(const std::vector<const VorFrame*>& fr,
 }
 
 // vor_results: per trial and eye.
-reports::Table VorResultsTable(const VorStudy& s) {
+reports::Table VorResultsTable(const evaluation::VorStudy& s) {
   auto gcell = [](const fitting::VorGain& g, double fitting::VorGain::*v, int d) {
-    return g.ok ? Fx(g.*v, d) : std::string();
+    return g.ok ? evaluation::Fx(g.*v, d) : std::string();
   };
   reports::Table results{
       "vor_results",
@@ -79,29 +78,29 @@ reports::Table VorResultsTable(const VorStudy& s) {
        "gain_error",
        "gain_z"},
       {}};
-  for (const VorTrialEye& r : s.results) {
+  for (const evaluation::VorTrialEye& r : s.results) {
     const bool v = r.condition == "vor";
     const bool tg = v && r.true_gain && r.true_gain->ok && r.gain.ok;
     results.rows.push_back(
         {std::to_string(r.trial),
          r.profile,
-         r.profile == "sine" ? Fx(r.frequency_hz, 3) : "",
-         Fx(r.amplitude_deg, 2),
+         r.profile == "sine" ? evaluation::Fx(r.frequency_hz, 3) : "",
+         evaluation::Fx(r.amplitude_deg, 2),
          r.condition,
          models::kEyeNames[r.eye],
          r.status,
          r.reason,
          std::to_string(r.num_frames),
          std::to_string(r.num_found),
-         Fx(r.slip.rms_px, 3),
-         Fx(r.slip.peak_px, 3),
-         Fx(r.slip.rms_px_per_s, 2),
-         Fx(r.slip.peak_px_per_s, 2),
-         Fx(r.slip.rms_deg_per_s, 3),
-         Fx(r.slip.peak_deg_per_s, 3),
-         r.true_slip ? Fx(r.true_slip->rms_px, 3) : "",
-         r.true_slip ? Fx(r.true_slip->rms_deg_per_s, 3) : "",
-         r.true_slip ? Fx(r.true_slip->peak_deg_per_s, 3) : "",
+         evaluation::Fx(r.slip.rms_px, 3),
+         evaluation::Fx(r.slip.peak_px, 3),
+         evaluation::Fx(r.slip.rms_px_per_s, 2),
+         evaluation::Fx(r.slip.peak_px_per_s, 2),
+         evaluation::Fx(r.slip.rms_deg_per_s, 3),
+         evaluation::Fx(r.slip.peak_deg_per_s, 3),
+         r.true_slip ? evaluation::Fx(r.true_slip->rms_px, 3) : "",
+         r.true_slip ? evaluation::Fx(r.true_slip->rms_deg_per_s, 3) : "",
+         r.true_slip ? evaluation::Fx(r.true_slip->peak_deg_per_s, 3) : "",
          v ? gcell(r.gain, &fitting::VorGain::gain, 4) : "",
          v ? gcell(r.gain, &fitting::VorGain::gain_sigma, 4) : "",
          v && r.profile == "sine" ? gcell(r.gain, &fitting::VorGain::lag_deg, 2) : "",
@@ -111,14 +110,14 @@ reports::Table VorResultsTable(const VorStudy& s) {
          v && r.profile == "sine" ? gcell(r.map_gain, &fitting::VorGain::lag_deg, 2) : "",
          v && r.true_gain ? gcell(*r.true_gain, &fitting::VorGain::gain, 4) : "",
          v && r.true_gain && r.profile == "sine" ? gcell(*r.true_gain, &fitting::VorGain::lag_deg, 2) : "",
-         tg ? Fx(r.gain.gain - r.true_gain->gain, 4) : "",
-         tg && r.gain.gain_sigma > 0 ? Fx((r.gain.gain - r.true_gain->gain) / r.gain.gain_sigma, 2) : ""});
+         tg ? evaluation::Fx(r.gain.gain - r.true_gain->gain, 4) : "",
+         tg && r.gain.gain_sigma > 0 ? evaluation::Fx((r.gain.gain - r.true_gain->gain) / r.gain.gain_sigma, 2) : ""});
   }
   return results;
 }
 
 // Per profile and eye: the still and the VOR trial side by side.
-reports::Table VorSummaryTable(const VorStudy& s) {
+reports::Table VorSummaryTable(const evaluation::VorStudy& s) {
   reports::Table summary{"vor_summary",
                          "VOR per profile and eye: RMS image slip with the eyes held still and counter-rotating, "
                          "the gain and phase lag from the frames (+- sigma) and the truth",
@@ -139,10 +138,10 @@ reports::Table VorSummaryTable(const VorStudy& s) {
                           "true_lag_deg",
                           "status"},
                          {}};
-  for (const VorTrialEye& v : s.results) {
+  for (const evaluation::VorTrialEye& v : s.results) {
     if (v.condition != "vor") continue;
-    const VorTrialEye* still = nullptr;
-    for (const VorTrialEye& c : s.results)
+    const evaluation::VorTrialEye* still = nullptr;
+    for (const evaluation::VorTrialEye& c : s.results)
       if (c.condition == "still" && c.eye == v.eye && c.profile == v.profile && c.frequency_hz == v.frequency_hz &&
           c.amplitude_deg == v.amplitude_deg && c.trial == v.trial - 1)
         still = &c;
@@ -151,27 +150,27 @@ reports::Table VorSummaryTable(const VorStudy& s) {
         still && still->slip.rms_deg_per_s > 0 ? 100 * (1 - v.slip.rms_deg_per_s / still->slip.rms_deg_per_s) : NAN;
     const bool tg = v.true_gain && v.true_gain->ok;
     summary.rows.push_back({v.profile,
-                            sine ? Fx(v.frequency_hz, 3) : "",
-                            Fx(v.amplitude_deg, 2),
+                            sine ? evaluation::Fx(v.frequency_hz, 3) : "",
+                            evaluation::Fx(v.amplitude_deg, 2),
                             models::kEyeNames[v.eye],
-                            still ? Fx(still->slip.rms_deg_per_s, 3) : "",
-                            Fx(v.slip.rms_deg_per_s, 3),
-                            Fx(red, 1),
-                            Fx(v.slip.peak_deg_per_s, 3),
-                            v.true_slip ? Fx(v.true_slip->rms_deg_per_s, 3) : "",
-                            v.gain.ok ? Fx(v.gain.gain, 4) : "",
-                            v.gain.ok ? Fx(v.gain.gain_sigma, 4) : "",
-                            tg ? Fx(v.true_gain->gain, 4) : "",
-                            sine && v.gain.ok ? Fx(v.gain.lag_deg, 2) : "",
-                            sine && v.gain.ok ? Fx(v.gain.lag_sigma_deg, 2) : "",
-                            sine && tg ? Fx(v.true_gain->lag_deg, 2) : "",
+                            still ? evaluation::Fx(still->slip.rms_deg_per_s, 3) : "",
+                            evaluation::Fx(v.slip.rms_deg_per_s, 3),
+                            evaluation::Fx(red, 1),
+                            evaluation::Fx(v.slip.peak_deg_per_s, 3),
+                            v.true_slip ? evaluation::Fx(v.true_slip->rms_deg_per_s, 3) : "",
+                            v.gain.ok ? evaluation::Fx(v.gain.gain, 4) : "",
+                            v.gain.ok ? evaluation::Fx(v.gain.gain_sigma, 4) : "",
+                            tg ? evaluation::Fx(v.true_gain->gain, 4) : "",
+                            sine && v.gain.ok ? evaluation::Fx(v.gain.lag_deg, 2) : "",
+                            sine && v.gain.ok ? evaluation::Fx(v.gain.lag_sigma_deg, 2) : "",
+                            sine && tg ? evaluation::Fx(v.true_gain->lag_deg, 2) : "",
                             v.status + (still && still->status != "ok" ? " (still: " + still->status + ")" : "")});
   }
   return summary;
 }
 
 // vor_frames: one row per frame and eye.
-reports::Table VorFramesTable(const VorStudy& s) {
+reports::Table VorFramesTable(const evaluation::VorStudy& s) {
   reports::Table frames{
       "vor_frames",
       "VOR frames: one row per frame and eye (angles in the head model's convention, gaze = neck + "
@@ -181,37 +180,37 @@ reports::Table VorFramesTable(const VorStudy& s) {
        "found",         "x_px",         "y_px",         "gaze_err_deg",  "neck_deg",         "pan_deg",
        "true_neck_deg", "true_pan_deg", "true_x_px",    "true_y_px",     "true_gaze_err_deg"},
       {}};
-  for (const VorFrame& f : s.frames)
+  for (const evaluation::VorFrame& f : s.frames)
     frames.rows.push_back({std::to_string(f.trial),
                            f.profile,
-                           f.profile == "sine" ? Fx(f.frequency_hz, 3) : "",
-                           Fx(f.amplitude_deg, 2),
+                           f.profile == "sine" ? evaluation::Fx(f.frequency_hz, 3) : "",
+                           evaluation::Fx(f.amplitude_deg, 2),
                            f.condition,
                            std::to_string(f.k),
-                           Fx(f.t_s, 6),
+                           evaluation::Fx(f.t_s, 6),
                            models::kEyeNames[f.eye],
                            std::to_string(f.neck_cmd_us),
                            std::to_string(f.pan_cmd_us),
-                           Fx(f.neck_cmd_deg, 4),
-                           Fx(f.pan_cmd_deg, 4),
+                           evaluation::Fx(f.neck_cmd_deg, 4),
+                           evaluation::Fx(f.pan_cmd_deg, 4),
                            f.found ? "1" : "0",
-                           Fx(f.x_px, 3),
-                           Fx(f.y_px, 3),
-                           Fx(f.gaze_err_deg, 4),
-                           Fx(f.neck_deg, 4),
-                           Fx(f.pan_deg, 4),
-                           Fx(f.true_neck_deg, 4),
-                           Fx(f.true_pan_deg, 4),
-                           Fx(f.true_x_px, 3),
-                           Fx(f.true_y_px, 3),
-                           Fx(f.true_gaze_err_deg, 4)});
+                           evaluation::Fx(f.x_px, 3),
+                           evaluation::Fx(f.y_px, 3),
+                           evaluation::Fx(f.gaze_err_deg, 4),
+                           evaluation::Fx(f.neck_deg, 4),
+                           evaluation::Fx(f.pan_deg, 4),
+                           evaluation::Fx(f.true_neck_deg, 4),
+                           evaluation::Fx(f.true_pan_deg, 4),
+                           evaluation::Fx(f.true_x_px, 3),
+                           evaluation::Fx(f.true_y_px, 3),
+                           evaluation::Fx(f.true_gaze_err_deg, 4)});
   return frames;
 }
 
 // The sine shown in the time figures: the one nearest 0.5 Hz with a VOR trial.
-const VorTrialEye* VorShownSine(const VorStudy& s) {
-  const VorTrialEye* shown = nullptr;
-  for (const VorTrialEye& r : s.results)
+const evaluation::VorTrialEye* VorShownSine(const evaluation::VorStudy& s) {
+  const evaluation::VorTrialEye* shown = nullptr;
+  for (const evaluation::VorTrialEye& r : s.results)
     if (r.condition == "vor" && r.profile == "sine" && r.eye == models::kRightEye &&
         (!shown || std::abs(r.frequency_hz - 0.5) < std::abs(shown->frequency_hz - 0.5)))
       shown = &r;
@@ -219,32 +218,37 @@ const VorTrialEye* VorShownSine(const VorStudy& s) {
 }
 
 // vor_traces: the shown sine's neck and counter-rotating eye.
-reports::Figure VorTracesFigure(const VorStudy& s, const VorTrialEye* shown) {
+reports::Figure VorTracesFigure(const evaluation::VorStudy& s, const evaluation::VorTrialEye* shown) {
   const char* blue = "#1f77b4";
   const char* red = "#d62728";
-  const std::vector<const VorFrame*> vf = internal::SelectVorFrames(s.frames, shown->trial, shown->eye);
+  const std::vector<const evaluation::VorFrame*> vf =
+      evaluation::internal::SelectVorFrames(s.frames, shown->trial, shown->eye);
   reports::Figure tr;
   tr.name = "vor_traces";
-  tr.title = "VOR at " + Fx(shown->frequency_hz, 2) + " Hz, right eye: neck and counter-rotating eye";
+  tr.title = "VOR at " + evaluation::Fx(shown->frequency_hz, 2) + " Hz, right eye: neck and counter-rotating eye";
   tr.xlabel = "time from the trial's start [s]";
   tr.ylabel = "angle from the start [deg]";
-  tr.series.push_back(VorSeries(
-      vf, &VorFrame::neck_deg, 1, "neck (measured)", std::string("lines lw 2 lc rgb '") + blue + "'", "neck_deg"));
   tr.series.push_back(VorSeries(vf,
-                                &VorFrame::pan_deg,
+                                &evaluation::VorFrame::neck_deg,
+                                1,
+                                "neck (measured)",
+                                std::string("lines lw 2 lc rgb '") + blue + "'",
+                                "neck_deg"));
+  tr.series.push_back(VorSeries(vf,
+                                &evaluation::VorFrame::pan_deg,
                                 -1,
                                 "-eye pan (measured)",
                                 std::string("lines lw 2 lc rgb '") + red + "'",
                                 "minus_pan_deg"));
   if (s.has_truth) {
     tr.series.push_back(VorSeries(vf,
-                                  &VorFrame::true_neck_deg,
+                                  &evaluation::VorFrame::true_neck_deg,
                                   1,
                                   "neck (truth)",
                                   std::string("lines dt 2 lw 1.5 lc rgb '") + blue + "'",
                                   "true_neck_deg"));
     tr.series.push_back(VorSeries(vf,
-                                  &VorFrame::true_pan_deg,
+                                  &evaluation::VorFrame::true_pan_deg,
                                   -1,
                                   "-eye pan (truth)",
                                   std::string("lines dt 2 lw 1.5 lc rgb '") + red + "'",
@@ -252,47 +256,56 @@ reports::Figure VorTracesFigure(const VorStudy& s, const VorTrialEye* shown) {
   }
   tr.settings = {"set grid"};
   tr.key = "below";
-  tr.caption = "Neck angle and the negated eye-pan angle measured from the frames (solid) during the " +
-               Fx(shown->frequency_hz, 2) + " Hz counter-rotating trial, and the truth (dashed): a perfect VOR " +
-               "makes the two curves coincide. Gain " +
-               (shown->gain.ok ? Fx(shown->gain.gain, 3) + " +- " + Fx(shown->gain.gain_sigma, 3) : "not measured") +
-               (shown->true_gain && shown->true_gain->ok ? " (truth " + Fx(shown->true_gain->gain, 3) + ")" : "") + ".";
+  tr.caption =
+      "Neck angle and the negated eye-pan angle measured from the frames (solid) during the " +
+      evaluation::Fx(shown->frequency_hz, 2) + " Hz counter-rotating trial, and the truth (dashed): a perfect VOR " +
+      "makes the two curves coincide. Gain " +
+      (shown->gain.ok ? evaluation::Fx(shown->gain.gain, 3) + " +- " + evaluation::Fx(shown->gain.gain_sigma, 3)
+                      : "not measured") +
+      (shown->true_gain && shown->true_gain->ok ? " (truth " + evaluation::Fx(shown->true_gain->gain, 3) + ")" : "") +
+      ".";
   return tr;
 }
 
 // vor_slip: the shown sine's image slip, eyes still against VOR.
-reports::Figure VorSlipFigure(const VorStudy& s, const VorTrialEye* shown) {
+reports::Figure VorSlipFigure(const evaluation::VorStudy& s, const evaluation::VorTrialEye* shown) {
   const char* blue = "#1f77b4";
   const char* red = "#d62728";
   const char* grey = "#555555";
-  const std::vector<const VorFrame*> vf = internal::SelectVorFrames(s.frames, shown->trial, shown->eye);
-  const std::vector<const VorFrame*> sf = internal::SelectVorFrames(s.frames, shown->trial - 1, shown->eye);
+  const std::vector<const evaluation::VorFrame*> vf =
+      evaluation::internal::SelectVorFrames(s.frames, shown->trial, shown->eye);
+  const std::vector<const evaluation::VorFrame*> sf =
+      evaluation::internal::SelectVorFrames(s.frames, shown->trial - 1, shown->eye);
   reports::Figure sl;
   sl.name = "vor_slip";
-  sl.title = "Image slip at " + Fx(shown->frequency_hz, 2) + " Hz, right eye: eyes still against VOR";
+  sl.title = "Image slip at " + evaluation::Fx(shown->frequency_hz, 2) + " Hz, right eye: eyes still against VOR";
   sl.xlabel = "time from the trial's start [s]";
   sl.ylabel = "target's x from its first position [px]";
-  sl.series.push_back(
-      VorSeries(sf, &VorFrame::x_px, 1, "eyes held still", std::string("lines lw 2 lc rgb '") + grey + "'", "x_px"));
   sl.series.push_back(VorSeries(
-      vf, &VorFrame::x_px, 1, "eyes counter-rotating (VOR)", std::string("lines lw 2 lc rgb '") + red + "'", "x_px"));
+      sf, &evaluation::VorFrame::x_px, 1, "eyes held still", std::string("lines lw 2 lc rgb '") + grey + "'", "x_px"));
+  sl.series.push_back(VorSeries(vf,
+                                &evaluation::VorFrame::x_px,
+                                1,
+                                "eyes counter-rotating (VOR)",
+                                std::string("lines lw 2 lc rgb '") + red + "'",
+                                "x_px"));
   if (s.has_truth)
     sl.series.push_back(VorSeries(vf,
-                                  &VorFrame::true_x_px,
+                                  &evaluation::VorFrame::true_x_px,
                                   1,
                                   "VOR, true pixel",
                                   std::string("lines dt 2 lw 1.5 lc rgb '") + blue + "'",
                                   "true_x_px"));
   sl.settings = {"set grid"};
   sl.key = "below";
-  sl.caption = "The target's horizontal image position during the " + Fx(shown->frequency_hz, 2) +
-               " Hz neck sine, eyes held still and counter-rotating (RMS slip " + Fx(shown->slip.rms_deg_per_s, 2) +
-               " deg/s with the VOR).";
+  sl.caption = "The target's horizontal image position during the " + evaluation::Fx(shown->frequency_hz, 2) +
+               " Hz neck sine, eyes held still and counter-rotating (RMS slip " +
+               evaluation::Fx(shown->slip.rms_deg_per_s, 2) + " deg/s with the VOR).";
   return sl;
 }
 
 // Gain and phase lag against frequency.
-reports::Figure VorGainFigure(const VorStudy& s) {
+reports::Figure VorGainFigure(const evaluation::VorStudy& s) {
   const char* blue = "#1f77b4";
   const char* red = "#d62728";
   reports::Figure gf;
@@ -316,7 +329,7 @@ reports::Figure VorGainFigure(const VorStudy& s) {
                       "1:2",
                       {"frequency_hz", "map_gain"},
                       {}};
-    for (const VorTrialEye& r : s.results) {
+    for (const evaluation::VorTrialEye& r : s.results) {
       if (r.condition != "vor" || r.profile != "sine" || r.eye != e) continue;
       if (r.gain.ok) m.rows.push_back({r.frequency_hz, r.gain.gain, r.gain.gain_sigma});
       if (r.true_gain && r.true_gain->ok) t.rows.push_back({r.frequency_hz, r.true_gain->gain});
@@ -336,7 +349,7 @@ reports::Figure VorGainFigure(const VorStudy& s) {
 
 }  // namespace
 
-std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) {
+std::string WriteVorStudy(const evaluation::VorStudy& s, const std::string& out, bool draw) {
   fs::create_directories(out + "/tables");
   fs::create_directories(out + "/figures");
   fs::create_directories(out + "/report");
@@ -346,7 +359,7 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
   reports::WriteTable(results, out + "/tables");
   reports::WriteTable(summary, out + "/tables");
   reports::WriteTextFile(out + "/tables/vor_frames.csv", reports::ToCsv(frames));
-  const VorTrialEye* shown = VorShownSine(s);
+  const evaluation::VorTrialEye* shown = VorShownSine(s);
   std::vector<reports::FigureFiles> figs;
   std::vector<reports::Figure> drawn;
   if (shown) {
@@ -363,7 +376,7 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
     drawn.push_back(gf);
   }
 
-  reports::WriteTextFile(out + "/vor.json", VorStudyJson(s).dump(2) + "\n");
+  reports::WriteTextFile(out + "/vor.json", evaluation::VorStudyJson(s).dump(2) + "\n");
 
   reports::ExperimentPage page;
   page.title = "vestibulo-ocular reflex";
@@ -383,4 +396,4 @@ std::string WriteVorStudy(const VorStudy& s, const std::string& out, bool draw) 
   return reports::WriteExperimentPage(page, out);
 }
 
-}  // namespace owlcal::pipeline
+}  // namespace owlcal::reports

@@ -1,5 +1,5 @@
 #pragma once
-// What the experiment study pages share: a number printed with fixed decimals or left empty, a
+// What the experiment studies share: a number printed with fixed decimals, or left empty, or "inf"; a
 // CSV cell read as a number or NaN when empty, and the head of a trial study's JSON.
 #include <cmath>
 #include <string>
@@ -9,10 +9,13 @@
 #include "calib/csv.h"
 #include "io/number_text.h"
 
-namespace owlcal::pipeline {
+namespace owlcal::evaluation {
 
 // `v` with `decimals` decimals; "" when it is not finite (a trial that gave no value).
 inline std::string Fx(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : ""; }
+
+// `v` with `decimals` decimals; "inf" when it is not finite (a depth of field without an end).
+inline std::string FxOrInf(double v, int decimals) { return std::isfinite(v) ? io::FixedText(v, decimals) : "inf"; }
 
 // Column `col` of row `r` as a number; NaN when the cell is empty.
 inline double Opt(const calib::CsvTable& t, size_t r, const char* col) {
@@ -35,4 +38,4 @@ nlohmann::json TrialStudyHeaderJson(const TrialStudy& s) {
   return j;
 }
 
-}  // namespace owlcal::pipeline
+}  // namespace owlcal::evaluation
