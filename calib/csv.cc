@@ -242,6 +242,10 @@ void CsvTable::RequireColumns(std::initializer_list<const char*> names) const {
   for (const char* n : names) Column(n);
 }
 
+void CsvTable::RequireColumns(std::span<const char* const> names) const {
+  for (const char* n : names) Column(n);
+}
+
 std::string CsvTable::Where(size_t row) const { return source_ + ":" + std::to_string(rows_[row].line); }
 
 const std::string& CsvTable::Text(size_t row, const std::string& column) const {

@@ -20,6 +20,7 @@
 //     rows.push_back({t.Number(r, "distance_cm", 0, 1e5), t.Int(r, "Rx", 0, 9999)});
 #include <cstdint>
 #include <initializer_list>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -94,6 +95,7 @@ class CsvTable {
   bool HasColumn(const std::string& name) const { return FindColumn(name) >= 0; }
   // Throws for the first name the header lacks.
   void RequireColumns(std::initializer_list<const char*> names) const;
+  void RequireColumns(std::span<const char* const> names) const;
 
   // "SOURCE:LINE" of a row (the line its record starts on).
   std::string Where(size_t row) const;

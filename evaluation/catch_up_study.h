@@ -16,12 +16,28 @@
 //   OUT/tables/catch_up_frames.csv             one row per frame
 //   OUT/figures/catch_up_trace.*               retinal error of the fastest trial, saccades marked
 //   OUT/catch_up.json, OUT/report/index.html
+#include <array>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 namespace owlcal::evaluation {
+
+// The columns of catch_up.csv (protocols/catch_up_step.h), one frame each: what the reader
+// requires and the frames table repeats.
+inline constexpr std::array<const char*, 12> kCatchUpFrameColumns = {"trial",
+                                                                     "speed_deg_per_s",
+                                                                     "direction",
+                                                                     "k",
+                                                                     "t_s",
+                                                                     "target_az_deg",
+                                                                     "cmd_us",
+                                                                     "found",
+                                                                     "x_px",
+                                                                     "error_deg",
+                                                                     "true_error_deg",
+                                                                     "action"};
 
 struct CatchUpFrame {
   int trial = 0, direction = 0, k = 0, cmd_us = 0;

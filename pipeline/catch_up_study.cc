@@ -53,18 +53,7 @@ evaluation::CatchUpStudy EvaluateCatchUpDataset(const std::string& dir) {
   }
   if (fs::exists(frames_csv)) {
     const calib::CsvTable ft = protocols::ReadAppendedCsv(frames_csv);
-    ft.RequireColumns({"trial",
-                       "speed_deg_per_s",
-                       "direction",
-                       "k",
-                       "t_s",
-                       "target_az_deg",
-                       "cmd_us",
-                       "found",
-                       "x_px",
-                       "error_deg",
-                       "true_error_deg",
-                       "action"});
+    ft.RequireColumns(evaluation::kCatchUpFrameColumns);
     for (size_t r = 0; r < ft.NumRows(); ++r) {
       evaluation::CatchUpFrame f;
       f.trial = ft.Int(r, "trial", 0, 1000000);

@@ -161,7 +161,7 @@ std::vector<evaluation::TrackerSummary> SummariseTrackers(const std::vector<eval
 // fixated, and a note per candidate whose fixation was not ok.
 void ReadSalience(const std::string& path, evaluation::TrackingStudy* s) {
   const calib::CsvTable t = protocols::ReadAppendedCsv(path);
-  for (const char* column : evaluation::kSalienceRowColumns) t.RequireColumns({column});  // names the first missing one
+  t.RequireColumns(evaluation::kSalienceRowColumns);
   for (size_t r = 0; r < t.NumRows(); ++r) {
     evaluation::SalienceRow c;
     c.rank = t.Int(r, "rank", 1, 1000);

@@ -84,18 +84,7 @@ std::string WriteCatchUpStudy(const evaluation::CatchUpStudy& s, const std::stri
   reports::Table frames{"catch_up_frames",
                         "Catch-up frames, one row per frame (t_s: arrival from the trial's start; error: the target's "
                         "horizontal angle in the camera; action: what the controller did)",
-                        {"trial",
-                         "speed_deg_per_s",
-                         "direction",
-                         "k",
-                         "t_s",
-                         "target_az_deg",
-                         "cmd_us",
-                         "found",
-                         "x_px",
-                         "error_deg",
-                         "true_error_deg",
-                         "action"},
+                        {evaluation::kCatchUpFrameColumns.begin(), evaluation::kCatchUpFrameColumns.end()},
                         {}};
   for (const evaluation::CatchUpFrame& f : s.frames)
     frames.rows.push_back({std::to_string(f.trial),
