@@ -27,9 +27,29 @@ namespace fs = std::filesystem;
 // under a quarter of their brightness (the runner sees such pixels fall below grey 20).
 constexpr double kDim = 0.25;
 
-// Fraction of the 8 px border band that the rim dims to under `dim` of its brightness, for
-// servo `servo` at pulse u.
-double TruthRimDarkening(const sim::VirtualOwl& owl, int servo, double u, int approach, double dim) {
+// The unit rays of the pixels of an 8 px border band (every second pixel) of the eye's image:
+// the same at every pulse, so computed once per eye.
+std::vector<Eigen::Vector3d> BorderRays(const models::CameraIntrinsics& k) {
+  const int b = 8;
+  std::vector<Eigen::Vector3d> rays;
+  for (int y = 0; y < k.height; y += 2)
+    for (int x = 0; x < k.width; x += 2) {
+      if (!(x < b || y < b || x >= k.width - b || y >= k.height - b)) continue;
+      const double px[2] = {double(x), double(y)};
+      double ray[3];
+      if (k.Unproject(px, ray)) rays.push_back(Eigen::Vector3d(ray[0], ray[1], ray[2]).normalized());
+    }
+  return rays;
+}
+
+// Fraction of the border band (`rays`, BorderRays of the servo's eye) that the rim dims to under
+// `dim` of its brightness, for servo `servo` at pulse u.
+double TruthRimDarkening(const sim::VirtualOwl& owl,
+                         const std::vector<Eigen::Vector3d>& rays,
+                         int servo,
+                         double u,
+                         int approach,
+                         double dim) {
   const models::HeadModel head = owl.TruthHeadModel();
   const sim::RobotTruth& truth = owl.Truth();
   const int eye = servo == models::kLx || servo == models::kLy ? models::kLeftEye : models::kRightEye;
@@ -43,32 +63,18 @@ double TruthRimDarkening(const sim::VirtualOwl& owl, int servo, double u, int ap
   const Eigen::Vector3d axis = (owl.CamFromBase(models::Eye(eye), a).rotation * Eigen::Vector3d::UnitZ()).normalized();
   const double cos_start = std::cos((truth.socket.rim_half_angle_deg - truth.socket.rim_softness_deg) * M_PI / 180);
   const double cos_end = std::cos(truth.socket.rim_half_angle_deg * M_PI / 180);
-  const models::CameraIntrinsics& k = truth.intrinsics[eye];
-  double dark = 0, n = 0;
-  {
-    const int b = 8;
-    std::vector<cv::Point> pts;
-    for (int y = 0; y < k.height; y += 2)
-      for (int x = 0; x < k.width; x += 2)
-        if (x < b || y < b || x >= k.width - b || y >= k.height - b) pts.emplace_back(x, y);
-    for (const cv::Point& pt : pts) {
-      {
-        const double px[2] = {double(pt.x), double(pt.y)};
-        double ray[3];
-        if (!k.Unproject(px, ray)) continue;
-        const double c = Eigen::Vector3d(ray[0], ray[1], ray[2]).normalized().dot(axis);
-        double factor = 1;
-        if (c < cos_start) {
-          double f = std::min(1.0, (cos_start - c) / (cos_start - cos_end));
-          f = f * f * (3 - 2 * f);
-          factor = 1 - (1 - truth.socket.rim_floor) * f;
-        }
-        dark += factor < dim;
-        ++n;
-      }
+  double dark = 0;
+  for (const Eigen::Vector3d& ray : rays) {
+    const double c = ray.dot(axis);
+    double factor = 1;
+    if (c < cos_start) {
+      double f = std::min(1.0, (cos_start - c) / (cos_start - cos_end));
+      f = f * f * (3 - 2 * f);
+      factor = 1 - (1 - truth.socket.rim_floor) * f;
     }
+    dark += factor < dim;
   }
-  return n ? dark / n : 0;
+  return rays.empty() ? 0 : dark / rays.size();
 }
 
 // The true usable end of a servo (d = +1 high end, -1 low end) and its cause.
@@ -76,8 +82,11 @@ int TruthEnd(const sim::VirtualOwl& owl, int servo, int d, double rim_fraction, 
   const sim::RobotTruth& t = owl.Truth();
   const models::ServoConfig& c = t.robot.servos[servo];
   const double stop = d > 0 ? t.servos[servo].endstop_hi_us : t.servos[servo].endstop_lo_us;
+  const int eye = servo == models::kLx || servo == models::kLy ? models::kLeftEye : models::kRightEye;
+  const std::vector<Eigen::Vector3d> rays =
+      servo == models::kNeck ? std::vector<Eigen::Vector3d>{} : BorderRays(t.intrinsics[eye]);
   for (int u = c.centre_us;; u += d) {
-    if (servo != models::kNeck && TruthRimDarkening(owl, servo, u, d, kDim) > rim_fraction) {
+    if (servo != models::kNeck && TruthRimDarkening(owl, rays, servo, u, d, kDim) > rim_fraction) {
       *cause = "rim";
       return u - d;
     }
