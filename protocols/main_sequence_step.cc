@@ -96,12 +96,10 @@ class MainSequenceRun {
       if ((*px - Centre(frame)).norm() <= kFixationTolerancePx || target == run_.cmd() ||
           move == kMainSequenceFixationMoves)
         break;
-      if (const std::string lim = OutsideMargin(target); !lim.empty()) {
+      if (std::string lim = run_.SendWithinMargin(target, s_.limit_margin_us, "not sent", rest); !lim.empty()) {
         *why = lim;
         return false;
       }
-      run_.Send(target);
-      run_.Settle(rest);
     }
     fixation_ = run_.cmd();
     return true;

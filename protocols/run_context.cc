@@ -57,6 +57,17 @@ void RunContext::Send(const PwmVector& desired) {
   cmd_known_ = true;
 }
 
+std::string RunContext::SendWithinMargin(const PwmVector& target,
+                                         int margin_us,
+                                         const std::string& what,
+                                         const SettleRule& rule) {
+  std::string why = models::OutsideMargin(config(), target, margin_us, what);
+  if (!why.empty()) return why;
+  Send(target);
+  Settle(rule);
+  return "";
+}
+
 robot::StereoFrame RunContext::Grab() {
   CheckStop();
   std::optional<robot::StereoFrame> f = robot_.GrabFrame(last_stamp_, o_.frame_timeout_ns);

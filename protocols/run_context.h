@@ -80,6 +80,13 @@ class RunContext {
   // Sends a command through the limits guard (a clamp is counted and reported); throws when
   // the robot does not reply.
   void Send(const models::PwmVector& desired);
+  // Sends `target` and waits by `rule`, unless a servo would come within `margin_us` of its
+  // configured limits: then nothing is sent and the reason is returned (models::OutsideMargin's
+  // message ending in `what`, e.g. "not sent"); "" when it was sent.
+  std::string SendWithinMargin(const models::PwmVector& target,
+                               int margin_us,
+                               const std::string& what,
+                               const SettleRule& rule);
   // The next frame newer than the last one; throws after RunOptions::frame_timeout_ns.
   robot::StereoFrame Grab();
   // Appends the frame to the dataset with the current command; returns its frame index.

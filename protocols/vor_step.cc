@@ -116,12 +116,11 @@ class VorRun {
         fixation_ = run_.cmd();
         return true;
       }
-      if (const std::string lim = OutsideMargin(target); !lim.empty()) {
+      if (std::string lim = run_.SendWithinMargin(target, s_.limit_margin_us, "stopped before sending", rest);
+          !lim.empty()) {
         *why = lim;
         return false;
       }
-      run_.Send(target);
-      run_.Settle(rest);
     }
     fixation_ = run_.cmd();
     return true;
