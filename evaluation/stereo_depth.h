@@ -27,6 +27,7 @@
 //   evaluation::DepthMaps maps = evaluation::ComputeDepth(left, right, rect, options);
 //   evaluation::RoiDepth d = evaluation::DepthAtRoi(maps, cv::Rect(288, 216, 64, 48), rig, rect, options);
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -148,5 +149,17 @@ DisparityConstantFit FitDisparityConstant(const std::vector<double>& disparity16
                                           const std::vector<double>& true_m,
                                           double focal_px,
                                           double baseline_m);
+
+// One pair of `owlcal depth`: where it came from, its true distance (NaN unknown), the depth at
+// its ROI and, with a true distance, range-images' template ranging on the same ROI.
+struct DepthPairResult {
+  std::string name, left_path, right_path;  // left == right: one side-by-side frame
+  double true_m = std::numeric_limits<double>::quiet_NaN();
+  cv::Rect roi;  // requested (empty: 64 x 48 px at the image centre)
+  RoiDepth depth;
+  std::optional<RangeMeasurement> templ;  // with a true distance only
+  double valid_fraction_image = 0;        // pixels with a depth
+  int points = 0;                         // written to cloud.ply
+};
 
 }  // namespace owlcal::evaluation
