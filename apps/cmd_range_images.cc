@@ -1,254 +1,31 @@
 // owlcal range-images DIR --calib FILE [--truth CSV] --out OUT: range a target in stereo pairs,
 // at known distances (error against the truth, datum and scale fit) or unknown ones (range with
-// sigma), every row with a status (ok, low_confidence, failed).
-#include <cmath>
-#include <filesystem>
-#include <fstream>
+// sigma), every row with a status (ok, low_confidence, failed). pipeline/range_images.h runs it.
 #include <iostream>
-#include <limits>
 #include <memory>
-
-#include <opencv2/imgcodecs.hpp>
+#include <stdexcept>
 
 #include "apps/command_registry.h"
-#include "calib/image_pairs.h"
-#include "calib/template_roi.h"
-#include "evaluation/range_images_ranging.h"
-#include "evaluation/range_scale_budget.h"
-#include "fitting/format.h"
-#include "fitting/range_datum_fit.h"
-#include "reports/gnuplot_figure.h"
-#include "reports/image_set_tables.h"
-#include "reports/table.h"
+#include "pipeline/range_images.h"
 
 namespace owlcal::apps {
 namespace {
 
-namespace fs = std::filesystem;
-
-constexpr size_t kProgressEveryPairs = 100;  // pairs between progress lines on a long list
-
-struct RangeImagesOptions {
-  std::string dir, calib, truth, out;
-  std::vector<int> roi;
-  std::string select = "centre";  // centre, texture, colour:NAME, tag[:ID]
-  double truth_sigma_cm = 0;
-  double datum_cm = 0;
-  bool mirror = false, no_datum_fit = false;
-  int template_w = 64, template_h = 48, max_disparity = 256;
-};
-
-calib::TemplateRoiOptions SelectOptions(const RangeImagesOptions& a) {
-  calib::TemplateRoiOptions t;
-  t.width = a.template_w;
-  t.height = a.template_h;
-  const std::string& s = a.select;
-  if (s == "texture") {
-    t.mode = "texture";
-  } else if (s.rfind("colour:", 0) == 0 || s.rfind("color:", 0) == 0) {
-    t.mode = "colour";
-    t.colour = s.substr(s.find(':') + 1);
-  } else if (s == "tag" || s.rfind("tag:", 0) == 0) {
-    t.mode = "tag";
-    if (s.size() > 4) {
-      try {
-        t.tag_id = std::stoi(s.substr(4));
-      } catch (const std::exception&) {
-        throw UsageError("--select " + s + ": the tag id must be a number (tag:7)");
-      }
-    }
-  } else {
-    throw UsageError("--select = '" + s + "': use centre, texture, colour:red|green|blue|yellow, tag or tag:ID");
-  }
+int RunRangeImages(const pipeline::RangeImagesRunOptions& a) {
   std::string why;
-  if (!t.Check(&why)) throw UsageError("--select: " + why);
-  return t;
-}
-
-// Reads, rectifies and ranges the pair of one truth row (its ROI, --roi, the --select choice or
-// the central region).
-evaluation::RangeMeasurement RangePair(const RangeImagesOptions& a,
-                                       const evaluation::RangeTruthRow& t,
-                                       const evaluation::RangeOptions& o,
-                                       const fitting::StereoRig& rig,
-                                       const fitting::Rectification& rect,
-                                       const calib::TemplateRoiOptions* sel) {
-  evaluation::RangeOptions ro = o;
-  if (t.roi.area() > 0) ro.match.template_roi = t.roi;
-  const std::string lp = (fs::path(a.dir) / t.left).string(), rp = (fs::path(a.dir) / t.right).string();
-  cv::Mat l = cv::imread(lp), r = cv::imread(rp);
-  if (l.empty()) throw std::runtime_error(lp + ": cannot read image");
-  if (r.empty()) throw std::runtime_error(rp + ": cannot read image");
-  if (a.mirror) {
-    cv::flip(l, l, 1);
-    cv::flip(r, r, 1);
+  if (!a.Check(&why)) throw UsageError(why);
+  pipeline::RangeImagesRun run;
+  try {
+    run = pipeline::RunRangeImages(a, [](const std::string& line) { std::cerr << line << "\n"; });
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
   }
-  cv::Mat lr, rr;
-  fitting::RemapPair(rect, l, r, &lr, &rr);
-  std::string how = t.roi.area() > 0 ? "ROI from the truth file" : (a.roi.empty() ? "central region" : "--roi");
-  bool have_roi = true;
-  if (sel && t.roi.area() == 0 && a.roi.empty()) {
-    const calib::TemplateRoiChoice c = calib::ChooseTemplateRois(lr, *sel);
-    ro.candidate_rois = c.candidates;
-    how = c.how;
-    have_roi = !c.candidates.empty();
-  }
-  evaluation::RangeMeasurement m;
-  if (have_roi) {
-    m = evaluation::RangeRectifiedPair(lr, rr, rig, rect, ro);
-  } else {
-    m.status = "failed";
-    m.message = "no target: " + how;
-  }
-  m.roi_how = how + (m.roi_how.empty() ? "" : ", " + m.roi_how);
-  m.name = t.left;
-  m.true_m = t.distance_m;
-  m.truth_sigma_m = ro.truth_sigma_m;
-  return m;
-}
-
-int RunRangeImages(const RangeImagesOptions& a) {
-  const fitting::StereoRig rig = fitting::LoadStereoRig(a.calib);
-  const fitting::Rectification rect = fitting::RectifyRig(rig);
-  std::vector<evaluation::RangeTruthRow> truth;
-  if (!a.truth.empty()) {
-    truth = evaluation::ReadRangeTruthCsv(a.truth);
-  } else {
-    // No truth file: every left*/right* pair of the folder, distance unknown.
-    calib::ImagePairOptions po;
-    for (const auto& p : calib::ListImagePairs(a.dir, po).pairs) {
-      evaluation::RangeTruthRow r;
-      r.left = fs::path(p.left_path).filename().string();
-      r.right = fs::path(p.right_path).filename().string();
-      r.distance_m = std::numeric_limits<double>::quiet_NaN();
-      truth.push_back(r);
-    }
-  }
-  evaluation::RangeOptions o;
-  o.truth_sigma_m = a.truth_sigma_cm / 100;
-  o.datum_offset_m = a.datum_cm / 100;
-  o.match.template_width = a.template_w;
-  o.match.template_height = a.template_h;
-  o.match.max_disparity = a.max_disparity;
-  // A template ROI must lie inside the left rectified image: refused, never clipped or moved.
-  if (!a.roi.empty()) {
-    if (a.roi.size() != 4) throw UsageError("--roi needs 4 numbers: x y w h");
-    o.match.template_roi = cv::Rect(a.roi[0], a.roi[1], a.roi[2], a.roi[3]);
-    if (!evaluation::RoiInsideImage(o.match.template_roi, rect.size))
-      throw UsageError("--roi " + std::to_string(a.roi[0]) + " " + std::to_string(a.roi[1]) + " " +
-                       std::to_string(a.roi[2]) + " " + std::to_string(a.roi[3]) +
-                       " is not a template (w, h >= 5) inside the " + std::to_string(rect.size.width) + "x" +
-                       std::to_string(rect.size.height) + " rectified image");
-  }
-  evaluation::CheckRangeTruthRois(truth, rect.size);
-  const bool auto_select = a.select != "centre";
-  calib::TemplateRoiOptions sel;
-  if (auto_select) sel = SelectOptions(a);
-  std::string why;
-  if (!o.Check(&why)) throw UsageError(why);
-  std::vector<evaluation::RangeMeasurement> ms;
-  for (const auto& t : truth) {
-    ms.push_back(RangePair(a, t, o, rig, rect, auto_select ? &sel : nullptr));
-    // A long list prints a progress line every kProgressEveryPairs pairs (each is read, rectified, matched).
-    if (truth.size() > kProgressEveryPairs && ms.size() % kProgressEveryPairs == 0)
-      std::cerr << "range-images: " << ms.size() << " of " << truth.size() << " pairs ranged\n";
-  }
-  const evaluation::RangeSummary s = evaluation::SummariseRanges(ms);
-  fs::create_directories(a.out);
-  const fs::path out(a.out);
-  std::string md = reports::RangeTableMarkdown(ms, s, "Range from stereo images: " + a.dir);
-  // Datum and scale of the truth, from the confident rows.
-  fitting::DatumFit datum;
-  std::vector<int> datum_rows;
-  if (!a.no_datum_fit && s.num_ranged > 0) {
-    std::vector<fitting::DatumFitRow> rows;
-    for (size_t i = 0; i < ms.size(); ++i) {
-      if (ms[i].status != "ok" || !ms[i].has_truth()) continue;
-      rows.push_back({ms[i].range_m, ms[i].true_m, ms[i].sigma_m, ms[i].truth_sigma_m});
-      datum_rows.push_back(static_cast<int>(i));
-    }
-    datum = fitting::FitDatum(rows);
-    md += "\n" + reports::DatumFitMarkdown(datum);
-    if (datum.ok) {
-      // The second matcher's disparity at each template (the cross-check's), for the matching term.
-      std::vector<double> second_disparity;
-      for (const auto& m : ms) second_disparity.push_back(m.second_disparity_px);
-      const evaluation::ScaleBudget budget =
-          evaluation::SplitScale(ms, datum_rows, datum, rig, rect, second_disparity, o.match.subpixel_floor_px);
-      md += "\n" + reports::ScaleBudgetMarkdown(budget);
-      reports::WriteTextFile((out / "scale_budget.json").string(),
-                             evaluation::ScaleBudgetToJson(budget).dump(2) + "\n");
-    }
-  }
-  md += "\nTemplates: " + std::string(auto_select ? "chosen per pair (" + a.select + "): " : "") +
-        (ms.empty() ? std::string("-") : ms.front().roi_how) + (ms.size() > 1 ? " (first pair)" : "") + ".\n";
-  md += "\nCalibration: " + rig.source + (rig.covariance.size() ? "" : " (no covariance)") +
-        (rig.halves.empty() ? "; no halves (sigma_cv unknown)" : "; with its two halves (sigma_cv)") +
-        "; rectified f " + fitting::FixedOrDash(rect.focal_px, 2) + " px, baseline " +
-        fitting::FixedOrDash(rect.baseline_m * 1000, 3) +
-        " mm. Range = depth from the optical centres along the rectified axis + datum " +
-        fitting::FixedOrDash(a.datum_cm, 1) + " cm; truth sigma " + fitting::FixedOrDash(a.truth_sigma_cm, 1) +
-        " cm (the uncertainty of the true distances themselves: datum and placement).\n";
-  reports::WriteTextFile((out / "ranges.md").string(), md);
-  reports::WriteTextFile((out / "ranges.csv").string(), reports::RangeTableCsv(ms));
-  // Figure: error vs truth (ok and low-confidence apart, after the datum fit too), or the
-  // ranges themselves when no distance is known.
-  reports::Figure f;
-  const bool any_truth = s.num_rows > 0;
-  f.name = any_truth ? "range_error" : "range_values";  // not "ranges": ranges.csv is the table
-  f.title = any_truth ? "Stereo range error vs true distance" : "Stereo ranges (distances unknown)";
-  f.xlabel = any_truth ? "true distance [cm]" : "pair";
-  f.ylabel = any_truth ? "error [%]" : "range [cm]";
-  reports::Series band, ok, low, after;
-  band.title = "true distance +-3 sigma";
-  band.style = "filledcurves fs transparent solid 0.18 noborder lc rgb '#777777'";
-  band.using_spec = "1:2:3";
-  band.columns = {"true_cm", "lo_pct", "hi_pct"};
-  ok.title = "ok, +-3 sigma predicted";
-  ok.style = "yerrorbars pt 7 lc rgb '#1f77b4'";
-  ok.using_spec = "1:2:3";
-  ok.columns = {any_truth ? "true_cm" : "pair",
-                any_truth ? "err_pct" : "range_cm",
-                any_truth ? "three_sigma_pct" : "three_sigma_cm"};
-  low = ok;
-  low.title = "LOW CONFIDENCE (not counted), +-3 sigma";
-  low.style = "yerrorbars pt 6 ps 1.5 lc rgb '#d62728'";
-  after.title = "after the datum and scale fit";
-  after.style = "points pt 9 lc rgb '#2ca02c'";
-  after.using_spec = "1:2";
-  after.columns = {"true_cm", "err_after_pct"};
-  for (size_t i = 0; i < ms.size(); ++i) {
-    const auto& m = ms[i];
-    if (!m.ok) continue;
-    reports::Series& target = m.status == "ok" ? ok : low;
-    if (any_truth) {
-      if (!m.has_truth()) continue;
-      target.rows.push_back({m.true_m * 100, 100 * m.error_m() / m.true_m, 300 * m.sigma_m / m.true_m});
-      if (m.status == "ok")
-        band.rows.push_back({m.true_m * 100, -300 * m.truth_sigma_m / m.true_m, 300 * m.truth_sigma_m / m.true_m});
-    } else {
-      target.rows.push_back({static_cast<double>(i), m.range_m * 100, 300 * m.sigma_m});
-    }
-  }
-  if (datum.ok)
-    for (size_t k = 0; k < datum_rows.size(); ++k) {
-      const auto& m = ms[datum_rows[k]];
-      after.rows.push_back({m.true_m * 100, 100 * (datum.after_m[k] - m.true_m) / m.true_m});
-    }
-  if (any_truth && a.truth_sigma_cm > 0 && !band.rows.empty()) f.series.push_back(band);
-  if (!ok.rows.empty()) f.series.push_back(ok);
-  if (!low.rows.empty()) f.series.push_back(low);
-  if (!after.rows.empty()) f.series.push_back(after);
-  if (any_truth) f.settings.push_back("set xzeroaxis");
-  std::string drawn = "not drawn: no range";
-  if (!f.series.empty()) {
-    const auto ff = reports::WriteFigure(f, a.out);
-    drawn = ff.drawn ? "" : ff.message;
-    if (!ff.drawn) std::cerr << "figure not drawn: " << ff.message << "\n";
-  }
-  std::cout << md << "wrote " << a.out << ": ranges.md ranges.csv " << (datum.ok ? "scale_budget.json " : "") << f.name
-            << ".{csv,gp" << (drawn.empty() ? ",png,svg" : "") << "}\n";
-  return s.num_failed == 0 && s.num_low_confidence == 0 ? kExitOk : kExitFailed;
+  if (!run.figure_not_drawn.empty() && run.figure_not_drawn != "not drawn: no range")
+    std::cerr << "figure not drawn: " << run.figure_not_drawn << "\n";
+  std::cout << run.markdown << "wrote " << a.out << ": ranges.md ranges.csv "
+            << (run.datum.ok ? "scale_budget.json " : "") << run.figure << ".{csv,gp"
+            << (run.figure_not_drawn.empty() ? ",png,svg" : "") << "}\n";
+  return run.summary.num_failed == 0 && run.summary.num_low_confidence == 0 ? kExitOk : kExitFailed;
 }
 
 const bool kRangeImagesRegistered = RegisterCommand(
@@ -262,7 +39,7 @@ const bool kRangeImagesRegistered = RegisterCommand(
     "datum and scale (distance = a + b truth) with the errors before and after it. Without --truth every\n"
     "left*/right* pair of DIR is ranged. Writes ranges.md, ranges.csv and a figure. Exit 1 if any row is not ok.",
     [](CLI::App* cmd) {
-      auto o = std::make_shared<RangeImagesOptions>();
+      auto o = std::make_shared<pipeline::RangeImagesRunOptions>();
       cmd->add_option("dir", o->dir, "folder of the image pairs")->required()->check(CLI::ExistingDirectory);
       cmd->add_option("--calib", o->calib, "calibration file or folder")->required();
       cmd->add_option("--truth", o->truth, "truth CSV (optional: without it every pair is ranged, distance unknown)")

@@ -15,11 +15,11 @@
 namespace owlcal::pipeline {
 
 struct DepthRunOptions {
-  std::vector<std::string> inputs;  // LEFT RIGHT, one side-by-side frame, or a folder with `truth`
-  std::string calib;                // results.json, calibration.yaml, intrinsics.xml (+ extrinsics.xml) or a folder
-  std::string truth;                // truth CSV (evaluation/range_images_ranging.h ReadRangeTruthCsv); "" none
-  std::string out;                  // output folder
-  std::vector<int> roi;             // x y w h in the left rectified image; empty: 64 x 48 px at the centre
+  std::vector<std::string> inputs;    // LEFT RIGHT, one side-by-side frame, or a folder with `truth`
+  std::string calib;                  // results.json, calibration.yaml, intrinsics.xml (+ extrinsics.xml) or a folder
+  std::string truth;                  // truth CSV (evaluation/range_images_ranging.h ReadRangeTruthCsv); "" none
+  std::string out;                    // output folder
+  std::vector<int> roi;               // x y w h in the left rectified image; empty: 64 x 48 px at the centre
   bool mirror = false, swap = false;  // flip each image horizontally; exchange the eyes
   bool ply = true;                    // write cloud.ply
   double near_m = 0.2, far_m = 2.0;   // depth.png's colour scale [m]

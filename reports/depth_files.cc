@@ -191,8 +191,8 @@ std::string WriteDepthTruthTables(const std::string& out_dir,
   }
   md << "\nSGBM: " << n_sgbm << " of " << pairs.size() << " pairs measured, mean |error| "
      << FixedOrDash(n_sgbm ? sgbm_abs / n_sgbm : NAN, 2) << " %, max " << FixedOrDash(sgbm_max, 2) << " %; " << n_out3
-     << " outside +-3 sigma (z = error / sqrt(sigma^2 + truth sigma^2), truth sigma "
-     << FixedOrDash(truth_sigma_cm, 1) << " cm)"
+     << " outside +-3 sigma (z = error / sqrt(sigma^2 + truth sigma^2), truth sigma " << FixedOrDash(truth_sigma_cm, 1)
+     << " cm)"
      << (n_out3 ? ": the predicted sigma does not cover these errors"
                   " (the truth's datum and placement? give --truth-sigma-cm)"
                 : "")
@@ -216,6 +216,5 @@ std::string WriteDepthTruthTables(const std::string& out_dir,
                                      {"loo_mean_abs_pct", k.loo_mean_abs_pct}};
   return md.str();
 }
-
 
 }  // namespace owlcal::reports
