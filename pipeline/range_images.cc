@@ -193,9 +193,9 @@ RangeImagesRun RunRangeImages(const RangeImagesRunOptions& a, const std::functio
     o.match.template_roi = cv::Rect(a.roi[0], a.roi[1], a.roi[2], a.roi[3]);
     if (!evaluation::RoiInsideImage(o.match.template_roi, rect.size))
       throw std::invalid_argument("--roi " + std::to_string(a.roi[0]) + " " + std::to_string(a.roi[1]) + " " +
-                       std::to_string(a.roi[2]) + " " + std::to_string(a.roi[3]) +
-                       " is not a template (w, h >= 5) inside the " + std::to_string(rect.size.width) + "x" +
-                       std::to_string(rect.size.height) + " rectified image");
+                                  std::to_string(a.roi[2]) + " " + std::to_string(a.roi[3]) +
+                                  " is not a template (w, h >= 5) inside the " + std::to_string(rect.size.width) + "x" +
+                                  std::to_string(rect.size.height) + " rectified image");
   }
   evaluation::CheckRangeTruthRois(truth, rect.size);
   const bool auto_select = a.select != "centre";
@@ -261,6 +261,5 @@ RangeImagesRun RunRangeImages(const RangeImagesRunOptions& a, const std::functio
   run.markdown = md;
   return run;
 }
-
 
 }  // namespace owlcal::pipeline

@@ -15,16 +15,16 @@
 namespace owlcal::pipeline {
 
 struct RangeImagesRunOptions {
-  std::string dir;    // folder of the image pairs
-  std::string calib;  // results.json, calibration.yaml, intrinsics.xml (+ extrinsics.xml) or a folder
-  std::string truth;  // truth CSV; "": every left*/right* pair of dir, distance unknown
-  std::string out;    // output folder
-  std::vector<int> roi;             // template x y w h in the left rectified image; empty: none
-  std::string select = "centre";    // centre, texture, colour:NAME, tag[:ID] (calib/template_roi.h)
-  double truth_sigma_cm = 0;        // uncertainty of the logged distances [cm]
-  double datum_cm = 0;              // added to the depth from the optical centres [cm]
-  bool mirror = false;              // flip each image horizontally first
-  bool no_datum_fit = false;        // do not fit the truth's datum and scale
+  std::string dir;                // folder of the image pairs
+  std::string calib;              // results.json, calibration.yaml, intrinsics.xml (+ extrinsics.xml) or a folder
+  std::string truth;              // truth CSV; "": every left*/right* pair of dir, distance unknown
+  std::string out;                // output folder
+  std::vector<int> roi;           // template x y w h in the left rectified image; empty: none
+  std::string select = "centre";  // centre, texture, colour:NAME, tag[:ID] (calib/template_roi.h)
+  double truth_sigma_cm = 0;      // uncertainty of the logged distances [cm]
+  double datum_cm = 0;            // added to the depth from the optical centres [cm]
+  bool mirror = false;            // flip each image horizontally first
+  bool no_datum_fit = false;      // do not fit the truth's datum and scale
   int template_w = 64, template_h = 48, max_disparity = 256;  // [px]
   // False (and why) for a bad --select or --roi.
   bool Check(std::string* why) const;
