@@ -20,11 +20,10 @@ int RunRangeImages(const pipeline::RangeImagesRunOptions& a) {
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
   }
-  if (!run.figure_not_drawn.empty() && run.figure_not_drawn != "not drawn: no range")
-    std::cerr << "figure not drawn: " << run.figure_not_drawn << "\n";
+  if (!run.figure_error.empty()) std::cerr << "figure not drawn: " << run.figure_error << "\n";
   std::cout << run.markdown << "wrote " << a.out << ": ranges.md ranges.csv "
             << (run.datum.ok ? "scale_budget.json " : "") << run.figure << ".{csv,gp"
-            << (run.figure_not_drawn.empty() ? ",png,svg" : "") << "}\n";
+            << (run.figure_drawn ? ",png,svg" : "") << "}\n";
   return run.summary.num_failed == 0 && run.summary.num_low_confidence == 0 ? kExitOk : kExitFailed;
 }
 

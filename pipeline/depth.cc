@@ -146,8 +146,8 @@ DepthRun RunDepth(const DepthRunOptions& a, const std::function<void(const std::
     report["pairs"].push_back(reports::DepthPairJson(p));
   }
   if (!a.truth.empty())
-    run.truth_md = reports::WriteDepthTruthTables(
-        a.out, run.pairs, run.rig, run.rect, a.depth, a.truth_sigma_cm, run.failed, &report);
+    run.truth_md =
+        reports::WriteDepthTruthTables(a.out, run.pairs, run.rig, run.rect, a.depth, a.truth_sigma_cm, &report);
   reports::WriteTextFile((out / "depth.json").string(), report.dump(2) + "\n");
   return run;
 }

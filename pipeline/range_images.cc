@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -250,15 +251,15 @@ RangeImagesRun RunRangeImages(const RangeImagesRunOptions& a, const std::functio
   const reports::Figure f = RangeFigure(ms, s, datum, datum_rows, a.truth_sigma_cm);
   RangeImagesRun run;
   run.figure = f.name;
-  run.figure_not_drawn = "not drawn: no range";
   if (!f.series.empty()) {
     const auto ff = reports::WriteFigure(f, a.out);
-    run.figure_not_drawn = ff.drawn ? "" : ff.message;
+    run.figure_drawn = ff.drawn;
+    if (!ff.drawn) run.figure_error = ff.message;
   }
-  run.ranges = ms;
+  run.ranges = std::move(ms);
   run.summary = s;
   run.datum = datum;
-  run.markdown = md;
+  run.markdown = std::move(md);
   return run;
 }
 

@@ -33,10 +33,11 @@ struct RangeImagesRunOptions {
 struct RangeImagesRun {
   std::vector<evaluation::RangeMeasurement> ranges;  // one per pair, in the truth file's order
   evaluation::RangeSummary summary;
-  fitting::DatumFit datum;       // ok = false when not fitted
-  std::string markdown;          // ranges.md's text
-  std::string figure;            // the figure's name (range_error or range_values)
-  std::string figure_not_drawn;  // why it was not drawn ("" when it was)
+  fitting::DatumFit datum;    // ok = false when not fitted
+  std::string markdown;       // ranges.md's text
+  std::string figure;         // the figure's name (range_error or range_values)
+  bool figure_drawn = false;  // its PNG and SVG exist (none without a range)
+  std::string figure_error;   // why drawing it failed ("" when it did not fail)
 };
 
 // Pairs between progress lines on a long list.

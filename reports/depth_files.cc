@@ -38,7 +38,8 @@ void WriteDepthCsvRow(const evaluation::DepthPairResult& p,
                       const PairTruthErrors& e,
                       std::ostringstream& csv) {
   const evaluation::RoiDepth& d = p.depth;
-  const evaluation::RangeMeasurement& t = *p.templ;
+  const bool t_ok = p.templ && p.templ->ok;  // no template ranging without a true distance
+  const double t_cm = t_ok ? p.templ->range_m * 100 : NAN;
   csv << p.name << "," << FixedOrDash(e.true_cm, 2) << "," << (d.ok ? FixedOrDash(d.depth_m * 100, 3) : "") << ","
       << (d.ok ? FixedOrDash(e.err, 3) : "") << "," << (d.ok ? FixedOrDash(d.sigma_m * 100, 3) : "") << ","
       << (d.ok ? FixedOrDash(d.sigma_calib_m * 100, 3) : "") << ","
@@ -46,7 +47,7 @@ void WriteDepthCsvRow(const evaluation::DepthPairResult& p,
       << (d.ok ? FixedOrDash(d.disparity_px, 3) : "") << "," << FixedOrDash(e.z, 2) << ","
       << (d.ok ? FixedOrDash(d.disparity16, 0) : "") << "," << (d.ok ? FixedOrDash(d.disparity16 * e.true_cm, 0) : "")
       << "," << FixedOrDash(k.estimate_m[i] * 100, 3) << "," << FixedOrDash(e.kerr, 3) << "," << FixedOrDash(e.kloo, 3)
-      << "," << (t.ok ? FixedOrDash(t.range_m * 100, 3) : "") << "," << (t.ok ? FixedOrDash(e.terr, 3) : "") << ","
+      << "," << (t_ok ? FixedOrDash(t_cm, 3) : "") << "," << (t_ok ? FixedOrDash(e.terr, 3) : "") << ","
       << (d.ok ? 1 : 0) << ",\"" << d.message << "\"\n";
 }
 
@@ -56,13 +57,13 @@ void WriteDepthMdRow(const evaluation::DepthPairResult& p,
                      const PairTruthErrors& e,
                      std::ostringstream& md) {
   const evaluation::RoiDepth& d = p.depth;
-  const evaluation::RangeMeasurement& t = *p.templ;
+  const bool t_ok = p.templ && p.templ->ok;
   md << "| " << p.name << " | " << FixedOrDash(e.true_cm, 1) << " | "
      << (d.ok ? FixedOrDash(d.depth_m * 100, 2) : "refused") << " | " << FixedOrDash(e.err, 2) << " | "
      << (d.ok ? FixedOrDash(d.sigma_m * 100, 2) : "-") << " | " << FixedOrDash(e.z, 1) << " | "
      << FixedOrDash(d.valid_fraction(), 2) << " | " << (d.ok ? FixedOrDash(d.disparity16, 0) : "-") << " | "
      << (d.ok ? FixedOrDash(d.disparity16 * e.true_cm, 0) : "-") << " | " << FixedOrDash(k.estimate_m[i] * 100, 2)
-     << " | " << FixedOrDash(e.kerr, 2) << " | " << (t.ok ? FixedOrDash(t.range_m * 100, 2) : "-") << " | "
+     << " | " << FixedOrDash(e.kerr, 2) << " | " << (t_ok ? FixedOrDash(p.templ->range_m * 100, 2) : "-") << " | "
      << FixedOrDash(e.terr, 2) << " |\n";
 }
 
@@ -147,7 +148,6 @@ std::string WriteDepthTruthTables(const std::string& out_dir,
                                   const fitting::Rectification& rect,
                                   const evaluation::DepthOptions& o,
                                   double truth_sigma_cm,
-                                  int failed,
                                   nlohmann::json* report) {
   const fs::path out(out_dir);
   std::vector<double> d16, truth;
@@ -169,27 +169,31 @@ std::string WriteDepthTruthTables(const std::string& out_dir,
      << "| pair | true cm | SGBM cm | error % | sigma cm | z | valid | disp16 | disp16 x cm | K/disp16 cm | "
         "err % | template cm | err % |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   double sgbm_abs = 0, templ_abs = 0, sgbm_max = 0, templ_max = 0;
-  int n_sgbm = 0, n_templ = 0, n_out3 = 0;
+  int n_sgbm = 0, n_templ = 0, n_out3 = 0, n_known = 0, failed = 0;
   const double truth_sigma_m = truth_sigma_cm / 100;
   for (size_t i = 0; i < pairs.size(); ++i) {
     const auto& d = pairs[i].depth;
-    const auto& t = *pairs[i].templ;
     const double true_m = pairs[i].true_m;
+    // A blank distance in the truth CSV: measured and listed, left out of the error statistics.
+    const bool known = std::isfinite(true_m);
+    const bool t_ok = pairs[i].templ && pairs[i].templ->ok;
+    n_known += known;
+    failed += !d.ok;
     PairTruthErrors e;
     e.true_cm = true_m * 100;
     e.err = d.ok ? 100 * (d.depth_m - true_m) / true_m : NAN;
-    e.terr = t.ok ? 100 * t.error_m() / t.true_m : NAN;
+    e.terr = t_ok ? 100 * pairs[i].templ->error_m() / true_m : NAN;
     e.kerr = 100 * (k.estimate_m[i] - true_m) / true_m;
     e.kloo = 100 * (k.loo_estimate_m[i] - true_m) / true_m;
     // z: the error in units of the predicted sigma and the truth's own uncertainty together.
     e.z = d.ok ? (d.depth_m - true_m) / std::hypot(d.sigma_m, truth_sigma_m) : NAN;
-    if (d.ok) sgbm_abs += std::abs(e.err), sgbm_max = std::max(sgbm_max, std::abs(e.err)), ++n_sgbm;
-    if (d.ok && std::abs(e.z) > 3) ++n_out3;
-    if (t.ok) templ_abs += std::abs(e.terr), templ_max = std::max(templ_max, std::abs(e.terr)), ++n_templ;
+    if (known && d.ok) sgbm_abs += std::abs(e.err), sgbm_max = std::max(sgbm_max, std::abs(e.err)), ++n_sgbm;
+    if (known && d.ok && std::abs(e.z) > 3) ++n_out3;
+    if (t_ok) templ_abs += std::abs(e.terr), templ_max = std::max(templ_max, std::abs(e.terr)), ++n_templ;
     WriteDepthCsvRow(pairs[i], k, i, e, csv);
     WriteDepthMdRow(pairs[i], k, i, e, md);
   }
-  md << "\nSGBM: " << n_sgbm << " of " << pairs.size() << " pairs measured, mean |error| "
+  md << "\nSGBM: " << n_sgbm << " of " << n_known << " pairs with a true distance measured, mean |error| "
      << FixedOrDash(n_sgbm ? sgbm_abs / n_sgbm : NAN, 2) << " %, max " << FixedOrDash(sgbm_max, 2) << " %; " << n_out3
      << " outside +-3 sigma (z = error / sqrt(sigma^2 + truth sigma^2), truth sigma " << FixedOrDash(truth_sigma_cm, 1)
      << " cm)"
@@ -197,7 +201,7 @@ std::string WriteDepthTruthTables(const std::string& out_dir,
                   " (the truth's datum and placement? give --truth-sigma-cm)"
                 : "")
      << ".\n"
-     << "Template ranging (range-images, same ROI): " << n_templ << " of " << pairs.size() << ", mean |error| "
+     << "Template ranging (range-images, same ROI): " << n_templ << " of " << n_known << ", mean |error| "
      << FixedOrDash(n_templ ? templ_abs / n_templ : NAN, 2) << " %, max " << FixedOrDash(templ_max, 2) << " %.\n"
      << "Students' measure: disp16 x distance = K = " << FixedOrDash(k.k_disp16_m * 100, 0) << " (disp16 cm), spread "
      << FixedOrDash(k.k_cv_pct, 2) << " % over " << k.num_rows
@@ -205,6 +209,8 @@ std::string WriteDepthTruthTables(const std::string& out_dir,
      << FixedOrDash(100 * (k.k_disp16_m / k.k_calibration - 1), 2) << " %). Distance = K / disp16: mean |error| "
      << FixedOrDash(k.mean_abs_pct, 2) << " %, max " << FixedOrDash(k.max_abs_pct, 2)
      << " % (K fitted on the same pairs); leave-one-out " << FixedOrDash(k.loo_mean_abs_pct, 2) << " %.\n";
+  if (n_known < int(pairs.size()))
+    md << "\n" << pairs.size() - n_known << " pair(s) without a true distance: measured, not in the errors.\n";
   if (failed) md << "\n" << failed << " pair(s) refused: see the message column of depth.csv.\n";
   WriteTextFile((out / "depth.csv").string(), csv.str());
   WriteTextFile((out / "depth.md").string(), md.str());

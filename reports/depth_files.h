@@ -33,16 +33,15 @@ nlohmann::json DepthReportHeader(const fitting::StereoRig& rig,
                                  const fitting::Rectification& rect,
                                  const evaluation::DepthOptions& options);
 
-// With a truth CSV: writes OUT/depth.csv and OUT/depth.md for `pairs` (every one with a true
-// distance and its template ranging), adds "disparity_constant" to `report` and returns
-// depth.md's text. `truth_sigma_cm`: the true distances' uncertainty; `failed`: refused pairs.
+// With a truth CSV: writes OUT/depth.csv and OUT/depth.md for `pairs` (a pair with a blank
+// distance is listed and left out of the errors), adds "disparity_constant" to `report` and
+// returns depth.md's text. `truth_sigma_cm`: the true distances' uncertainty.
 std::string WriteDepthTruthTables(const std::string& out,
                                   const std::vector<evaluation::DepthPairResult>& pairs,
                                   const fitting::StereoRig& rig,
                                   const fitting::Rectification& rect,
                                   const evaluation::DepthOptions& options,
                                   double truth_sigma_cm,
-                                  int failed,
                                   nlohmann::json* report);
 
 }  // namespace owlcal::reports

@@ -36,6 +36,39 @@ class DepthCliTest : public ::testing::Test {
   const std::string calib_ = test_data::SharedData() + "/owl-real/kit2020-chessboard/reference/intrinsics.xml";
 };
 
+// A blank distance in the truth CSV means "unknown" (evaluation/range_images_ranging.h): the
+// pair is measured and listed, and stays out of the error statistics (it once made the mean
+// |error| NaN and read an empty template ranging).
+TEST_F(DepthCliTest, APairWithoutATrueDistanceIsMeasuredAndLeftOutOfTheErrors) {
+  const fs::path truth = dir_ / "truth.csv";
+  std::ofstream(truth) << "left,right,distance_cm\n"
+                       << "left30cm.jpg,right30cm.jpg,30\n"
+                       << "left80cm.jpg,right80cm.jpg,\n"
+                       << "left150cm.jpg,right150cm.jpg,150\n";
+  const RunResult r = RunOwlcal("depth '" + kit_ + "' --calib '" + calib_ + "' --truth '" + truth.string() +
+                                "' --out '" + (dir_ / "blank").string() + "' --no-ply");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream md_in(dir_ / "blank" / "depth.md");
+  std::stringstream md;
+  md << md_in.rdbuf();
+  EXPECT_NE(md.str().find("SGBM: 2 of 2 pairs with a true distance measured"), std::string::npos) << md.str();
+  EXPECT_EQ(md.str().find("mean |error| - %"), std::string::npos) << md.str();
+  EXPECT_NE(md.str().find("1 pair(s) without a true distance"), std::string::npos) << md.str();
+  std::ifstream in(dir_ / "blank" / "depth.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["pairs"].size(), 3u);
+  EXPECT_FALSE(j["pairs"][1].contains("true_m"));
+  EXPECT_TRUE(j["pairs"][1]["roi_depth"]["ok"].get<bool>());
+  // Its depth.csv row: a depth, no error and no template ranging.
+  std::ifstream csv(dir_ / "blank" / "depth.csv");
+  std::string line, row;
+  while (std::getline(csv, line))
+    if (line.rfind("left80cm,", 0) == 0) row = line;
+  ASSERT_FALSE(row.empty());
+  EXPECT_NE(row.find(",-,"), std::string::npos) << row;    // error_pct
+  EXPECT_NE(row.find(",,,1,"), std::string::npos) << row;  // template_cm, template_error_pct empty; ok
+}
+
 TEST_F(DepthCliTest, KitDistanceSetDepthAtTheTargetAgreesWithTheTape) {
   const fs::path truth = dir_ / "truth.csv";
   std::ofstream(truth) << "left,right,distance_cm,roi_x,roi_y,roi_w,roi_h\n"
