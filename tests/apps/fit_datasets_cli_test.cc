@@ -19,7 +19,7 @@
 #include "tests/apps/run_owlcal.h"
 
 namespace owlcal {
-namespace {
+namespace fit_datasets_cli_test {
 
 namespace fs = std::filesystem;
 using test_cli::RunOwlcal;
@@ -167,5 +167,5 @@ TEST(FitDatasetsCli, ADatasetOfAnUnknownProtocolIsAWarningEvenWhenQuiet) {
   fs::remove_all(root);
 }
 
-}  // namespace
+}  // namespace fit_datasets_cli_test
 }  // namespace owlcal

@@ -14,7 +14,7 @@
 #include "tests/apps/run_owlcal.h"
 
 namespace owlcal {
-namespace {
+namespace lost_target_cli_test {
 
 namespace fs = std::filesystem;
 using test_cli::RunOwlcal;
@@ -80,5 +80,5 @@ TEST(LostTargetCli, ABoardIsRangedToItsFixatedCentre) {
   fs::remove_all(out);
 }
 
-}  // namespace
+}  // namespace lost_target_cli_test
 }  // namespace owlcal

@@ -24,7 +24,7 @@
 #include "tests/shared_data.h"
 
 namespace owlcal {
-namespace {
+namespace owlcal_cli_test {
 
 namespace fs = std::filesystem;
 
@@ -257,5 +257,5 @@ TEST_F(OwlcalCliTest, CalibrateImagesWritesTheCourseFilesInMillimetresAndEveryEx
   fs::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace owlcal_cli_test
 }  // namespace owlcal

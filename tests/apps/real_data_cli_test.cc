@@ -24,7 +24,7 @@ extern "C" {
 }
 
 namespace owlcal {
-namespace {
+namespace real_data_cli_test {
 
 namespace fs = std::filesystem;
 using test_cli::RunOwlcal;
@@ -170,5 +170,5 @@ TEST_F(RealDataCliTest, CalibrateImagesRefusesAMirroredSetAndNamesTheFlag) {
   EXPECT_EQ(res.verdict.at("status"), "unusable");
 }
 
-}  // namespace
+}  // namespace real_data_cli_test
 }  // namespace owlcal

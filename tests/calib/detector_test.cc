@@ -13,7 +13,7 @@ extern "C" {
 }
 
 namespace owlcal::calib {
-namespace {
+namespace detector_test {
 
 // Renders `cells` (one source pixel per cell; cell i spans [i, i+1]) into a width x height
 // image through H, which maps cell coordinates to image coordinates with (0,0) at the top-left
@@ -182,5 +182,5 @@ TEST(SplitStereoFrame, MirrorAndSwapSelectHalves) {
   EXPECT_EQ(l.at<uint8_t>(0, 0), 2);
 }
 
-}  // namespace
+}  // namespace detector_test
 }  // namespace owlcal::calib

@@ -17,7 +17,7 @@
 #include "owlcal_version.h"
 
 namespace owlcal::calib {
-namespace {
+namespace target_sheet_test {
 
 namespace fs = std::filesystem;
 
@@ -193,5 +193,5 @@ TEST(TargetSheet, AprilGridSvgAndPdfMeasureTrueScaleWhenRasterised) {
   }
 }
 
-}  // namespace
+}  // namespace target_sheet_test
 }  // namespace owlcal::calib

@@ -26,7 +26,7 @@ extern "C" {
 }
 
 namespace owlcal::evaluation {
-namespace {
+namespace range_honest_test {
 
 using ::owlcal::test_data::SharedData;
 
@@ -362,5 +362,5 @@ TEST(RangeHonest, ColourAndTagTargetsAreFoundAndRanged) {
   EXPECT_TRUE(calib::ChooseTemplateRois(left, none).candidates.empty());
 }
 
-}  // namespace
+}  // namespace range_honest_test
 }  // namespace owlcal::evaluation

@@ -8,7 +8,7 @@
 #include "reports/session_tables.h"
 
 namespace owlcal::evaluation {
-namespace {
+namespace session_compare_test {
 
 fitting::Parameter Param(const std::string& name, double value, double sigma, const std::string& unit) {
   fitting::Parameter p;
@@ -45,5 +45,5 @@ TEST(SessionCompare, DifferencesInSigmaUnitsFlagOnlyRealChanges) {
   EXPECT_NE(reports::SessionComparisonCsv(c).find("s2-s1"), std::string::npos);
 }
 
-}  // namespace
+}  // namespace session_compare_test
 }  // namespace owlcal::evaluation

@@ -17,7 +17,7 @@
 #include "tests/shared_data.h"
 
 namespace owlcal::evaluation {
-namespace {
+namespace set_verdict_real_test {
 
 using ::owlcal::test_data::SharedData;
 
@@ -178,5 +178,5 @@ TEST(SetVerdictReal, OpenCvSampleIsGoodAndItsFlatCentralViewsArePoor) {
   CheckSet({"opencv-stereo-chessboard", false, 1.0, "square", false}, 13, /*expect_poor=*/false);
 }
 
-}  // namespace
+}  // namespace set_verdict_real_test
 }  // namespace owlcal::evaluation

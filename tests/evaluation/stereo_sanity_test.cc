@@ -13,7 +13,7 @@
 #include "tests/shared_data.h"
 
 namespace owlcal::evaluation {
-namespace {
+namespace stereo_sanity_test {
 
 struct Rig {
   models::CameraIntrinsics cams[2];
@@ -148,5 +148,5 @@ TEST(StereoSanityReal, MirroredSharedSetIsNamed) { CheckNamed({"owl-real/darvill
 
 TEST(StereoSanityReal, SwappedSharedSetIsNamed) { CheckNamed({"owl-real/kit2020-chessboard", true}); }
 
-}  // namespace
+}  // namespace stereo_sanity_test
 }  // namespace owlcal::evaluation

@@ -7,7 +7,7 @@
 #include "models/head_model.h"
 
 namespace owlcal::evaluation {
-namespace {
+namespace truth_compare_test {
 
 fitting::Parameter P(const std::string& name, double value, double sigma, bool determined = true) {
   fitting::Parameter p;
@@ -97,5 +97,5 @@ TEST(TruthCompare, ALensOfAnotherModelIsComparedByProjection) {
   EXPECT_GT(r2.diagnostics.at("lens_truth").at("left").at("rms_px").get<double>(), rough);
 }
 
-}  // namespace
+}  // namespace truth_compare_test
 }  // namespace owlcal::evaluation

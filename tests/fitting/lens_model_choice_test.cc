@@ -16,7 +16,7 @@
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
-namespace {
+namespace lens_model_choice_test {
 
 using models::DistortionModel;
 using ::owlcal::test_data::SharedData;
@@ -175,5 +175,5 @@ TEST(LensModelChoice, TooFewFramesKeepsTheConfiguredModelAndSaysWhy) {
   EXPECT_NE(why.find("folds"), std::string::npos);
 }
 
-}  // namespace
+}  // namespace lens_model_choice_test
 }  // namespace owlcal::fitting

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 namespace owlcal::fitting {
-namespace {
+namespace observability_test {
 
 TEST(Observability, FullRankIsTheInverseWithNothingUndetermined) {
   Eigen::MatrixXd h(2, 2);
@@ -96,5 +96,5 @@ TEST(Observability, LocalBlocksAreEliminatedFromAProblem) {
   EXPECT_FALSE(AnalyseObservability(&problem, {g}, {l[0]}, {"only.one"}, kDefaultRankTolerance).ok);
 }
 
-}  // namespace
+}  // namespace observability_test
 }  // namespace owlcal::fitting

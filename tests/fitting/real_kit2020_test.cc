@@ -19,7 +19,7 @@
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
-namespace {
+namespace real_kit2020_test {
 
 using ::owlcal::test_data::SharedData;
 
@@ -281,5 +281,5 @@ TEST(RealKit2020, SetWithoutTiltedViewsSaysFocalLengthIsUndetermined) {
   }
 }
 
-}  // namespace
+}  // namespace real_kit2020_test
 }  // namespace owlcal::fitting

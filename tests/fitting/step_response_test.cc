@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 namespace owlcal::fitting {
-namespace {
+namespace step_response_test {
 
 StepInfoOptions InitFinal(double y_init, double y_final) {
   StepInfoOptions o;
@@ -109,5 +109,5 @@ TEST(StepInfo, ReportsUnsettledAndRejectsBadInput) {
   EXPECT_NE(why.find("settling_band"), std::string::npos);
 }
 
-}  // namespace
+}  // namespace step_response_test
 }  // namespace owlcal::fitting

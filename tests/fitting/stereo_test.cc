@@ -13,7 +13,7 @@
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
-namespace {
+namespace stereo_test {
 
 using ::owlcal::test_data::SharedData;
 
@@ -177,5 +177,5 @@ TEST(FitStereoSynthetic, BaselineInMillimetresWithinSigma) {
   EXPECT_LT(fit.rectified_dy_mean_px, 0.2);
 }
 
-}  // namespace
+}  // namespace stereo_test
 }  // namespace owlcal::fitting

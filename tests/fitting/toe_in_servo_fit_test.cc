@@ -15,7 +15,7 @@
 #include "tests/fitting/toe_in_synthetic.h"
 
 namespace owlcal::fitting {
-namespace {
+namespace toe_in_servo_fit_test {
 
 using test_toe_in::kDeg;
 using test_toe_in::kSettings;
@@ -104,5 +104,5 @@ TEST(ToeInServoFit, TooFewOrUnusableSetsAreRefusedWithAReason) {
   EXPECT_NE(f.notes[0].find("mirrored left out"), std::string::npos) << f.notes[0];
 }
 
-}  // namespace
+}  // namespace toe_in_servo_fit_test
 }  // namespace owlcal::fitting

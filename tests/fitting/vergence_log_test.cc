@@ -13,7 +13,7 @@
 #include "tests/shared_data.h"
 
 namespace owlcal::fitting {
-namespace {
+namespace vergence_log_test {
 
 using ::owlcal::test_data::SharedData;
 
@@ -351,5 +351,5 @@ TEST(VergenceLogFit, NoConvergenceIsNotUsableAndReportsNoValues) {
   EXPECT_EQ(md.find("| servo.Rx.centre_us |"), std::string::npos) << md;
 }
 
-}  // namespace
+}  // namespace vergence_log_test
 }  // namespace owlcal::fitting

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 namespace owlcal::fitting {
-namespace {
+namespace vor_analysis_test {
 
 // Neck A sin(wt), eye -g A sin(w(t - lag)) + offsets, drift and noise, at 30 fps.
 struct Synthetic {
@@ -108,5 +108,5 @@ TEST(VorAnalysis, SlipOfAKnownMotionSkipsMissingFrames) {
   EXPECT_NEAR(s.peak_px, 27, 1e-9);
 }
 
-}  // namespace
+}  // namespace vor_analysis_test
 }  // namespace owlcal::fitting

@@ -21,7 +21,7 @@
 #include "sim/virtual_owl.h"
 
 namespace owlcal::pipeline {
-namespace {
+namespace main_sequence_study_test {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
@@ -167,5 +167,5 @@ TEST(MainSequence, SaccadesPastTheLimitsAreSkippedRowsNeverSent) {
   EXPECT_GE(r.study.notes.size(), 2u);
 }
 
-}  // namespace
+}  // namespace main_sequence_study_test
 }  // namespace owlcal::pipeline

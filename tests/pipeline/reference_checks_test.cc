@@ -21,7 +21,7 @@
 #include "sim/virtual_owl.h"
 
 namespace owlcal::pipeline {
-namespace {
+namespace reference_checks_test {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
@@ -277,5 +277,5 @@ TEST(ReferenceChecks, FieldOfViewAgainstTheDatasheet) {
   EXPECT_NE(j.at("source").get<std::string>().find("3.6 mm"), std::string::npos);
 }
 
-}  // namespace
+}  // namespace reference_checks_test
 }  // namespace owlcal::pipeline

@@ -21,7 +21,7 @@
 #include "sim/virtual_owl.h"
 
 namespace owlcal::pipeline {
-namespace {
+namespace saccade_study_test {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
@@ -273,5 +273,5 @@ steps:
   EXPECT_EQ(r.run.result.warnings.size(), 3u);
 }
 
-}  // namespace
+}  // namespace saccade_study_test
 }  // namespace owlcal::pipeline

@@ -15,7 +15,7 @@
 #include "protocols/protocol.h"
 
 namespace owlcal::pipeline {
-namespace {
+namespace settling_study_test {
 namespace fs = std::filesystem;
 
 const char* kResponseHeader =
@@ -175,5 +175,5 @@ TEST(SettlingStudy, NothingToFitIsANamedWarningNotAModel) {
   fs::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace settling_study_test
 }  // namespace owlcal::pipeline

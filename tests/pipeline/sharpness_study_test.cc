@@ -23,7 +23,7 @@
 #include "tests/shared_data.h"
 
 namespace owlcal::pipeline {
-namespace {
+namespace sharpness_study_test {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
@@ -159,5 +159,5 @@ TEST(Sharpness, BadInputIsNamed) {
   EXPECT_FALSE(s.fit[0].ok);
 }
 
-}  // namespace
+}  // namespace sharpness_study_test
 }  // namespace owlcal::pipeline

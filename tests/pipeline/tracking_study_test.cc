@@ -23,7 +23,7 @@
 #include "sim/virtual_owl.h"
 
 namespace owlcal::pipeline {
-namespace {
+namespace tracking_study_test {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
@@ -173,5 +173,5 @@ TEST(Tracking, VariantALkWithinOnePixel) {
   fs::remove_all(r.dir);
 }
 
-}  // namespace
+}  // namespace tracking_study_test
 }  // namespace owlcal::pipeline

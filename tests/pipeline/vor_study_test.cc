@@ -20,7 +20,7 @@
 #include "sim/virtual_owl.h"
 
 namespace owlcal::pipeline {
-namespace {
+namespace vor_study_test {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
@@ -181,5 +181,5 @@ steps:
   }
 }
 
-}  // namespace
+}  // namespace vor_study_test
 }  // namespace owlcal::pipeline

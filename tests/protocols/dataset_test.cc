@@ -18,7 +18,7 @@
 #include "tests/protocols/fake_robot.h"
 
 namespace owlcal::protocols {
-namespace {
+namespace dataset_test {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
@@ -303,5 +303,5 @@ steps:
   EXPECT_GE(killed_with_frames, 20);
 }
 
-}  // namespace
+}  // namespace dataset_test
 }  // namespace owlcal::protocols

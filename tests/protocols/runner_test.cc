@@ -17,7 +17,7 @@
 #include "tests/protocols/fake_robot.h"
 
 namespace owlcal::protocols {
-namespace {
+namespace runner_test {
 namespace fs = std::filesystem;
 
 std::string TempDir(const std::string& name) {
@@ -269,11 +269,11 @@ steps:
   EXPECT_DOUBLE_EQ(pl2[1].distance_m, 0.9);
 }
 
-}  // namespace
+}  // namespace runner_test
 }  // namespace owlcal::protocols
 
 namespace owlcal::protocols {
-namespace {
+namespace runner_test {
 
 // The same on the in-process virtual Owl, built by the robot factory from a robot file whose
 // limits are tighter than the standard servo sweep asks for.
@@ -317,5 +317,5 @@ steps:
   EXPECT_TRUE(CheckDataset(o.out_dir).ok);
 }
 
-}  // namespace
+}  // namespace runner_test
 }  // namespace owlcal::protocols

@@ -16,7 +16,7 @@
 #include "reports/table.h"
 
 namespace owlcal::reports {
-namespace {
+namespace report_test {
 
 std::string Slurp(const std::string& path) {
   std::ifstream f(path);
@@ -426,5 +426,5 @@ TEST(Report, FigureCsvHasOneBlockPerSeries) {
   EXPECT_THROW(WriteFigure(Figure{"Bad Name", "", "", "", {}, {}, ""}, "/tmp", false), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace report_test
 }  // namespace owlcal::reports

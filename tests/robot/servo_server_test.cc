@@ -13,7 +13,7 @@
 #include "robot/socket_util.h"
 
 namespace owlcal::robot {
-namespace {
+namespace servo_server_test {
 
 using namespace std::chrono_literals;
 
@@ -166,5 +166,5 @@ TEST(ServoServer, StopIsPromptWithAClientConnected) {
   server.Stop();  // idempotent
 }
 
-}  // namespace
+}  // namespace servo_server_test
 }  // namespace owlcal::robot
