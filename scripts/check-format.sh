@@ -9,14 +9,16 @@ cd "$(dirname "$0")/.."
 command -v clang-format >/dev/null || { echo "check-format: clang-format not installed (apt install clang-format)"; exit 2; }
 fix=0
 [ "${1:-}" = "--fix" ] && fix=1
+mapfile -t files < <(git ls-files '*.h' '*.cc' 2>/dev/null || find . -path ./build -prune -o \( -name '*.h' -o -name '*.cc' \) -print)
+existing=()
+for f in "${files[@]}"; do [ -f "$f" ] && existing+=("$f"); done
+# One clang-format process for the whole tree: --dry-run -Werror names each file:line that differs.
 bad=()
-while IFS= read -r f; do
-  [ -f "$f" ] || continue
-  if ! clang-format --style=file "$f" | cmp -s - "$f"; then
-    bad+=("$f")
-    [ "$fix" = 1 ] && clang-format --style=file -i "$f"
-  fi
-done < <(git ls-files '*.h' '*.cc' 2>/dev/null || find . -path ./build -prune -o \( -name '*.h' -o -name '*.cc' \) -print)
+if [ ${#existing[@]} -gt 0 ]; then
+  mapfile -t bad < <(clang-format --style=file --dry-run -Werror "${existing[@]}" 2>&1 >/dev/null |
+                     sed -n 's/^\([^:]*\):[0-9]*:[0-9]*: error: .*/\1/p' | sort -u)
+fi
+[ "$fix" = 1 ] && [ ${#bad[@]} -gt 0 ] && clang-format --style=file -i "${bad[@]}"
 if [ ${#bad[@]} -eq 0 ]; then
   echo "check-format: every C++ file matches .clang-format"
   exit 0
