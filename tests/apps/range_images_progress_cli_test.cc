@@ -38,16 +38,20 @@ class RangeImagesProgressCliTest : public ::testing::Test {
 // Regression: a 100,000-row truth CSV ran past 120 s with no progress line. 250 rows of one
 // textured pair: a line after every 100 pairs, and all 250 are ranged.
 TEST_F(RangeImagesProgressCliTest, ALongTruthListPrintsProgressLines) {
-  models::CameraIntrinsics cam;  // 640x480, f 585 px, no distortion
+  // 320x240, f 292.5 px, no distortion: a small image keeps 250 pairs quick.
+  models::CameraIntrinsics cam;
+  cam.width = 320;
+  cam.height = 240;
+  cam.params = {292.5, 292.5, 159.5, 119.5, 0, 0, 0, 0, 0};
   models::Rigid3d right_from_left;
   right_from_left.rotation = Eigen::AngleAxisd(0.002, Eigen::Vector3d(0.1, 1, 0.05).normalized());
   right_from_left.translation = Eigen::Vector3d(-0.065, 0.0004, 0.0008);  // F(2,2) != 0
   const std::string calib = (dir_ / "calibration.yaml").string();
   fitting::WriteOpenCvCalibration(calib, fitting::MakeOpenCvCalibration(cam, cam, right_from_left));
-  cv::Mat left(480, 640, CV_8UC3), right;
+  cv::Mat left(240, 320, CV_8UC3), right;
   cv::randu(left, cv::Scalar::all(0), cv::Scalar::all(255));
   cv::GaussianBlur(left, left, cv::Size(5, 5), 1.5);
-  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -38, 0, 1, 0);  // 38 px disparity: about 1 m
+  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -19, 0, 1, 0);  // 19 px disparity: about 1 m
   cv::warpAffine(left, right, shift, left.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
   ASSERT_TRUE(cv::imwrite((dir_ / "left1.png").string(), left));
   ASSERT_TRUE(cv::imwrite((dir_ / "right1.png").string(), right));
